@@ -1,0 +1,86 @@
+//! The `tribo` command: a thin layer over the host library that parses arguments, runs one
+//! command and reports errors with their context.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use tribo::{laws, scaffold};
+use tribo_plugin_api::loader::discover;
+
+/// Tribo: a virtual engine-friction test bench with friction and damping laws as plugins.
+#[derive(Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    /// Extra plugin library or directory (searched before TRIBO_PLUGIN_PATH and the tribo
+    /// executable's directory); may be repeated.
+    #[arg(long = "plugin", global = true, value_name = "PATH")]
+    plugins: Vec<PathBuf>,
+
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List every law found: name, version, ABI, file, summary and parameters.
+    Laws {
+        /// Machine-readable JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Generate a new law plugin crate with a documented law, parameters and unit tests.
+    NewLaw {
+        /// Law name: lowercase letters, digits and hyphens (e.g. `my-law`).
+        name: String,
+        /// Directory to create the crate in (default: the workspace's plugins/).
+        #[arg(long)]
+        dir: Option<PathBuf>,
+    },
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Laws { json } => {
+            let registry = discover(&cli.plugins).context("loading law plugins")?;
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&laws::to_json(&registry))?
+                );
+            } else {
+                print!("{}", laws::to_text(&registry));
+            }
+        }
+        Command::NewLaw { name, dir } => {
+            let cwd = std::env::current_dir().context("reading the current directory")?;
+            let s = scaffold::new_law(&name, dir.as_deref(), &cwd)?;
+            println!("created {} in {}", s.crate_name, s.dir.display());
+            println!("  test:  cargo test -p {}", s.crate_name);
+            println!("  build: cargo build --release -p {}", s.crate_name);
+            if s.workspace_member {
+                println!(
+                    "  the library {} lands in target/release/, where tribo finds it",
+                    s.library_file
+                );
+            } else {
+                println!(
+                    "  then put {} in a directory on TRIBO_PLUGIN_PATH or pass --plugin",
+                    s.library_file
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,139 @@
+/*
+ * tribo_law.h - the C ABI of a Tribo friction/damping law plugin.
+ *
+ * A law is a shared library (.so / .dylib / .dll) exporting the seven functions below with
+ * C linkage. The host (tribo) loads it at run time; nothing else needs rebuilding. Anything
+ * that can produce C-callable symbols works: C, C++ (extern "C"), Fortran (bind(C)).
+ *
+ * Loading order, which the host guarantees:
+ *   1. tribo_law_contract_version() is called first, before any other symbol is looked up.
+ *      If it differs from TRIBO_LAW_CONTRACT_VERSION of the host, the library is refused.
+ *   2. tribo_law_describe() gives the name, version, summary and parameters.
+ *   3. tribo_law_create() makes an instance from checked parameter values.
+ *   4. Per time step: tribo_law_evaluate() any number of times (the host may iterate or reject
+ *      the step), then tribo_law_commit() once if the step is accepted.
+ *   5. tribo_law_destroy() releases the instance.
+ *
+ * Units are SI (m, kg, s, N, rad/s, Pa s) except the oil temperature in degrees Celsius.
+ * Sign convention: the returned force opposes the relative motion, so for a dissipative law
+ * force * relative_velocity <= 0.
+ *
+ * State: a law that needs memory (a LuGre bristle deflection, say) declares how many doubles it
+ * needs with tribo_law_state_size(). The HOST owns that array and zero-initialises it;
+ * evaluate() must only read it, commit() advances it. An instance must not keep mutable
+ * per-step data of its own: the host may evaluate several trial steps and keep none of them.
+ * evaluate() must be re-entrant for one instance (it takes a const instance pointer).
+ *
+ * Parameters: the host parses the user's TOML, checks every name, type and range against the
+ * description below, fills in defaults, and passes the values as doubles in the order of
+ * `params`. So create() only checks combinations (thresholds in order, say).
+ */
+#ifndef TRIBO_LAW_H
+#define TRIBO_LAW_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Version of this contract. The host refuses a library whose tribo_law_contract_version()
+ * returns anything else. */
+#define TRIBO_LAW_CONTRACT_VERSION 1u
+
+/* Joint kinds (tribo_law_input.joint_kind). */
+#define TRIBO_JOINT_REVOLUTE 0u  /* velocity in rad/s, return a torque in N m */
+#define TRIBO_JOINT_PRISMATIC 1u /* velocity in m/s, return a force in N */
+
+/* Lubrication regimes (tribo_law_output.regime). */
+#define TRIBO_REGIME_NONE 0u         /* the law has no notion of regime */
+#define TRIBO_REGIME_BOUNDARY 1u
+#define TRIBO_REGIME_MIXED 2u
+#define TRIBO_REGIME_HYDRODYNAMIC 3u
+
+/* Bits of tribo_law_output.flags: which optional outputs are filled in. */
+#define TRIBO_HAS_COEFFICIENT 1u
+#define TRIBO_HAS_DUTY_PARAMETER 2u
+#define TRIBO_HAS_DERIVATIVE 4u
+
+/* Everything a law may depend on, for one joint at one instant. */
+typedef struct tribo_law_input {
+    uint32_t joint_kind;          /* TRIBO_JOINT_* */
+    uint32_t reserved;            /* always 0 */
+    double relative_velocity;     /* rad/s (revolute) or m/s (prismatic), signed */
+    double sliding_velocity_m_s;  /* signed sliding velocity at the contact, m/s */
+    double normal_load_n;         /* normal load from the joint reaction, N, >= 0 */
+    double reaction_x_n;          /* reaction x: global x (revolute) or along the slide (prismatic), N */
+    double reaction_y_n;          /* reaction y: global y (revolute) or normal to the slide (prismatic), N */
+    double reaction_moment_nm;    /* in-plane reaction moment of a prismatic joint, N m */
+    double contact_radius_m;      /* journal/pin radius, or half the bore for a slide, m */
+    double contact_length_m;      /* bearing width, or skirt/ring height, m */
+    double oil_temp_c;            /* oil temperature, degrees C */
+    double viscosity_pa_s;        /* dynamic viscosity at oil_temp_c, Pa s */
+    double engine_speed_rad_s;    /* crank speed, rad/s */
+    double crank_angle_rad;       /* crank angle from TDC, rad, [0, 2 pi) */
+    double time_s;                /* simulation time, s */
+    double dt_s;                  /* current step size, s (0 in steady-state quadrature) */
+} tribo_law_input;
+
+/* What a law returns for one evaluation. */
+typedef struct tribo_law_output {
+    double force;             /* N (prismatic) or N m (revolute), opposing the motion */
+    double coefficient;       /* effective friction coefficient, if TRIBO_HAS_COEFFICIENT */
+    double duty_parameter;    /* duty parameter H, if TRIBO_HAS_DUTY_PARAMETER */
+    double dforce_dvelocity;  /* d force / d relative_velocity, if TRIBO_HAS_DERIVATIVE */
+    uint32_t regime;          /* TRIBO_REGIME_* */
+    uint32_t flags;           /* TRIBO_HAS_* bits */
+} tribo_law_output;
+
+/* One scalar parameter. */
+typedef struct tribo_param_spec {
+    const char *name;       /* key in the TOML table */
+    const char *unit;       /* "-" for dimensionless */
+    const char *doc;        /* physical meaning */
+    double default_value;
+    double min;             /* allowed range, inclusive */
+    double max;
+} tribo_param_spec;
+
+/* The law's self-description; must stay valid while the library is loaded. */
+typedef struct tribo_law_description {
+    const char *name;       /* unique law name, e.g. "c-coulomb" */
+    const char *version;    /* implementation version, e.g. "0.1.0" */
+    const char *summary;    /* one line */
+    uint32_t n_params;
+    const tribo_param_spec *params;
+} tribo_law_description;
+
+/* Returns TRIBO_LAW_CONTRACT_VERSION as compiled into the library. */
+uint32_t tribo_law_contract_version(void);
+
+/* Returns the law's description (static storage). */
+const tribo_law_description *tribo_law_describe(void);
+
+/* Creates an instance from n_params checked values (in description order). On failure returns
+ * NULL and writes a NUL-terminated message of at most error_len bytes, starting with the name
+ * of the offending parameter followed by ": ". */
+void *tribo_law_create(const double *params, size_t n_params, char *error, size_t error_len);
+
+/* Number of doubles of host-owned state this instance needs (0 for a stateless law). */
+size_t tribo_law_state_size(const void *instance);
+
+/* Evaluates the law. `state` points to tribo_law_state_size() doubles (may be NULL when 0).
+ * Returns 0 on success; any other value is reported to the user as an error of this law. */
+int32_t tribo_law_evaluate(const void *instance, const tribo_law_input *input,
+                           const double *state, tribo_law_output *output);
+
+/* Advances `state` over the accepted step described by `input` (input->dt_s is its length).
+ * Returns 0 on success. */
+int32_t tribo_law_commit(const void *instance, const tribo_law_input *input, double *state);
+
+/* Releases an instance made by tribo_law_create. */
+void tribo_law_destroy(void *instance);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* TRIBO_LAW_H */

@@ -1,0 +1,32 @@
+//! # tribo-plugin-api
+//!
+//! The contract between Tribo's solver and friction/damping laws, and everything on both sides
+//! of it:
+//!
+//! - [`contract`]: the `#[repr(C)]` input and output of one evaluation ([`LawInput`],
+//!   [`LawOutput`]), mirrored by `include/tribo_law.h` for C, C++ and Fortran laws;
+//! - [`Law`] and [`export_law!`]: what a Rust law author writes (a struct, a serde parameter type,
+//!   the physics), with all FFI done by the macro;
+//! - [`describe`](mod@describe): parameter descriptions and their checking;
+//! - `loader` (feature `loader`): discovery and loading of both kinds of library into one handle.
+//!
+//! `abi_stable` is used only inside this crate, so it can be replaced without touching the
+//! host or any law.
+
+pub mod contract;
+pub mod describe;
+mod law;
+#[cfg(feature = "loader")]
+pub mod loader;
+#[doc(hidden)]
+pub mod rust_abi;
+
+pub use contract::{
+    smooth_sign, JointKind, LawInput, LawOutput, Regime, CONTRACT_VERSION, HAS_COEFFICIENT,
+    HAS_DERIVATIVE, HAS_DUTY_PARAMETER,
+};
+pub use describe::{LawDescription, ParamError, ParamSpec, ParamValue};
+pub use law::{assert_law_is_consistent, create_from_table, describe as describe_law, Law};
+
+/// Re-exported so law crates need no direct serde dependency for their parameter type.
+pub use serde;

@@ -1,0 +1,239 @@
+//! Loading C ABI law libraries (`include/tribo_law.h`) with libloading.
+
+use std::ffi::{c_char, c_void, CStr};
+use std::path::Path;
+use std::sync::Arc;
+
+use super::{LawError, LawLibrary};
+use crate::contract::{LawInput, LawOutput};
+use crate::describe::{LawDescription, ParamError, ParamSpec, ParamValue};
+
+#[repr(C)]
+struct CParamSpec {
+    name: *const c_char,
+    unit: *const c_char,
+    doc: *const c_char,
+    default_value: f64,
+    min: f64,
+    max: f64,
+}
+
+#[repr(C)]
+struct CDescription {
+    name: *const c_char,
+    version: *const c_char,
+    summary: *const c_char,
+    n_params: u32,
+    params: *const CParamSpec,
+}
+
+type DescribeFn = unsafe extern "C" fn() -> *const CDescription;
+type CreateFn = unsafe extern "C" fn(*const f64, usize, *mut c_char, usize) -> *mut c_void;
+type StateSizeFn = unsafe extern "C" fn(*const c_void) -> usize;
+type EvaluateFn =
+    unsafe extern "C" fn(*const c_void, *const LawInput, *const f64, *mut LawOutput) -> i32;
+type CommitFn = unsafe extern "C" fn(*const c_void, *const LawInput, *mut f64) -> i32;
+type DestroyFn = unsafe extern "C" fn(*mut c_void);
+
+/// A C law library with all its symbols resolved. The `Library` is kept so the function
+/// pointers stay valid as long as any instance holds this (through an `Arc`).
+pub(super) struct CLib {
+    describe: DescribeFn,
+    create: CreateFn,
+    state_size: StateSizeFn,
+    evaluate: EvaluateFn,
+    commit: CommitFn,
+    destroy: DestroyFn,
+    _lib: libloading::Library,
+}
+
+fn symbol<T: Copy>(lib: &libloading::Library, path: &Path, name: &str) -> Result<T, LawError> {
+    let with_nul = format!("{name}\0");
+    // SAFETY: the symbol's type is the one tribo_law.h declares for `name`.
+    unsafe { lib.get::<T>(with_nul.as_bytes()) }
+        .map(|s| *s)
+        .map_err(|_| LawError::MissingSymbol {
+            path: path.to_path_buf(),
+            symbol: name.to_string(),
+        })
+}
+
+/// Read a C string the law owns; NULL or invalid UTF-8 is a description error.
+///
+/// # Safety
+/// `p` is NULL or points to a NUL-terminated string that outlives the call.
+unsafe fn c_text(p: *const c_char, what: &str) -> Result<String, String> {
+    if p.is_null() {
+        return Err(format!("{what} is NULL"));
+    }
+    // SAFETY: non-null and NUL-terminated by the caller's contract.
+    unsafe { CStr::from_ptr(p) }
+        .to_str()
+        .map(str::to_string)
+        .map_err(|_| format!("{what} is not UTF-8"))
+}
+
+impl CLib {
+    pub(super) fn load(path: &Path, lib: libloading::Library) -> Result<Self, LawError> {
+        Ok(Self {
+            describe: symbol(&lib, path, "tribo_law_describe")?,
+            create: symbol(&lib, path, "tribo_law_create")?,
+            state_size: symbol(&lib, path, "tribo_law_state_size")?,
+            evaluate: symbol(&lib, path, "tribo_law_evaluate")?,
+            commit: symbol(&lib, path, "tribo_law_commit")?,
+            destroy: symbol(&lib, path, "tribo_law_destroy")?,
+            _lib: lib,
+        })
+    }
+
+    pub(super) fn describe(&self, path: &Path) -> Result<LawDescription, LawError> {
+        let bad = |detail: String| LawError::BadDescription {
+            path: path.to_path_buf(),
+            detail,
+        };
+        // SAFETY: tribo_law_describe returns NULL or a pointer to static storage.
+        let d = unsafe { (self.describe)().as_ref() }
+            .ok_or_else(|| bad("tribo_law_describe returned NULL".into()))?;
+        if d.n_params > 0 && d.params.is_null() {
+            return Err(bad(format!(
+                "n_params is {} but params is NULL",
+                d.n_params
+            )));
+        }
+        if d.n_params > 4096 {
+            return Err(bad(format!(
+                "n_params is {}, which is not plausible",
+                d.n_params
+            )));
+        }
+        // SAFETY: strings are static, NUL-terminated; params points to n_params entries.
+        unsafe {
+            let name = c_text(d.name, "name").map_err(bad)?;
+            if name.is_empty() {
+                return Err(bad("name is empty".into()));
+            }
+            let mut parameters = Vec::with_capacity(d.n_params as usize);
+            for i in 0..d.n_params as usize {
+                let p = &*d.params.add(i);
+                let pname = c_text(p.name, &format!("params[{i}].name")).map_err(bad)?;
+                let check = |ok: bool, what: &str| {
+                    if ok {
+                        Ok(())
+                    } else {
+                        Err(bad(format!("parameter `{pname}`: {what}")))
+                    }
+                };
+                check(p.min <= p.max, "min is greater than max")?;
+                check(
+                    p.default_value >= p.min && p.default_value <= p.max,
+                    "default is outside [min, max]",
+                )?;
+                parameters.push(ParamSpec {
+                    unit: c_text(p.unit, &format!("`{pname}` unit")).map_err(bad)?,
+                    doc: c_text(p.doc, &format!("`{pname}` doc")).map_err(bad)?,
+                    name: pname,
+                    default: ParamValue::Number(p.default_value),
+                    min: p.min,
+                    max: p.max,
+                    choices: Vec::new(),
+                });
+            }
+            Ok(LawDescription {
+                name,
+                version: c_text(d.version, "version").map_err(bad)?,
+                summary: c_text(d.summary, "summary").map_err(bad)?,
+                parameters,
+            })
+        }
+    }
+}
+
+/// A C law instance; destroyed through the library when dropped.
+pub(super) struct CInstance {
+    lib: Arc<CLib>,
+    handle: *mut c_void,
+    state_size: usize,
+}
+
+// SAFETY: the contract requires evaluate/commit to be re-entrant for a const instance and
+// to keep no per-step mutable data in the instance, so it may move between and be shared by
+// threads.
+unsafe impl Send for CInstance {}
+// SAFETY: see above.
+unsafe impl Sync for CInstance {}
+
+impl CInstance {
+    pub(super) fn create(
+        lib: Arc<CLib>,
+        params: &[f64],
+        owner: &LawLibrary,
+    ) -> Result<Self, LawError> {
+        let mut msg = [0 as c_char; 512];
+        // SAFETY: params holds params.len() doubles; msg is a writable buffer of msg.len() bytes.
+        let handle =
+            unsafe { (lib.create)(params.as_ptr(), params.len(), msg.as_mut_ptr(), msg.len()) };
+        if handle.is_null() {
+            msg[msg.len() - 1] = 0;
+            // SAFETY: the buffer was zeroed and its last byte forced to NUL.
+            let text = unsafe { CStr::from_ptr(msg.as_ptr()) }
+                .to_string_lossy()
+                .into_owned();
+            let (parameter, message) = match text.split_once(": ") {
+                Some((p, m)) if owner.description.parameters.iter().any(|s| s.name == p) => {
+                    (p.to_string(), m.to_string())
+                }
+                _ => (
+                    String::new(),
+                    if text.is_empty() {
+                        "tribo_law_create returned NULL".into()
+                    } else {
+                        text
+                    },
+                ),
+            };
+            return Err(
+                owner.param_error(ParamError::new(&parameter, message).for_law(owner.name()))
+            );
+        }
+        // SAFETY: handle is a live instance from tribo_law_create.
+        let state_size = unsafe { (lib.state_size)(handle) };
+        Ok(Self {
+            lib,
+            handle,
+            state_size,
+        })
+    }
+
+    pub(super) fn state_size(&self) -> usize {
+        self.state_size
+    }
+
+    #[inline]
+    pub(super) fn evaluate(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, i32> {
+        let mut out = LawOutput::force(0.0);
+        // SAFETY: live handle; input and out are valid for the call; state has state_size values.
+        let code = unsafe { (self.lib.evaluate)(self.handle, input, state.as_ptr(), &mut out) };
+        if code == 0 {
+            Ok(out)
+        } else {
+            Err(code)
+        }
+    }
+
+    pub(super) fn commit(&self, input: &LawInput, state: &mut [f64]) -> Result<(), i32> {
+        // SAFETY: as for evaluate; state is writable.
+        let code = unsafe { (self.lib.commit)(self.handle, input, state.as_mut_ptr()) };
+        if code == 0 {
+            Ok(())
+        } else {
+            Err(code)
+        }
+    }
+}
+
+impl Drop for CInstance {
+    fn drop(&mut self) {
+        // SAFETY: handle came from tribo_law_create and is destroyed exactly once.
+        unsafe { (self.lib.destroy)(self.handle) }
+    }
+}

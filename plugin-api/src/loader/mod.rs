@@ -1,0 +1,414 @@
+//! Host side: find law libraries, load them through either ABI, and hand the solver one kind of
+//! handle ([`LawLibrary`] to create, [`LawInstance`] to evaluate) whatever the law is written in.
+
+mod c_abi;
+mod discover;
+mod rust;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use serde::Serialize;
+
+use crate::contract::{LawInput, LawOutput};
+use crate::describe::{check_params, values_to_table, LawDescription, ParamError, ParamValue};
+use crate::law::{create_from_table, describe, Law};
+
+pub use discover::{discover, plugin_file_name, LawRegistry, PLUGIN_PATH_ENV};
+
+/// Which ABI a library was loaded through.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Abi {
+    /// A Rust library exporting an abi_stable module (layout-checked).
+    Rust,
+    /// A library exporting the C symbols of `tribo_law.h`.
+    C,
+    /// A law linked into the host process (tests and benchmarks).
+    InProcess,
+}
+
+impl fmt::Display for Abi {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Abi::Rust => "rust",
+            Abi::C => "c",
+            Abi::InProcess => "in-process",
+        })
+    }
+}
+
+/// Everything that can go wrong finding, loading, creating or evaluating a law. Each message
+/// names the file and the law where known, and says what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum LawError {
+    /// The file could not be opened as a shared library.
+    #[error("`{path}` is not a loadable shared library for this machine ({reason}); a law plugin is a .so/.dylib/.dll built for this platform, e.g. by `cargo build --release`")]
+    NotALibrary {
+        /// File.
+        path: PathBuf,
+        /// What the dynamic loader said.
+        reason: String,
+    },
+    /// A shared library without the Tribo version symbol.
+    #[error("`{path}` is a shared library but not a Tribo law: it does not export `tribo_law_contract_version` (see plugin-api/include/tribo_law.h, or use tribo_plugin_api::export_law! in Rust)")]
+    NoTriboSymbols {
+        /// File.
+        path: PathBuf,
+    },
+    /// Built against another contract version.
+    #[error("`{path}` was built against law contract version {found}, but this tribo speaks version {expected}; rebuild the plugin against this Tribo's plugin-api")]
+    ContractMismatch {
+        /// File.
+        path: PathBuf,
+        /// Version the library reports.
+        found: u32,
+        /// Version of this host.
+        expected: u32,
+    },
+    /// A required C symbol is missing.
+    #[error("`{path}` exports `tribo_law_contract_version` but not `{symbol}`; a C law must export all seven functions of tribo_law.h")]
+    MissingSymbol {
+        /// File.
+        path: PathBuf,
+        /// Missing symbol.
+        symbol: String,
+    },
+    /// abi_stable refused the library (layout or version).
+    #[error("`{path}` failed the Rust plugin ABI check: {detail}")]
+    AbiCheck {
+        /// File.
+        path: PathBuf,
+        /// abi_stable's explanation.
+        detail: String,
+    },
+    /// The law's description is unusable.
+    #[error("`{path}`: the law's description is invalid: {detail}")]
+    BadDescription {
+        /// File.
+        path: PathBuf,
+        /// What is wrong.
+        detail: String,
+    },
+    /// Two libraries claim the same law name.
+    #[error("two libraries provide the law `{name}`: `{first}` and `{second}`; remove one or point {env} elsewhere", env = PLUGIN_PATH_ENV)]
+    DuplicateName {
+        /// Law name.
+        name: String,
+        /// First file.
+        first: PathBuf,
+        /// Second file.
+        second: PathBuf,
+    },
+    /// No library provides the requested law.
+    #[error("no law named `{name}` was found; available: {available}. Plugins are searched in --plugin paths, {env} and the directory of the tribo executable", env = PLUGIN_PATH_ENV)]
+    UnknownLaw {
+        /// Requested name.
+        name: String,
+        /// Comma-separated known names.
+        available: String,
+    },
+    /// A parameter was rejected.
+    #[error("{source} (library `{path}`)")]
+    Param {
+        /// The parameter problem.
+        source: ParamError,
+        /// File.
+        path: PathBuf,
+    },
+    /// The law panicked or reported an error.
+    #[error("law `{law}` (library `{path}`) failed in {stage}: {message}")]
+    LawFailed {
+        /// Law name.
+        law: String,
+        /// File.
+        path: PathBuf,
+        /// `create`, `evaluate` or `commit`.
+        stage: &'static str,
+        /// Panic message or error code.
+        message: String,
+    },
+    /// A directory of the plugin path could not be read.
+    #[error("cannot read plugin directory `{path}`: {source}")]
+    Io {
+        /// Directory.
+        path: PathBuf,
+        /// OS error.
+        source: std::io::Error,
+    },
+}
+
+/// A loaded law library: its description and the means to create instances.
+pub struct LawLibrary {
+    description: LawDescription,
+    path: PathBuf,
+    abi: Abi,
+    backend: LibBackend,
+}
+
+enum LibBackend {
+    Rust(rust::RustLib),
+    C(Arc<c_abi::CLib>),
+    InProcess(fn(&toml::Table) -> Result<Box<dyn DynLaw>, ParamError>),
+}
+
+impl fmt::Debug for LawLibrary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("LawLibrary")
+            .field("name", &self.description.name)
+            .field("path", &self.path)
+            .field("abi", &self.abi)
+            .finish()
+    }
+}
+
+impl LawLibrary {
+    /// Load the library at `path`, through whichever ABI it exports. The contract version
+    /// symbol is checked before any other symbol is touched.
+    pub fn load(path: &Path) -> Result<Self, LawError> {
+        // SAFETY: loading a shared library runs its initialisers; a Tribo plugin is trusted
+        // native code by design (the user chose to put it on the plugin path).
+        let lib = unsafe { libloading::Library::new(path) }.map_err(|e| LawError::NotALibrary {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
+        let version = {
+            // SAFETY: the contract defines this symbol as `uint32_t (void)`.
+            let sym = unsafe { lib.get::<extern "C" fn() -> u32>(b"tribo_law_contract_version\0") }
+                .map_err(|_| LawError::NoTriboSymbols {
+                    path: path.to_path_buf(),
+                })?;
+            sym()
+        };
+        if version != crate::CONTRACT_VERSION {
+            return Err(LawError::ContractMismatch {
+                path: path.to_path_buf(),
+                found: version,
+                expected: crate::CONTRACT_VERSION,
+            });
+        }
+        if rust::exports_rust_module(&lib) {
+            drop(lib);
+            let lib = rust::RustLib::load(path)?;
+            let description = lib.describe(path)?;
+            Ok(Self {
+                description,
+                path: path.to_path_buf(),
+                abi: Abi::Rust,
+                backend: LibBackend::Rust(lib),
+            })
+        } else {
+            let lib = c_abi::CLib::load(path, lib)?;
+            let description = lib.describe(path)?;
+            Ok(Self {
+                description,
+                path: path.to_path_buf(),
+                abi: Abi::C,
+                backend: LibBackend::C(Arc::new(lib)),
+            })
+        }
+    }
+
+    /// Wrap a law linked into this process, so tests and benchmarks use the same handle.
+    pub fn in_process<L: Law>() -> Result<Self, ParamError> {
+        fn create<L: Law>(table: &toml::Table) -> Result<Box<dyn DynLaw>, ParamError> {
+            Ok(Box::new(create_from_table::<L>(table)?))
+        }
+        Ok(Self {
+            description: describe::<L>()?,
+            path: PathBuf::from(format!("<in-process {}>", L::NAME)),
+            abi: Abi::InProcess,
+            backend: LibBackend::InProcess(create::<L>),
+        })
+    }
+
+    /// The law's self-description.
+    pub fn description(&self) -> &LawDescription {
+        &self.description
+    }
+
+    /// Law name.
+    pub fn name(&self) -> &str {
+        &self.description.name
+    }
+
+    /// File the law was loaded from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// ABI the law was loaded through.
+    pub fn abi(&self) -> Abi {
+        self.abi
+    }
+
+    /// Create an instance from a parameter table (missing keys take their defaults). Names,
+    /// types and ranges are checked against the description for every ABI.
+    pub fn create(&self, params: &toml::Table) -> Result<LawInstance, LawError> {
+        let values = check_params(&self.description, params).map_err(|e| self.param_error(e))?;
+        let backend = match &self.backend {
+            LibBackend::Rust(lib) => {
+                let text = toml::to_string(&values_to_table(&values)).map_err(|e| {
+                    self.param_error(ParamError::new("", e.to_string()).for_law(self.name()))
+                })?;
+                InstBackend::Rust(lib.create(&text, self)?)
+            }
+            LibBackend::C(lib) => {
+                let mut flat = Vec::with_capacity(values.len());
+                for (name, v) in &values {
+                    match v {
+                        ParamValue::Number(x) => flat.push(*x),
+                        _ => {
+                            return Err(self.param_error(
+                                ParamError::new(name, "C laws take numeric parameters only")
+                                    .for_law(self.name()),
+                            ))
+                        }
+                    }
+                }
+                InstBackend::C(c_abi::CInstance::create(lib.clone(), &flat, self)?)
+            }
+            LibBackend::InProcess(create) => {
+                let table = values_to_table(&values);
+                InstBackend::InProcess(create(&table).map_err(|e| self.param_error(e))?)
+            }
+        };
+        let state_size = match &backend {
+            InstBackend::Rust(obj) => obj.state_size(),
+            InstBackend::C(inst) => inst.state_size(),
+            InstBackend::InProcess(law) => law.state_size(),
+        };
+        Ok(LawInstance {
+            name: self.description.name.clone().into(),
+            path: self.path.clone().into(),
+            state_size,
+            backend,
+        })
+    }
+
+    fn param_error(&self, e: ParamError) -> LawError {
+        LawError::Param {
+            source: e,
+            path: self.path.clone(),
+        }
+    }
+
+    fn failed(&self, stage: &'static str, message: String) -> LawError {
+        LawError::LawFailed {
+            law: self.description.name.clone(),
+            path: self.path.clone(),
+            stage,
+            message,
+        }
+    }
+}
+
+/// Object-safe view of an in-process [`Law`].
+trait DynLaw: Send + Sync {
+    fn state_size(&self) -> usize;
+    fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput;
+    fn commit(&self, input: &LawInput, state: &mut [f64]);
+}
+
+impl<L: Law> DynLaw for L {
+    fn state_size(&self) -> usize {
+        Law::state_size(self)
+    }
+    fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
+        Law::evaluate(self, input, state)
+    }
+    fn commit(&self, input: &LawInput, state: &mut [f64]) {
+        Law::commit(self, input, state)
+    }
+}
+
+enum InstBackend {
+    Rust(crate::rust_abi::RLawBox),
+    C(c_abi::CInstance),
+    InProcess(Box<dyn DynLaw>),
+}
+
+/// A created law instance: what the solver calls once per joint and step. The host keeps the
+/// instance's state array (of [`LawInstance::state_size`] values, zero-initialised).
+pub struct LawInstance {
+    name: Arc<str>,
+    path: Arc<Path>,
+    state_size: usize,
+    backend: InstBackend,
+}
+
+impl fmt::Debug for LawInstance {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("LawInstance")
+            .field("name", &self.name)
+            .field("path", &self.path)
+            .field("state_size", &self.state_size)
+            .finish()
+    }
+}
+
+impl LawInstance {
+    /// Law name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Library file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Number of state variables the host must keep.
+    pub fn state_size(&self) -> usize {
+        self.state_size
+    }
+
+    /// Evaluate the law. A panic inside a Rust law, or a non-zero status from a C law, comes
+    /// back as [`LawError::LawFailed`] naming the law; the host process survives.
+    #[inline]
+    pub fn evaluate(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, LawError> {
+        debug_assert_eq!(state.len(), self.state_size);
+        match &self.backend {
+            InstBackend::Rust(obj) => match obj.evaluate(input, state.into()) {
+                abi_stable::std_types::RResult::ROk(out) => Ok(out),
+                abi_stable::std_types::RResult::RErr(msg) => {
+                    Err(self.failed("evaluate", format!("panicked: {msg}")))
+                }
+            },
+            InstBackend::C(inst) => inst
+                .evaluate(input, state)
+                .map_err(|code| self.failed("evaluate", format!("returned error code {code}"))),
+            InstBackend::InProcess(law) => Ok(law.evaluate(input, state)),
+        }
+    }
+
+    /// Advance the host-owned `state` over an accepted step.
+    pub fn commit(&self, input: &LawInput, state: &mut [f64]) -> Result<(), LawError> {
+        match &self.backend {
+            InstBackend::Rust(obj) => match obj.commit(input, state.into()) {
+                abi_stable::std_types::RResult::ROk(()) => Ok(()),
+                abi_stable::std_types::RResult::RErr(msg) => {
+                    Err(self.failed("commit", format!("panicked: {msg}")))
+                }
+            },
+            InstBackend::C(inst) => inst
+                .commit(input, state)
+                .map_err(|code| self.failed("commit", format!("returned error code {code}"))),
+            InstBackend::InProcess(law) => {
+                law.commit(input, state);
+                Ok(())
+            }
+        }
+    }
+
+    #[cold]
+    fn failed(&self, stage: &'static str, message: String) -> LawError {
+        LawError::LawFailed {
+            law: self.name.to_string(),
+            path: self.path.to_path_buf(),
+            stage,
+            message,
+        }
+    }
+}

@@ -186,6 +186,7 @@ fn to_r_description(d: &LawDescription) -> RLawDescription {
 }
 
 /// Convert a description received from a plugin back to the host's form.
+#[cfg(feature = "loader")]
 pub(crate) fn from_r_description(d: &RLawDescription) -> Result<LawDescription, String> {
     let mut parameters = Vec::with_capacity(d.parameters.len());
     for p in d.parameters.iter() {
@@ -356,6 +357,9 @@ mod tests {
 
     #[test]
     fn version_string_follows_contract_version() {
-        assert_eq!(CONTRACT_VERSION_STRING, format!("{}.0.0", crate::CONTRACT_VERSION));
+        assert_eq!(
+            CONTRACT_VERSION_STRING,
+            format!("{}.0.0", crate::CONTRACT_VERSION)
+        );
     }
 }

@@ -78,14 +78,7 @@ impl LawRegistry {
 /// Load every law reachable from `explicit` (files or directories), the directories in
 /// `TRIBO_PLUGIN_PATH`, and the directory holding the running executable.
 pub fn discover(explicit: &[PathBuf]) -> Result<LawRegistry, LawError> {
-    let mut files: Vec<PathBuf> = Vec::new();
-    for path in explicit {
-        if path.is_dir() {
-            scan_dir(path, &mut files)?;
-        } else {
-            files.push(path.clone());
-        }
-    }
+    let mut files = explicit_files(explicit)?;
     if let Some(list) = std::env::var_os(PLUGIN_PATH_ENV) {
         for dir in std::env::split_paths(&list) {
             if dir.is_dir() {
@@ -99,6 +92,28 @@ pub fn discover(explicit: &[PathBuf]) -> Result<LawRegistry, LawError> {
     {
         scan_dir(&dir, &mut files)?;
     }
+    load_files(files)
+}
+
+/// Load only what `paths` (files or directories) hold: no environment, no executable
+/// directory. For tools and tests that must not depend on where they run.
+pub fn load_paths(paths: &[PathBuf]) -> Result<LawRegistry, LawError> {
+    load_files(explicit_files(paths)?)
+}
+
+fn explicit_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, LawError> {
+    let mut files = Vec::new();
+    for path in paths {
+        if path.is_dir() {
+            scan_dir(path, &mut files)?;
+        } else {
+            files.push(path.clone());
+        }
+    }
+    Ok(files)
+}
+
+fn load_files(files: Vec<PathBuf>) -> Result<LawRegistry, LawError> {
     let mut seen = HashSet::new();
     let mut registry = LawRegistry::new();
     for file in files {

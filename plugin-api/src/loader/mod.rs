@@ -15,7 +15,7 @@ use crate::contract::{LawInput, LawOutput};
 use crate::describe::{check_params, values_to_table, LawDescription, ParamError, ParamValue};
 use crate::law::{create_from_table, describe, Law};
 
-pub use discover::{discover, plugin_file_name, LawRegistry, PLUGIN_PATH_ENV};
+pub use discover::{discover, load_paths, plugin_file_name, LawRegistry, PLUGIN_PATH_ENV};
 
 /// Which ABI a library was loaded through.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

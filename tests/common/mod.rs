@@ -1,0 +1,123 @@
+//! Helpers shared by the integration tests: locating the built binary and plugins, building
+//! fixtures, compiling C with the system compiler.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
+
+/// The workspace root.
+pub fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("host/ has a parent")
+        .to_path_buf()
+}
+
+/// The `tribo` binary under test.
+pub fn tribo_exe() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_tribo"))
+}
+
+/// The profile output directory (`target/debug` or `target/release`) holding the binary and
+/// the plugin libraries.
+pub fn profile_dir() -> PathBuf {
+    tribo_exe()
+        .parent()
+        .expect("binary has a directory")
+        .to_path_buf()
+}
+
+/// Build the plugin and fixture libraries into the profile directory (once per test process).
+/// `cargo test` builds test targets, not every cdylib, so the tests make sure themselves.
+pub fn ensure_plugins_built() {
+    static BUILT: OnceLock<()> = OnceLock::new();
+    BUILT.get_or_init(|| {
+        let profile = profile_dir();
+        let mut cmd = Command::new(env!("CARGO"));
+        cmd.arg("build").current_dir(workspace());
+        match profile.file_name().and_then(|n| n.to_str()) {
+            Some("debug") => {}
+            Some("release") => {
+                cmd.arg("--release");
+            }
+            Some(other) => {
+                cmd.args(["--profile", other]);
+            }
+            None => {}
+        }
+        for p in [
+            "tribo-law-coulomb",
+            "tribo-law-c-coulomb",
+            "tribo-fixture-panic-law",
+            "tribo-fixture-contract-mismatch",
+        ] {
+            cmd.args(["-p", p]);
+        }
+        let out = cmd.output().expect("cargo runs");
+        assert!(
+            out.status.success(),
+            "building plugins failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    });
+}
+
+/// Path of a built library with crate lib-name `lib` in the profile directory.
+pub fn built_library(lib: &str) -> PathBuf {
+    ensure_plugins_built();
+    let path = profile_dir().join(tribo::plugin_api::loader::plugin_file_name(lib));
+    assert!(path.is_file(), "{} was not built", path.display());
+    path
+}
+
+/// Run `tribo` with `args` in an environment without TRIBO_PLUGIN_PATH (unless `plugin_path`).
+pub fn run_tribo(args: &[&str], plugin_path: Option<&Path>) -> Output {
+    ensure_plugins_built();
+    let mut cmd = Command::new(tribo_exe());
+    cmd.args(args).env_remove("TRIBO_PLUGIN_PATH");
+    if let Some(p) = plugin_path {
+        cmd.env("TRIBO_PLUGIN_PATH", p);
+    }
+    cmd.output().expect("tribo runs")
+}
+
+/// Text of stdout and stderr.
+pub fn text(out: &Output) -> (String, String) {
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The system C compiler (`$CC`, else `cc`).
+pub fn c_compiler() -> String {
+    std::env::var("CC").unwrap_or_else(|_| "cc".into())
+}
+
+/// Compile C `sources` into `output` with the contract header on the include path; `shared`
+/// makes a shared library, otherwise an executable.
+pub fn compile_c(sources: &[PathBuf], output: &Path, shared: bool) {
+    let mut cmd = Command::new(c_compiler());
+    if shared {
+        cmd.args(["-shared", "-fPIC"]);
+    }
+    cmd.args(["-O2", "-std=c99", "-Wall", "-Wextra"])
+        .arg("-I")
+        .arg(workspace().join("plugin-api/include"))
+        .args(sources)
+        .arg("-o")
+        .arg(output)
+        .arg("-lm");
+    let out = cmd.output().expect("the system C compiler runs");
+    assert!(
+        out.status.success(),
+        "C compile failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A fixture C source.
+pub fn c_fixture(name: &str) -> PathBuf {
+    workspace().join("tests/fixtures/c").join(name)
+}

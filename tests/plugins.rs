@@ -1,0 +1,392 @@
+//! The plugin contract end to end: discovery, both ABIs, the C example compiled here with the
+//! system compiler, and every load/create/evaluate failure with its message.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use tribo::plugin_api::loader::{load_paths, Abi, LawError, LawLibrary};
+use tribo::plugin_api::{JointKind, LawInput, CONTRACT_VERSION};
+
+fn table(text: &str) -> toml::Table {
+    text.parse().expect("test TOML parses")
+}
+
+fn input(kind: JointKind, velocity: f64, load: f64, radius: f64) -> LawInput {
+    let mut i = LawInput::at_rest(kind);
+    i.normal_load_n = load;
+    i.contact_radius_m = radius;
+    i.with_velocity(velocity)
+}
+
+/// The Coulomb + viscous formula both example laws implement, written out independently.
+fn coulomb_formula(mu: f64, c: f64, eps: f64, kind: JointKind, v: f64, n: f64, r: f64) -> f64 {
+    let arm = if kind == JointKind::Revolute { r } else { 1.0 };
+    let vs = v * arm;
+    -(mu * n * arm * vs / (vs * vs + eps * eps).sqrt() + c * v)
+}
+
+#[test]
+fn laws_lists_rust_and_c_laws_with_their_files_as_json() {
+    let out = run_tribo(&["laws", "--json"], None);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("--json output parses");
+    assert_eq!(json["contract_version"], CONTRACT_VERSION);
+    let laws = json["laws"].as_array().expect("laws is a list");
+    let find = |name: &str| {
+        laws.iter()
+            .find(|l| l["name"] == name)
+            .unwrap_or_else(|| panic!("{name} not listed in {stdout}"))
+    };
+    for (name, abi) in [("coulomb", "rust"), ("c-coulomb", "c")] {
+        let law = find(name);
+        assert_eq!(law["abi"], abi);
+        let file = law["file"].as_str().expect("file is text");
+        assert!(Path::new(file).is_file(), "{file} does not exist");
+        let mu = law["parameters"]
+            .as_array()
+            .and_then(|p| p.iter().find(|p| p["name"] == "mu"))
+            .expect("mu is listed");
+        assert_eq!(mu["unit"], "-");
+        assert_eq!(mu["default"], 0.1);
+        assert_eq!(mu["min"], 0.0);
+    }
+    // The table form names the same things.
+    let out = run_tribo(&["laws"], None);
+    let (stdout, _) = text(&out);
+    assert!(
+        stdout.contains("coulomb 0.1.0 [rust]") && stdout.contains("c-coulomb 0.1.0 [c]"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn rust_and_c_paths_give_the_formula_and_the_same_handle() {
+    let rust = LawLibrary::load(&built_library("tribo_law_coulomb")).expect("rust law loads");
+    let dir = tempfile::tempdir().expect("temp dir");
+    // The C example, compiled here with the system C compiler, not by the build script.
+    let c_path = dir.path().join("libtribo_law_c_coulomb.so");
+    compile_c(
+        &[workspace().join("plugins/c-coulomb/c/c_coulomb.c")],
+        &c_path,
+        true,
+    );
+    let c = LawLibrary::load(&c_path).expect("C law loads");
+    assert_eq!(rust.abi(), Abi::Rust);
+    assert_eq!(c.abi(), Abi::C);
+    assert_eq!(c.name(), "c-coulomb");
+    assert_eq!(c.description().parameters.len(), 3);
+
+    let params = table("mu = 0.08\nc_viscous = 0.4\nv_smooth = 0.002");
+    let laws = [
+        rust.create(&params).expect("rust create"),
+        c.create(&params).expect("C create"),
+    ];
+    for law in &laws {
+        assert_eq!(law.state_size(), 0);
+        for kind in [JointKind::Revolute, JointKind::Prismatic] {
+            for &v in &[-400.0, -2.0, -1e-3, 0.0, 5e-4, 3.0, 942.0] {
+                for &n in &[0.0, 35.0, 12_000.0] {
+                    let got = law
+                        .evaluate(&input(kind, v, n, 0.017), &[])
+                        .expect("evaluates");
+                    let want = coulomb_formula(0.08, 0.4, 0.002, kind, v, n, 0.017);
+                    assert!(
+                        (got.force - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                        "{} {kind:?} v={v} n={n}: {} vs {want}",
+                        law.name(),
+                        got.force
+                    );
+                    assert_eq!(got.coefficient(), Some(0.08));
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn c_header_layout_matches_the_rust_contract() {
+    use std::mem::{offset_of, size_of};
+    use tribo::plugin_api::LawOutput;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let exe = dir.path().join("layout");
+    compile_c(&[c_fixture("layout.c")], &exe, false);
+    let out = std::process::Command::new(&exe)
+        .output()
+        .expect("layout program runs");
+    let printed = String::from_utf8_lossy(&out.stdout).into_owned();
+    let c: std::collections::HashMap<&str, usize> = printed
+        .lines()
+        .filter_map(|l| l.split_once(' '))
+        .map(|(k, v)| (k, v.parse().expect("a number")))
+        .collect();
+    let rust = [
+        ("input.size", size_of::<LawInput>()),
+        ("output.size", size_of::<LawOutput>()),
+        ("input.joint_kind", offset_of!(LawInput, joint_kind)),
+        ("input.reserved", offset_of!(LawInput, reserved)),
+        (
+            "input.relative_velocity",
+            offset_of!(LawInput, relative_velocity),
+        ),
+        (
+            "input.sliding_velocity_m_s",
+            offset_of!(LawInput, sliding_velocity_m_s),
+        ),
+        ("input.normal_load_n", offset_of!(LawInput, normal_load_n)),
+        ("input.reaction_x_n", offset_of!(LawInput, reaction_x_n)),
+        ("input.reaction_y_n", offset_of!(LawInput, reaction_y_n)),
+        (
+            "input.reaction_moment_nm",
+            offset_of!(LawInput, reaction_moment_nm),
+        ),
+        (
+            "input.contact_radius_m",
+            offset_of!(LawInput, contact_radius_m),
+        ),
+        (
+            "input.contact_length_m",
+            offset_of!(LawInput, contact_length_m),
+        ),
+        ("input.oil_temp_c", offset_of!(LawInput, oil_temp_c)),
+        ("input.viscosity_pa_s", offset_of!(LawInput, viscosity_pa_s)),
+        (
+            "input.engine_speed_rad_s",
+            offset_of!(LawInput, engine_speed_rad_s),
+        ),
+        (
+            "input.crank_angle_rad",
+            offset_of!(LawInput, crank_angle_rad),
+        ),
+        ("input.time_s", offset_of!(LawInput, time_s)),
+        ("input.dt_s", offset_of!(LawInput, dt_s)),
+        ("output.force", offset_of!(LawOutput, force)),
+        ("output.coefficient", offset_of!(LawOutput, coefficient)),
+        (
+            "output.duty_parameter",
+            offset_of!(LawOutput, duty_parameter),
+        ),
+        (
+            "output.dforce_dvelocity",
+            offset_of!(LawOutput, dforce_dvelocity),
+        ),
+        ("output.regime", offset_of!(LawOutput, regime)),
+        ("output.flags", offset_of!(LawOutput, flags)),
+        ("contract", CONTRACT_VERSION as usize),
+    ];
+    for (key, value) in rust {
+        assert_eq!(
+            c.get(key),
+            Some(&value),
+            "{key}: C says {:?}, Rust {value}",
+            c.get(key)
+        );
+    }
+}
+
+fn expect_failure(args: &[&str], needles: &[&str]) {
+    let out = run_tribo(args, None);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success(), "expected failure for {args:?}");
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "`{n}` missing from: {stderr}");
+    }
+}
+
+#[test]
+fn a_file_that_is_not_a_shared_library_is_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fake = dir.path().join("libtribo_law_fake.so");
+    std::fs::write(&fake, "this is a text file, not ELF\n").expect("write");
+    let f = fake.to_str().expect("utf-8 path");
+    expect_failure(
+        &["laws", "--plugin", f],
+        &[f, "not a loadable shared library"],
+    );
+    // The same file found by directory scan is refused the same way.
+    let out = run_tribo(&["laws"], Some(dir.path()));
+    assert!(!out.status.success());
+    assert!(text(&out).1.contains("not a loadable shared library"));
+}
+
+#[test]
+fn a_library_without_tribo_symbols_is_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let lib = dir.path().join("libother.so");
+    compile_c(&[c_fixture("no_symbols.c")], &lib, true);
+    let l = lib.to_str().expect("utf-8 path");
+    expect_failure(
+        &["laws", "--plugin", l],
+        &[l, "not a Tribo law", "tribo_law_contract_version"],
+    );
+}
+
+#[test]
+fn a_c_library_with_missing_functions_names_the_first_missing_one() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let lib = dir.path().join("libincomplete.so");
+    compile_c(&[c_fixture("missing_symbol.c")], &lib, true);
+    let l = lib.to_str().expect("utf-8 path");
+    expect_failure(&["laws", "--plugin", l], &[l, "tribo_law_create"]);
+}
+
+#[test]
+fn other_contract_versions_are_refused_for_both_abis() {
+    let rust = built_library("tribo_fixture_contract_mismatch");
+    let r = rust.to_str().expect("utf-8 path");
+    let found = (CONTRACT_VERSION + 1).to_string();
+    expect_failure(
+        &["laws", "--plugin", r],
+        &[
+            r,
+            &format!("contract version {found}"),
+            &format!("speaks version {CONTRACT_VERSION}"),
+        ],
+    );
+
+    let dir = tempfile::tempdir().expect("temp dir");
+    let lib = dir.path().join("libold.so");
+    // This fixture defines only the version symbol: if the loader touched anything else
+    // first, the error would be a missing symbol instead.
+    compile_c(&[c_fixture("wrong_version.c")], &lib, true);
+    let l = lib.to_str().expect("utf-8 path");
+    expect_failure(&["laws", "--plugin", l], &[l, "contract version 999"]);
+}
+
+#[test]
+fn two_libraries_with_the_same_law_name_are_an_error_naming_both() {
+    let original = built_library("tribo_law_coulomb");
+    let a = tempfile::tempdir().expect("temp dir");
+    let b = tempfile::tempdir().expect("temp dir");
+    let name = original.file_name().expect("file name");
+    std::fs::copy(&original, a.path().join(name)).expect("copy");
+    std::fs::copy(&original, b.path().join(name)).expect("copy");
+    let fa = a.path().join(name);
+    let fb = b.path().join(name);
+    expect_failure(
+        &[
+            "laws",
+            "--plugin",
+            a.path().to_str().expect("utf-8"),
+            "--plugin",
+            b.path().to_str().expect("utf-8"),
+        ],
+        &[
+            "two libraries provide the law `coulomb`",
+            fa.to_str().expect("utf-8"),
+            fb.to_str().expect("utf-8"),
+        ],
+    );
+}
+
+#[test]
+fn plugin_path_directories_are_scanned_and_non_plugins_ignored() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    // A plugin under its plugin name, and a library that is not named like one.
+    compile_c(
+        &[workspace().join("plugins/c-coulomb/c/c_coulomb.c")],
+        &dir.path().join("libtribo_law_c2.so"),
+        true,
+    );
+    compile_c(
+        &[c_fixture("no_symbols.c")],
+        &dir.path().join("libsomething_else.so"),
+        true,
+    );
+    std::fs::write(dir.path().join("notes.txt"), "not a library").expect("write");
+    // The exe directory also provides c-coulomb: the duplicate must be reported, proving the
+    // plugin-path directory was scanned and the non-plugin files were not loaded.
+    let out = run_tribo(&["laws"], Some(dir.path()));
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("two libraries provide the law `c-coulomb`"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("libtribo_law_c2.so"), "{stderr}");
+}
+
+#[test]
+fn unknown_and_out_of_range_parameters_are_rejected_by_name_for_both_abis() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let c_path = dir.path().join("libtribo_law_c_coulomb.so");
+    compile_c(
+        &[workspace().join("plugins/c-coulomb/c/c_coulomb.c")],
+        &c_path,
+        true,
+    );
+    for path in [built_library("tribo_law_coulomb"), c_path] {
+        let lib = LawLibrary::load(&path).expect("loads");
+        let e = lib.create(&table("mu = 0.1\nfriction = 3.0")).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("`friction`") && msg.contains("unknown parameter"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("expected one of: mu, c_viscous, v_smooth"),
+            "{msg}"
+        );
+        let e = lib.create(&table("mu = -0.2")).unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, LawError::Param { .. }), "{msg}");
+        assert!(
+            msg.contains("`mu`") && msg.contains("-0.2") && msg.contains("[0, 10]"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains(lib.name()) && msg.contains(path.to_str().expect("utf-8")),
+            "{msg}"
+        );
+        let e = lib.create(&table("v_smooth = \"fast\"")).unwrap_err();
+        assert!(e.to_string().contains("expected a number"), "{e}");
+    }
+}
+
+#[test]
+fn a_panicking_law_is_reported_and_the_host_survives() {
+    let path = built_library("tribo_fixture_panic_law");
+    let lib = LawLibrary::load(&path).expect("loads");
+    let law = lib.create(&table("panic_above = 1.0")).expect("creates");
+    // Below the threshold it works; above it panics inside the plugin.
+    let ok = law
+        .evaluate(&input(JointKind::Prismatic, 0.5, 1.0, 0.0), &[])
+        .expect("no panic");
+    assert_eq!(ok.force, -0.5);
+    let err = law
+        .evaluate(&input(JointKind::Prismatic, 2.0, 1.0, 0.0), &[])
+        .unwrap_err();
+    let msg = err.to_string();
+    assert!(msg.contains("fixture-panic"), "{msg}");
+    assert!(msg.contains("fixture panic: velocity 2 above 1"), "{msg}");
+    assert!(
+        msg.contains("evaluate") && msg.contains(path.to_str().expect("utf-8")),
+        "{msg}"
+    );
+    // Still alive, and the instance is still usable.
+    assert!(law
+        .evaluate(&input(JointKind::Prismatic, 0.1, 1.0, 0.0), &[])
+        .is_ok());
+
+    let err = lib.create(&table("panic_in_create = true")).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains("fixture-panic") && msg.contains("create") && msg.contains("panic in create"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn load_paths_finds_the_laws_in_the_build_directory() {
+    ensure_plugins_built();
+    let reg = load_paths(&[profile_dir()]).expect("profile dir loads");
+    assert!(reg.get("coulomb").is_ok());
+    let e = reg.get("no-such-law").unwrap_err().to_string();
+    assert!(
+        e.contains("no law named `no-such-law`") && e.contains("coulomb"),
+        "{e}"
+    );
+}

@@ -1,0 +1,329 @@
+//! Planar rigid multibody mechanics of the motored rig.
+//!
+//! Formulation: absolute coordinates. Each moving body `k` (crank, rod, piston) has the position
+//! of its centre of mass and its angle, `q_k = (x, y, phi)`; joints are algebraic constraints
+//! `Phi(q, t) = 0` (revolute: 2 equations, slide to ground: 2, crank driver: 1). The rig has 9
+//! coordinates and 9 constraints including the driver, so kinematics is a square system and the
+//! equations of motion
+//!
+//! ```text
+//! M q'' + Phi_q^T lambda = Q          Phi_q q'' = gamma
+//! ```
+//!
+//! give the accelerations from the constraints and the multipliers `lambda` (the joint reactions
+//! and the driver torque) from `Phi_q^T lambda = Q - M q''` with the same LU factorisation. For a
+//! free (torque-driven) crank the same solve is used twice: everything is affine in the crank's
+//! angular acceleration, which is then chosen so the driver torque equals the applied torque.
+//!
+//! Frame: y along the cylinder axis pointing to the head, x across it, angles counter-clockwise.
+//! The crank angle `theta` is measured from top dead centre: crank pin at `R(-sin theta, cos theta)`.
+
+use nalgebra::{SMatrix, SVector, Vector2};
+
+/// Number of generalised coordinates: three moving bodies, three each.
+pub const NQ: usize = 9;
+/// Constraint equations: main bearing 2, big end 2, small end 2, slide 2, driver 1.
+pub const NC: usize = 9;
+
+/// Coordinate vector.
+pub type Q = SVector<f64, NQ>;
+type Jac = SMatrix<f64, NC, NQ>;
+
+/// Index of each moving body in the coordinate vector (body `b` owns `3b..3b+3`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Body {
+    /// The crankshaft, rotating about the main-bearing axis at the origin.
+    Crank = 0,
+    /// The connecting rod.
+    Rod = 1,
+    /// The piston assembly (piston, rings, pin, clips).
+    Piston = 2,
+}
+
+/// Mass properties and geometry of the rig, SI units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigGeometry {
+    /// Crank radius (half the stroke), m.
+    pub crank_radius_m: f64,
+    /// Rod length between pin centres, m.
+    pub rod_length_m: f64,
+    /// Rod centre of mass distance from the big-end centre, along the rod, m.
+    pub rod_com_from_big_end_m: f64,
+    /// Crank moment of inertia about its own centre of mass, kg m^2 (includes the balanced part).
+    pub crank_inertia_kg_m2: f64,
+    /// Crank mass, kg (all of it: balanced part plus unbalance).
+    pub crank_mass_kg: f64,
+    /// Crank centre-of-mass offset from the axis, m, and its angle from the crank pin
+    /// direction (pi: a counterweight opposite the pin).
+    pub crank_com_offset_m: f64,
+    /// See `crank_com_offset_m`.
+    pub crank_com_angle_rad: f64,
+    /// Rod mass, kg.
+    pub rod_mass_kg: f64,
+    /// Rod in-plane moment of inertia about its centre of mass, kg m^2.
+    pub rod_inertia_kg_m2: f64,
+    /// Piston assembly mass, kg.
+    pub piston_mass_kg: f64,
+    /// Gravitational acceleration along -y, m/s^2 (0 for gravity off).
+    pub gravity_m_s2: f64,
+    /// Moment of inertia added to the crank by a drive (motor through a belt), kg m^2.
+    pub drive_inertia_kg_m2: f64,
+}
+
+/// Kinematic state of all bodies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct State {
+    /// Positions and angles.
+    pub q: Q,
+    /// Velocities.
+    pub qd: Q,
+    /// Accelerations.
+    pub qdd: Q,
+}
+
+/// Applied generalised forces from friction and damping laws, per joint.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct JointLoads {
+    /// Torque on the crank from the main bearings (both together), N m.
+    pub main_torque_nm: f64,
+    /// Torque on the rod from the big end (the crank receives the opposite), N m.
+    pub big_end_torque_nm: f64,
+    /// Torque on the piston from the small end (the rod receives the opposite), N m.
+    pub small_end_torque_nm: f64,
+    /// Force on the piston along +y from the cylinder slide, N.
+    pub slide_force_n: f64,
+}
+
+/// Joint reactions for one configuration: forces on the second body of each joint, N.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reactions {
+    /// Force from the ground on the crank at the main bearings (sum of both), N.
+    pub main_n: Vector2<f64>,
+    /// Force from the crank on the rod at the big end, N.
+    pub big_end_n: Vector2<f64>,
+    /// Force from the rod on the piston at the small end, N.
+    pub small_end_n: Vector2<f64>,
+    /// Lateral force from the cylinder on the piston (x component), N.
+    pub slide_lateral_n: f64,
+    /// Moment from the cylinder on the piston, N m.
+    pub slide_moment_nm: f64,
+    /// Torque the drive applies to the crank (counter-clockwise, i.e. along theta), N m.
+    pub drive_torque_nm: f64,
+}
+
+fn rot(phi: f64) -> (f64, f64) {
+    (phi.cos(), phi.sin())
+}
+
+/// `A(phi) s` and `B(phi) s = dA/dphi s` for a local vector `s`.
+fn a_s(phi: f64, s: Vector2<f64>) -> (Vector2<f64>, Vector2<f64>) {
+    let (c, sn) = rot(phi);
+    let a = Vector2::new(c * s.x - sn * s.y, sn * s.x + c * s.y);
+    (a, Vector2::new(-a.y, a.x))
+}
+
+fn cross(a: Vector2<f64>, b: Vector2<f64>) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+/// The rig as a constrained multibody system: local attachment points and mass matrix.
+#[derive(Debug, Clone)]
+pub struct Mechanism {
+    geo: RigGeometry,
+    /// Main-bearing axis in the crank frame (relative to the crank CoM).
+    crank_axis_local: Vector2<f64>,
+    /// Crank pin in the crank frame.
+    crank_pin_local: Vector2<f64>,
+    /// Big end in the rod frame (rod axis along local +y, big end below the CoM).
+    rod_big_local: Vector2<f64>,
+    /// Small end in the rod frame.
+    rod_small_local: Vector2<f64>,
+    mass: Q,
+}
+
+impl Mechanism {
+    /// Build from geometry; the caller has validated it (positive masses, rod longer than crank).
+    pub fn new(geo: RigGeometry) -> Self {
+        // Crank frame: origin at the crank CoM, pin direction along local +y, so the body angle
+        // equals theta. The CoM sits at `offset` from the axis at `com_angle` from the pin.
+        let (c, s) = rot(geo.crank_com_angle_rad);
+        let com_from_axis = Vector2::new(-s, c) * geo.crank_com_offset_m;
+        let crank_axis_local = -com_from_axis;
+        let crank_pin_local = Vector2::new(0.0, geo.crank_radius_m) - com_from_axis;
+        let rod_big_local = Vector2::new(0.0, -geo.rod_com_from_big_end_m);
+        let rod_small_local = Vector2::new(0.0, geo.rod_length_m - geo.rod_com_from_big_end_m);
+        let mut mass = Q::zeros();
+        mass[0] = geo.crank_mass_kg;
+        mass[1] = geo.crank_mass_kg;
+        mass[2] = geo.crank_inertia_kg_m2 + geo.drive_inertia_kg_m2;
+        mass[3] = geo.rod_mass_kg;
+        mass[4] = geo.rod_mass_kg;
+        mass[5] = geo.rod_inertia_kg_m2;
+        mass[6] = geo.piston_mass_kg;
+        mass[7] = geo.piston_mass_kg;
+        // The piston does not rotate (the slide holds its angle); any positive value keeps
+        // the mass matrix regular and never enters the result.
+        mass[8] = 1.0;
+        Self {
+            geo,
+            crank_axis_local,
+            crank_pin_local,
+            rod_big_local,
+            rod_small_local,
+            mass,
+        }
+    }
+
+    /// The geometry this mechanism was built from.
+    pub fn geometry(&self) -> &RigGeometry {
+        &self.geo
+    }
+
+    /// Exact positions for crank angle `theta` (closed form of the slider-crank).
+    pub fn positions(&self, theta: f64) -> Q {
+        let r = self.geo.crank_radius_m;
+        let l = self.geo.rod_length_m;
+        let (a_axis, _) = a_s(theta, self.crank_axis_local);
+        let crank_com = -a_axis;
+        let pin = Vector2::new(-r * theta.sin(), r * theta.cos());
+        let y_piston = r * theta.cos() + (l * l - (r * theta.sin()).powi(2)).sqrt();
+        let small = Vector2::new(0.0, y_piston);
+        let u = (small - pin) / l;
+        // Rod angle: local +y maps onto u, so u = (-sin psi, cos psi).
+        let psi = (-u.x).atan2(u.y);
+        let rod_com = pin + u * self.geo.rod_com_from_big_end_m;
+        Q::from_column_slice(&[
+            crank_com.x,
+            crank_com.y,
+            theta,
+            rod_com.x,
+            rod_com.y,
+            psi,
+            0.0,
+            y_piston,
+            0.0,
+        ])
+    }
+
+    /// Constraint Jacobian `Phi_q` and the acceleration right-hand side `gamma` (without the
+    /// driver's `theta''`, which the caller adds to the last entry).
+    fn jacobian(&self, q: &Q, qd: &Q) -> (Jac, SVector<f64, NC>) {
+        let mut j = Jac::zeros();
+        let mut g = SVector::<f64, NC>::zeros();
+        let (pc, pr) = (q[2], q[5]);
+        let (wc, wr, wp) = (qd[2], qd[5], qd[8]);
+        // Main bearing: r_c + A_c s_axis = 0.
+        let (a, b) = a_s(pc, self.crank_axis_local);
+        j[(0, 0)] = 1.0;
+        j[(1, 1)] = 1.0;
+        j[(0, 2)] = b.x;
+        j[(1, 2)] = b.y;
+        g[0] = a.x * wc * wc;
+        g[1] = a.y * wc * wc;
+        // Big end: r_c + A_c s_pin - r_r - A_r s_big = 0.
+        let (ac, bc) = a_s(pc, self.crank_pin_local);
+        let (ar, br) = a_s(pr, self.rod_big_local);
+        j[(2, 0)] = 1.0;
+        j[(3, 1)] = 1.0;
+        j[(2, 2)] = bc.x;
+        j[(3, 2)] = bc.y;
+        j[(2, 3)] = -1.0;
+        j[(3, 4)] = -1.0;
+        j[(2, 5)] = -br.x;
+        j[(3, 5)] = -br.y;
+        g[2] = ac.x * wc * wc - ar.x * wr * wr;
+        g[3] = ac.y * wc * wc - ar.y * wr * wr;
+        // Small end: r_r + A_r s_small - r_p = 0 (piston pin at the piston CoM).
+        let (ar, br) = a_s(pr, self.rod_small_local);
+        j[(4, 3)] = 1.0;
+        j[(5, 4)] = 1.0;
+        j[(4, 5)] = br.x;
+        j[(5, 5)] = br.y;
+        j[(4, 6)] = -1.0;
+        j[(5, 7)] = -1.0;
+        g[4] = ar.x * wr * wr;
+        g[5] = ar.y * wr * wr;
+        // Slide to ground along y: x_p = 0 and phi_p = 0.
+        j[(6, 6)] = 1.0;
+        j[(7, 8)] = 1.0;
+        let _ = wp;
+        // Driver: phi_c - theta(t) = 0.
+        j[(8, 2)] = 1.0;
+        (j, g)
+    }
+
+    /// Solve the dynamics at crank angle/speed/acceleration `theta, omega, alpha` with the given
+    /// friction loads: positions, velocities, accelerations of every body, every joint
+    /// reaction, and the drive torque needed.
+    pub fn solve(
+        &self,
+        theta: f64,
+        omega: f64,
+        alpha: f64,
+        loads: &JointLoads,
+    ) -> (State, Reactions) {
+        let q = self.positions(theta);
+        // Velocities: Phi_q q' = (0, ..., omega); the LU is reused for accelerations and multipliers.
+        let (jac0, _) = self.jacobian(&q, &Q::zeros());
+        let lu = jac0.lu();
+        let mut rhs = SVector::<f64, NC>::zeros();
+        rhs[8] = omega;
+        let qd = lu.solve(&rhs).unwrap_or_else(Q::zeros);
+        let (jac, mut gamma) = self.jacobian(&q, &qd);
+        gamma[8] = alpha;
+        let qdd = lu.solve(&gamma).unwrap_or_else(Q::zeros);
+        // Applied forces: gravity and the friction/damping loads.
+        let mut f = Q::zeros();
+        let gv = self.geo.gravity_m_s2;
+        f[1] = -self.mass[0] * gv;
+        f[4] = -self.mass[3] * gv;
+        f[7] = -self.mass[6] * gv;
+        f[2] += loads.main_torque_nm - loads.big_end_torque_nm;
+        f[5] += loads.big_end_torque_nm - loads.small_end_torque_nm;
+        f[8] += loads.small_end_torque_nm;
+        f[7] += loads.slide_force_n;
+        let resid = f - self.mass.component_mul(&qdd);
+        // Phi_q^T lambda = Q - M q''  (the factorisation of Phi_q^T is that of Phi_q, transposed).
+        let lambda = jac
+            .transpose()
+            .lu()
+            .solve(&resid)
+            .unwrap_or_else(SVector::<f64, NC>::zeros);
+        // Constraint force on body k is -Phi_q_k^T lambda: read each joint's force on its second
+        // body (rod for the big end, piston for the small end; crank for the main bearing).
+        let reactions = Reactions {
+            main_n: -Vector2::new(lambda[0], lambda[1]),
+            big_end_n: Vector2::new(lambda[2], lambda[3]),
+            small_end_n: Vector2::new(lambda[4], lambda[5]),
+            slide_lateral_n: -lambda[6],
+            slide_moment_nm: -lambda[7],
+            drive_torque_nm: -lambda[8],
+        };
+        (State { q, qd, qdd }, reactions)
+    }
+
+    /// Kinetic energy of all bodies (including the drive inertia), J.
+    pub fn kinetic_energy(&self, qd: &Q) -> f64 {
+        let mut e = 0.0;
+        for i in 0..8 {
+            e += 0.5 * self.mass[i] * qd[i] * qd[i];
+        }
+        e
+    }
+
+    /// Potential energy in gravity, J (zero level at y = 0).
+    pub fn potential_energy(&self, q: &Q) -> f64 {
+        self.geo.gravity_m_s2 * (self.mass[0] * q[1] + self.mass[3] * q[4] + self.mass[6] * q[7])
+    }
+
+    /// Moment arm helper for tests: the crank pin position for `theta`.
+    pub fn crank_pin(&self, theta: f64) -> Vector2<f64> {
+        let r = self.geo.crank_radius_m;
+        Vector2::new(-r * theta.sin(), r * theta.cos())
+    }
+
+    /// Cross product helper kept public for the solver's moment bookkeeping.
+    pub fn cross(a: Vector2<f64>, b: Vector2<f64>) -> f64 {
+        cross(a, b)
+    }
+}

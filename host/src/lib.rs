@@ -5,10 +5,20 @@
 //!
 //! - [`laws`]: listing of discovered laws (`tribo laws`);
 //! - [`scaffold`]: generation of a new law crate (`tribo new-law`);
-//! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions).
+//! - [`rig`]: rig files (TOML), `--set` overrides and validation;
+//! - [`cycle`], [`oil`]: the test cycle's reference speed, oil viscosity;
+//! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions);
+//! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
+//! - [`sim`]: the run through the test cycle with laws on the joints, and plateau measurement.
 
+pub mod cycle;
 pub mod laws;
 pub mod mechanics;
+pub mod oil;
+pub mod output;
+pub mod report;
+pub mod rig;
 pub mod scaffold;
+pub mod sim;
 
 pub use tribo_plugin_api as plugin_api;

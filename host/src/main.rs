@@ -30,6 +30,28 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a rig through its test cycle and report plateau torques, per-joint friction and the
+    /// energy balance.
+    Run {
+        /// Rig file (TOML).
+        rig: PathBuf,
+        /// Attach a law to a joint: JOINT=LAW or JOINT=LAW:PARAMS.toml. The first --law for a
+        /// joint replaces the laws the rig lists there; further ones add to it.
+        #[arg(long = "law", value_name = "JOINT=LAW[:PARAMS_TOML_FILE]")]
+        laws: Vec<String>,
+        /// Override any rig value by its dotted path, e.g. bodies.rod.mass_scale=0.6.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Also write plateaus.csv and joints.csv into this directory.
+        #[arg(long, value_name = "DIR")]
+        csv: Option<PathBuf>,
+        /// Stream the time history (one line per step) to this CSV file.
+        #[arg(long, value_name = "FILE")]
+        timeseries: Option<PathBuf>,
+    },
     /// Generate a new law plugin crate with a documented law, parameters and unit tests.
     NewLaw {
         /// Law name: lowercase letters, digits and hyphens (e.g. `my-law`).
@@ -51,6 +73,39 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
             } else {
                 print!("{}", laws::to_text(&registry));
+            }
+        }
+        Command::Run {
+            rig,
+            laws: law_args,
+            sets,
+            json,
+            csv,
+            timeseries,
+        } => {
+            let mut rig = tribo::rig::load_rig(&rig, &sets)?;
+            tribo::rig::attach_laws(&mut rig, &law_args)?;
+            let registry = discover(&cli.plugins).context("loading law plugins")?;
+            let mut sim = tribo::sim::Simulation::new(&rig, &registry)?;
+            let result = match &timeseries {
+                Some(path) => {
+                    let mut file = tribo::output::AtomicFile::create(path)
+                        .with_context(|| format!("creating {}", path.display()))?;
+                    let r = sim.run(Some(&mut file))?;
+                    file.commit()
+                        .with_context(|| format!("writing {}", path.display()))?;
+                    r
+                }
+                None => sim.run(None)?,
+            };
+            if let Some(dir) = &csv {
+                tribo::report::write_csv(&result, dir)
+                    .with_context(|| format!("writing CSV into {}", dir.display()))?;
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&result)?);
+            } else {
+                print!("{}", tribo::report::to_text(&result));
             }
         }
         Command::NewLaw { name, dir } => {

@@ -1,0 +1,180 @@
+//! The test cycle: the reference crank speed as ramps and holds, and the plateaus measured.
+
+use serde::Deserialize;
+
+/// One piece of a test cycle, as written in a rig file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Segment {
+    /// Linear change of the reference speed to `to_rpm` over `duration_s`.
+    Ramp {
+        /// Speed at the end of the ramp, rpm.
+        to_rpm: f64,
+        /// Duration, s.
+        duration_s: f64,
+    },
+    /// Constant reference speed for `duration_s`; every hold is a measured plateau.
+    Hold {
+        /// Duration, s.
+        duration_s: f64,
+    },
+}
+
+/// The thesis cycle (section 9.1.1): 0 to 3000 rpm in 1.5 s, hold 1 s, then +1000 rpm in 0.5 s
+/// and hold 1 s, up to 9000 rpm; 11.5 s in all.
+pub fn thesis_cycle() -> Vec<Segment> {
+    let mut s = vec![
+        Segment::Ramp {
+            to_rpm: 3000.0,
+            duration_s: 1.5,
+        },
+        Segment::Hold { duration_s: 1.0 },
+    ];
+    for rpm in (4000..=9000).step_by(1000) {
+        s.push(Segment::Ramp {
+            to_rpm: rpm as f64,
+            duration_s: 0.5,
+        });
+        s.push(Segment::Hold { duration_s: 1.0 });
+    }
+    s
+}
+
+/// A compiled piece: constant angular acceleration between `t0` and `t1`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Piece {
+    t0: f64,
+    t1: f64,
+    omega0: f64,
+    alpha: f64,
+    theta0: f64,
+}
+
+/// A measured plateau: a hold of the cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plateau {
+    /// Start of the hold, s.
+    pub t_start: f64,
+    /// End of the hold, s.
+    pub t_end: f64,
+    /// Reference speed, rad/s.
+    pub omega: f64,
+}
+
+/// The reference speed profile as exact piecewise-quadratic crank angle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cycle {
+    pieces: Vec<Piece>,
+    plateaus: Vec<Plateau>,
+}
+
+/// rpm to rad/s.
+pub fn rpm_to_rad_s(rpm: f64) -> f64 {
+    rpm * std::f64::consts::PI / 30.0
+}
+
+/// rad/s to rpm.
+pub fn rad_s_to_rpm(w: f64) -> f64 {
+    w * 30.0 / std::f64::consts::PI
+}
+
+impl Cycle {
+    /// Compile segments (already validated: positive durations, finite speeds).
+    pub fn new(segments: &[Segment]) -> Self {
+        let (mut t, mut w, mut th) = (0.0_f64, 0.0_f64, 0.0_f64);
+        let mut pieces = Vec::new();
+        let mut plateaus = Vec::new();
+        for s in segments {
+            let (dur, w1) = match *s {
+                Segment::Ramp { to_rpm, duration_s } => (duration_s, rpm_to_rad_s(to_rpm)),
+                Segment::Hold { duration_s } => (duration_s, w),
+            };
+            let alpha = (w1 - w) / dur;
+            pieces.push(Piece {
+                t0: t,
+                t1: t + dur,
+                omega0: w,
+                alpha,
+                theta0: th,
+            });
+            if matches!(s, Segment::Hold { .. }) {
+                plateaus.push(Plateau {
+                    t_start: t,
+                    t_end: t + dur,
+                    omega: w,
+                });
+            }
+            th += w * dur + 0.5 * alpha * dur * dur;
+            t += dur;
+            w = w1;
+        }
+        Self { pieces, plateaus }
+    }
+
+    /// Total duration, s.
+    pub fn duration(&self) -> f64 {
+        self.pieces.last().map_or(0.0, |p| p.t1)
+    }
+
+    /// The holds, in order.
+    pub fn plateaus(&self) -> &[Plateau] {
+        &self.plateaus
+    }
+
+    /// Times where the reference acceleration changes (segment boundaries).
+    pub fn breakpoints(&self) -> Vec<f64> {
+        self.pieces.iter().map(|p| p.t1).collect()
+    }
+
+    /// Reference crank angle, speed and acceleration at `t`.
+    pub fn reference(&self, t: f64) -> (f64, f64, f64) {
+        let idx = self
+            .pieces
+            .partition_point(|p| p.t1 < t)
+            .min(self.pieces.len().saturating_sub(1));
+        match self.pieces.get(idx) {
+            Some(p) => {
+                let tau = t - p.t0;
+                (
+                    p.theta0 + p.omega0 * tau + 0.5 * p.alpha * tau * tau,
+                    p.omega0 + p.alpha * tau,
+                    p.alpha,
+                )
+            }
+            None => (0.0, 0.0, 0.0),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thesis_cycle_is_11_5_s_with_seven_plateaus() {
+        let c = Cycle::new(&thesis_cycle());
+        assert!((c.duration() - 11.5).abs() < 1e-12);
+        let speeds: Vec<f64> = c.plateaus().iter().map(|p| rad_s_to_rpm(p.omega)).collect();
+        for (s, want) in speeds.iter().zip((3000..=9000).step_by(1000)) {
+            assert!((s - want as f64).abs() < 1e-9);
+        }
+        assert_eq!(speeds.len(), 7);
+    }
+
+    #[test]
+    fn reference_angle_integrates_speed() {
+        let c = Cycle::new(&thesis_cycle());
+        // First ramp: theta = 0.5 * alpha * t^2 with alpha = 3000 rpm / 1.5 s.
+        let alpha = rpm_to_rad_s(3000.0) / 1.5;
+        let (th, w, a) = c.reference(1.0);
+        assert!(
+            (th - 0.5 * alpha).abs() < 1e-12
+                && (w - alpha).abs() < 1e-12
+                && (a - alpha).abs() < 1e-12
+        );
+        // Continuity across a boundary.
+        let (a1, b1, _) = c.reference(2.5 - 1e-9);
+        let (a2, b2, _) = c.reference(2.5 + 1e-9);
+        assert!((a1 - a2).abs() < 1e-6 && (b1 - b2).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,86 @@
+//! Oil viscosity against temperature.
+
+use serde::Deserialize;
+
+/// How kinematic viscosity depends on temperature.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "model", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum ViscosityModel {
+    /// Vogel: nu = k * exp(theta1 / (T + theta2)), nu in cSt, T in C.
+    Vogel {
+        /// k, cSt.
+        k_cst: f64,
+        /// theta1, C.
+        theta1_c: f64,
+        /// theta2, C.
+        theta2_c: f64,
+    },
+    /// Walther / ASTM D341 through two kinematic viscosities at 40 and 100 C:
+    /// log10(log10(nu + 0.7)) = A - B log10(T_K).
+    TwoPoint {
+        /// Kinematic viscosity at 40 C, cSt.
+        kv40_cst: f64,
+        /// Kinematic viscosity at 100 C, cSt.
+        kv100_cst: f64,
+    },
+}
+
+/// Temperatures at which the viscosity models are trusted, C. Outside this range they are
+/// extrapolations (ASTM D341 charts and Vogel fits are made from 40 and 100 C data), so a rig
+/// asking for them is rejected rather than silently extrapolated.
+pub const VALID_RANGE_C: (f64, f64) = (-20.0, 160.0);
+
+impl ViscosityModel {
+    /// Kinematic viscosity in cSt (mm^2/s) at `t_c` degrees Celsius.
+    pub fn kinematic_cst(&self, t_c: f64) -> f64 {
+        match *self {
+            Self::Vogel {
+                k_cst,
+                theta1_c,
+                theta2_c,
+            } => k_cst * (theta1_c / (t_c + theta2_c)).exp(),
+            Self::TwoPoint {
+                kv40_cst,
+                kv100_cst,
+            } => {
+                let w = |nu: f64| (nu + 0.7).log10().log10();
+                let (x1, x2) = ((40.0_f64 + 273.15).log10(), (100.0_f64 + 273.15).log10());
+                let b = (w(kv40_cst) - w(kv100_cst)) / (x2 - x1);
+                let a = w(kv40_cst) + b * x1;
+                let z = a - b * (t_c + 273.15).log10();
+                10f64.powf(10f64.powf(z)) - 0.7
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_point_model_reproduces_its_points() {
+        let m = ViscosityModel::TwoPoint {
+            kv40_cst: 115.0,
+            kv100_cst: 17.5,
+        };
+        assert!((m.kinematic_cst(40.0) - 115.0).abs() < 1e-9);
+        assert!((m.kinematic_cst(100.0) - 17.5).abs() < 1e-9);
+        let mid = m.kinematic_cst(80.0);
+        assert!(mid > 17.5 && mid < 115.0);
+    }
+
+    #[test]
+    fn vogel_matches_physics_notes_estimate() {
+        // physics-notes section 6: k = 0.1153, theta1 = 1105.2, theta2 = 120.06 gives about
+        // 33 cSt at 75 C, 29 at 80 C and 24 at 87 C.
+        let m = ViscosityModel::Vogel {
+            k_cst: 0.1153,
+            theta1_c: 1105.2,
+            theta2_c: 120.06,
+        };
+        assert!((m.kinematic_cst(75.0) - 33.0).abs() < 1.0);
+        assert!((m.kinematic_cst(80.0) - 29.0).abs() < 1.0);
+        assert!((m.kinematic_cst(87.0) - 24.0).abs() < 1.0);
+    }
+}

@@ -1,0 +1,809 @@
+//! Rig files: the TOML description of a motored rig, its overrides (`--set`), and validation
+//! with errors that name the file, line, column and field.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::cycle::{thesis_cycle, Segment};
+use crate::oil::{ViscosityModel, VALID_RANGE_C};
+
+/// A rig file as written. Every table rejects unknown keys.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigFile {
+    /// Rig name, used in reports.
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Crank radius, bore, gravity.
+    pub geometry: Geometry,
+    /// Crank, rod and piston.
+    pub bodies: Bodies,
+    /// The five joints and the laws on them.
+    pub joints: Joints,
+    /// Oil properties and temperatures.
+    pub oil: Oil,
+    /// How the crank is driven.
+    pub drive: Drive,
+    /// The test cycle (default: the thesis cycle).
+    #[serde(default)]
+    pub cycle: CycleSpec,
+    /// How plateau values are measured.
+    #[serde(default)]
+    pub measurement: Measurement,
+    /// Numerical settings.
+    #[serde(default)]
+    pub solver: SolverSettings,
+}
+
+/// Geometry of the crank train.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Geometry {
+    /// Crank radius (half the stroke), m.
+    pub crank_radius_m: f64,
+    /// Cylinder bore, m.
+    pub bore_m: f64,
+    /// Include gravity (9.81 m/s^2 along -y, the cylinder axis pointing up).
+    #[serde(default = "yes")]
+    pub gravity: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+fn one() -> f64 {
+    1.0
+}
+fn half() -> f64 {
+    0.5
+}
+fn deg180() -> f64 {
+    180.0
+}
+
+/// The three moving bodies.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bodies {
+    /// Crankshaft.
+    pub crank: Crank,
+    /// Connecting rod.
+    pub rod: Rod,
+    /// Piston assembly.
+    pub piston: Piston,
+}
+
+/// Crankshaft.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Crank {
+    /// Moment of inertia about the crank axis, without the unbalance mass, kg m^2.
+    pub inertia_kg_m2: f64,
+    /// Mass of the balanced part (centre of mass on the axis), kg; loads the mains under gravity.
+    pub mass_kg: f64,
+    /// Unbalance (counterweight) mass, kg.
+    #[serde(default)]
+    pub unbalance_mass_kg: f64,
+    /// Radius of the unbalance mass, m.
+    #[serde(default)]
+    pub unbalance_radius_m: f64,
+    /// Angle of the unbalance mass from the crank pin, degrees (180: opposite the pin).
+    #[serde(default = "deg180")]
+    pub unbalance_angle_deg: f64,
+    /// Mass scale factor.
+    #[serde(default = "one")]
+    pub mass_scale: f64,
+    /// Inertia scale factor.
+    #[serde(default = "one")]
+    pub inertia_scale: f64,
+}
+
+/// Connecting rod.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rod {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// In-plane moment of inertia about the centre of mass, kg m^2.
+    pub inertia_kg_m2: f64,
+    /// Centre-to-centre length, m.
+    pub length_m: f64,
+    /// Centre-of-mass distance from the big-end centre, m.
+    pub com_from_big_end_m: f64,
+    /// Mass scale factor (FEDEM-style mass scaling, the lighter-rod study).
+    #[serde(default = "one")]
+    pub mass_scale: f64,
+    /// Inertia scale factor.
+    #[serde(default = "one")]
+    pub inertia_scale: f64,
+}
+
+/// Piston assembly.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Piston {
+    /// Mass of piston, rings, pin and clips, kg.
+    pub mass_kg: f64,
+    /// Mass scale factor.
+    #[serde(default = "one")]
+    pub mass_scale: f64,
+}
+
+/// The joints of the rig. There is no other joint: an unknown name is an error.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Joints {
+    /// First main bearing (crank to block).
+    pub main_a: Joint,
+    /// Second main bearing.
+    pub main_b: Joint,
+    /// Big end (crank pin to rod).
+    pub big_end: Joint,
+    /// Small end (rod to piston pin).
+    pub small_end: Joint,
+    /// Piston-cylinder slide.
+    pub piston: Joint,
+}
+
+/// Names of the joints, in report order.
+pub const JOINT_NAMES: [&str; 5] = ["main_a", "main_b", "big_end", "small_end", "piston"];
+
+impl Joints {
+    /// Joints with their names, in [`JOINT_NAMES`] order.
+    pub fn named(&self) -> [(&'static str, &Joint); 5] {
+        [
+            ("main_a", &self.main_a),
+            ("main_b", &self.main_b),
+            ("big_end", &self.big_end),
+            ("small_end", &self.small_end),
+            ("piston", &self.piston),
+        ]
+    }
+
+    /// Mutable access by name.
+    pub fn get_mut(&mut self, name: &str) -> Option<&mut Joint> {
+        match name {
+            "main_a" => Some(&mut self.main_a),
+            "main_b" => Some(&mut self.main_b),
+            "big_end" => Some(&mut self.big_end),
+            "small_end" => Some(&mut self.small_end),
+            "piston" => Some(&mut self.piston),
+            _ => None,
+        }
+    }
+}
+
+/// One joint: contact geometry and the laws acting on it.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Joint {
+    /// Contact radius, m (journal/pin radius; half the bore for the piston).
+    pub radius_m: f64,
+    /// Contact length, m.
+    pub length_m: f64,
+    /// Share of the crank's main-bearing reaction this bearing carries (mains only).
+    #[serde(default = "half")]
+    pub load_share: f64,
+    /// Friction and damping laws, summed.
+    #[serde(default)]
+    pub laws: Vec<LawRef>,
+}
+
+/// A law attached to a joint.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LawRef {
+    /// Law name as listed by `tribo laws`.
+    pub law: String,
+    /// Parameters (defaults for anything left out).
+    #[serde(default)]
+    pub params: toml::Table,
+}
+
+/// Oil.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Oil {
+    /// Viscosity model.
+    pub viscosity: ViscosityModel,
+    /// Density, kg/m^3.
+    pub density_kg_m3: f64,
+    /// Oil temperature, C: one value, or one per plateau.
+    pub temperature_c: Temperature,
+}
+
+/// One oil temperature for the whole run, or one per plateau.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum Temperature {
+    /// Same temperature at every plateau.
+    Constant(f64),
+    /// One temperature per plateau, in order.
+    PerPlateau(Vec<f64>),
+}
+
+/// Crank drive.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Drive {
+    /// The crank follows the reference speed exactly; the motoring torque is the constraint torque.
+    Prescribed,
+    /// A PI speed controller applies a limited torque through an optional belt.
+    Pi {
+        /// Proportional gain, N m per rad/s of crank-speed error.
+        kp: f64,
+        /// Integral gain, N m per rad of accumulated crank-angle error.
+        ki: f64,
+        /// Motor torque limit, N m (at the motor).
+        torque_limit_nm: f64,
+        /// Motor speed / crank speed.
+        #[serde(default = "one")]
+        belt_ratio: f64,
+        /// Motor rotor inertia, kg m^2.
+        #[serde(default)]
+        motor_inertia_kg_m2: f64,
+    },
+}
+
+/// The test cycle.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CycleSpec {
+    /// Ramps and holds; absent means the thesis cycle.
+    pub segments: Option<Vec<Segment>>,
+}
+
+impl CycleSpec {
+    /// The segments to run.
+    pub fn segments(&self) -> Vec<Segment> {
+        self.segments.clone().unwrap_or_else(thesis_cycle)
+    }
+}
+
+/// Plateau measurement.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Measurement {
+    /// Length of the averaging window at the end of each hold, s (thesis 10.4: 0.1 s); the
+    /// whole crank revolutions that fit in it are used.
+    #[serde(default = "window")]
+    pub window_s: f64,
+    /// Cut-off of the first-order low-pass filter on the motoring torque time series, Hz.
+    #[serde(default = "lowpass")]
+    pub lowpass_hz: f64,
+}
+
+fn window() -> f64 {
+    0.1
+}
+fn lowpass() -> f64 {
+    20.0
+}
+
+impl Default for Measurement {
+    fn default() -> Self {
+        Self {
+            window_s: window(),
+            lowpass_hz: lowpass(),
+        }
+    }
+}
+
+/// Numerical settings; the defaults hold for every speed (no per-speed step table).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSettings {
+    /// Crank-angle step, degrees.
+    #[serde(default = "step_deg")]
+    pub step_deg: f64,
+    /// Largest time step, s (governs the start of the run when the crank is slow).
+    #[serde(default = "max_step")]
+    pub max_step_s: f64,
+    /// Relative tolerance on joint normal loads in the friction/reaction iteration.
+    #[serde(default = "friction_tol")]
+    pub friction_tol: f64,
+    /// Iteration limit of the friction/reaction iteration.
+    #[serde(default = "friction_iter")]
+    pub friction_max_iter: u32,
+}
+
+fn step_deg() -> f64 {
+    1.0
+}
+fn max_step() -> f64 {
+    1e-3
+}
+fn friction_tol() -> f64 {
+    1e-10
+}
+fn friction_iter() -> u32 {
+    50
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            step_deg: step_deg(),
+            max_step_s: max_step(),
+            friction_tol: friction_tol(),
+            friction_max_iter: friction_iter(),
+        }
+    }
+}
+
+/// A rig problem with where it is.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}: {field}: {message}", location(file, *line, *column))]
+pub struct RigError {
+    /// File (or `--set` for an override).
+    pub file: PathBuf,
+    /// 1-based line, if known.
+    pub line: Option<usize>,
+    /// 1-based column, if known.
+    pub column: Option<usize>,
+    /// Dotted path of the field.
+    pub field: String,
+    /// What is wrong and what is allowed.
+    pub message: String,
+}
+
+fn location(file: &Path, line: Option<usize>, col: Option<usize>) -> String {
+    match (line, col) {
+        (Some(l), Some(c)) => format!("{}:{l}:{c}", file.display()),
+        _ => file.display().to_string(),
+    }
+}
+
+/// Line and column (1-based) of byte `offset` in `text`.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, col)
+}
+
+/// Byte span of the value at dotted `path` (`joints.big_end.laws[0].law`) in a TOML text.
+pub fn locate(text: &str, path: &str) -> Option<std::ops::Range<usize>> {
+    let doc = toml_edit::ImDocument::parse(text).ok()?;
+    let mut item: &toml_edit::Item = doc.as_item();
+    let mut span = None;
+    for part in path.split('.') {
+        let (key, index) = match part.split_once('[') {
+            Some((k, rest)) => (k, rest.trim_end_matches(']').parse::<usize>().ok()),
+            None => (part, None),
+        };
+        item = item.get(key)?;
+        span = item.span().or(span);
+        if let Some(i) = index {
+            item = item.get(i)?;
+            span = item.span().or(span);
+        }
+    }
+    span
+}
+
+/// A rig loaded and checked: the file as written plus where it came from.
+#[derive(Debug, Clone)]
+pub struct Rig {
+    /// The parsed, overridden and validated content.
+    pub file: RigFile,
+    /// Source path (or a name for embedded rigs).
+    pub path: PathBuf,
+    /// Source text, for locating fields in later errors.
+    pub text: String,
+    /// Dotted paths changed by `--set`.
+    pub overridden: Vec<String>,
+}
+
+impl Rig {
+    /// An error about `field`, located in the file (or attributed to `--set`).
+    pub fn error(&self, field: &str, message: impl Into<String>) -> RigError {
+        field_error(
+            &self.path,
+            &self.text,
+            &self.overridden,
+            field,
+            message.into(),
+        )
+    }
+}
+
+fn field_error(
+    path: &Path,
+    text: &str,
+    overridden: &[String],
+    field: &str,
+    message: String,
+) -> RigError {
+    if overridden
+        .iter()
+        .any(|o| field.starts_with(o.as_str()) || o.starts_with(field))
+    {
+        return RigError {
+            file: PathBuf::from("--set"),
+            line: None,
+            column: None,
+            field: field.into(),
+            message,
+        };
+    }
+    let (line, column) = match locate(text, field) {
+        Some(span) => {
+            let (l, c) = line_col(text, span.start);
+            (Some(l), Some(c))
+        }
+        None => (None, None),
+    };
+    RigError {
+        file: path.to_path_buf(),
+        line,
+        column,
+        field: field.into(),
+        message,
+    }
+}
+
+/// Parse `KEY=VALUE` overrides into the table; VALUE is read as TOML, or as a string if it is
+/// not valid TOML.
+fn apply_set(table: &mut toml::Table, assignment: &str) -> Result<String, RigError> {
+    let err = |field: &str, message: String| RigError {
+        file: PathBuf::from("--set"),
+        line: None,
+        column: None,
+        field: field.into(),
+        message,
+    };
+    let (key, value) = assignment.split_once('=').ok_or_else(|| {
+        err(
+            assignment,
+            "expected KEY=VALUE, e.g. bodies.rod.mass_scale=0.6".into(),
+        )
+    })?;
+    let key = key.trim();
+    let value: toml::Value = format!("v = {value}")
+        .parse::<toml::Table>()
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(value.trim().to_string()));
+    let parts: Vec<&str> = key.split('.').collect();
+    let (last, parents) = parts
+        .split_last()
+        .ok_or_else(|| err(key, "empty key".into()))?;
+    let mut cur = table;
+    for (i, p) in parents.iter().enumerate() {
+        cur = match cur
+            .entry((*p).to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+        {
+            toml::Value::Table(t) => t,
+            _ => {
+                return Err(err(
+                    key,
+                    format!("`{}` is not a table", parts[..=i].join(".")),
+                ))
+            }
+        };
+    }
+    cur.insert((*last).to_string(), value);
+    Ok(key.to_string())
+}
+
+fn serde_error(path: &Path, text: &str, e: &toml::de::Error) -> RigError {
+    let (line, column, field) = match e.span() {
+        Some(span) => {
+            let (l, c) = line_col(text, span.start);
+            let word: String = text[span.start.min(text.len())..]
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == '-')
+                .collect();
+            (Some(l), Some(c), word)
+        }
+        None => (None, None, String::new()),
+    };
+    RigError {
+        file: path.to_path_buf(),
+        line,
+        column,
+        field: if field.is_empty() {
+            "(file)".into()
+        } else {
+            field
+        },
+        message: e.message().to_string(),
+    }
+}
+
+/// Load a rig from `text` (named `path` in messages), apply `--set` overrides, and validate.
+pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, RigError> {
+    // First the file exactly as written, so errors point into it.
+    let file: RigFile = toml::from_str(text).map_err(|e| serde_error(path, text, &e))?;
+    let mut overridden = Vec::new();
+    let file = if sets.is_empty() {
+        file
+    } else {
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| serde_error(path, text, &e))?;
+        for s in sets {
+            overridden.push(apply_set(&mut table, s)?);
+        }
+        RigFile::deserialize(toml::Value::Table(table)).map_err(|e| RigError {
+            file: PathBuf::from("--set"),
+            line: None,
+            column: None,
+            field: overridden.join(", "),
+            message: e.message().to_string(),
+        })?
+    };
+    let rig = Rig {
+        file,
+        path: path.to_path_buf(),
+        text: text.to_string(),
+        overridden,
+    };
+    validate(&rig)?;
+    Ok(rig)
+}
+
+/// Load a rig file from disk.
+pub fn load_rig(path: &Path, sets: &[String]) -> Result<Rig, RigError> {
+    let text = std::fs::read_to_string(path).map_err(|e| RigError {
+        file: path.to_path_buf(),
+        line: None,
+        column: None,
+        field: "(file)".into(),
+        message: format!("cannot read the rig file: {e}"),
+    })?;
+    load_rig_text(path, &text, sets)
+}
+
+fn validate(rig: &Rig) -> Result<(), RigError> {
+    let f = &rig.file;
+    let positive = |field: &str, v: f64, unit: &str| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(rig.error(
+                field,
+                format!("must be a positive number ({unit}), got {v}"),
+            ))
+        }
+    };
+    let non_negative = |field: &str, v: f64, unit: &str| {
+        if v.is_finite() && v >= 0.0 {
+            Ok(())
+        } else {
+            Err(rig.error(field, format!("must be zero or positive ({unit}), got {v}")))
+        }
+    };
+    positive("geometry.crank_radius_m", f.geometry.crank_radius_m, "m")?;
+    positive("geometry.bore_m", f.geometry.bore_m, "m")?;
+    let c = &f.bodies.crank;
+    positive("bodies.crank.inertia_kg_m2", c.inertia_kg_m2, "kg m^2")?;
+    positive("bodies.crank.mass_kg", c.mass_kg, "kg")?;
+    non_negative("bodies.crank.unbalance_mass_kg", c.unbalance_mass_kg, "kg")?;
+    non_negative("bodies.crank.unbalance_radius_m", c.unbalance_radius_m, "m")?;
+    positive("bodies.crank.mass_scale", c.mass_scale, "-")?;
+    positive("bodies.crank.inertia_scale", c.inertia_scale, "-")?;
+    let r = &f.bodies.rod;
+    positive("bodies.rod.mass_kg", r.mass_kg, "kg")?;
+    positive("bodies.rod.inertia_kg_m2", r.inertia_kg_m2, "kg m^2")?;
+    positive("bodies.rod.length_m", r.length_m, "m")?;
+    positive("bodies.rod.mass_scale", r.mass_scale, "-")?;
+    positive("bodies.rod.inertia_scale", r.inertia_scale, "-")?;
+    if r.length_m <= f.geometry.crank_radius_m {
+        return Err(rig.error(
+            "bodies.rod.length_m",
+            format!(
+                "the rod ({} m) must be longer than the crank radius ({} m), or the mechanism locks",
+                r.length_m, f.geometry.crank_radius_m
+            ),
+        ));
+    }
+    if !(r.com_from_big_end_m.is_finite()
+        && r.com_from_big_end_m >= 0.0
+        && r.com_from_big_end_m <= r.length_m)
+    {
+        return Err(rig.error(
+            "bodies.rod.com_from_big_end_m",
+            format!(
+                "must lie between the pin centres, [0, {}] m, got {}",
+                r.length_m, r.com_from_big_end_m
+            ),
+        ));
+    }
+    positive("bodies.piston.mass_kg", f.bodies.piston.mass_kg, "kg")?;
+    positive("bodies.piston.mass_scale", f.bodies.piston.mass_scale, "-")?;
+    for (name, j) in f.joints.named() {
+        positive(&format!("joints.{name}.radius_m"), j.radius_m, "m")?;
+        positive(&format!("joints.{name}.length_m"), j.length_m, "m")?;
+        for (i, l) in j.laws.iter().enumerate() {
+            if l.law.trim().is_empty() {
+                return Err(rig.error(&format!("joints.{name}.laws[{i}].law"), "law name is empty"));
+            }
+        }
+    }
+    for (name, share) in [
+        ("main_a", f.joints.main_a.load_share),
+        ("main_b", f.joints.main_b.load_share),
+    ] {
+        if !(share.is_finite() && (0.0..=1.0).contains(&share)) {
+            return Err(rig.error(
+                &format!("joints.{name}.load_share"),
+                format!("must be in [0, 1], got {share}"),
+            ));
+        }
+    }
+    let sum = f.joints.main_a.load_share + f.joints.main_b.load_share;
+    if (sum - 1.0).abs() > 1e-9 {
+        return Err(rig.error(
+            "joints.main_b.load_share",
+            format!("the two main-bearing load shares must add up to 1, they add up to {sum}"),
+        ));
+    }
+    positive("oil.density_kg_m3", f.oil.density_kg_m3, "kg/m^3")?;
+    match f.oil.viscosity {
+        ViscosityModel::Vogel {
+            k_cst,
+            theta1_c,
+            theta2_c,
+        } => {
+            positive("oil.viscosity.k_cst", k_cst, "cSt")?;
+            if !theta1_c.is_finite() || !theta2_c.is_finite() {
+                return Err(rig.error("oil.viscosity", "Vogel constants must be finite"));
+            }
+        }
+        ViscosityModel::TwoPoint {
+            kv40_cst,
+            kv100_cst,
+        } => {
+            positive("oil.viscosity.kv40_cst", kv40_cst, "cSt")?;
+            positive("oil.viscosity.kv100_cst", kv100_cst, "cSt")?;
+            if kv100_cst >= kv40_cst {
+                return Err(rig.error("oil.viscosity.kv100_cst", format!("must be below kv40_cst ({kv40_cst} cSt): oil thins as it warms, got {kv100_cst}")));
+            }
+        }
+    }
+    let segments = f.cycle.segments();
+    if segments.is_empty() {
+        return Err(rig.error("cycle.segments", "the test cycle is empty; give at least one ramp and one hold, or leave `segments` out for the thesis cycle"));
+    }
+    let mut holds = 0;
+    for (i, s) in segments.iter().enumerate() {
+        let (d, field) = match s {
+            Segment::Ramp { duration_s, to_rpm } => {
+                if !to_rpm.is_finite() || *to_rpm < 0.0 {
+                    return Err(rig.error(
+                        &format!("cycle.segments[{i}].to_rpm"),
+                        format!("must be zero or positive, got {to_rpm}"),
+                    ));
+                }
+                (*duration_s, "ramp")
+            }
+            Segment::Hold { duration_s } => {
+                holds += 1;
+                (*duration_s, "hold")
+            }
+        };
+        if !(d.is_finite() && d > 0.0) {
+            return Err(rig.error(
+                &format!("cycle.segments[{i}].duration_s"),
+                format!("{field} time must be positive, got {d} s"),
+            ));
+        }
+    }
+    if holds == 0 {
+        return Err(rig.error(
+            "cycle.segments",
+            "the test cycle has no hold, so nothing would be measured",
+        ));
+    }
+    let temps: Vec<f64> = match &f.oil.temperature_c {
+        Temperature::Constant(t) => vec![*t],
+        Temperature::PerPlateau(v) => {
+            if v.len() != holds {
+                return Err(rig.error(
+                    "oil.temperature_c",
+                    format!(
+                        "gives {} temperatures but the cycle has {holds} plateaus",
+                        v.len()
+                    ),
+                ));
+            }
+            v.clone()
+        }
+    };
+    for t in temps {
+        if !(t >= VALID_RANGE_C.0 && t <= VALID_RANGE_C.1) {
+            return Err(rig.error(
+                "oil.temperature_c",
+                format!(
+                    "{t} C is outside the viscosity model's range [{}, {}] C",
+                    VALID_RANGE_C.0, VALID_RANGE_C.1
+                ),
+            ));
+        }
+        let nu = f.oil.viscosity.kinematic_cst(t);
+        if !(nu.is_finite() && nu > 0.0) {
+            return Err(rig.error(
+                "oil.viscosity",
+                format!("gives a non-physical viscosity ({nu} cSt) at {t} C"),
+            ));
+        }
+    }
+    if let Drive::Pi {
+        kp,
+        ki,
+        torque_limit_nm,
+        belt_ratio,
+        motor_inertia_kg_m2,
+    } = f.drive
+    {
+        non_negative("drive.kp", kp, "N m s/rad")?;
+        non_negative("drive.ki", ki, "N m/rad")?;
+        positive("drive.torque_limit_nm", torque_limit_nm, "N m")?;
+        positive("drive.belt_ratio", belt_ratio, "-")?;
+        non_negative("drive.motor_inertia_kg_m2", motor_inertia_kg_m2, "kg m^2")?;
+    }
+    positive("measurement.window_s", f.measurement.window_s, "s")?;
+    positive("measurement.lowpass_hz", f.measurement.lowpass_hz, "Hz")?;
+    positive("solver.step_deg", f.solver.step_deg, "degrees")?;
+    positive("solver.max_step_s", f.solver.max_step_s, "s")?;
+    positive("solver.friction_tol", f.solver.friction_tol, "-")?;
+    if f.solver.friction_max_iter == 0 {
+        return Err(rig.error("solver.friction_max_iter", "must be at least 1"));
+    }
+    Ok(())
+}
+
+/// Apply `--law JOINT=LAW[:PARAMS_TOML_FILE]` arguments: the first for a joint replaces the
+/// rig's laws there, later ones add.
+pub fn attach_laws(rig: &mut Rig, args: &[String]) -> Result<(), RigError> {
+    let err = |arg: &str, message: String| RigError {
+        file: PathBuf::from("--law"),
+        line: None,
+        column: None,
+        field: arg.to_string(),
+        message,
+    };
+    let mut replaced: Vec<String> = Vec::new();
+    for arg in args {
+        let (joint, spec) = arg
+            .split_once('=')
+            .ok_or_else(|| err(arg, "expected JOINT=LAW or JOINT=LAW:PARAMS.toml".into()))?;
+        let (law, params) = match spec.split_once(':') {
+            Some((l, file)) => {
+                let text = std::fs::read_to_string(file)
+                    .map_err(|e| err(arg, format!("cannot read parameter file `{file}`: {e}")))?;
+                let table: toml::Table = toml::from_str(&text).map_err(|e: toml::de::Error| {
+                    let at = e.span().map(|s| line_col(&text, s.start));
+                    let place = at.map_or(String::new(), |(l, c)| format!(":{l}:{c}"));
+                    err(arg, format!("{file}{place}: {}", e.message()))
+                })?;
+                (l, table)
+            }
+            None => (spec, toml::Table::new()),
+        };
+        let j = rig.file.joints.get_mut(joint).ok_or_else(|| {
+            err(
+                arg,
+                format!(
+                    "unknown joint `{joint}`; the rig's joints are {}",
+                    JOINT_NAMES.join(", ")
+                ),
+            )
+        })?;
+        if !replaced.iter().any(|r| r == joint) {
+            j.laws.clear();
+            replaced.push(joint.to_string());
+        }
+        j.laws.push(LawRef {
+            law: law.to_string(),
+            params,
+        });
+        rig.overridden.push(format!("joints.{joint}.laws"));
+    }
+    Ok(())
+}

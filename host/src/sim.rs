@@ -1,0 +1,907 @@
+//! The motored-rig simulation: the test cycle stepped through time, the friction/reaction
+//! iteration at every evaluation, the drive, energy bookkeeping and plateau measurement.
+//!
+//! Pipeline of one evaluation (plain data in, plain data out):
+//! `crank state -> Mechanism::solve (reactions) -> law inputs -> LawInstance::evaluate ->
+//! joint loads -> Mechanism::solve ...` until the joint normal loads stop changing.
+//!
+//! Drives: `prescribed` evaluates the exact reference motion (no ODE for the mechanics; Simpson
+//! quadrature of powers per step); `pi` integrates crank angle, speed and the controller's
+//! integral with classical RK4, powers integrated as part of the same RK4 state.
+
+use std::f64::consts::TAU;
+use std::io::Write;
+
+use nalgebra::Vector2;
+use serde::Serialize;
+use tribo_plugin_api::loader::{LawError, LawInstance, LawRegistry};
+use tribo_plugin_api::{JointKind, LawInput, Regime};
+
+use crate::cycle::{rad_s_to_rpm, Cycle};
+use crate::mechanics::{JointLoads, Mechanism, Reactions, RigGeometry};
+use crate::rig::{Drive, Rig, RigError, Temperature, JOINT_NAMES};
+
+/// Standard gravity, m/s^2.
+pub const GRAVITY_M_S2: f64 = 9.80665;
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// The rig is unusable (a law name that no plugin provides, bad law parameters).
+    #[error(transparent)]
+    Rig(#[from] Box<RigError>),
+    /// A law failed while running.
+    #[error("joint `{joint}` at t = {time_s:.6} s: {source}")]
+    Law {
+        /// Joint.
+        joint: String,
+        /// Simulation time, s.
+        time_s: f64,
+        /// The law's error.
+        source: Box<LawError>,
+    },
+    /// A law returned a force that is not a finite number.
+    #[error("joint `{joint}`, law `{law}` ({file}) returned a non-finite force ({force}) at t = {time_s:.6} s for inputs: velocity {velocity}, normal load {load_n} N")]
+    NonFinite {
+        /// Joint.
+        joint: String,
+        /// Law.
+        law: String,
+        /// Library file.
+        file: String,
+        /// Time.
+        time_s: f64,
+        /// Returned value.
+        force: f64,
+        /// Relative velocity.
+        velocity: f64,
+        /// Normal load.
+        load_n: f64,
+    },
+    /// The friction/reaction iteration did not converge.
+    #[error("the friction/reaction iteration did not converge at t = {time_s:.6} s after {iterations} iterations (normal-load change {change_n:.3e} N, tolerance {tol:.1e} relative); friction this strong makes the joint loads unstable: check the law parameters or raise solver.friction_max_iter")]
+    NoConvergence {
+        /// Time.
+        time_s: f64,
+        /// Iterations made.
+        iterations: u32,
+        /// Last change of the largest normal load.
+        change_n: f64,
+        /// Tolerance.
+        tol: f64,
+    },
+    /// Writing the time series failed.
+    #[error("writing the time series: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// One law bound to one joint.
+struct BoundLaw {
+    name: String,
+    instance: LawInstance,
+    state: Vec<f64>,
+}
+
+/// A joint with its geometry and laws.
+struct BoundJoint {
+    name: &'static str,
+    kind: JointKind,
+    radius_m: f64,
+    length_m: f64,
+    laws: Vec<BoundLaw>,
+}
+
+/// Per-law result for one plateau.
+#[derive(Debug, Clone, Serialize)]
+pub struct LawResult {
+    /// Joint name.
+    pub joint: String,
+    /// Law name.
+    pub law: String,
+    /// Mean friction torque at the crank: dissipated power over mean crank speed, N m.
+    pub friction_torque_nm: f64,
+    /// Mean dissipated power, W.
+    pub power_w: f64,
+    /// Mean normal load of the joint over the window, N.
+    pub mean_normal_load_n: f64,
+    /// Time share of each lubrication regime.
+    pub regime_share: RegimeShare,
+}
+
+/// Time shares of the lubrication regimes (they add up to 1).
+#[derive(Debug, Clone, Copy, Serialize, Default)]
+pub struct RegimeShare {
+    /// The law reported no regime.
+    pub none: f64,
+    /// Boundary.
+    pub boundary: f64,
+    /// Mixed.
+    pub mixed: f64,
+    /// Hydrodynamic.
+    pub hydrodynamic: f64,
+}
+
+/// One measured plateau.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlateauResult {
+    /// Reference speed, rpm.
+    pub set_speed_rpm: f64,
+    /// Mean crank speed over the measurement window, rpm.
+    pub mean_speed_rpm: f64,
+    /// Mean motoring torque over whole crank revolutions, N m.
+    pub motoring_torque_nm: f64,
+    /// Oil temperature, C.
+    pub oil_temp_c: f64,
+    /// Dynamic viscosity at that temperature, Pa s.
+    pub viscosity_pa_s: f64,
+    /// Start and end of the window, s.
+    pub window_s: [f64; 2],
+    /// Whole revolutions averaged.
+    pub revolutions: u32,
+    /// Per joint and law.
+    pub joints: Vec<LawResult>,
+}
+
+/// Energy bookkeeping over the whole run.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct EnergyBalance {
+    /// Work of the drive torque on the crank, J.
+    pub motor_work_j: f64,
+    /// Change of kinetic plus potential energy, J.
+    pub mechanical_energy_change_j: f64,
+    /// Energy dissipated by all laws, J.
+    pub dissipated_j: f64,
+    /// motor work - energy change - dissipation, J.
+    pub residual_j: f64,
+    /// |residual| / motor work.
+    pub relative_residual: f64,
+}
+
+/// Everything a run produces.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunResult {
+    /// Rig name.
+    pub rig: String,
+    /// `prescribed` or `pi`.
+    pub drive: String,
+    /// One entry per hold of the cycle.
+    pub plateaus: Vec<PlateauResult>,
+    /// Energy residual over the run, J.
+    pub energy_residual_j: f64,
+    /// Full energy bookkeeping.
+    pub energy: EnergyBalance,
+    /// Steps taken.
+    pub steps: u64,
+    /// Largest number of friction/reaction iterations needed at one evaluation.
+    pub max_friction_iterations: u32,
+    /// Warnings (a drive at its torque limit, say).
+    pub warnings: Vec<String>,
+}
+
+/// Output of one evaluation.
+#[derive(Debug, Clone)]
+struct Eval {
+    omega: f64,
+    alpha: f64,
+    /// Drive torque on the crank, N m.
+    drive_torque: f64,
+    /// Rates accumulated over time: motor power, then per law dissipated power, per law
+    /// regime indicators (4), per law normal load.
+    rates: Vec<f64>,
+    /// Normal load per joint.
+    normals: [f64; 5],
+    iterations: u32,
+    saturated: bool,
+}
+
+/// A point stored near the end of each hold, for the whole-revolution window.
+#[derive(Debug, Clone)]
+struct Record {
+    t: f64,
+    theta: f64,
+    omega: f64,
+    acc: Vec<f64>,
+    rates: Vec<f64>,
+}
+
+/// A ready-to-run simulation: mechanism, cycle, laws and drive.
+pub struct Simulation {
+    rig_name: String,
+    mech: Mechanism,
+    cycle: Cycle,
+    joints: Vec<BoundJoint>,
+    shares: [f64; 2],
+    drive: Drive,
+    temps: Vec<f64>,
+    viscosities: Vec<f64>,
+    window_s: f64,
+    lowpass_hz: f64,
+    step_rad: f64,
+    max_step_s: f64,
+    tol: f64,
+    max_iter: u32,
+    n_laws: usize,
+}
+
+fn joint_kind(name: &str) -> JointKind {
+    if name == "piston" {
+        JointKind::Prismatic
+    } else {
+        JointKind::Revolute
+    }
+}
+
+impl Simulation {
+    /// Bind the rig's laws (from `registry`) and prepare the mechanism and cycle.
+    pub fn new(rig: &Rig, registry: &LawRegistry) -> Result<Self, SimError> {
+        let f = &rig.file;
+        let c = &f.bodies.crank;
+        let (mu, ru) = (c.unbalance_mass_kg * c.mass_scale, c.unbalance_radius_m);
+        let m_crank = c.mass_kg * c.mass_scale + mu;
+        let offset = if m_crank > 0.0 {
+            mu * ru / m_crank
+        } else {
+            0.0
+        };
+        let j_axis = c.inertia_kg_m2 * c.inertia_scale + mu * ru * ru;
+        let drive_inertia = match f.drive {
+            Drive::Pi {
+                belt_ratio,
+                motor_inertia_kg_m2,
+                ..
+            } => motor_inertia_kg_m2 * belt_ratio * belt_ratio,
+            Drive::Prescribed => 0.0,
+        };
+        let r = &f.bodies.rod;
+        let geo = RigGeometry {
+            crank_radius_m: f.geometry.crank_radius_m,
+            rod_length_m: r.length_m,
+            rod_com_from_big_end_m: r.com_from_big_end_m,
+            crank_inertia_kg_m2: j_axis - m_crank * offset * offset,
+            crank_mass_kg: m_crank,
+            crank_com_offset_m: offset,
+            crank_com_angle_rad: c.unbalance_angle_deg.to_radians(),
+            rod_mass_kg: r.mass_kg * r.mass_scale,
+            rod_inertia_kg_m2: r.inertia_kg_m2 * r.inertia_scale,
+            piston_mass_kg: f.bodies.piston.mass_kg * f.bodies.piston.mass_scale,
+            gravity_m_s2: if f.geometry.gravity {
+                GRAVITY_M_S2
+            } else {
+                0.0
+            },
+            drive_inertia_kg_m2: drive_inertia,
+        };
+        let mut joints = Vec::new();
+        let mut n_laws = 0;
+        for (name, j) in f.joints.named() {
+            let mut laws = Vec::new();
+            for (i, l) in j.laws.iter().enumerate() {
+                let field = format!("joints.{name}.laws[{i}]");
+                let lib = registry
+                    .get(&l.law)
+                    .map_err(|e| Box::new(rig.error(&format!("{field}.law"), e.to_string())))?;
+                let instance = lib
+                    .create(&l.params)
+                    .map_err(|e| Box::new(rig.error(&format!("{field}.params"), e.to_string())))?;
+                let state = vec![0.0; instance.state_size()];
+                laws.push(BoundLaw {
+                    name: l.law.clone(),
+                    instance,
+                    state,
+                });
+                n_laws += 1;
+            }
+            joints.push(BoundJoint {
+                name,
+                kind: joint_kind(name),
+                radius_m: j.radius_m,
+                length_m: j.length_m,
+                laws,
+            });
+        }
+        let cycle = Cycle::new(&f.cycle.segments());
+        let temps: Vec<f64> = match &f.oil.temperature_c {
+            Temperature::Constant(t) => vec![*t; cycle.plateaus().len()],
+            Temperature::PerPlateau(v) => v.clone(),
+        };
+        let viscosities = temps
+            .iter()
+            .map(|t| f.oil.viscosity.kinematic_cst(*t) * 1e-6 * f.oil.density_kg_m3)
+            .collect();
+        Ok(Self {
+            rig_name: f.name.clone(),
+            mech: Mechanism::new(geo),
+            cycle,
+            joints,
+            shares: [f.joints.main_a.load_share, f.joints.main_b.load_share],
+            drive: f.drive.clone(),
+            temps,
+            viscosities,
+            window_s: f.measurement.window_s,
+            lowpass_hz: f.measurement.lowpass_hz,
+            step_rad: f.solver.step_deg.to_radians(),
+            max_step_s: f.solver.max_step_s,
+            tol: f.solver.friction_tol,
+            max_iter: f.solver.friction_max_iter,
+            n_laws,
+        })
+    }
+
+    /// The mechanism (for tests and studies).
+    pub fn mechanism(&self) -> &Mechanism {
+        &self.mech
+    }
+
+    /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
+    /// and the ramp leading to it; after the last plateau, the last value.
+    fn oil_at(&self, t: f64) -> (f64, f64) {
+        let i = self
+            .cycle
+            .plateaus()
+            .iter()
+            .position(|p| t <= p.t_end)
+            .unwrap_or(self.temps.len().saturating_sub(1));
+        (self.temps[i], self.viscosities[i])
+    }
+
+    fn n_rates(&self) -> usize {
+        1 + self.n_laws * 6
+    }
+
+    /// Normal loads per joint from the reactions.
+    fn normals(&self, re: &Reactions) -> [f64; 5] {
+        let main = re.main_n.norm();
+        [
+            main * self.shares[0],
+            main * self.shares[1],
+            re.big_end_n.norm(),
+            re.small_end_n.norm(),
+            re.slide_lateral_n.abs(),
+        ]
+    }
+
+    /// Evaluate the rig at one instant. `control` is `Ok(alpha)` for a prescribed crank or
+    /// `Err(torque)` for a crank driven by a torque.
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate(
+        &self,
+        t: f64,
+        dt: f64,
+        theta: f64,
+        omega: f64,
+        control: Result<f64, f64>,
+        saturated: bool,
+        guess: &JointLoads,
+    ) -> Result<(Eval, JointLoads), SimError> {
+        let (temp, visc) = self.oil_at(t);
+        let mut loads = *guess;
+        let mut prev: Option<[f64; 5]> = None;
+        let mut rates = vec![0.0; self.n_rates()];
+        for it in 1..=self.max_iter {
+            let (st, re, alpha) = match control {
+                Ok(alpha) => {
+                    let (st, re) = self.mech.solve(theta, omega, alpha, &loads);
+                    (st, re, alpha)
+                }
+                Err(torque) => {
+                    // Everything is affine in alpha: solve at 0 and 1, pick the alpha whose
+                    // drive torque equals the applied torque.
+                    let (s0, r0) = self.mech.solve(theta, omega, 0.0, &loads);
+                    let (s1, r1) = self.mech.solve(theta, omega, 1.0, &loads);
+                    let j_eff = r1.drive_torque_nm - r0.drive_torque_nm;
+                    let alpha = (torque - r0.drive_torque_nm) / j_eff;
+                    let lerp2 = |a: Vector2<f64>, b: Vector2<f64>| a + (b - a) * alpha;
+                    let lerp = |a: f64, b: f64| a + (b - a) * alpha;
+                    let re = Reactions {
+                        main_n: lerp2(r0.main_n, r1.main_n),
+                        big_end_n: lerp2(r0.big_end_n, r1.big_end_n),
+                        small_end_n: lerp2(r0.small_end_n, r1.small_end_n),
+                        slide_lateral_n: lerp(r0.slide_lateral_n, r1.slide_lateral_n),
+                        slide_moment_nm: lerp(r0.slide_moment_nm, r1.slide_moment_nm),
+                        drive_torque_nm: torque,
+                    };
+                    let mut st = s0;
+                    st.qdd = s0.qdd + (s1.qdd - s0.qdd) * alpha;
+                    (st, re, alpha)
+                }
+            };
+            let normals = self.normals(&re);
+            let converged = prev.is_some_and(|p| {
+                let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+                p.iter()
+                    .zip(&normals)
+                    .all(|(a, b)| (a - b).abs() <= self.tol * scale)
+            });
+            let no_laws = self.n_laws == 0;
+            if converged || no_laws {
+                rates[0] = re.drive_torque_nm * omega;
+                let e = Eval {
+                    omega,
+                    alpha,
+                    drive_torque: re.drive_torque_nm,
+                    rates,
+                    normals,
+                    iterations: it,
+                    saturated,
+                };
+                return Ok((e, loads));
+            }
+            // Law inputs from this configuration.
+            let qd = &st.qd;
+            let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
+            let comps = [
+                re.main_n * self.shares[0],
+                re.main_n * self.shares[1],
+                re.big_end_n,
+                re.small_end_n,
+                Vector2::new(0.0, re.slide_lateral_n),
+            ];
+            let mut new_loads = JointLoads::default();
+            rates.iter_mut().for_each(|r| *r = 0.0);
+            let mut k = 0;
+            for (ji, joint) in self.joints.iter().enumerate() {
+                let mut input = LawInput::at_rest(joint.kind);
+                input.normal_load_n = normals[ji];
+                input.reaction_x_n = comps[ji].x;
+                input.reaction_y_n = comps[ji].y;
+                input.reaction_moment_nm = if ji == 4 { re.slide_moment_nm } else { 0.0 };
+                input.contact_radius_m = joint.radius_m;
+                input.contact_length_m = joint.length_m;
+                input.oil_temp_c = temp;
+                input.viscosity_pa_s = visc;
+                input.engine_speed_rad_s = omega;
+                input.crank_angle_rad = theta.rem_euclid(TAU);
+                input.time_s = t;
+                input.dt_s = dt;
+                let input = input.with_velocity(rel[ji]);
+                let mut total = 0.0;
+                for law in &joint.laws {
+                    let out =
+                        law.instance
+                            .evaluate(&input, &law.state)
+                            .map_err(|e| SimError::Law {
+                                joint: joint.name.into(),
+                                time_s: t,
+                                source: Box::new(e),
+                            })?;
+                    if !out.force.is_finite() {
+                        return Err(SimError::NonFinite {
+                            joint: joint.name.into(),
+                            law: law.name.clone(),
+                            file: law.instance.path().display().to_string(),
+                            time_s: t,
+                            force: out.force,
+                            velocity: rel[ji],
+                            load_n: normals[ji],
+                        });
+                    }
+                    total += out.force;
+                    rates[1 + k] = -out.force * rel[ji];
+                    let regime = out.regime().unwrap_or(Regime::None) as usize;
+                    rates[1 + self.n_laws + 4 * k + regime] = 1.0;
+                    rates[1 + 5 * self.n_laws + k] = normals[ji];
+                    k += 1;
+                }
+                match ji {
+                    0 | 1 => new_loads.main_torque_nm += total,
+                    2 => new_loads.big_end_torque_nm = total,
+                    3 => new_loads.small_end_torque_nm = total,
+                    _ => new_loads.slide_force_n = total,
+                }
+            }
+            if it == self.max_iter {
+                let change = prev.map_or(f64::INFINITY, |p| {
+                    p.iter()
+                        .zip(&normals)
+                        .map(|(a, b)| (a - b).abs())
+                        .fold(0.0, f64::max)
+                });
+                return Err(SimError::NoConvergence {
+                    time_s: t,
+                    iterations: it,
+                    change_n: change,
+                    tol: self.tol,
+                });
+            }
+            prev = Some(normals);
+            loads = new_loads;
+            let _ = alpha;
+        }
+        Err(SimError::NoConvergence {
+            time_s: t,
+            iterations: self.max_iter,
+            change_n: f64::NAN,
+            tol: self.tol,
+        })
+    }
+
+    /// Commit every stateful law over the accepted step ending at `e`.
+    fn commit(&mut self, t: f64, dt: f64, theta: f64, e: &Eval) -> Result<(), SimError> {
+        let (temp, visc) = self.oil_at(t);
+        let st = self
+            .mech
+            .solve(theta, e.omega, e.alpha, &JointLoads::default())
+            .0;
+        let qd = st.qd;
+        let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
+        for (ji, joint) in self.joints.iter_mut().enumerate() {
+            if joint.laws.iter().all(|l| l.state.is_empty()) {
+                continue;
+            }
+            let mut input = LawInput::at_rest(joint.kind);
+            input.normal_load_n = e.normals[ji];
+            input.contact_radius_m = joint.radius_m;
+            input.contact_length_m = joint.length_m;
+            input.oil_temp_c = temp;
+            input.viscosity_pa_s = visc;
+            input.engine_speed_rad_s = e.omega;
+            input.crank_angle_rad = theta.rem_euclid(TAU);
+            input.time_s = t;
+            input.dt_s = dt;
+            let input = input.with_velocity(rel[ji]);
+            for law in &mut joint.laws {
+                if !law.state.is_empty() {
+                    law.instance
+                        .commit(&input, &mut law.state)
+                        .map_err(|e| SimError::Law {
+                            joint: joint.name.into(),
+                            time_s: t,
+                            source: Box::new(e),
+                        })?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn energy(&self, theta: f64, omega: f64) -> f64 {
+        let (st, _) = self.mech.solve(theta, omega, 0.0, &JointLoads::default());
+        self.mech.kinetic_energy(&st.qd) + self.mech.potential_energy(&st.q)
+    }
+
+    /// Run the whole test cycle. With `timeseries`, one CSV line per step is streamed to it.
+    pub fn run(&mut self, mut timeseries: Option<&mut dyn Write>) -> Result<RunResult, SimError> {
+        let n = self.n_rates();
+        let duration = self.cycle.duration();
+        let plateaus = self.cycle.plateaus().to_vec();
+        // Grid breakpoints: segment ends, and for a prescribed crank the exact window starts,
+        // so every window begins and ends on a step.
+        let mut breaks: Vec<f64> = self.cycle.breakpoints();
+        let prescribed = matches!(self.drive, Drive::Prescribed);
+        if prescribed {
+            for p in &plateaus {
+                let revs = self.window_revs(p.omega);
+                breaks.push(p.t_end - revs as f64 * TAU / p.omega);
+            }
+        }
+        breaks.retain(|b| *b > 0.0 && *b <= duration);
+        breaks.sort_by(f64::total_cmp);
+        breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+
+        if let Some(w) = timeseries.as_mut() {
+            write!(
+                w,
+                "time_s,theta_rad,speed_rpm,motoring_torque_nm,motoring_torque_filtered_nm"
+            )?;
+            for name in JOINT_NAMES {
+                write!(w, ",{name}_normal_load_n")?;
+            }
+            writeln!(w)?;
+        }
+
+        let (mut theta, mut omega, mut z) = (0.0, 0.0, 0.0);
+        let mut acc = vec![0.0; n];
+        let mut guess = JointLoads::default();
+        let e0 = self.energy(0.0, 0.0);
+        let (mut filtered, mut steps, mut max_it) = (0.0, 0_u64, 0_u32);
+        let mut records: Vec<Vec<Record>> = vec![Vec::new(); plateaus.len()];
+        let mut saturated_time = vec![0.0; plateaus.len()];
+        let mut t = 0.0;
+        let (e_start, _) = self.step_eval(t, 0.0, theta, omega, z, &guess)?;
+        let mut last_rates = e_start.rates.clone();
+        for &b in &breaks {
+            let (_, w_end, _) = self.cycle.reference(b);
+            let w_max = w_end.max(self.cycle.reference(t).1).max(omega);
+            let dt_target = if w_max > 0.0 {
+                (self.step_rad / w_max).min(self.max_step_s)
+            } else {
+                self.max_step_s
+            };
+            let m = ((b - t) / dt_target).ceil().max(1.0) as u64;
+            let dt = (b - t) / m as f64;
+            for i in 1..=m {
+                let t1 = if i == m { b } else { t + dt };
+                let h = t1 - t;
+                let (e_end, incr, new_state) = if prescribed {
+                    let (th_m, w_m, a_m) = self.cycle.reference(t + 0.5 * h);
+                    let (em, lm) =
+                        self.evaluate(t + 0.5 * h, h, th_m, w_m, Ok(a_m), false, &guess)?;
+                    let (th1, w1, a1) = self.cycle.reference(t1);
+                    let (e1, l1) = self.evaluate(t1, h, th1, w1, Ok(a1), false, &lm)?;
+                    guess = l1;
+                    max_it = max_it.max(em.iterations).max(e1.iterations);
+                    // Simpson's rule on every accumulated rate.
+                    let incr: Vec<f64> = (0..n)
+                        .map(|k| h / 6.0 * (last_rates[k] + 4.0 * em.rates[k] + e1.rates[k]))
+                        .collect();
+                    (e1, incr, (th1, w1, 0.0))
+                } else {
+                    let (e1, incr, state) =
+                        self.rk4_step(t, h, theta, omega, z, &mut guess, &mut max_it)?;
+                    (e1, incr, state)
+                };
+                for k in 0..n {
+                    acc[k] += incr[k];
+                }
+                theta = new_state.0;
+                omega = new_state.1;
+                z = new_state.2;
+                self.commit(t1, h, theta, &e_end)?;
+                last_rates.clone_from(&e_end.rates);
+                steps += 1;
+                // Low-pass filter of the motoring torque (first order, exact discretisation).
+                let a = (-TAU * self.lowpass_hz * h).exp();
+                filtered = a * filtered + (1.0 - a) * e_end.drive_torque;
+                if let Some(w) = timeseries.as_mut() {
+                    write!(
+                        w,
+                        "{t1:.7},{theta:.6},{:.4},{:.6},{filtered:.6}",
+                        rad_s_to_rpm(omega),
+                        e_end.drive_torque
+                    )?;
+                    for nl in e_end.normals {
+                        write!(w, ",{nl:.4}")?;
+                    }
+                    writeln!(w)?;
+                }
+                for (pi, p) in plateaus.iter().enumerate() {
+                    let margin = self.window_s + 2.0 * TAU / p.omega.max(1e-9) + 2.0 * h;
+                    if t1 >= p.t_end - margin && t1 <= p.t_end + 1e-12 {
+                        if e_end.saturated {
+                            saturated_time[pi] += h;
+                        }
+                        records[pi].push(Record {
+                            t: t1,
+                            theta,
+                            omega,
+                            acc: acc.clone(),
+                            rates: last_rates.clone(),
+                        });
+                    }
+                }
+                t = t1;
+            }
+        }
+        let e1 = self.energy(theta, omega);
+        let motor_work = acc[0];
+        let dissipated: f64 = acc[1..1 + self.n_laws].iter().sum();
+        let residual = motor_work - (e1 - e0) - dissipated;
+        let energy = EnergyBalance {
+            motor_work_j: motor_work,
+            mechanical_energy_change_j: e1 - e0,
+            dissipated_j: dissipated,
+            residual_j: residual,
+            relative_residual: if motor_work.abs() > 0.0 {
+                residual.abs() / motor_work.abs()
+            } else {
+                residual.abs()
+            },
+        };
+        let mut results = Vec::new();
+        let mut warnings = Vec::new();
+        for (pi, p) in plateaus.iter().enumerate() {
+            results.push(self.measure(pi, p.omega, p.t_end, &records[pi]));
+            if saturated_time[pi] > 0.5 * self.window_s {
+                warnings.push(format!(
+                    "at the {:.0} rpm plateau the drive sat at its torque limit for {:.3} s near the measurement window; the plateau torque is limited by the drive",
+                    rad_s_to_rpm(p.omega),
+                    saturated_time[pi]
+                ));
+            }
+            let r = &results[pi];
+            if (r.mean_speed_rpm - r.set_speed_rpm).abs() > 0.02 * r.set_speed_rpm {
+                warnings.push(format!("the {:.0} rpm plateau reached only {:.1} rpm on average: the speed never settled", r.set_speed_rpm, r.mean_speed_rpm));
+            }
+        }
+        Ok(RunResult {
+            rig: self.rig_name.clone(),
+            drive: match self.drive {
+                Drive::Prescribed => "prescribed".into(),
+                Drive::Pi { .. } => "pi".into(),
+            },
+            plateaus: results,
+            energy_residual_j: residual,
+            energy,
+            steps,
+            max_friction_iterations: max_it,
+            warnings,
+        })
+    }
+
+    /// Whole revolutions in the measurement window at speed `omega` (at least one).
+    fn window_revs(&self, omega: f64) -> u32 {
+        ((self.window_s * omega / TAU).floor() as u32).max(1)
+    }
+
+    /// The drive torque and controller state for a PI drive.
+    fn pi_torque(&self, t: f64, omega: f64, z: f64) -> (f64, f64, bool) {
+        match self.drive {
+            Drive::Pi {
+                kp,
+                ki,
+                torque_limit_nm,
+                belt_ratio,
+                ..
+            } => {
+                let e = self.cycle.reference(t).1 - omega;
+                let raw = kp * e + ki * z;
+                let motor = raw.clamp(-torque_limit_nm, torque_limit_nm);
+                let saturated = raw != motor;
+                // Conditional integration: stop integrating while saturated in the direction
+                // the error pushes, so the integral cannot wind up.
+                let dz = if saturated && raw.signum() == e.signum() {
+                    0.0
+                } else {
+                    e
+                };
+                (motor * belt_ratio, dz, saturated)
+            }
+            Drive::Prescribed => (0.0, 0.0, false),
+        }
+    }
+
+    fn step_eval(
+        &self,
+        t: f64,
+        dt: f64,
+        theta: f64,
+        omega: f64,
+        z: f64,
+        guess: &JointLoads,
+    ) -> Result<(Eval, JointLoads), SimError> {
+        match self.drive {
+            Drive::Prescribed => {
+                let (th, w, a) = self.cycle.reference(t);
+                let _ = (theta, omega, z);
+                self.evaluate(t, dt, th, w, Ok(a), false, guess)
+            }
+            Drive::Pi { .. } => {
+                let (torque, _, sat) = self.pi_torque(t, omega, z);
+                self.evaluate(t, dt, theta, omega, Err(torque), sat, guess)
+            }
+        }
+    }
+
+    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    fn rk4_step(
+        &self,
+        t: f64,
+        h: f64,
+        theta: f64,
+        omega: f64,
+        z: f64,
+        guess: &mut JointLoads,
+        max_it: &mut u32,
+    ) -> Result<(Eval, Vec<f64>, (f64, f64, f64)), SimError> {
+        let n = self.n_rates();
+        let deriv = |tt: f64,
+                     th: f64,
+                     w: f64,
+                     zz: f64,
+                     g: &JointLoads|
+         -> Result<(Eval, JointLoads, [f64; 3], Vec<f64>), SimError> {
+            let (torque, dz, sat) = self.pi_torque(tt, w, zz);
+            let (e, l) = self.evaluate(tt, h, th, w, Err(torque), sat, g)?;
+            let r = e.rates.clone();
+            Ok((e.clone(), l, [w, e.alpha, dz], r))
+        };
+        let (_e1, l1, k1, r1) = deriv(t, theta, omega, z, guess)?;
+        let (_e2, l2, k2, r2) = deriv(
+            t + 0.5 * h,
+            theta + 0.5 * h * k1[0],
+            omega + 0.5 * h * k1[1],
+            z + 0.5 * h * k1[2],
+            &l1,
+        )?;
+        let (_e3, l3, k3, r3) = deriv(
+            t + 0.5 * h,
+            theta + 0.5 * h * k2[0],
+            omega + 0.5 * h * k2[1],
+            z + 0.5 * h * k2[2],
+            &l2,
+        )?;
+        let (_e4, l4, k4, r4) = deriv(
+            t + h,
+            theta + h * k3[0],
+            omega + h * k3[1],
+            z + h * k3[2],
+            &l3,
+        )?;
+        let th1 = theta + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
+        let w1 = omega + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
+        let z1 = z + h / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]);
+        let incr: Vec<f64> = (0..n)
+            .map(|k| h / 6.0 * (r1[k] + 2.0 * r2[k] + 2.0 * r3[k] + r4[k]))
+            .collect();
+        // The state at the step end, for output, commit and the next guess.
+        let (end, lend) = self.step_eval(t + h, h, th1, w1, z1, &l4)?;
+        *guess = lend;
+        *max_it = (*max_it).max(end.iterations);
+        Ok((end, incr, (th1, w1, z1)))
+    }
+
+    /// Plateau values over the last whole revolutions of a hold.
+    fn measure(&self, pi: usize, omega_ref: f64, t_end: f64, recs: &[Record]) -> PlateauResult {
+        let revs = self.window_revs(omega_ref);
+        let last = recs.last();
+        let (theta_e, acc_e, t_e) = last.map_or((0.0, vec![0.0; self.n_rates()], t_end), |r| {
+            (r.theta, r.acc.clone(), r.t)
+        });
+        let theta_s = theta_e - revs as f64 * TAU;
+        // Find the interval holding theta_s and interpolate (cubic Hermite in time).
+        let (mut t_s, mut acc_s) = (t_e, acc_e.clone());
+        for w in recs.windows(2) {
+            let (a, b) = (&w[0], &w[1]);
+            if a.theta <= theta_s && theta_s <= b.theta {
+                let h = b.t - a.t;
+                let herm = |y0: f64, y1: f64, d0: f64, d1: f64, s: f64| {
+                    let (s2, s3) = (s * s, s * s * s);
+                    (2.0 * s3 - 3.0 * s2 + 1.0) * y0
+                        + (s3 - 2.0 * s2 + s) * h * d0
+                        + (-2.0 * s3 + 3.0 * s2) * y1
+                        + (s3 - s2) * h * d1
+                };
+                // Solve herm(theta) = theta_s by bisection (theta is monotonic here).
+                let (mut lo, mut hi) = (0.0, 1.0);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if herm(a.theta, b.theta, a.omega, b.omega, mid) < theta_s {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let s = 0.5 * (lo + hi);
+                t_s = a.t + s * h;
+                acc_s = (0..a.acc.len())
+                    .map(|k| herm(a.acc[k], b.acc[k], a.rates[k], b.rates[k], s))
+                    .collect();
+                break;
+            }
+        }
+        let dt = (t_e - t_s).max(1e-300);
+        let dtheta = theta_e - theta_s;
+        let d = |k: usize| acc_e[k] - acc_s[k];
+        let mut joints = Vec::new();
+        let mut k = 0;
+        for joint in &self.joints {
+            for law in &joint.laws {
+                let share = |r: usize| d(1 + self.n_laws + 4 * k + r) / dt;
+                joints.push(LawResult {
+                    joint: joint.name.into(),
+                    law: law.name.clone(),
+                    friction_torque_nm: d(1 + k) / dtheta,
+                    power_w: d(1 + k) / dt,
+                    mean_normal_load_n: d(1 + 5 * self.n_laws + k) / dt,
+                    regime_share: RegimeShare {
+                        none: share(0),
+                        boundary: share(1),
+                        mixed: share(2),
+                        hydrodynamic: share(3),
+                    },
+                });
+                k += 1;
+            }
+        }
+        PlateauResult {
+            set_speed_rpm: rad_s_to_rpm(omega_ref),
+            mean_speed_rpm: rad_s_to_rpm(dtheta / dt),
+            motoring_torque_nm: d(0) / dtheta,
+            oil_temp_c: self.temps[pi],
+            viscosity_pa_s: self.viscosities[pi],
+            window_s: [t_s, t_e],
+            revolutions: revs,
+            joints,
+        }
+    }
+}

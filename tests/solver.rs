@@ -1,0 +1,390 @@
+//! The solver's acceptance checks: energy conservation, the frictionless reference, step
+//! convergence, an independent quadrature of Coulomb friction along closed-form loads, and
+//! rejection of bad rig values. References are computed here, never by the solver.
+
+mod common;
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use common::*;
+use tribo::plugin_api::loader::load_paths;
+use tribo::rig::{load_rig_text, Rig, RigError};
+use tribo::sim::{RunResult, Simulation};
+
+fn rig_path() -> std::path::PathBuf {
+    workspace().join("rigs/reference-frictionless.toml")
+}
+
+fn rig_text() -> String {
+    std::fs::read_to_string(rig_path()).expect("reference rig exists")
+}
+
+fn load(sets: &[&str]) -> Result<Rig, RigError> {
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    load_rig_text(&rig_path(), &rig_text(), &sets)
+}
+
+fn run(sets: &[&str]) -> RunResult {
+    let rig = load(sets).expect("rig is valid");
+    let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("coulomb loads");
+    Simulation::new(&rig, &registry)
+        .expect("simulation builds")
+        .run(None)
+        .expect("run succeeds")
+}
+
+// Thesis table 9.5 coefficients and radii; the small end (not modelled in the thesis) gets the
+// big end's coefficient so that every joint carries a law.
+const COULOMB_EVERYWHERE: [&str; 5] = [
+    "joints.main_a.laws=[{law=\"coulomb\", params={mu=0.00245}}]",
+    "joints.main_b.laws=[{law=\"coulomb\", params={mu=0.00245}}]",
+    "joints.big_end.laws=[{law=\"coulomb\", params={mu=0.0025}}]",
+    "joints.small_end.laws=[{law=\"coulomb\", params={mu=0.0025}}]",
+    "joints.piston.laws=[{law=\"coulomb\", params={mu=0.08}}]",
+];
+const PI_DRIVE: &str = "drive={kind=\"pi\"}";
+
+fn with(extra: &[&'static str]) -> Vec<&'static str> {
+    COULOMB_EVERYWHERE
+        .iter()
+        .copied()
+        .chain(extra.iter().copied())
+        .collect()
+}
+
+#[test]
+fn frictionless_reference_holds_zero_mean_torque_with_both_drives() {
+    for sets in [vec![], vec![PI_DRIVE]] {
+        let r = run(&sets);
+        assert_eq!(r.plateaus.len(), 7);
+        for p in &r.plateaus {
+            assert!(
+                p.motoring_torque_nm.abs() < 1e-4,
+                "{} drive, {} rpm: {} N m",
+                r.drive,
+                p.set_speed_rpm,
+                p.motoring_torque_nm
+            );
+            assert!((p.mean_speed_rpm - p.set_speed_rpm).abs() < 0.01 * p.set_speed_rpm);
+        }
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    }
+}
+
+#[test]
+fn energy_is_conserved_over_the_thesis_cycle_with_friction_on_every_joint() {
+    for sets in [with(&[]), with(&[PI_DRIVE])] {
+        let r = run(&sets);
+        let e = r.energy;
+        assert!(e.dissipated_j > 1000.0, "friction dissipates: {e:?}");
+        assert!(
+            e.relative_residual < 1e-6,
+            "{} drive: motor work {} J, energy change {} J, dissipated {} J, residual {} J",
+            r.drive,
+            e.motor_work_j,
+            e.mechanical_energy_change_j,
+            e.dissipated_j,
+            e.residual_j
+        );
+        // The motoring torque is the friction: every plateau needs a positive torque.
+        assert!(r.plateaus.iter().all(|p| p.motoring_torque_nm > 0.0));
+    }
+}
+
+#[test]
+fn halving_the_step_changes_plateau_torques_by_less_than_a_tenth_of_a_percent() {
+    for drive in [None, Some(PI_DRIVE)] {
+        let base: Vec<&str> = with(drive.as_slice());
+        let mut fine = base.clone();
+        fine.push("solver.step_deg=0.5");
+        let (a, b) = (run(&base), run(&fine));
+        for (p, q) in a.plateaus.iter().zip(&b.plateaus) {
+            let rel =
+                (p.motoring_torque_nm - q.motoring_torque_nm).abs() / q.motoring_torque_nm.abs();
+            assert!(
+                rel < 1e-3,
+                "{} drive, {} rpm: {} vs {} N m",
+                a.drive,
+                p.set_speed_rpm,
+                p.motoring_torque_nm,
+                q.motoring_torque_nm
+            );
+        }
+    }
+}
+
+/// Coulomb law exactly as the `coulomb` plugin documents it: -mu*N*arm*sgn_eps(v_s).
+fn coulomb(mu: f64, load: f64, arm: f64, v_rel: f64) -> f64 {
+    let vs = v_rel * arm;
+    let eps = 1e-3; // the law's default v_smooth
+    -mu * load * arm * vs / (vs * vs + eps * eps).sqrt()
+}
+
+/// Mean friction torque at the crank of each joint (main_a, main_b, big_end, small_end,
+/// piston) at constant speed `omega`, for a two-point-mass rod, from the closed-form
+/// kinematics (thesis eqs 4.4, 4.8, 4.9) and a force balance of the two point masses and the
+/// massless link between them (friction torques at the rod ends included).
+fn closed_form_friction(omega: f64) -> [f64; 5] {
+    let (r, l, m_c, m_p) = (0.0269, 0.105, 0.1748, 0.27);
+    let (m_a, m_b) = (2.0 / 3.0 * m_c, m_c / 3.0);
+    let m_rec = m_p + m_b;
+    let lam = r / l;
+    let (mu_m, mu_b, mu_s, mu_p) = (0.00245, 0.0025, 0.0025, 0.08);
+    let (r_m, r_b, r_s) = (0.020, 0.017, 0.008);
+    let n = 7200;
+    let mut power = [0.0; 5];
+    for k in 0..n {
+        let th = 2.0 * PI * k as f64 / n as f64;
+        let (s, c) = th.sin_cos();
+        let root = (1.0 - lam * lam * s * s).sqrt();
+        let a = -r
+            * omega
+            * omega
+            * (c + (lam * (2.0 * th).cos() + lam.powi(3) * s.powi(4)) / root.powi(3));
+        let v = -r * omega * (s + lam / 2.0 * (2.0 * th).sin() / root);
+        // Rod angular velocity, counter-clockwise (the thesis angle of eq 4.8 is its mirror).
+        let w_rod = -omega * lam * c / root;
+        let u = [lam * s, root]; // from crank pin to piston pin
+        let nrm = [-u[1], u[0]];
+        let a_pin = [omega * omega * r * s, -omega * omega * r * c]; // centripetal, pin at (-r s, r c)
+        let (mut t_be, mut t_se, mut f_f) = (0.0, 0.0, 0.0);
+        let mut out = [0.0; 5];
+        for _ in 0..50 {
+            let p = -(t_be - t_se) / l;
+            let s_ax = (f_f - m_rec * a - p * nrm[1]) / u[1];
+            let n_x = s_ax * u[0] + p * nrm[0];
+            let f_se = [-n_x, m_p * a - f_f];
+            let f_be = [f_se[0] + m_a * a_pin[0], f_se[1] + m_a * a_pin[1] + m_b * a];
+            let main = (f_be[0].hypot(f_be[1])) / 2.0;
+            let t_m = coulomb(mu_m, main, r_m, omega);
+            t_be = coulomb(mu_b, f_be[0].hypot(f_be[1]), r_b, w_rod - omega);
+            t_se = coulomb(mu_s, f_se[0].hypot(f_se[1]), r_s, -w_rod);
+            f_f = coulomb(mu_p, n_x.abs(), 1.0, v);
+            out = [
+                -t_m * omega,
+                -t_m * omega,
+                -t_be * (w_rod - omega),
+                -t_se * (-w_rod),
+                -f_f * v,
+            ];
+        }
+        for j in 0..5 {
+            power[j] += out[j] / n as f64;
+        }
+    }
+    power.map(|p| p / omega)
+}
+
+#[test]
+fn coulomb_friction_matches_an_independent_quadrature_along_closed_form_loads() {
+    let m = 0.1748_f64;
+    let l = 0.105_f64;
+    let inertia = format!("bodies.rod.inertia_kg_m2={}", 2.0 / 9.0 * m * l * l);
+    for rpm in [3000.0, 6000.0, 9000.0] {
+        let cycle = format!(
+            "cycle.segments=[{{kind=\"ramp\", to_rpm={rpm}, duration_s=0.5}}, {{kind=\"hold\", duration_s=0.2}}]"
+        );
+        let mut sets: Vec<&str> = COULOMB_EVERYWHERE.to_vec();
+        sets.extend([
+            "geometry.gravity=false",
+            "bodies.rod.com_from_big_end_m=0.035",
+            inertia.as_str(),
+            cycle.as_str(),
+        ]);
+        let r = run(&sets);
+        let reference = closed_form_friction(rpm * PI / 30.0);
+        let p = &r.plateaus[0];
+        for (j, want) in p.joints.iter().zip(reference) {
+            let rel = (j.friction_torque_nm - want).abs() / want.abs();
+            assert!(
+                rel < 5e-3,
+                "{rpm} rpm {}: solver {} vs closed form {want} N m",
+                j.joint,
+                j.friction_torque_nm
+            );
+        }
+    }
+}
+
+fn expect_rig_error(sets: &[&str], field: &str, words: &[&str]) {
+    let e = load(sets).expect_err("the rig must be rejected");
+    assert_eq!(e.field, field, "{e}");
+    for w in words {
+        assert!(e.to_string().contains(w), "`{w}` missing from: {e}");
+    }
+}
+
+#[test]
+fn bad_rig_values_are_rejected_naming_the_field() {
+    expect_rig_error(
+        &["bodies.rod.mass_kg=-0.17"],
+        "bodies.rod.mass_kg",
+        &["positive", "-0.17"],
+    );
+    expect_rig_error(
+        &["bodies.piston.mass_kg=0"],
+        "bodies.piston.mass_kg",
+        &["positive"],
+    );
+    expect_rig_error(
+        &["bodies.crank.inertia_kg_m2=0.0"],
+        "bodies.crank.inertia_kg_m2",
+        &["positive"],
+    );
+    expect_rig_error(
+        &["bodies.rod.inertia_kg_m2=-1e-4"],
+        "bodies.rod.inertia_kg_m2",
+        &["positive"],
+    );
+    expect_rig_error(
+        &["joints.big_end.length_m=0"],
+        "joints.big_end.length_m",
+        &["positive"],
+    );
+    expect_rig_error(
+        &["bodies.rod.length_m=0.02"],
+        "bodies.rod.length_m",
+        &["longer than the crank radius"],
+    );
+    expect_rig_error(
+        &["oil.density_kg_m3=-860"],
+        "oil.density_kg_m3",
+        &["positive"],
+    );
+    expect_rig_error(
+        &["oil.viscosity={model=\"two-point\", kv40_cst=-115.0, kv100_cst=17.5}"],
+        "oil.viscosity.kv40_cst",
+        &["positive"],
+    );
+    expect_rig_error(&["cycle.segments=[]"], "cycle.segments", &["empty"]);
+    expect_rig_error(
+        &["cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=1.0}, {kind=\"hold\", duration_s=0.0}]"],
+        "cycle.segments[1].duration_s",
+        &["positive"],
+    );
+    expect_rig_error(
+        &["cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=1.0}, {kind=\"hold\", duration_s=-1.0}]"],
+        "cycle.segments[1].duration_s",
+        &["positive"],
+    );
+}
+
+#[test]
+fn errors_in_the_file_carry_line_and_column() {
+    let text = rig_text().replace("mass_kg = 0.1748", "mass_kg = -0.1748");
+    let e = load_rig_text(Path::new("rig.toml"), &text, &[]).expect_err("rejected");
+    let line = text
+        .lines()
+        .position(|l| l.contains("mass_kg = -0.1748"))
+        .expect("line")
+        + 1;
+    assert_eq!(
+        (e.line, e.field.as_str()),
+        (Some(line), "bodies.rod.mass_kg"),
+        "{e}"
+    );
+    assert!(
+        e.to_string().starts_with(&format!("rig.toml:{line}:")),
+        "{e}"
+    );
+
+    let text = rig_text().replace("[joints.small_end]", "[joints.wrist_pin]");
+    let e = load_rig_text(Path::new("rig.toml"), &text, &[]).expect_err("unknown joint rejected");
+    let line = text
+        .lines()
+        .position(|l| l.contains("wrist_pin"))
+        .expect("line")
+        + 1;
+    assert_eq!(e.line, Some(line), "{e}");
+    assert!(e.message.contains("unknown field `wrist_pin`"), "{e}");
+    assert!(
+        e.message.contains("small_end"),
+        "lists the joints that exist: {e}"
+    );
+}
+
+#[test]
+fn unknown_law_name_is_rejected_naming_the_field_and_what_exists() {
+    let rig =
+        load(&["joints.big_end.laws=[{law=\"stribeck-magic\"}]"]).expect("structurally valid");
+    let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("loads");
+    let e = Simulation::new(&rig, &registry)
+        .err()
+        .expect("unknown law rejected")
+        .to_string();
+    assert!(e.contains("joints.big_end.laws[0].law"), "{e}");
+    assert!(
+        e.contains("no law named `stribeck-magic`") && e.contains("coulomb"),
+        "{e}"
+    );
+}
+
+#[test]
+fn run_cli_reports_bad_rigs_and_writes_json_csv_and_timeseries() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(
+        &bad,
+        rig_text().replace("length_m = 0.105", "length_m = 0.01"),
+    )
+    .expect("write");
+    let out = run_tribo(&["run", bad.to_str().expect("utf-8")], None);
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("bodies.rod.length_m") && stderr.contains("bad.toml:"),
+        "{stderr}"
+    );
+
+    let csv = dir.path().join("csv");
+    let ts = dir.path().join("ts.csv");
+    let rig = rig_path();
+    let args = [
+        "run",
+        rig.to_str().expect("utf-8"),
+        "--law",
+        "piston=coulomb",
+        "--set",
+        "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.3}, {kind=\"hold\", duration_s=0.3}]",
+        "--json",
+        "--csv",
+        csv.to_str().expect("utf-8"),
+        "--timeseries",
+        ts.to_str().expect("utf-8"),
+    ];
+    let out = run_tribo(&args, None);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+    let p = &json["plateaus"][0];
+    for key in [
+        "set_speed_rpm",
+        "mean_speed_rpm",
+        "motoring_torque_nm",
+        "oil_temp_c",
+    ] {
+        assert!(p[key].is_number(), "{key} missing");
+    }
+    let j = &p["joints"][0];
+    assert_eq!(j["joint"], "piston");
+    assert_eq!(j["law"], "coulomb");
+    for key in ["friction_torque_nm", "power_w"] {
+        assert!(j[key].as_f64().is_some_and(|x| x > 0.0), "{key}");
+    }
+    for key in ["boundary", "mixed", "hydrodynamic"] {
+        assert!(j["regime_share"][key].is_number());
+    }
+    assert!(json["energy_residual_j"].is_number());
+    // With one law on one joint, the motoring torque is that law's friction torque.
+    let (m, f) = (
+        p["motoring_torque_nm"].as_f64().unwrap_or(0.0),
+        j["friction_torque_nm"].as_f64().unwrap_or(1.0),
+    );
+    assert!((m - f).abs() < 1e-3 * f, "{m} vs {f}");
+    let plateaus = std::fs::read_to_string(csv.join("plateaus.csv")).expect("plateaus.csv");
+    assert_eq!(plateaus.lines().count(), 2);
+    let series = std::fs::read_to_string(&ts).expect("timeseries");
+    assert!(series.starts_with("time_s,theta_rad,speed_rpm,motoring_torque_nm"));
+    assert!(series.lines().count() > 1000);
+}

@@ -126,13 +126,25 @@ impl Cycle {
         self.pieces.iter().map(|p| p.t1).collect()
     }
 
-    /// Reference crank angle, speed and acceleration at `t`.
+    /// Reference crank angle, speed and acceleration at `t` (at a segment boundary: the
+    /// segment that ends there).
     pub fn reference(&self, t: f64) -> (f64, f64, f64) {
-        let idx = self
+        let idx = self.pieces.partition_point(|p| p.t1 < t);
+        self.piece_reference(idx, t)
+    }
+
+    /// As [`Cycle::reference`], but at a segment boundary the segment that starts there: the
+    /// acceleration jumps at boundaries and each step must integrate one side only.
+    pub fn reference_after(&self, t: f64) -> (f64, f64, f64) {
+        let idx = self.pieces.partition_point(|p| p.t1 <= t);
+        self.piece_reference(idx, t)
+    }
+
+    fn piece_reference(&self, idx: usize, t: f64) -> (f64, f64, f64) {
+        match self
             .pieces
-            .partition_point(|p| p.t1 < t)
-            .min(self.pieces.len().saturating_sub(1));
-        match self.pieces.get(idx) {
+            .get(idx.min(self.pieces.len().saturating_sub(1)))
+        {
             Some(p) => {
                 let tau = t - p.t0;
                 (
@@ -172,6 +184,12 @@ mod tests {
                 && (w - alpha).abs() < 1e-12
                 && (a - alpha).abs() < 1e-12
         );
+        // At a boundary, `reference` belongs to the segment ending there, `reference_after` to
+        // the one starting there: same angle and speed, the new acceleration.
+        let (th_a, w_a, acc_a) = c.reference(1.5);
+        let (th_b, w_b, acc_b) = c.reference_after(1.5);
+        assert_eq!((th_a, w_a), (th_b, w_b));
+        assert!((acc_a - alpha).abs() < 1e-9 && acc_b == 0.0);
         // Continuity across a boundary.
         let (a1, b1, _) = c.reference(2.5 - 1e-9);
         let (a2, b2, _) = c.reference(2.5 + 1e-9);

@@ -609,6 +609,14 @@ impl Simulation {
             };
             let m = ((b - t) / dt_target).ceil().max(1.0) as u64;
             let dt = (b - t) / m as f64;
+            if prescribed {
+                // The reference acceleration may jump at t: start this interval from its own
+                // side of the jump so Simpson's rule never straddles it.
+                let (th0, w0, a0) = self.cycle.reference_after(t);
+                let (e0, l0) = self.evaluate(t, dt, th0, w0, Ok(a0), false, &guess)?;
+                last_rates.clone_from(&e0.rates);
+                guess = l0;
+            }
             for i in 1..=m {
                 let t1 = if i == m { b } else { t + dt };
                 let h = t1 - t;

@@ -46,14 +46,8 @@ pub fn ensure_plugins_built() {
             }
             None => {}
         }
-        for p in [
-            "tribo-law-coulomb",
-            "tribo-law-c-coulomb",
-            "tribo-fixture-panic-law",
-            "tribo-fixture-contract-mismatch",
-        ] {
-            cmd.args(["-p", p]);
-        }
+        // Every workspace member but the host: all law plugins and the fixtures.
+        cmd.args(["--workspace", "--exclude", "tribo"]);
         let out = cmd.output().expect("cargo runs");
         assert!(
             out.status.success(),

@@ -155,3 +155,55 @@ fn fedem_friction_plateau_torques_do_not_depend_on_the_sign_smoothing() {
         );
     }
 }
+
+#[test]
+fn stateless_laws_dissipate_and_their_derivatives_match_finite_differences() {
+    use tribo::plugin_api::loader::load_paths;
+    use tribo::plugin_api::{JointKind, LawInput};
+    ensure_plugins_built();
+    let registry = load_paths(&[profile_dir()]).expect("plugins load");
+    let mut checked = 0;
+    for (law, _, params) in CASES {
+        let lib = registry.get(law).expect("law present");
+        let inst = lib.create(&params.parse().expect("toml")).expect("creates");
+        if inst.state_size() > 0 {
+            continue; // F*V <= 0 is a property of stateless laws only (LuGre stores energy)
+        }
+        checked += 1;
+        for kind in [JointKind::Revolute, JointKind::Prismatic] {
+            for &v in &[
+                -900.0, -12.0, -0.4, -1e-3, -1e-6, 0.0, 1e-6, 1e-3, 0.4, 12.0, 900.0,
+            ] {
+                for &n in &[0.0, 25.0, 800.0, 15000.0] {
+                    for &eta in &[0.004, 0.024, 0.3] {
+                        let mut input = LawInput::at_rest(kind);
+                        input.normal_load_n = n;
+                        input.contact_radius_m = 0.02;
+                        input.contact_length_m = 0.015;
+                        input.viscosity_pa_s = eta;
+                        input.engine_speed_rad_s = 450.0;
+                        let at = |v: f64| {
+                            inst.evaluate(&input.with_velocity(v), &[])
+                                .expect("evaluates")
+                        };
+                        let out = at(v);
+                        assert!(
+                            out.force.is_finite() && out.force * v <= 0.0,
+                            "{law} {kind:?} v={v} n={n} eta={eta}: F={}",
+                            out.force
+                        );
+                        if let Some(d) = out.derivative() {
+                            let h = 1e-7 * (1.0 + v.abs());
+                            let fd = (at(v + h).force - at(v - h).force) / (2.0 * h);
+                            assert!(
+                                (fd - d).abs() <= 1e-4 * (1.0 + d.abs().max(fd.abs())),
+                                "{law} {kind:?} v={v} n={n}: dF/dv {d} vs fd {fd}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert_eq!(checked, 7, "every stateless law was swept");
+}

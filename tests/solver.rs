@@ -20,6 +20,11 @@ fn rig_text() -> String {
     std::fs::read_to_string(rig_path()).expect("reference rig exists")
 }
 
+/// The full CRF 250 R rig text (the reference rig extends it), for edits that need the bodies.
+fn base_text() -> String {
+    std::fs::read_to_string(workspace().join("rigs/crf250r-motored.toml")).expect("rig exists")
+}
+
 fn load(sets: &[&str]) -> Result<Rig, RigError> {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
     load_rig_text(&rig_path(), &rig_text(), &sets)
@@ -272,7 +277,7 @@ fn bad_rig_values_are_rejected_naming_the_field() {
 
 #[test]
 fn errors_in_the_file_carry_line_and_column() {
-    let text = rig_text().replace("mass_kg = 0.1748", "mass_kg = -0.1748");
+    let text = base_text().replace("mass_kg = 0.1748", "mass_kg = -0.1748");
     let e = load_rig_text(Path::new("rig.toml"), &text, &[]).expect_err("rejected");
     let line = text
         .lines()
@@ -289,7 +294,7 @@ fn errors_in_the_file_carry_line_and_column() {
         "{e}"
     );
 
-    let text = rig_text().replace("[joints.small_end]", "[joints.wrist_pin]");
+    let text = base_text().replace("[joints.small_end]", "[joints.wrist_pin]");
     let e = load_rig_text(Path::new("rig.toml"), &text, &[]).expect_err("unknown joint rejected");
     let line = text
         .lines()
@@ -302,6 +307,39 @@ fn errors_in_the_file_carry_line_and_column() {
         e.message.contains("small_end"),
         "lists the joints that exist: {e}"
     );
+}
+
+#[test]
+fn extends_merges_and_locates_errors_in_the_file_that_sets_the_field() {
+    // The reference rig extends the CRF 250 R rig: its oil temperature overrides the base's.
+    let rig = load(&[]).expect("valid");
+    assert!(
+        matches!(rig.file.oil.temperature_c, tribo::rig::Temperature::Constant(t) if t == 80.0)
+    );
+    assert_eq!(rig.file.bodies.rod.mass_kg, 0.1748);
+    // A bad value in the base is reported in the base file, at its line.
+    let e = load(&["oil.temperature_c=500.0"]).expect_err("outside the viscosity range");
+    assert_eq!(e.field, "oil.temperature_c");
+    assert!(
+        e.message.contains("outside the viscosity model's range"),
+        "{e}"
+    );
+    // An unknown key in the child is found in the child.
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::copy(
+        workspace().join("rigs/crf250r-motored.toml"),
+        dir.path().join("crf250r-motored.toml"),
+    )
+    .expect("copy");
+    let child = dir.path().join("child.toml");
+    std::fs::write(&child, "extends = \"crf250r-motored.toml\"\nname = \"x\"\n\n[bodies.rod]\nmass_scale = 0.6\nmas_scale = 0.5\n").expect("write");
+    let e = tribo::rig::load_rig(&child, &[]).expect_err("typo rejected");
+    assert_eq!(
+        (e.file.as_path(), e.line),
+        (child.as_path(), Some(6)),
+        "{e}"
+    );
+    assert!(e.message.contains("unknown field `mas_scale`"), "{e}");
 }
 
 #[test]
@@ -326,7 +364,7 @@ fn run_cli_reports_bad_rigs_and_writes_json_csv_and_timeseries() {
     let bad = dir.path().join("bad.toml");
     std::fs::write(
         &bad,
-        rig_text().replace("length_m = 0.105", "length_m = 0.01"),
+        base_text().replace("length_m = 0.105", "length_m = 0.01"),
     )
     .expect("write");
     let out = run_tribo(&["run", bad.to_str().expect("utf-8")], None);

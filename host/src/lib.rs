@@ -5,20 +5,27 @@
 //!
 //! - [`laws`]: listing of discovered laws (`tribo laws`);
 //! - [`scaffold`]: generation of a new law crate (`tribo new-law`);
-//! - [`rig`]: rig files (TOML), `--set` overrides and validation;
+//! - [`rig`]: rig files (TOML, `extends`), `--set` overrides and validation;
+//! - [`lawset`]: law sets (laws on joints, free parameters) usable with any rig;
+//! - [`bundled`]: the rigs, law sets and data compiled into the binary;
 //! - [`cycle`], [`oil`]: the test cycle's reference speed, oil viscosity;
 //! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions);
 //! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
+//! - [`study`]: law-set comparisons against measured data;
 //! - [`sim`]: the run through the test cycle with laws on the joints, and plateau measurement.
 
+pub mod bundled;
 pub mod cycle;
 pub mod laws;
+pub mod lawset;
 pub mod mechanics;
 pub mod oil;
 pub mod output;
+pub mod plots;
 pub mod report;
 pub mod rig;
 pub mod scaffold;
 pub mod sim;
+pub mod study;
 
 pub use tribo_plugin_api as plugin_api;

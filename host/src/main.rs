@@ -42,6 +42,12 @@ enum Command {
         /// Override any rig value by its dotted path, e.g. bodies.rod.mass_scale=0.6.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         sets: Vec<String>,
+        /// Attach a law set (bundled name or file), replacing the rig's laws; --law adds to it.
+        #[arg(long)]
+        lawset: Option<String>,
+        /// Compute each plateau's periodic steady state directly instead of the whole cycle.
+        #[arg(long)]
+        steady: bool,
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
@@ -51,6 +57,33 @@ enum Command {
         /// Stream the time history (one line per step) to this CSV file.
         #[arg(long, value_name = "FILE")]
         timeseries: Option<PathBuf>,
+    },
+    /// Run law sets side by side on a rig against measured torque: table, CSV, JSON, SVG plots.
+    Compare {
+        /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
+        rig: Option<PathBuf>,
+        /// Law set (bundled name or file); repeat to compare several (default: fedem-baseline
+        /// and stribeck-duty).
+        #[arg(long = "lawset")]
+        lawsets: Vec<String>,
+        /// Attach a law to every law set: JOINT=LAW[:PARAMS.toml] (added to the set's laws there).
+        #[arg(long = "law", value_name = "JOINT=LAW[:PARAMS_TOML_FILE]")]
+        laws: Vec<String>,
+        /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the thesis's table 10.4).
+        #[arg(long)]
+        data: Option<String>,
+        /// Override rig values, as for `run`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Output directory for comparison.csv, comparison.json and the plots.
+        #[arg(long, default_value = "tribo-compare")]
+        out: PathBuf,
+        /// Steady state at each speed instead of the full test cycle.
+        #[arg(long)]
+        steady: bool,
+        /// Print JSON instead of the table.
+        #[arg(long)]
+        json: bool,
     },
     /// Generate a new law plugin crate with a documented law, parameters and unit tests.
     NewLaw {
@@ -79,15 +112,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             rig,
             laws: law_args,
             sets,
+            lawset,
+            steady,
             json,
             csv,
             timeseries,
         } => {
             let mut rig = tribo::rig::load_rig(&rig, &sets)?;
+            if let Some(ls) = lawset {
+                tribo::lawset::LawSet::load(&ls)?.apply(&mut rig);
+            }
             tribo::rig::attach_laws(&mut rig, &law_args)?;
             let registry = discover(&cli.plugins).context("loading law plugins")?;
             let mut sim = tribo::sim::Simulation::new(&rig, &registry)?;
             let result = match &timeseries {
+                _ if steady => sim.run_steady()?,
                 Some(path) => {
                     let mut file = tribo::output::AtomicFile::create(path)
                         .with_context(|| format!("creating {}", path.display()))?;
@@ -106,6 +145,46 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&result)?);
             } else {
                 print!("{}", tribo::report::to_text(&result));
+            }
+        }
+        Command::Compare {
+            rig,
+            lawsets,
+            laws: law_args,
+            data,
+            sets,
+            out,
+            steady,
+            json,
+        } => {
+            let rig_path = rig.unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
+            let rig = tribo::rig::load_rig(&rig_path, &sets)?;
+            let names: Vec<String> = if lawsets.is_empty() {
+                tribo::bundled::DEFAULT_LAWSETS
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect()
+            } else {
+                lawsets
+            };
+            let mut sets_loaded = Vec::new();
+            for n in &names {
+                let mut ls = tribo::lawset::LawSet::load(n)?;
+                ls.add_law_args(&law_args)?;
+                sets_loaded.push(ls);
+            }
+            let (data_path, rows) =
+                tribo::study::read_data(data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+            let registry = discover(&cli.plugins).context("loading law plugins")?;
+            let cmp =
+                tribo::study::compare(&rig, &sets_loaded, &data_path, &rows, &registry, steady)?;
+            tribo::plots::write_comparison(&cmp, &out)
+                .with_context(|| format!("writing results into {}", out.display()))?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&cmp)?);
+            } else {
+                print!("{}", tribo::report::comparison_text(&cmp));
+                println!("\nwrote {}/comparison.csv, comparison.json, torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg", out.display());
             }
         }
         Command::NewLaw { name, dir } => {

@@ -98,3 +98,100 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> std::io::Result<()> {
     }
     crate::output::write_atomic(&dir.join("joints.csv"), j.as_bytes())
 }
+
+/// The side-by-side table, per-joint contributions and each law set's RMSE and largest error.
+pub fn comparison_text(c: &crate::study::Comparison) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "rig {}  data {}  mode {}\n",
+        c.rig, c.data_file, c.mode
+    );
+    let _ = write!(out, "{:>7} {:>9}", "rpm", "measured");
+    for s in &c.sets {
+        let w = s.lawset.len().max(9);
+        let _ = write!(out, "  {:>w$} {:>7}", s.lawset, "error");
+    }
+    let _ = writeln!(out, "\n{:>7} {:>9}", "", "N m");
+    for (i, d) in c.data.iter().enumerate() {
+        let _ = write!(out, "{:>7.0} {:>9.3}", d.speed_rpm, d.torque_nm);
+        for s in &c.sets {
+            let w = s.lawset.len().max(9);
+            let m = s
+                .run
+                .plateaus
+                .get(i)
+                .map_or(f64::NAN, |p| p.motoring_torque_nm);
+            let _ = write!(
+                out,
+                "  {:>w$.3} {:>+7.3}",
+                m,
+                s.errors_nm.get(i).copied().unwrap_or(f64::NAN)
+            );
+        }
+        out.push('\n');
+    }
+    let _ = write!(out, "{:>17}", "RMSE");
+    for s in &c.sets {
+        let w = s.lawset.len().max(9);
+        let _ = write!(out, "  {:>w$.3} {:>7}", s.rmse_nm, "");
+    }
+    let _ = write!(out, "\n{:>17}", "max |error|");
+    for s in &c.sets {
+        let w = s.lawset.len().max(9);
+        let _ = write!(out, "  {:>w$.3} {:>7}", s.max_abs_error_nm, "");
+    }
+    out.push_str("\n\nper-joint contributions (friction torque at the crank, N m)\n");
+    for s in &c.sets {
+        let _ = writeln!(out, "  {}", s.lawset);
+        let Some(first) = s.run.plateaus.first() else {
+            continue;
+        };
+        let labels: Vec<String> = first
+            .joints
+            .iter()
+            .map(|j| format!("{}:{}", j.joint, j.law))
+            .collect();
+        let _ = write!(out, "  {:>7}", "rpm");
+        for l in &labels {
+            let _ = write!(out, " {:>24}", l);
+        }
+        out.push('\n');
+        for p in &s.run.plateaus {
+            let _ = write!(out, "  {:>7.0}", p.set_speed_rpm);
+            for j in &p.joints {
+                let _ = write!(out, " {:>24.4}", j.friction_torque_nm);
+            }
+            out.push('\n');
+        }
+        for w in &s.run.warnings {
+            let _ = writeln!(out, "  warning: {w}");
+        }
+    }
+    out
+}
+
+/// `comparison.csv`: one row per speed and law set.
+pub fn comparison_csv(c: &crate::study::Comparison) -> String {
+    let mut out = String::from(
+        "speed_rpm,measured_torque_nm,oil_temp_c,lawset,model_torque_nm,error_nm,mean_speed_rpm\n",
+    );
+    for s in &c.sets {
+        for (i, d) in c.data.iter().enumerate() {
+            if let Some(p) = s.run.plateaus.get(i) {
+                let _ = writeln!(
+                    out,
+                    "{},{},{},{},{},{},{}",
+                    d.speed_rpm,
+                    d.torque_nm,
+                    d.oil_temp_c,
+                    s.lawset,
+                    p.motoring_torque_nm,
+                    s.errors_nm[i],
+                    p.mean_speed_rpm
+                );
+            }
+        }
+    }
+    out
+}

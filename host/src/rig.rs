@@ -403,35 +403,40 @@ pub fn locate(text: &str, path: &str) -> Option<std::ops::Range<usize>> {
     span
 }
 
-/// A rig loaded and checked: the file as written plus where it came from.
+/// One file a rig was read from: the rig itself first, then each file it `extends`.
+#[derive(Debug, Clone)]
+pub struct Source {
+    /// Path on disk, or the bundled name.
+    pub path: PathBuf,
+    /// Text, for locating fields in later errors.
+    pub text: String,
+}
+
+/// A rig loaded and checked: the merged content plus where it came from.
 #[derive(Debug, Clone)]
 pub struct Rig {
-    /// The parsed, overridden and validated content.
+    /// The parsed, merged, overridden and validated content.
     pub file: RigFile,
-    /// Source path (or a name for embedded rigs).
-    pub path: PathBuf,
-    /// Source text, for locating fields in later errors.
-    pub text: String,
-    /// Dotted paths changed by `--set`.
+    /// The rig file and the files it extends, child first.
+    pub sources: Vec<Source>,
+    /// Dotted paths changed by `--set` or `--law`.
     pub overridden: Vec<String>,
 }
 
 impl Rig {
-    /// An error about `field`, located in the file (or attributed to `--set`).
+    /// The rig file's own path (or bundled name).
+    pub fn path(&self) -> &Path {
+        &self.sources[0].path
+    }
+
+    /// An error about `field`, located in the file that sets it (or attributed to `--set`).
     pub fn error(&self, field: &str, message: impl Into<String>) -> RigError {
-        field_error(
-            &self.path,
-            &self.text,
-            &self.overridden,
-            field,
-            message.into(),
-        )
+        field_error(&self.sources, &self.overridden, field, message.into())
     }
 }
 
 fn field_error(
-    path: &Path,
-    text: &str,
+    sources: &[Source],
     overridden: &[String],
     field: &str,
     message: String,
@@ -448,17 +453,22 @@ fn field_error(
             message,
         };
     }
-    let (line, column) = match locate(text, field) {
-        Some(span) => {
-            let (l, c) = line_col(text, span.start);
-            (Some(l), Some(c))
+    for src in sources {
+        if let Some(span) = locate(&src.text, field) {
+            let (l, c) = line_col(&src.text, span.start);
+            return RigError {
+                file: src.path.clone(),
+                line: Some(l),
+                column: Some(c),
+                field: field.into(),
+                message,
+            };
         }
-        None => (None, None),
-    };
+    }
     RigError {
-        file: path.to_path_buf(),
-        line,
-        column,
+        file: sources.first().map(|s| s.path.clone()).unwrap_or_default(),
+        line: None,
+        column: None,
         field: field.into(),
         message,
     }
@@ -534,47 +544,173 @@ fn serde_error(path: &Path, text: &str, e: &toml::de::Error) -> RigError {
     }
 }
 
-/// Load a rig from `text` (named `path` in messages), apply `--set` overrides, and validate.
-pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, RigError> {
-    // First the file exactly as written, so errors point into it.
-    let file: RigFile = toml::from_str(text).map_err(|e| serde_error(path, text, &e))?;
-    let mut overridden = Vec::new();
-    let file = if sets.is_empty() {
-        file
-    } else {
-        let mut table: toml::Table =
-            toml::from_str(text).map_err(|e| serde_error(path, text, &e))?;
-        for s in sets {
-            overridden.push(apply_set(&mut table, s)?);
+/// Where a key named in a serde message (`unknown field `x``) is written, for errors found
+/// after merging, when toml's own spans are gone.
+fn locate_key(sources: &[Source], message: &str, overridden: &[String]) -> RigError {
+    let key = message.split('`').nth(1).unwrap_or("");
+    if !key.is_empty() {
+        for src in sources {
+            for (i, line) in src.text.lines().enumerate() {
+                let t = line.trim_start();
+                let hit = t
+                    .strip_prefix('[')
+                    .map(|h| {
+                        h.trim_start_matches('[')
+                            .split(['.', ']'])
+                            .any(|p| p.trim() == key)
+                    })
+                    .unwrap_or_else(|| {
+                        t.split('=')
+                            .next()
+                            .is_some_and(|k| k.trim() == key && t.contains('='))
+                    });
+                if hit {
+                    return RigError {
+                        file: src.path.clone(),
+                        line: Some(i + 1),
+                        column: Some(line.len() - t.len() + 1),
+                        field: key.into(),
+                        message: message.into(),
+                    };
+                }
+            }
         }
-        RigFile::deserialize(toml::Value::Table(table)).map_err(|e| RigError {
-            file: PathBuf::from("--set"),
-            line: None,
-            column: None,
-            field: overridden.join(", "),
-            message: e.message().to_string(),
-        })?
+    }
+    RigError {
+        file: if overridden.is_empty() {
+            sources.first().map(|s| s.path.clone()).unwrap_or_default()
+        } else {
+            PathBuf::from("--set")
+        },
+        line: None,
+        column: None,
+        field: if key.is_empty() {
+            overridden.join(", ")
+        } else {
+            key.into()
+        },
+        message: message.into(),
+    }
+}
+
+/// Overlay `child` on `base`: tables merge key by key, anything else replaces.
+fn merge(base: &mut toml::Table, child: toml::Table) {
+    for (k, v) in child {
+        match (base.get_mut(&k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(c)) => merge(b, c),
+            (_, v) => {
+                base.insert(k, v);
+            }
+        }
+    }
+}
+
+/// Find the text of a rig named by `extends` in `from`: next to it on disk, else bundled.
+fn resolve_extends(from: &Path, name: &str) -> Option<Source> {
+    if let Some(dir) = from.parent() {
+        let path = dir.join(name);
+        if let Ok(text) = std::fs::read_to_string(&path) {
+            return Some(Source { path, text });
+        }
+    }
+    crate::bundled::rig(name).map(|text| Source {
+        path: PathBuf::from(format!("<bundled>/{name}")),
+        text: text.to_string(),
+    })
+}
+
+/// Load a rig from `text` (named `path` in messages), resolve `extends`, apply `--set`
+/// overrides, and validate.
+pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, RigError> {
+    let mut sources = vec![Source {
+        path: path.to_path_buf(),
+        text: text.to_string(),
+    }];
+    let parse = |src: &Source| -> Result<toml::Table, RigError> {
+        toml::from_str(&src.text).map_err(|e| serde_error(&src.path, &src.text, &e))
+    };
+    let mut tables = vec![parse(&sources[0])?];
+    while let Some(ext) = tables.last_mut().and_then(|t| t.remove("extends")) {
+        let from = sources.last().map(|s| s.path.clone()).unwrap_or_default();
+        let name = ext.as_str().ok_or_else(|| {
+            field_error(
+                &sources,
+                &[],
+                "extends",
+                "must be the file name of the rig to extend".into(),
+            )
+        })?;
+        if sources.len() > 8 {
+            return Err(field_error(
+                &sources,
+                &[],
+                "extends",
+                "more than 8 levels of `extends`: is there a cycle?".into(),
+            ));
+        }
+        let base = resolve_extends(&from, name).ok_or_else(|| {
+            field_error(
+                &sources,
+                &[],
+                "extends",
+                format!(
+                    "cannot find `{name}` next to `{}` or among the bundled rigs",
+                    from.display()
+                ),
+            )
+        })?;
+        tables.push(parse(&base)?);
+        sources.push(base);
+    }
+    let mut overridden = Vec::new();
+    let single = tables.len() == 1;
+    let mut table = tables.pop().unwrap_or_default();
+    while let Some(child) = tables.pop() {
+        merge(&mut table, child);
+    }
+    for s in sets {
+        overridden.push(apply_set(&mut table, s)?);
+    }
+    let file = if single && sets.is_empty() {
+        // The file exactly as written: toml's spans give precise locations.
+        toml::from_str::<RigFile>(text).map_err(|e| serde_error(path, text, &e))?
+    } else {
+        RigFile::deserialize(toml::Value::Table(table))
+            .map_err(|e| locate_key(&sources, e.message(), &overridden))?
     };
     let rig = Rig {
         file,
-        path: path.to_path_buf(),
-        text: text.to_string(),
+        sources,
         overridden,
     };
     validate(&rig)?;
     Ok(rig)
 }
 
-/// Load a rig file from disk.
+/// Load a rig from disk, or a bundled rig by name (`crf250r-motored` or `crf250r-motored.toml`)
+/// when no such file exists.
 pub fn load_rig(path: &Path, sets: &[String]) -> Result<Rig, RigError> {
-    let text = std::fs::read_to_string(path).map_err(|e| RigError {
-        file: path.to_path_buf(),
-        line: None,
-        column: None,
-        field: "(file)".into(),
-        message: format!("cannot read the rig file: {e}"),
-    })?;
-    load_rig_text(path, &text, sets)
+    match std::fs::read_to_string(path) {
+        Ok(text) => load_rig_text(path, &text, sets),
+        Err(e) => {
+            let name = path.to_string_lossy();
+            match crate::bundled::rig(&name) {
+                Some(text) => load_rig_text(&PathBuf::from(format!("<bundled>/{}", crate::bundled::file_name(&name))), text, sets),
+                None => Err(RigError {
+                    file: path.to_path_buf(),
+                    line: None,
+                    column: None,
+                    field: "(file)".into(),
+                    message: format!("cannot read the rig file ({e}), and no bundled rig has that name; bundled: {}", crate::bundled::rig_names().join(", ")),
+                }),
+            }
+        }
+    }
+}
+
+/// Validate a rig again after a program changed it (a study setting the cycle from data).
+pub fn revalidate(rig: &Rig) -> Result<(), Box<RigError>> {
+    validate(rig).map_err(Box::new)
 }
 
 fn validate(rig: &Rig) -> Result<(), RigError> {
@@ -776,51 +912,59 @@ fn validate(rig: &Rig) -> Result<(), RigError> {
     Ok(())
 }
 
-/// Apply `--law JOINT=LAW[:PARAMS_TOML_FILE]` arguments: the first for a joint replaces the
-/// rig's laws there, later ones add.
-pub fn attach_laws(rig: &mut Rig, args: &[String]) -> Result<(), RigError> {
-    let err = |arg: &str, message: String| RigError {
+/// Parse one `--law JOINT=LAW[:PARAMS_TOML_FILE]` argument into the joint and the law.
+pub fn parse_law_arg(arg: &str) -> Result<(String, LawRef), RigError> {
+    let err = |message: String| RigError {
         file: PathBuf::from("--law"),
         line: None,
         column: None,
         field: arg.to_string(),
         message,
     };
-    let mut replaced: Vec<String> = Vec::new();
-    for arg in args {
-        let (joint, spec) = arg
-            .split_once('=')
-            .ok_or_else(|| err(arg, "expected JOINT=LAW or JOINT=LAW:PARAMS.toml".into()))?;
-        let (law, params) = match spec.split_once(':') {
-            Some((l, file)) => {
-                let text = std::fs::read_to_string(file)
-                    .map_err(|e| err(arg, format!("cannot read parameter file `{file}`: {e}")))?;
-                let table: toml::Table = toml::from_str(&text).map_err(|e: toml::de::Error| {
-                    let at = e.span().map(|s| line_col(&text, s.start));
-                    let place = at.map_or(String::new(), |(l, c)| format!(":{l}:{c}"));
-                    err(arg, format!("{file}{place}: {}", e.message()))
-                })?;
-                (l, table)
-            }
-            None => (spec, toml::Table::new()),
-        };
-        let j = rig.file.joints.get_mut(joint).ok_or_else(|| {
-            err(
-                arg,
-                format!(
-                    "unknown joint `{joint}`; the rig's joints are {}",
-                    JOINT_NAMES.join(", ")
-                ),
-            )
-        })?;
-        if !replaced.iter().any(|r| r == joint) {
-            j.laws.clear();
-            replaced.push(joint.to_string());
+    let (joint, spec) = arg
+        .split_once('=')
+        .ok_or_else(|| err("expected JOINT=LAW or JOINT=LAW:PARAMS.toml".into()))?;
+    if !JOINT_NAMES.contains(&joint) {
+        return Err(err(format!(
+            "unknown joint `{joint}`; the rig's joints are {}",
+            JOINT_NAMES.join(", ")
+        )));
+    }
+    let (law, params) = match spec.split_once(':') {
+        Some((l, file)) => {
+            let text = std::fs::read_to_string(file)
+                .map_err(|e| err(format!("cannot read parameter file `{file}`: {e}")))?;
+            let table: toml::Table = toml::from_str(&text).map_err(|e: toml::de::Error| {
+                let at = e.span().map(|s| line_col(&text, s.start));
+                let place = at.map_or(String::new(), |(l, c)| format!(":{l}:{c}"));
+                err(format!("{file}{place}: {}", e.message()))
+            })?;
+            (l, table)
         }
-        j.laws.push(LawRef {
+        None => (spec, toml::Table::new()),
+    };
+    Ok((
+        joint.to_string(),
+        LawRef {
             law: law.to_string(),
             params,
-        });
+        },
+    ))
+}
+
+/// Apply `--law JOINT=LAW[:PARAMS_TOML_FILE]` arguments: the first for a joint replaces the
+/// rig's laws there, later ones add.
+pub fn attach_laws(rig: &mut Rig, args: &[String]) -> Result<(), RigError> {
+    let mut replaced: Vec<String> = Vec::new();
+    for arg in args {
+        let (joint, law) = parse_law_arg(arg)?;
+        if let Some(j) = rig.file.joints.get_mut(&joint) {
+            if !replaced.contains(&joint) {
+                j.laws.clear();
+                replaced.push(joint.clone());
+            }
+            j.laws.push(law);
+        }
         rig.overridden.push(format!("joints.{joint}.laws"));
     }
     Ok(())

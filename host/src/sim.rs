@@ -372,8 +372,9 @@ impl Simulation {
         control: Result<f64, f64>,
         saturated: bool,
         guess: &JointLoads,
+        oil: (f64, f64),
     ) -> Result<(Eval, JointLoads), SimError> {
-        let (temp, visc) = self.oil_at(t);
+        let (temp, visc) = oil;
         let mut loads = *guess;
         let mut prev: Option<[f64; 5]> = None;
         let mut rates = vec![0.0; self.n_rates()];
@@ -516,8 +517,15 @@ impl Simulation {
     }
 
     /// Commit every stateful law over the accepted step ending at `e`.
-    fn commit(&mut self, t: f64, dt: f64, theta: f64, e: &Eval) -> Result<(), SimError> {
-        let (temp, visc) = self.oil_at(t);
+    fn commit(
+        &mut self,
+        t: f64,
+        dt: f64,
+        theta: f64,
+        e: &Eval,
+        oil: (f64, f64),
+    ) -> Result<(), SimError> {
+        let (temp, visc) = oil;
         let st = self
             .mech
             .solve(theta, e.omega, e.alpha, &JointLoads::default())
@@ -613,7 +621,8 @@ impl Simulation {
                 // The reference acceleration may jump at t: start this interval from its own
                 // side of the jump so Simpson's rule never straddles it.
                 let (th0, w0, a0) = self.cycle.reference_after(t);
-                let (e0, l0) = self.evaluate(t, dt, th0, w0, Ok(a0), false, &guess)?;
+                let (e0, l0) =
+                    self.evaluate(t, dt, th0, w0, Ok(a0), false, &guess, self.oil_at(t))?;
                 last_rates.clone_from(&e0.rates);
                 guess = l0;
             }
@@ -622,10 +631,19 @@ impl Simulation {
                 let h = t1 - t;
                 let (e_end, incr, new_state) = if prescribed {
                     let (th_m, w_m, a_m) = self.cycle.reference(t + 0.5 * h);
-                    let (em, lm) =
-                        self.evaluate(t + 0.5 * h, h, th_m, w_m, Ok(a_m), false, &guess)?;
+                    let (em, lm) = self.evaluate(
+                        t + 0.5 * h,
+                        h,
+                        th_m,
+                        w_m,
+                        Ok(a_m),
+                        false,
+                        &guess,
+                        self.oil_at(t + 0.5 * h),
+                    )?;
                     let (th1, w1, a1) = self.cycle.reference(t1);
-                    let (e1, l1) = self.evaluate(t1, h, th1, w1, Ok(a1), false, &lm)?;
+                    let (e1, l1) =
+                        self.evaluate(t1, h, th1, w1, Ok(a1), false, &lm, self.oil_at(t1))?;
                     guess = l1;
                     max_it = max_it.max(em.iterations).max(e1.iterations);
                     // Simpson's rule on every accumulated rate.
@@ -644,7 +662,7 @@ impl Simulation {
                 theta = new_state.0;
                 omega = new_state.1;
                 z = new_state.2;
-                self.commit(t1, h, theta, &e_end)?;
+                self.commit(t1, h, theta, &e_end, self.oil_at(t1))?;
                 last_rates.clone_from(&e_end.rates);
                 steps += 1;
                 // Low-pass filter of the motoring torque (first order, exact discretisation).
@@ -771,11 +789,11 @@ impl Simulation {
             Drive::Prescribed => {
                 let (th, w, a) = self.cycle.reference(t);
                 let _ = (theta, omega, z);
-                self.evaluate(t, dt, th, w, Ok(a), false, guess)
+                self.evaluate(t, dt, th, w, Ok(a), false, guess, self.oil_at(t))
             }
             Drive::Pi { .. } => {
                 let (torque, _, sat) = self.pi_torque(t, omega, z);
-                self.evaluate(t, dt, theta, omega, Err(torque), sat, guess)
+                self.evaluate(t, dt, theta, omega, Err(torque), sat, guess, self.oil_at(t))
             }
         }
     }
@@ -799,7 +817,7 @@ impl Simulation {
                      g: &JointLoads|
          -> Result<(Eval, JointLoads, [f64; 3], Vec<f64>), SimError> {
             let (torque, dz, sat) = self.pi_torque(tt, w, zz);
-            let (e, l) = self.evaluate(tt, h, th, w, Err(torque), sat, g)?;
+            let (e, l) = self.evaluate(tt, h, th, w, Err(torque), sat, g, self.oil_at(tt))?;
             let r = e.rates.clone();
             Ok((e.clone(), l, [w, e.alpha, dz], r))
         };
@@ -879,7 +897,24 @@ impl Simulation {
         }
         let dt = (t_e - t_s).max(1e-300);
         let dtheta = theta_e - theta_s;
-        let d = |k: usize| acc_e[k] - acc_s[k];
+        let delta: Vec<f64> = acc_e.iter().zip(&acc_s).map(|(e, s)| e - s).collect();
+        self.plateau_result(pi, omega_ref, &delta, dt, dtheta, [t_s, t_e], revs)
+    }
+
+    /// Plateau values from the accumulated quantities `delta` over a window of `dt` seconds
+    /// and `dtheta` radians.
+    #[allow(clippy::too_many_arguments)]
+    fn plateau_result(
+        &self,
+        pi: usize,
+        omega_ref: f64,
+        delta: &[f64],
+        dt: f64,
+        dtheta: f64,
+        window_s: [f64; 2],
+        revs: u32,
+    ) -> PlateauResult {
+        let d = |k: usize| delta[k];
         let mut joints = Vec::new();
         let mut k = 0;
         for joint in &self.joints {
@@ -907,9 +942,101 @@ impl Simulation {
             motoring_torque_nm: d(0) / dtheta,
             oil_temp_c: self.temps[pi],
             viscosity_pa_s: self.viscosities[pi],
-            window_s: [t_s, t_e],
+            window_s,
             revolutions: revs,
             joints,
         }
+    }
+
+    /// Steady state at every plateau speed, computed directly: the crank turns at exactly the
+    /// plateau speed and each quantity is integrated over one revolution (Simpson, the run's
+    /// crank-angle step). Stateless laws need one revolution; with stateful laws revolutions are
+    /// repeated until the revolution's mean torque repeats to 1e-9 (at most 200).
+    pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
+        let plateaus = self.cycle.plateaus().to_vec();
+        let n = self.n_rates();
+        let stateful = self
+            .joints
+            .iter()
+            .any(|j| j.laws.iter().any(|l| !l.state.is_empty()));
+        let mut results = Vec::with_capacity(plateaus.len());
+        let (mut motor, mut dissipated, mut max_it, mut steps) = (0.0, 0.0, 0_u32, 0_u64);
+        for (pi, p) in plateaus.iter().enumerate() {
+            let w = p.omega;
+            let oil = (self.temps[pi], self.viscosities[pi]);
+            let m = ((TAU / self.step_rad).ceil() as usize).max(16);
+            let h = TAU / w / m as f64;
+            for j in &mut self.joints {
+                for l in &mut j.laws {
+                    l.state.iter_mut().for_each(|x| *x = 0.0);
+                }
+            }
+            let mut guess = JointLoads::default();
+            let mut last_torque = f64::NAN;
+            let mut delta = vec![0.0; n];
+            let max_revs = if stateful { 200 } else { 1 };
+            let mut t = 0.0;
+            for _ in 0..max_revs {
+                delta.iter_mut().for_each(|x| *x = 0.0);
+                let (e0, l0) = self.evaluate(t, h, w * t, w, Ok(0.0), false, &guess, oil)?;
+                let mut last = e0.rates;
+                guess = l0;
+                for _ in 0..m {
+                    let (em, lm) = self.evaluate(
+                        t + 0.5 * h,
+                        h,
+                        w * (t + 0.5 * h),
+                        w,
+                        Ok(0.0),
+                        false,
+                        &guess,
+                        oil,
+                    )?;
+                    let (e1, l1) =
+                        self.evaluate(t + h, h, w * (t + h), w, Ok(0.0), false, &lm, oil)?;
+                    for k in 0..n {
+                        delta[k] += h / 6.0 * (last[k] + 4.0 * em.rates[k] + e1.rates[k]);
+                    }
+                    max_it = max_it.max(em.iterations).max(e1.iterations);
+                    t += h;
+                    self.commit(t, h, w * t, &e1, oil)?;
+                    last = e1.rates;
+                    guess = l1;
+                    steps += 1;
+                }
+                let torque = delta[0] / TAU;
+                if !stateful || (torque - last_torque).abs() <= 1e-9 * torque.abs().max(1e-12) {
+                    break;
+                }
+                last_torque = torque;
+            }
+            motor += delta[0];
+            dissipated += delta[1..1 + self.n_laws].iter().sum::<f64>();
+            results.push(self.plateau_result(pi, w, &delta, TAU / w, TAU, [t - TAU / w, t], 1));
+        }
+        // Over a periodic revolution the mechanical energy returns to its start value, so the
+        // balance is motor work = dissipation.
+        let residual = motor - dissipated;
+        let energy = EnergyBalance {
+            motor_work_j: motor,
+            mechanical_energy_change_j: 0.0,
+            dissipated_j: dissipated,
+            residual_j: residual,
+            relative_residual: if motor.abs() > 0.0 {
+                residual.abs() / motor.abs()
+            } else {
+                residual.abs()
+            },
+        };
+        Ok(RunResult {
+            rig: self.rig_name.clone(),
+            drive: "steady".into(),
+            plateaus: results,
+            energy_residual_j: residual,
+            energy,
+            steps,
+            max_friction_iterations: max_it,
+            warnings: Vec::new(),
+        })
     }
 }

@@ -1,0 +1,314 @@
+//! Law sets: files that attach laws and parameters to joints, usable with any rig, and that
+//! mark parameters as free (with bounds) for calibration.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use tribo_plugin_api::loader::LawRegistry;
+use tribo_plugin_api::ParamValue;
+
+use crate::rig::{line_col, LawRef, Rig, RigError, JOINT_NAMES};
+
+/// A law-set file as written.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LawSetFile {
+    /// Name shown in comparisons.
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Laws, each on one joint.
+    pub laws: Vec<LawEntry>,
+}
+
+/// One law on one joint.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LawEntry {
+    /// Joint name.
+    pub joint: String,
+    /// Law name.
+    pub law: String,
+    /// Parameters (law defaults for the rest).
+    #[serde(default)]
+    pub params: toml::Table,
+    /// Parameters free for calibration, with `[lower, upper]` bounds.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub free: BTreeMap<String, [f64; 2]>,
+}
+
+/// A loaded law set.
+#[derive(Debug, Clone)]
+pub struct LawSet {
+    /// Content.
+    pub file: LawSetFile,
+    /// Where it came from.
+    pub path: PathBuf,
+    text: String,
+}
+
+/// A calibration parameter: `JOINT.LAW.PARAM`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FreeParam {
+    /// `joint.law.param`.
+    pub id: String,
+    /// Index of the law entry.
+    pub entry: usize,
+    /// Parameter name.
+    pub param: String,
+    /// Bounds.
+    pub bounds: [f64; 2],
+    /// Current value.
+    pub value: f64,
+}
+
+fn error(path: &Path, text: &str, field: &str, message: String) -> RigError {
+    let at = crate::rig::locate(text, field).map(|s| line_col(text, s.start));
+    RigError {
+        file: path.to_path_buf(),
+        line: at.map(|a| a.0),
+        column: at.map(|a| a.1),
+        field: field.into(),
+        message,
+    }
+}
+
+impl LawSet {
+    /// Load a law set from a file, or a bundled one by name (`fedem-baseline`).
+    pub fn load(arg: &str) -> Result<Self, RigError> {
+        let path = PathBuf::from(arg);
+        let (path, text) = match std::fs::read_to_string(&path) {
+            Ok(t) => (path, t),
+            Err(e) => match crate::bundled::lawset(arg) {
+                Some(t) => (PathBuf::from(format!("<bundled>/{}.toml", arg.trim_end_matches(".toml"))), t.to_string()),
+                None => {
+                    return Err(RigError {
+                        file: path,
+                        line: None,
+                        column: None,
+                        field: "(file)".into(),
+                        message: format!(
+                            "cannot read the law set ({e}), and no bundled law set has that name; bundled: {}",
+                            crate::bundled::lawset_names().join(", ")
+                        ),
+                    })
+                }
+            },
+        };
+        Self::from_text(&path, &text)
+    }
+
+    /// Parse a law set from text.
+    pub fn from_text(path: &Path, text: &str) -> Result<Self, RigError> {
+        let file: LawSetFile = toml::from_str(text).map_err(|e| {
+            let at = e.span().map(|s| line_col(text, s.start));
+            RigError {
+                file: path.to_path_buf(),
+                line: at.map(|a| a.0),
+                column: at.map(|a| a.1),
+                field: "(law set)".into(),
+                message: e.message().to_string(),
+            }
+        })?;
+        let set = Self {
+            file,
+            path: path.to_path_buf(),
+            text: text.to_string(),
+        };
+        for (i, e) in set.file.laws.iter().enumerate() {
+            if !JOINT_NAMES.contains(&e.joint.as_str()) {
+                return Err(error(
+                    path,
+                    text,
+                    &format!("laws[{i}].joint"),
+                    format!(
+                        "the rig has no joint `{}`; joints are {}",
+                        e.joint,
+                        JOINT_NAMES.join(", ")
+                    ),
+                ));
+            }
+            for (p, [lo, hi]) in &e.free {
+                if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                    return Err(error(
+                        path,
+                        text,
+                        &format!("laws[{i}].free.{p}"),
+                        format!("bounds must be finite with lower < upper, got [{lo}, {hi}]"),
+                    ));
+                }
+            }
+        }
+        Ok(set)
+    }
+
+    /// Add `--law JOINT=LAW[:PARAMS.toml]` arguments to the set (a user's law beside the set's).
+    pub fn add_law_args(&mut self, args: &[String]) -> Result<(), RigError> {
+        for arg in args {
+            let (joint, law) = crate::rig::parse_law_arg(arg)?;
+            self.file.laws.push(LawEntry {
+                joint,
+                law: law.law,
+                params: law.params,
+                free: BTreeMap::new(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Name.
+    pub fn name(&self) -> &str {
+        &self.file.name
+    }
+
+    /// Replace every law of `rig` with this set's laws.
+    pub fn apply(&self, rig: &mut Rig) {
+        for name in JOINT_NAMES {
+            if let Some(j) = rig.file.joints.get_mut(name) {
+                j.laws.clear();
+            }
+        }
+        for e in &self.file.laws {
+            if let Some(j) = rig.file.joints.get_mut(&e.joint) {
+                j.laws.push(LawRef {
+                    law: e.law.clone(),
+                    params: e.params.clone(),
+                });
+            }
+        }
+        rig.overridden.push("joints".into());
+    }
+
+    /// Free parameters: those marked in the file, or `ids` (`joint.law.param`) with bounds from
+    /// the file or, failing that, the law's declared range. Start values from the file or the
+    /// law's default.
+    pub fn free_params(
+        &self,
+        registry: &LawRegistry,
+        ids: Option<&[String]>,
+    ) -> Result<Vec<FreeParam>, RigError> {
+        let mut wanted: Vec<(usize, String, Option<[f64; 2]>)> = Vec::new();
+        match ids {
+            None => {
+                for (i, e) in self.file.laws.iter().enumerate() {
+                    for (p, b) in &e.free {
+                        wanted.push((i, p.clone(), Some(*b)));
+                    }
+                }
+            }
+            Some(ids) => {
+                for id in ids {
+                    let parts: Vec<&str> = id.splitn(3, '.').collect();
+                    let [joint, law, param] = parts[..] else {
+                        return Err(error(
+                            &self.path,
+                            &self.text,
+                            "laws",
+                            format!("`{id}` is not JOINT.LAW.PARAM"),
+                        ));
+                    };
+                    let i = self
+                        .file
+                        .laws
+                        .iter()
+                        .position(|e| e.joint == joint && e.law == law)
+                        .ok_or_else(|| {
+                            error(
+                                &self.path,
+                                &self.text,
+                                "laws",
+                                format!(
+                                    "`{id}`: the law set has no law `{law}` on joint `{joint}`"
+                                ),
+                            )
+                        })?;
+                    wanted.push((
+                        i,
+                        param.to_string(),
+                        self.file.laws[i].free.get(param).copied(),
+                    ));
+                }
+            }
+        }
+        let mut out = Vec::new();
+        for (i, param, bounds) in wanted {
+            let e = &self.file.laws[i];
+            let id = format!("{}.{}.{}", e.joint, e.law, param);
+            let lib = registry.get(&e.law).map_err(|err| {
+                error(
+                    &self.path,
+                    &self.text,
+                    &format!("laws[{i}].law"),
+                    err.to_string(),
+                )
+            })?;
+            let spec = lib
+                .description()
+                .parameters
+                .iter()
+                .find(|p| p.name == param)
+                .ok_or_else(|| {
+                    error(
+                        &self.path,
+                        &self.text,
+                        &format!("laws[{i}].free"),
+                        format!("law `{}` has no parameter `{param}`", e.law),
+                    )
+                })?;
+            let default = match &spec.default {
+                ParamValue::Number(x) => *x,
+                _ => {
+                    return Err(error(
+                        &self.path,
+                        &self.text,
+                        &format!("laws[{i}].free"),
+                        format!("`{id}` is not a number and cannot be fitted"),
+                    ))
+                }
+            };
+            let value = e
+                .params
+                .get(&param)
+                .and_then(|v| v.as_float().or(v.as_integer().map(|x| x as f64)))
+                .unwrap_or(default);
+            let bounds = bounds.unwrap_or([spec.min, spec.max]);
+            out.push(FreeParam {
+                id,
+                entry: i,
+                param,
+                bounds,
+                value: value.clamp(bounds[0], bounds[1]),
+            });
+        }
+        if out.is_empty() {
+            return Err(error(
+                &self.path,
+                &self.text,
+                "laws",
+                "no free parameters: mark some with `free = { PARAM = [lo, hi] }` or pass --params"
+                    .into(),
+            ));
+        }
+        Ok(out)
+    }
+
+    /// A copy with the free parameters set to `values`.
+    pub fn with_values(&self, free: &[FreeParam], values: &[f64]) -> Self {
+        let mut s = self.clone();
+        for (f, v) in free.iter().zip(values) {
+            s.file.laws[f.entry]
+                .params
+                .insert(f.param.clone(), toml::Value::Float(*v));
+        }
+        s
+    }
+
+    /// The law set as TOML text, with a header comment.
+    pub fn to_toml(&self, header: &str) -> Result<String, toml::ser::Error> {
+        let body = toml::to_string(&self.file)?;
+        let comments: String = header.lines().map(|l| format!("# {l}\n")).collect();
+        Ok(format!("{comments}\n{body}"))
+    }
+}

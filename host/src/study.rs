@@ -1,0 +1,260 @@
+//! The studies users come for: a side-by-side comparison of law sets against measurements, and
+//! the data they run on.
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::Serialize;
+use tribo_plugin_api::loader::LawRegistry;
+
+use crate::cycle::Segment;
+use crate::lawset::LawSet;
+use crate::rig::{Rig, RigError, Temperature};
+use crate::sim::{RunResult, SimError, Simulation};
+
+/// Why a study failed.
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// A rig or law-set problem.
+    #[error(transparent)]
+    Rig(#[from] Box<RigError>),
+    /// A run failed.
+    #[error("law set `{lawset}`: {source}")]
+    Run {
+        /// Law set.
+        lawset: String,
+        /// The failure.
+        source: Box<SimError>,
+    },
+    /// A data file problem.
+    #[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Data {
+        /// File.
+        file: PathBuf,
+        /// Line, if known.
+        line: Option<u64>,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// One measured point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DataRow {
+    /// Engine speed, rpm.
+    pub speed_rpm: f64,
+    /// Measured motoring torque, N m.
+    pub torque_nm: f64,
+    /// Oil temperature, C.
+    pub oil_temp_c: f64,
+}
+
+/// Read a `speed_rpm,torque_nm,oil_temp_c` CSV from disk, or a bundled data file by name.
+/// Lines starting with `#` are comments (sources).
+pub fn read_data(arg: &str) -> Result<(PathBuf, Vec<DataRow>), StudyError> {
+    let path = PathBuf::from(arg);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) => match crate::bundled::data(arg) {
+            Some(t) => {
+                let name = PathBuf::from(format!("<bundled>/{}", crate::bundled::file_name(arg)));
+                return parse_data(&name, t).map(|r| (name, r));
+            }
+            None => {
+                return Err(StudyError::Data {
+                    file: path,
+                    line: None,
+                    message: format!("cannot read the data file: {e}"),
+                })
+            }
+        },
+    };
+    parse_data(&path, &text).map(|r| (path, r))
+}
+
+/// Parse data text (see [`read_data`]).
+pub fn parse_data(path: &Path, text: &str) -> Result<Vec<DataRow>, StudyError> {
+    let err = |line: Option<u64>, message: String| StudyError::Data {
+        file: path.to_path_buf(),
+        line,
+        message,
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let headers = reader
+        .headers()
+        .map_err(|e| err(None, e.to_string()))?
+        .clone();
+    let col = |name: &str| {
+        headers.iter().position(|h| h == name).ok_or_else(|| {
+            err(None, format!("missing column `{name}`; expected the columns speed_rpm,torque_nm,oil_temp_c (found: {})", headers.iter().collect::<Vec<_>>().join(",")))
+        })
+    };
+    let (cs, ct, co) = (col("speed_rpm")?, col("torque_nm")?, col("oil_temp_c")?);
+    let mut rows = Vec::new();
+    for rec in reader.records() {
+        let rec = rec.map_err(|e| err(e.position().map(|p| p.line()), e.to_string()))?;
+        let line = rec.position().map(|p| p.line());
+        let num = |i: usize, name: &str| -> Result<f64, StudyError> {
+            let cell = rec.get(i).unwrap_or("");
+            cell.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| {
+                    err(
+                        line,
+                        format!(
+                            "column `{name}` (column {}): `{cell}` is not a number",
+                            i + 1
+                        ),
+                    )
+                })
+        };
+        let row = DataRow {
+            speed_rpm: num(cs, "speed_rpm")?,
+            torque_nm: num(ct, "torque_nm")?,
+            oil_temp_c: num(co, "oil_temp_c")?,
+        };
+        if row.speed_rpm <= 0.0 {
+            return Err(err(
+                line,
+                format!("speed_rpm must be positive, got {}", row.speed_rpm),
+            ));
+        }
+        rows.push(row);
+    }
+    if rows.is_empty() {
+        return Err(err(None, "no data rows".into()));
+    }
+    rows.sort_by(|a, b| a.speed_rpm.total_cmp(&b.speed_rpm));
+    if rows.windows(2).any(|w| w[0].speed_rpm == w[1].speed_rpm) {
+        return Err(err(None, "two rows have the same speed".into()));
+    }
+    Ok(rows)
+}
+
+/// The thesis's cycle pattern through the data's speeds: 1.5 s up to the first speed, then 0.5 s
+/// ramps between speeds, each held 1 s (thesis 9.1.1).
+pub fn cycle_through(rows: &[DataRow]) -> Vec<Segment> {
+    let mut s = Vec::new();
+    for (i, r) in rows.iter().enumerate() {
+        s.push(Segment::Ramp {
+            to_rpm: r.speed_rpm,
+            duration_s: if i == 0 { 1.5 } else { 0.5 },
+        });
+        s.push(Segment::Hold { duration_s: 1.0 });
+    }
+    s
+}
+
+/// `rig` with `lawset` attached, and, with data, the cycle through the data's speeds at the
+/// data's oil temperatures.
+pub fn prepare(rig: &Rig, lawset: &LawSet, data: Option<&[DataRow]>) -> Result<Rig, Box<RigError>> {
+    let mut r = rig.clone();
+    lawset.apply(&mut r);
+    if let Some(rows) = data {
+        r.file.cycle.segments = Some(cycle_through(rows));
+        r.file.oil.temperature_c =
+            Temperature::PerPlateau(rows.iter().map(|x| x.oil_temp_c).collect());
+        r.overridden.push("cycle".into());
+        r.overridden.push("oil.temperature_c".into());
+        crate::rig::revalidate(&r)?;
+    }
+    Ok(r)
+}
+
+/// Run one rig (steady-state or full cycle).
+pub fn run_rig(rig: &Rig, registry: &LawRegistry, steady: bool) -> Result<RunResult, SimError> {
+    let mut sim = Simulation::new(rig, registry)?;
+    if steady {
+        sim.run_steady()
+    } else {
+        sim.run(None)
+    }
+}
+
+/// One law set's results against the data.
+#[derive(Debug, Clone, Serialize)]
+pub struct SetResult {
+    /// Law-set name.
+    pub lawset: String,
+    /// Its file.
+    pub file: String,
+    /// The run.
+    pub run: RunResult,
+    /// Model minus measurement at each speed, N m.
+    pub errors_nm: Vec<f64>,
+    /// Root-mean-square error, N m.
+    pub rmse_nm: f64,
+    /// Largest absolute error, N m.
+    pub max_abs_error_nm: f64,
+}
+
+/// A side-by-side comparison.
+#[derive(Debug, Clone, Serialize)]
+pub struct Comparison {
+    /// Rig name.
+    pub rig: String,
+    /// Data file.
+    pub data_file: String,
+    /// The measurements.
+    pub data: Vec<DataRow>,
+    /// `steady` or `transient`.
+    pub mode: String,
+    /// Each law set.
+    pub sets: Vec<SetResult>,
+}
+
+/// RMSE and largest absolute error of `model` against `measured`.
+pub fn errors(model: &[f64], measured: &[f64]) -> (Vec<f64>, f64, f64) {
+    let e: Vec<f64> = model.iter().zip(measured).map(|(m, d)| m - d).collect();
+    let rmse = (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt();
+    let max = e.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+    (e, rmse, max)
+}
+
+/// Run every law set on `rig` at the data's speeds and temperatures, in parallel. The order of
+/// the results is the order of `lawsets`, whatever the scheduling.
+pub fn compare(
+    rig: &Rig,
+    lawsets: &[LawSet],
+    data_file: &Path,
+    data: &[DataRow],
+    registry: &LawRegistry,
+    steady: bool,
+) -> Result<Comparison, StudyError> {
+    let measured: Vec<f64> = data.iter().map(|r| r.torque_nm).collect();
+    let sets = lawsets
+        .par_iter()
+        .map(|ls| {
+            let r = prepare(rig, ls, Some(data))?;
+            let run = run_rig(&r, registry, steady).map_err(|source| StudyError::Run {
+                lawset: ls.name().into(),
+                source: Box::new(source),
+            })?;
+            let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
+            let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
+            Ok(SetResult {
+                lawset: ls.name().into(),
+                file: ls.path.display().to_string(),
+                run,
+                errors_nm,
+                rmse_nm,
+                max_abs_error_nm,
+            })
+        })
+        .collect::<Result<Vec<_>, StudyError>>()?;
+    Ok(Comparison {
+        rig: rig.file.name.clone(),
+        data_file: data_file.display().to_string(),
+        data: data.to_vec(),
+        mode: if steady {
+            "steady".into()
+        } else {
+            "transient".into()
+        },
+        sets,
+    })
+}

@@ -11,11 +11,13 @@
 //! - [`cycle`], [`oil`]: the test cycle's reference speed, oil viscosity;
 //! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions);
 //! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
+//! - [`fit`]: least-squares calibration of a law set's free parameters;
 //! - [`study`]: law-set comparisons against measured data;
 //! - [`sim`]: the run through the test cycle with laws on the joints, and plateau measurement.
 
 pub mod bundled;
 pub mod cycle;
+pub mod fit;
 pub mod laws;
 pub mod lawset;
 pub mod mechanics;

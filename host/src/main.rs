@@ -85,6 +85,60 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// How the motoring torque and each joint's friction change when a body is made lighter or
+    /// heavier (the thesis's lighter-rod study), per law set.
+    MassResponse {
+        /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
+        rig: Option<PathBuf>,
+        /// Body to scale.
+        #[arg(long, value_enum, default_value = "rod")]
+        body: tribo::study::ScaledBody,
+        /// Mass (and inertia) scale factor.
+        #[arg(long, default_value_t = 0.6)]
+        scale: f64,
+        /// A sweep of scale factors instead (e.g. 0.5,0.6,...,1.1); writes a plot.
+        #[arg(long, value_delimiter = ',')]
+        scales: Option<Vec<f64>>,
+        /// Law set (bundled name or file); repeat for several (default: fedem-baseline and
+        /// stribeck-duty).
+        #[arg(long = "lawset")]
+        lawsets: Vec<String>,
+        /// Override rig values, as for `run`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Steady state at each speed instead of the full test cycle.
+        #[arg(long)]
+        steady: bool,
+        /// Output directory for mass_response.json (and mass_sweep.svg with --scales).
+        #[arg(long, default_value = "tribo-mass-response")]
+        out: PathBuf,
+        /// Print JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Calibrate a law set's free parameters to measured torque (least squares, steady state).
+    Fit {
+        /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
+        rig: Option<PathBuf>,
+        /// Law set to calibrate (bundled name or file).
+        #[arg(long)]
+        lawset: String,
+        /// Parameters to fit, JOINT.LAW.PARAM,... (default: those the law set marks free).
+        #[arg(long, value_delimiter = ',')]
+        params: Option<Vec<String>>,
+        /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the thesis's table 10.4).
+        #[arg(long)]
+        data: Option<String>,
+        /// Override rig values, as for `run`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Where to write the calibrated law set (default: <lawset>-fitted.toml).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print JSON instead of the report.
+        #[arg(long)]
+        json: bool,
+    },
     /// Generate a new law plugin crate with a documented law, parameters and unit tests.
     NewLaw {
         /// Law name: lowercase letters, digits and hyphens (e.g. `my-law`).
@@ -185,6 +239,98 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             } else {
                 print!("{}", tribo::report::comparison_text(&cmp));
                 println!("\nwrote {}/comparison.csv, comparison.json, torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg", out.display());
+            }
+        }
+        Command::MassResponse {
+            rig,
+            body,
+            scale,
+            scales,
+            lawsets,
+            sets,
+            steady,
+            out,
+            json,
+        } => {
+            let rig_path = rig.unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
+            let rig = tribo::rig::load_rig(&rig_path, &sets)?;
+            let names: Vec<String> = if lawsets.is_empty() {
+                tribo::bundled::DEFAULT_LAWSETS
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect()
+            } else {
+                lawsets
+            };
+            let sets_loaded = names
+                .iter()
+                .map(|n| tribo::lawset::LawSet::load(n))
+                .collect::<Result<Vec<_>, _>>()?;
+            let scale_list = scales.clone().unwrap_or_else(|| vec![scale]);
+            if let Some(bad) = scale_list.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+                anyhow::bail!("--scale/--scales: every scale factor must be positive, got {bad}");
+            }
+            let registry = discover(&cli.plugins).context("loading law plugins")?;
+            let fedem = tribo::study::fedem_rod_change();
+            let fedem = (body == tribo::study::ScaledBody::Rod).then_some(fedem.as_slice());
+            let result = tribo::study::mass_response(
+                &rig,
+                &sets_loaded,
+                body,
+                &scale_list,
+                &registry,
+                steady,
+                fedem,
+            )?;
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            tribo::output::write_atomic(
+                &out.join("mass_response.json"),
+                serde_json::to_string_pretty(&result)?.as_bytes(),
+            )?;
+            if scales.is_some() {
+                tribo::plots::write_mass_sweep(&result, &out.join("mass_sweep.svg"))?;
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&result)?);
+            } else {
+                print!("{}", tribo::report::mass_text(&result));
+            }
+        }
+        Command::Fit {
+            rig,
+            lawset,
+            params,
+            data,
+            sets,
+            out,
+            json,
+        } => {
+            let rig_path = rig.unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
+            let rig = tribo::rig::load_rig(&rig_path, &sets)?;
+            let ls = tribo::lawset::LawSet::load(&lawset)?;
+            let (_, rows) =
+                tribo::study::read_data(data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+            let registry = discover(&cli.plugins).context("loading law plugins")?;
+            let free = ls.free_params(&registry, params.as_deref())?;
+            let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &rows, &registry)?;
+            let out = out.unwrap_or_else(|| PathBuf::from(format!("{}-fitted.toml", ls.name())));
+            let header = format!(
+                "Calibrated by `tribo fit` on rig {} against {} speeds: RMSE {:.4} N m.\nParameters fitted: {}",
+                rig.file.name,
+                rows.len(),
+                result.rmse_nm,
+                result.params.join(", ")
+            );
+            let text = fitted
+                .to_toml(&header)
+                .context("serialising the calibrated law set")?;
+            tribo::output::write_atomic(&out, text.as_bytes())
+                .with_context(|| format!("writing {}", out.display()))?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&result)?);
+            } else {
+                print!("{}", tribo::report::fit_text(&result));
+                println!("wrote the calibrated law set to {}", out.display());
             }
         }
         Command::NewLaw { name, dir } => {

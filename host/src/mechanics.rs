@@ -205,24 +205,19 @@ impl Mechanism {
         ])
     }
 
-    /// Constraint Jacobian `Phi_q` and the acceleration right-hand side `gamma` (without the
-    /// driver's `theta''`, which the caller adds to the last entry).
-    fn jacobian(&self, q: &Q, qd: &Q) -> (Jac, SVector<f64, NC>) {
+    /// Constraint Jacobian `Phi_q` (depends on positions only).
+    fn jacobian_matrix(&self, q: &Q) -> Jac {
         let mut j = Jac::zeros();
-        let mut g = SVector::<f64, NC>::zeros();
         let (pc, pr) = (q[2], q[5]);
-        let (wc, wr, wp) = (qd[2], qd[5], qd[8]);
         // Main bearing: r_c + A_c s_axis = 0.
-        let (a, b) = a_s(pc, self.crank_axis_local);
+        let (_, b) = a_s(pc, self.crank_axis_local);
         j[(0, 0)] = 1.0;
         j[(1, 1)] = 1.0;
         j[(0, 2)] = b.x;
         j[(1, 2)] = b.y;
-        g[0] = a.x * wc * wc;
-        g[1] = a.y * wc * wc;
         // Big end: r_c + A_c s_pin - r_r - A_r s_big = 0.
-        let (ac, bc) = a_s(pc, self.crank_pin_local);
-        let (ar, br) = a_s(pr, self.rod_big_local);
+        let (_, bc) = a_s(pc, self.crank_pin_local);
+        let (_, br) = a_s(pr, self.rod_big_local);
         j[(2, 0)] = 1.0;
         j[(3, 1)] = 1.0;
         j[(2, 2)] = bc.x;
@@ -231,25 +226,87 @@ impl Mechanism {
         j[(3, 4)] = -1.0;
         j[(2, 5)] = -br.x;
         j[(3, 5)] = -br.y;
-        g[2] = ac.x * wc * wc - ar.x * wr * wr;
-        g[3] = ac.y * wc * wc - ar.y * wr * wr;
         // Small end: r_r + A_r s_small - r_p = 0 (piston pin at the piston CoM).
-        let (ar, br) = a_s(pr, self.rod_small_local);
+        let (_, br) = a_s(pr, self.rod_small_local);
         j[(4, 3)] = 1.0;
         j[(5, 4)] = 1.0;
         j[(4, 5)] = br.x;
         j[(5, 5)] = br.y;
         j[(4, 6)] = -1.0;
         j[(5, 7)] = -1.0;
-        g[4] = ar.x * wr * wr;
-        g[5] = ar.y * wr * wr;
         // Slide to ground along y: x_p = 0 and phi_p = 0.
         j[(6, 6)] = 1.0;
         j[(7, 8)] = 1.0;
-        let _ = wp;
         // Driver: phi_c - theta(t) = 0.
         j[(8, 2)] = 1.0;
-        (j, g)
+        j
+    }
+
+    /// Acceleration right-hand side `gamma = -(Phi_q q')_q q'` without the driver's `theta''`.
+    fn gamma(&self, q: &Q, qd: &Q) -> SVector<f64, NC> {
+        let mut g = SVector::<f64, NC>::zeros();
+        let (pc, pr) = (q[2], q[5]);
+        let (wc, wr) = (qd[2], qd[5]);
+        let (a, _) = a_s(pc, self.crank_axis_local);
+        g[0] = a.x * wc * wc;
+        g[1] = a.y * wc * wc;
+        let (ac, _) = a_s(pc, self.crank_pin_local);
+        let (ar, _) = a_s(pr, self.rod_big_local);
+        g[2] = ac.x * wc * wc - ar.x * wr * wr;
+        g[3] = ac.y * wc * wc - ar.y * wr * wr;
+        let (ar, _) = a_s(pr, self.rod_small_local);
+        g[4] = ar.x * wr * wr;
+        g[5] = ar.y * wr * wr;
+        g
+    }
+
+    /// Everything about the configuration at crank angle `theta` and speed `omega` that does
+    /// not depend on the loads: positions, velocities, the accelerations as an affine function
+    /// of the crank acceleration, and the multipliers' responses to the crank acceleration and
+    /// to each friction load. Done once per evaluation; the friction/reaction iteration then
+    /// only combines vectors.
+    pub fn kinematics(&self, theta: f64, omega: f64) -> Kinematics {
+        let q = self.positions(theta);
+        let jac = self.jacobian_matrix(&q);
+        let lu = jac.lu();
+        let mut e9 = SVector::<f64, NC>::zeros();
+        e9[8] = 1.0;
+        // Velocities: Phi_q q' = (0, ..., omega).
+        let qd = lu.solve(&(e9 * omega)).unwrap_or_else(Q::zeros);
+        // Accelerations: Phi_q q'' = gamma(q, q') + alpha * e9.
+        let gamma = self.gamma(&q, &qd);
+        let qdd0 = lu.solve(&gamma).unwrap_or_else(Q::zeros);
+        let qdd_alpha = lu.solve(&e9).unwrap_or_else(Q::zeros);
+        // Multipliers: Phi_q^T lambda = Q - M q''.
+        let lu_t = jac.transpose().lu();
+        let solve_t = |rhs: Q| lu_t.solve(&rhs).unwrap_or_else(SVector::<f64, NC>::zeros);
+        let gv = self.geo.gravity_m_s2;
+        let mut gravity = Q::zeros();
+        gravity[1] = -self.mass[0] * gv;
+        gravity[4] = -self.mass[3] * gv;
+        gravity[7] = -self.mass[6] * gv;
+        let unit = |entries: &[(usize, f64)]| {
+            let mut f = Q::zeros();
+            for (i, v) in entries {
+                f[*i] = *v;
+            }
+            solve_t(f)
+        };
+        Kinematics {
+            q,
+            qd,
+            qdd0,
+            qdd_alpha,
+            lambda0: solve_t(gravity - self.mass.component_mul(&qdd0)),
+            lambda_alpha: solve_t(-self.mass.component_mul(&qdd_alpha)),
+            // Generalised force patterns of each friction load (see JointLoads).
+            lambda_loads: [
+                unit(&[(2, 1.0)]),
+                unit(&[(2, -1.0), (5, 1.0)]),
+                unit(&[(5, -1.0), (8, 1.0)]),
+                unit(&[(7, 1.0)]),
+            ],
+        }
     }
 
     /// Solve the dynamics at crank angle/speed/acceleration `theta, omega, alpha` with the given
@@ -262,44 +319,8 @@ impl Mechanism {
         alpha: f64,
         loads: &JointLoads,
     ) -> (State, Reactions) {
-        let q = self.positions(theta);
-        // Velocities: Phi_q q' = (0, ..., omega); the LU is reused for accelerations and multipliers.
-        let (jac0, _) = self.jacobian(&q, &Q::zeros());
-        let lu = jac0.lu();
-        let mut rhs = SVector::<f64, NC>::zeros();
-        rhs[8] = omega;
-        let qd = lu.solve(&rhs).unwrap_or_else(Q::zeros);
-        let (jac, mut gamma) = self.jacobian(&q, &qd);
-        gamma[8] = alpha;
-        let qdd = lu.solve(&gamma).unwrap_or_else(Q::zeros);
-        // Applied forces: gravity and the friction/damping loads.
-        let mut f = Q::zeros();
-        let gv = self.geo.gravity_m_s2;
-        f[1] = -self.mass[0] * gv;
-        f[4] = -self.mass[3] * gv;
-        f[7] = -self.mass[6] * gv;
-        f[2] += loads.main_torque_nm - loads.big_end_torque_nm;
-        f[5] += loads.big_end_torque_nm - loads.small_end_torque_nm;
-        f[8] += loads.small_end_torque_nm;
-        f[7] += loads.slide_force_n;
-        let resid = f - self.mass.component_mul(&qdd);
-        // Phi_q^T lambda = Q - M q''  (the factorisation of Phi_q^T is that of Phi_q, transposed).
-        let lambda = jac
-            .transpose()
-            .lu()
-            .solve(&resid)
-            .unwrap_or_else(SVector::<f64, NC>::zeros);
-        // Constraint force on body k is -Phi_q_k^T lambda: read each joint's force on its second
-        // body (rod for the big end, piston for the small end; crank for the main bearing).
-        let reactions = Reactions {
-            main_n: -Vector2::new(lambda[0], lambda[1]),
-            big_end_n: Vector2::new(lambda[2], lambda[3]),
-            small_end_n: Vector2::new(lambda[4], lambda[5]),
-            slide_lateral_n: -lambda[6],
-            slide_moment_nm: -lambda[7],
-            drive_torque_nm: -lambda[8],
-        };
-        (State { q, qd, qdd }, reactions)
+        let k = self.kinematics(theta, omega);
+        (k.state(alpha), k.reactions(alpha, loads))
     }
 
     /// Kinetic energy of all bodies (including the drive inertia), J.
@@ -325,5 +346,63 @@ impl Mechanism {
     /// Cross product helper kept public for the solver's moment bookkeeping.
     pub fn cross(a: Vector2<f64>, b: Vector2<f64>) -> f64 {
         cross(a, b)
+    }
+}
+
+/// The load-independent part of one configuration (see [`Mechanism::kinematics`]).
+#[derive(Debug, Clone)]
+pub struct Kinematics {
+    /// Positions.
+    pub q: Q,
+    /// Velocities.
+    pub qd: Q,
+    qdd0: Q,
+    qdd_alpha: Q,
+    lambda0: SVector<f64, NC>,
+    lambda_alpha: SVector<f64, NC>,
+    lambda_loads: [SVector<f64, NC>; 4],
+}
+
+impl Kinematics {
+    /// Positions, velocities and accelerations at crank acceleration `alpha`.
+    pub fn state(&self, alpha: f64) -> State {
+        State {
+            q: self.q,
+            qd: self.qd,
+            qdd: self.qdd0 + self.qdd_alpha * alpha,
+        }
+    }
+
+    fn lambda(&self, alpha: f64, loads: &JointLoads) -> SVector<f64, NC> {
+        self.lambda0
+            + self.lambda_alpha * alpha
+            + self.lambda_loads[0] * loads.main_torque_nm
+            + self.lambda_loads[1] * loads.big_end_torque_nm
+            + self.lambda_loads[2] * loads.small_end_torque_nm
+            + self.lambda_loads[3] * loads.slide_force_n
+    }
+
+    /// Joint reactions and the drive torque at crank acceleration `alpha` under `loads`.
+    pub fn reactions(&self, alpha: f64, loads: &JointLoads) -> Reactions {
+        let l = self.lambda(alpha, loads);
+        // Constraint force on body k is -Phi_q_k^T lambda: read each joint's force on its second
+        // body (rod for the big end, piston for the small end; crank for the main bearing).
+        Reactions {
+            main_n: -Vector2::new(l[0], l[1]),
+            big_end_n: Vector2::new(l[2], l[3]),
+            small_end_n: Vector2::new(l[4], l[5]),
+            slide_lateral_n: -l[6],
+            slide_moment_nm: -l[7],
+            drive_torque_nm: -l[8],
+        }
+    }
+
+    /// The crank acceleration at which the drive torque equals `torque` under `loads` (a crank
+    /// driven by a torque rather than a prescribed motion).
+    pub fn alpha_for_torque(&self, torque: f64, loads: &JointLoads) -> f64 {
+        let at_zero = -self.lambda(0.0, loads)[8];
+        // d(drive torque)/d(alpha) is the mechanism's effective inertia at this angle (> 0).
+        let inertia = -self.lambda_alpha[8];
+        (torque - at_zero) / inertia
     }
 }

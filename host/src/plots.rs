@@ -260,3 +260,64 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
     root.present()?;
     Ok(())
 }
+
+/// Torque change against scale factor, one line per law set and speed.
+pub fn write_mass_sweep(r: &[crate::study::MassResponse], path: &Path) -> std::io::Result<()> {
+    let text = svg(|out| {
+        let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let all = r.iter().flat_map(|s| s.changes.iter());
+        let (x0, x1) = range(all.clone().map(|c| c.scale), 0.03);
+        let (y0, y1) = range(all.map(|c| c.change_nm).chain([0.0]), 0.1);
+        let body = r
+            .first()
+            .map(|s| format!("{:?}", s.body).to_lowercase())
+            .unwrap_or_default();
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("Motoring torque change vs {body} mass scale"),
+                ("sans-serif", 22),
+            )
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc(format!("{body} mass scale (-)"))
+            .y_desc("torque change (N m)")
+            .draw()?;
+        let mut k = 0;
+        for set in r {
+            let mut speeds: Vec<f64> = set.changes.iter().map(|c| c.speed_rpm).collect();
+            speeds.sort_by(f64::total_cmp);
+            speeds.dedup();
+            for sp in speeds {
+                let color = COLORS[k % COLORS.len()];
+                k += 1;
+                let mut pts: Vec<(f64, f64)> = set
+                    .changes
+                    .iter()
+                    .filter(|c| c.speed_rpm == sp)
+                    .map(|c| (c.scale, c.change_nm))
+                    .collect();
+                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                chart
+                    .draw_series(LineSeries::new(pts, color.stroke_width(2)))?
+                    .label(format!("{} {:.0} rpm", set.lawset, sp))
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                    });
+            }
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()?;
+        root.present()?;
+        Ok(())
+    })?;
+    write_atomic(path, text.as_bytes())
+}

@@ -195,3 +195,73 @@ pub fn comparison_csv(c: &crate::study::Comparison) -> String {
     }
     out
 }
+
+/// The calibration report: values, residual per speed, RMSE and warnings.
+pub fn fit_text(r: &crate::fit::FitResult) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "law set {}: {} parameters, {} model evaluations, stopped: {}\n",
+        r.lawset,
+        r.params.len(),
+        r.evaluations,
+        r.termination
+    );
+    let _ = writeln!(
+        out,
+        "{:<36} {:>12} {:>12} {:>12}   bounds",
+        "parameter", "start", "fitted", "1 sigma"
+    );
+    for i in 0..r.params.len() {
+        let _ = writeln!(
+            out,
+            "{:<36} {:>12.5e} {:>12.5e} {:>12.2e}   [{}, {}]",
+            r.params[i], r.start[i], r.values[i], r.std_dev[i], r.bounds[i][0], r.bounds[i][1]
+        );
+    }
+    let _ = writeln!(
+        out,
+        "\n{:>7} {:>10} {:>10} {:>10}",
+        "rpm", "measured", "model", "residual"
+    );
+    for i in 0..r.speeds_rpm.len() {
+        let _ = writeln!(
+            out,
+            "{:>7.0} {:>10.3} {:>10.3} {:>+10.4}",
+            r.speeds_rpm[i], r.measured_nm[i], r.model_nm[i], r.residuals_nm[i]
+        );
+    }
+    let _ = writeln!(out, "\nRMSE {:.4} N m", r.rmse_nm);
+    for w in &r.warnings {
+        let _ = writeln!(out, "warning: {w}");
+    }
+    out
+}
+
+/// The mass-response tables.
+pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
+    let mut out = String::new();
+    for set in r {
+        let _ = writeln!(out, "law set {}: {:?} scaled", set.lawset, set.body);
+        let _ = writeln!(
+            out,
+            "{:>7} {:>6} {:>10} {:>10} {:>10} {:>12}",
+            "rpm", "scale", "original", "scaled", "change", "FEDEM change"
+        );
+        for c in &set.changes {
+            let fedem = c
+                .fedem_change_nm
+                .map_or("".to_string(), |f| format!("{f:+.3}"));
+            let _ = writeln!(
+                out,
+                "{:>7.0} {:>6.2} {:>10.4} {:>10.4} {:>+10.4} {:>12}",
+                c.speed_rpm, c.scale, c.original_nm, c.scaled_nm, c.change_nm, fedem
+            );
+            for j in &c.joints {
+                let _ = writeln!(out, "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N", j.joint, j.law, j.change_nm, j.normal_load_change_n);
+            }
+        }
+        out.push('\n');
+    }
+    out
+}

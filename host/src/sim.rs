@@ -378,34 +378,15 @@ impl Simulation {
         let mut loads = *guess;
         let mut prev: Option<[f64; 5]> = None;
         let mut rates = vec![0.0; self.n_rates()];
+        // Positions, velocities and the factorised constraints do not depend on the loads:
+        // computed once, the iteration below only recombines the multipliers.
+        let kin = self.mech.kinematics(theta, omega);
         for it in 1..=self.max_iter {
-            let (st, re, alpha) = match control {
-                Ok(alpha) => {
-                    let (st, re) = self.mech.solve(theta, omega, alpha, &loads);
-                    (st, re, alpha)
-                }
-                Err(torque) => {
-                    // Everything is affine in alpha: solve at 0 and 1, pick the alpha whose
-                    // drive torque equals the applied torque.
-                    let (s0, r0) = self.mech.solve(theta, omega, 0.0, &loads);
-                    let (s1, r1) = self.mech.solve(theta, omega, 1.0, &loads);
-                    let j_eff = r1.drive_torque_nm - r0.drive_torque_nm;
-                    let alpha = (torque - r0.drive_torque_nm) / j_eff;
-                    let lerp2 = |a: Vector2<f64>, b: Vector2<f64>| a + (b - a) * alpha;
-                    let lerp = |a: f64, b: f64| a + (b - a) * alpha;
-                    let re = Reactions {
-                        main_n: lerp2(r0.main_n, r1.main_n),
-                        big_end_n: lerp2(r0.big_end_n, r1.big_end_n),
-                        small_end_n: lerp2(r0.small_end_n, r1.small_end_n),
-                        slide_lateral_n: lerp(r0.slide_lateral_n, r1.slide_lateral_n),
-                        slide_moment_nm: lerp(r0.slide_moment_nm, r1.slide_moment_nm),
-                        drive_torque_nm: torque,
-                    };
-                    let mut st = s0;
-                    st.qdd = s0.qdd + (s1.qdd - s0.qdd) * alpha;
-                    (st, re, alpha)
-                }
+            let alpha = match control {
+                Ok(alpha) => alpha,
+                Err(torque) => kin.alpha_for_torque(torque, &loads),
             };
+            let re = kin.reactions(alpha, &loads);
             let normals = self.normals(&re);
             let converged = prev.is_some_and(|p| {
                 let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
@@ -428,7 +409,7 @@ impl Simulation {
                 return Ok((e, loads));
             }
             // Law inputs from this configuration.
-            let qd = &st.qd;
+            let qd = &kin.qd;
             let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
             let comps = [
                 re.main_n * self.shares[0],
@@ -526,11 +507,7 @@ impl Simulation {
         oil: (f64, f64),
     ) -> Result<(), SimError> {
         let (temp, visc) = oil;
-        let st = self
-            .mech
-            .solve(theta, e.omega, e.alpha, &JointLoads::default())
-            .0;
-        let qd = st.qd;
+        let qd = self.mech.kinematics(theta, e.omega).qd;
         let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
         for (ji, joint) in self.joints.iter_mut().enumerate() {
             if joint.laws.iter().all(|l| l.state.is_empty()) {

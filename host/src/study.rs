@@ -258,3 +258,187 @@ pub fn compare(
         sets,
     })
 }
+
+/// Which body a mass study scales.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ScaledBody {
+    /// The connecting rod (mass and inertia).
+    Rod,
+    /// The piston assembly (mass).
+    Piston,
+    /// The crankshaft (mass and inertia).
+    Crank,
+}
+
+/// `rig` with `body`'s mass (and inertia) scale factors multiplied by `scale`.
+pub fn scaled(rig: &Rig, body: ScaledBody, scale: f64) -> Result<Rig, Box<RigError>> {
+    let mut r = rig.clone();
+    let b = &mut r.file.bodies;
+    match body {
+        ScaledBody::Rod => {
+            b.rod.mass_scale *= scale;
+            b.rod.inertia_scale *= scale;
+        }
+        ScaledBody::Piston => b.piston.mass_scale *= scale,
+        ScaledBody::Crank => {
+            b.crank.mass_scale *= scale;
+            b.crank.inertia_scale *= scale;
+        }
+    }
+    r.overridden.push("bodies".into());
+    crate::rig::revalidate(&r)?;
+    Ok(r)
+}
+
+/// One joint's and law's response to the scaling at one speed.
+#[derive(Debug, Clone, Serialize)]
+pub struct JointChange {
+    /// Joint.
+    pub joint: String,
+    /// Law.
+    pub law: String,
+    /// Friction torque, original rig, N m.
+    pub original_nm: f64,
+    /// Friction torque, scaled rig, N m.
+    pub scaled_nm: f64,
+    /// Change of the friction torque, N m.
+    pub change_nm: f64,
+    /// Change of the joint's mean normal load, N.
+    pub normal_load_change_n: f64,
+}
+
+/// The response at one speed and scale.
+#[derive(Debug, Clone, Serialize)]
+pub struct SpeedChange {
+    /// Speed, rpm.
+    pub speed_rpm: f64,
+    /// Scale factor.
+    pub scale: f64,
+    /// Motoring torque, original, N m.
+    pub original_nm: f64,
+    /// Motoring torque, scaled, N m.
+    pub scaled_nm: f64,
+    /// Change, N m.
+    pub change_nm: f64,
+    /// FEDEM's change for the same speed (table 10.6 minus 10.5, rod at 0.6), N m.
+    pub fedem_change_nm: Option<f64>,
+    /// Per joint and law.
+    pub joints: Vec<JointChange>,
+}
+
+/// One law set's mass response.
+#[derive(Debug, Clone, Serialize)]
+pub struct MassResponse {
+    /// Law set.
+    pub lawset: String,
+    /// Body scaled.
+    pub body: ScaledBody,
+    /// Per scale and speed.
+    pub changes: Vec<SpeedChange>,
+}
+
+/// Torque change per speed and joint when `body` is scaled by each of `scales`, for each law
+/// set, against the unscaled rig. Runs in parallel; results in input order.
+#[allow(clippy::too_many_arguments)]
+pub fn mass_response(
+    rig: &Rig,
+    lawsets: &[LawSet],
+    body: ScaledBody,
+    scales: &[f64],
+    registry: &LawRegistry,
+    steady: bool,
+    fedem: Option<&[(f64, f64)]>,
+) -> Result<Vec<MassResponse>, StudyError> {
+    let jobs: Vec<(usize, Option<f64>)> = (0..lawsets.len())
+        .flat_map(|i| std::iter::once((i, None)).chain(scales.iter().map(move |s| (i, Some(*s)))))
+        .collect();
+    let runs = jobs
+        .par_iter()
+        .map(|(i, s)| {
+            let ls = &lawsets[*i];
+            let base = prepare(rig, ls, None)?;
+            let r = match s {
+                Some(s) => scaled(&base, body, *s)?,
+                None => base,
+            };
+            run_rig(&r, registry, steady).map_err(|e| StudyError::Run {
+                lawset: ls.name().into(),
+                source: Box::new(e),
+            })
+        })
+        .collect::<Result<Vec<RunResult>, StudyError>>()?;
+    let per_set = scales.len() + 1;
+    let mut out = Vec::new();
+    for (i, ls) in lawsets.iter().enumerate() {
+        let original = &runs[i * per_set];
+        let mut changes = Vec::new();
+        for (k, s) in scales.iter().enumerate() {
+            let run = &runs[i * per_set + 1 + k];
+            for (p0, p1) in original.plateaus.iter().zip(&run.plateaus) {
+                let joints = p0
+                    .joints
+                    .iter()
+                    .zip(&p1.joints)
+                    .map(|(a, b)| JointChange {
+                        joint: a.joint.clone(),
+                        law: a.law.clone(),
+                        original_nm: a.friction_torque_nm,
+                        scaled_nm: b.friction_torque_nm,
+                        change_nm: b.friction_torque_nm - a.friction_torque_nm,
+                        normal_load_change_n: b.mean_normal_load_n - a.mean_normal_load_n,
+                    })
+                    .collect();
+                let fedem_change_nm = fedem.and_then(|f| {
+                    f.iter()
+                        .find(|(rpm, _)| (rpm - p0.set_speed_rpm).abs() < 0.5)
+                        .map(|(_, d)| *d)
+                });
+                changes.push(SpeedChange {
+                    speed_rpm: p0.set_speed_rpm,
+                    scale: *s,
+                    original_nm: p0.motoring_torque_nm,
+                    scaled_nm: p1.motoring_torque_nm,
+                    change_nm: p1.motoring_torque_nm - p0.motoring_torque_nm,
+                    fedem_change_nm: if (*s - 0.6).abs() < 1e-9 {
+                        fedem_change_nm
+                    } else {
+                        None
+                    },
+                    joints,
+                });
+            }
+        }
+        out.push(MassResponse {
+            lawset: ls.name().into(),
+            body,
+            changes,
+        });
+    }
+    Ok(out)
+}
+
+/// FEDEM's torque change with the rod at 60% per speed: table 10.6 minus table 10.5.
+pub fn fedem_rod_change() -> Vec<(f64, f64)> {
+    let read = |name: &str| -> Vec<(f64, f64)> {
+        crate::bundled::data(name)
+            .map(|t| {
+                t.lines()
+                    .filter(|l| !l.starts_with('#') && !l.starts_with("speed"))
+                    .filter_map(|l| {
+                        let c: Vec<&str> = l.split(',').collect();
+                        Some((
+                            c.first()?.trim().parse().ok()?,
+                            c.get(2)?.trim().parse().ok()?,
+                        ))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let (a, b) = (read("fedem-tuned.csv"), read("fedem-light-rod.csv"));
+    a.iter()
+        .zip(&b)
+        .map(|((rpm, t0), (_, t1))| (*rpm, t1 - t0))
+        .collect()
+}

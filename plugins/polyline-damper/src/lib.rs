@@ -9,6 +9,10 @@
 //! m/s on a slide, giving a force in N), `f` is linear between the points `(speeds, factors)`
 //! and held constant beyond the first and last point. Being a function of speed only, it does
 //! not respond to any change of load or mass: that is what makes it a workaround.
+//!
+//! With `per_engine_speed = true` the coefficient is `c0 * f(omega) / omega_engine` (c0 then in
+//! N m or N): the poly-line gives the damping torque at the plateau speed directly. That is the
+//! reading of the thesis's table 9.6 that reproduces its table 10.5 (docs/crf250r-study.md).
 
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::{export_law, Law, LawInput, LawOutput, ParamError, ParamSpec};
@@ -23,6 +27,8 @@ pub struct Params {
     pub speeds_rad_s: Vec<f64>,
     /// Scale factor at each point (-).
     pub factors: Vec<f64>,
+    /// Divide the coefficient by the engine speed (the poly-line then gives a torque or force).
+    pub per_engine_speed: bool,
 }
 
 impl Default for Params {
@@ -31,6 +37,7 @@ impl Default for Params {
             c0: 1.0,
             speeds_rad_s: vec![0.0],
             factors: vec![0.0],
+            per_engine_speed: false,
         }
     }
 }
@@ -88,6 +95,10 @@ impl Law for PolylineDamper {
                 0.0,
                 1e6,
             ),
+            ParamSpec::boolean(
+                "per_engine_speed",
+                "coefficient c0*f/omega_engine: the poly-line gives the damping torque (N m) or force (N) at the engine speed",
+            ),
         ]
     }
 
@@ -124,7 +135,12 @@ impl Law for PolylineDamper {
     }
 
     fn evaluate(&self, input: &LawInput, _state: &[f64]) -> LawOutput {
-        let c = self.p.c0 * self.factor(input.engine_speed_rad_s);
+        let w = input.engine_speed_rad_s;
+        let mut c = self.p.c0 * self.factor(w);
+        if self.p.per_engine_speed {
+            // Bounded at standstill, where the relative velocity vanishes with the engine speed.
+            c /= w.abs().max(1e-3);
+        }
         LawOutput::force(-c * input.relative_velocity).with_derivative(-c)
     }
 }
@@ -166,6 +182,14 @@ mod tests {
         let out = l.evaluate(&input(314.159, 314.159), &[]);
         assert!((out.force + 0.091 * 314.159).abs() < 1e-9);
         assert_eq!(out.derivative(), Some(-0.091));
+    }
+
+    #[test]
+    fn per_engine_speed_gives_the_poly_line_as_a_torque() {
+        let l = law(&format!("{CRANK}\nper_engine_speed = true")).expect("valid");
+        // On a main bearing the relative velocity is the engine speed: torque = -c0 * f.
+        let out = l.evaluate(&input(418.879, 418.879), &[]);
+        assert!((out.force + 0.085).abs() < 1e-12, "{}", out.force);
     }
 
     #[test]

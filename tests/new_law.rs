@@ -98,9 +98,14 @@ fn new_law_builds_is_listed_and_evaluates_its_formula() {
     // The generated unit tests of the law's math pass as generated.
     let test_log = cargo(&ws, &target, &["test", "-p", "tribo-law-my-law"]);
     assert!(test_log.contains("4 passed"), "{test_log}");
-    cargo(&ws, &target, &["build", "-p", "tribo-law-my-law"]);
+    // The README's build command.
+    cargo(
+        &ws,
+        &target,
+        &["build", "--release", "-p", "tribo-law-my-law"],
+    );
     let built = target
-        .join("debug")
+        .join("release")
         .join(tribo::plugin_api::loader::plugin_file_name(
             "tribo_law_my_law",
         ));
@@ -145,6 +150,42 @@ fn new_law_builds_is_listed_and_evaluates_its_formula() {
             "{kind:?} v={v}: {got} vs {want}"
         );
     }
+    // The README's comparison: the new law on the piston beside the two bundled law sets.
+    let lawset = tmp.path().join("my-lawset.toml");
+    std::fs::write(&lawset, "name = \"my-law\"\n\n[[laws]]\njoint = \"piston\"\nlaw = \"my-law\"\nparams = { mu_0 = 0.05, slope = 0.01 }\n").expect("write");
+    let out = Command::new(tribo_exe())
+        .args([
+            "compare",
+            "--lawset",
+            "fedem-baseline",
+            "--lawset",
+            "stribeck-duty",
+            "--lawset",
+        ])
+        .arg(&lawset)
+        .args(["--steady", "--json", "--out"])
+        .arg(tmp.path().join("cmp"))
+        .env("TRIBO_PLUGIN_PATH", &plugin_dir)
+        .output()
+        .expect("tribo runs");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let cmp: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+    let names: Vec<&str> = cmp["sets"]
+        .as_array()
+        .expect("sets")
+        .iter()
+        .filter_map(|s| s["lawset"].as_str())
+        .collect();
+    assert_eq!(names, ["fedem-baseline", "stribeck-duty", "my-law"]);
+    let mine = &cmp["sets"][2]["run"]["plateaus"][0]["joints"][0];
+    assert_eq!(
+        (mine["joint"].as_str(), mine["law"].as_str()),
+        (Some("piston"), Some("my-law"))
+    );
+    assert!(mine["friction_torque_nm"].as_f64().is_some_and(|t| t > 0.0));
+    assert!(tmp.path().join("cmp/torque_vs_speed.svg").is_file());
+
     // At 5 m/s and 200 N the formula is -(0.1 + 0.02*5)*200 = -40 N to within the smoothing.
     let mut input = LawInput::at_rest(JointKind::Prismatic);
     input.normal_load_n = 200.0;

@@ -2,6 +2,8 @@
 //! fixtures, compiling C with the system compiler.
 #![allow(dead_code)]
 
+pub mod closed_form;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;

@@ -1,0 +1,340 @@
+//! The CRF 250 R study: the main job, the FEDEM baseline against the thesis, calibration of the
+//! regime-switching law, and the reduced-mass rod.
+
+mod common;
+
+use std::f64::consts::PI;
+use std::path::Path;
+use std::process::Command;
+
+use common::*;
+
+fn json_of(args: &[&str], cwd: &Path) -> serde_json::Value {
+    ensure_plugins_built();
+    let out = Command::new(tribo_exe())
+        .args(args)
+        .current_dir(cwd)
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .output()
+        .expect("tribo runs");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stdout}"))
+}
+
+const TABLE_10_4: [f64; 7] = [1.01, 1.57, 1.58, 1.35, 1.27, 1.31, 1.50];
+const TABLE_10_5: [f64; 7] = [1.01, 1.57, 1.58, 1.35, 1.27, 1.31, 1.50];
+
+#[test]
+fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() {
+    ensure_plugins_built();
+    let dir = tempfile::tempdir().expect("temp dir");
+    // The README's main job, from a directory that is not the checkout (bundled rig and data).
+    let out = Command::new(tribo_exe())
+        .args(["compare", "--out", "results"])
+        .current_dir(dir.path())
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .output()
+        .expect("runs");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    for word in [
+        "measured",
+        "fedem-baseline",
+        "stribeck-duty",
+        "RMSE",
+        "max |error|",
+        "per-joint contributions",
+    ] {
+        assert!(stdout.contains(word), "`{word}` missing:\n{stdout}");
+    }
+    let results = dir.path().join("results");
+    for f in [
+        "comparison.csv",
+        "comparison.json",
+        "torque_vs_speed.svg",
+        "contributions_fedem-baseline.svg",
+        "contributions_stribeck-duty.svg",
+        "piston_regimes.svg",
+    ] {
+        assert!(results.join(f).is_file(), "{f} not written");
+    }
+    let svg = std::fs::read_to_string(results.join("torque_vs_speed.svg")).expect("svg");
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    for label in [
+        "engine speed (rpm)",
+        "motoring torque (N m)",
+        "measured",
+        "fedem-baseline (RMSE",
+        "stribeck-duty (RMSE",
+    ] {
+        assert!(svg.contains(label), "plot lacks `{label}`");
+    }
+    let regimes = std::fs::read_to_string(results.join("piston_regimes.svg")).expect("svg");
+    assert!(
+        regimes.contains("stribeck-duty: mixed") && regimes.contains("time share"),
+        "regime plot legend"
+    );
+    let contrib =
+        std::fs::read_to_string(results.join("contributions_stribeck-duty.svg")).expect("svg");
+    assert!(
+        contrib.contains("piston (stribeck-duty)")
+            && contrib.contains("friction torque at the crank (N m)")
+    );
+    // The JSON carries the same comparison: 7 speeds, measured values of table 10.4.
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(results.join("comparison.json")).expect("json"),
+    )
+    .expect("parses");
+    let measured: Vec<f64> = json["data"]
+        .as_array()
+        .expect("data")
+        .iter()
+        .map(|d| d["torque_nm"].as_f64().unwrap_or(f64::NAN))
+        .collect();
+    assert_eq!(measured, TABLE_10_4);
+}
+
+#[test]
+fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
+    // docs/crf250r-study.md: the poly-line dampers read as torques at the plateau speed, and a
+    // piston assembly of 0.225 kg (the rig's 0.27 kg is an estimate) close the gaps.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let thesis_pi = "drive={kind=\"pi\", kp=0.05, ki=3.0, torque_limit_nm=5.0}";
+    let json = json_of(
+        &[
+            "compare",
+            "--lawset",
+            "fedem-baseline",
+            "--set",
+            thesis_pi,
+            "--set",
+            "bodies.piston.mass_kg=0.225",
+            "--out",
+            "o",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let model: Vec<f64> = json["sets"][0]["run"]["plateaus"]
+        .as_array()
+        .expect("plateaus")
+        .iter()
+        .map(|p| p["motoring_torque_nm"].as_f64().unwrap_or(f64::NAN))
+        .collect();
+    for (i, (m, t)) in model.iter().zip(TABLE_10_5).enumerate() {
+        let rpm = 3000 + 1000 * i;
+        if rpm == 4000 {
+            // FEDEM's drive reached only 409.308 rad/s here (table 10.5), 2.3% low, where its
+            // poly-line gives 0.05 N m less damping; ours holds 4000 rpm. Checked below.
+            assert!((m - t).abs() < 0.07, "{rpm} rpm: {m} vs {t}");
+        } else {
+            assert!((m - t).abs() <= 0.05, "{rpm} rpm: {m} vs table 10.5 {t}");
+        }
+    }
+    // At the speeds FEDEM's drive actually reached (table 10.5), every plateau is within 0.05.
+    let data = dir.path().join("fedem-speeds.csv");
+    let speeds = [
+        308.786, 409.308, 519.495, 630.735, 737.388, 841.448, 943.699,
+    ];
+    let mut csv = String::from("speed_rpm,torque_nm,oil_temp_c\n");
+    for (w, t) in speeds.iter().zip(TABLE_10_5) {
+        csv.push_str(&format!("{},{t},80\n", w * 30.0 / PI));
+    }
+    std::fs::write(&data, csv).expect("write");
+    let json = json_of(
+        &[
+            "compare",
+            "--lawset",
+            "fedem-baseline",
+            "--set",
+            thesis_pi,
+            "--set",
+            "bodies.piston.mass_kg=0.225",
+            "--data",
+            data.to_str().expect("utf-8"),
+            "--out",
+            "o2",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let errors: Vec<f64> = json["sets"][0]["errors_nm"]
+        .as_array()
+        .expect("errors")
+        .iter()
+        .map(|e| e.as_f64().unwrap_or(f64::NAN))
+        .collect();
+    assert!(errors.iter().all(|e| e.abs() <= 0.05), "{errors:?}");
+}
+
+#[test]
+fn calibrated_regime_switching_law_reproduces_table_10_4_and_compare_agrees() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let start = workspace().join("tests/fixtures/lawsets/stribeck-duty-start.toml");
+    let fitted = dir.path().join("fitted.toml");
+    let fit = json_of(
+        &[
+            "fit",
+            "--lawset",
+            start.to_str().expect("utf-8"),
+            "--out",
+            fitted.to_str().expect("utf-8"),
+            "--json",
+        ],
+        dir.path(),
+    );
+    let n_params = fit["params"].as_array().expect("params").len();
+    assert!(n_params <= 6, "{n_params} parameters");
+    let rmse = fit["rmse_nm"].as_f64().expect("rmse");
+    assert!(rmse <= 0.05, "fit RMSE {rmse}");
+    // The calibrated law set fed back to compare (full transient cycle) gives the same RMSE.
+    let cmp = json_of(
+        &[
+            "compare",
+            "--lawset",
+            fitted.to_str().expect("utf-8"),
+            "--out",
+            "o",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let rmse_cmp = cmp["sets"][0]["rmse_nm"].as_f64().expect("rmse");
+    assert!(
+        (rmse_cmp - rmse).abs() < 5e-4,
+        "compare {rmse_cmp} vs fit {rmse}"
+    );
+    // And the bundled law set, calibrated the same way, meets the target too.
+    let cmp = json_of(
+        &[
+            "compare",
+            "--lawset",
+            "stribeck-duty",
+            "--out",
+            "o3",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(cmp["sets"][0]["rmse_nm"].as_f64().expect("rmse") <= 0.05);
+}
+
+#[test]
+fn rod_mass_response_of_coulomb_laws_matches_an_independent_computation() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let lawset = dir.path().join("coulomb.toml");
+    let mut text = String::from("name = \"coulomb-everywhere\"\n");
+    for (joint, mu) in [
+        ("main_a", 0.00245),
+        ("main_b", 0.00245),
+        ("big_end", 0.0025),
+        ("small_end", 0.0025),
+        ("piston", 0.08),
+    ] {
+        text.push_str(&format!(
+            "[[laws]]\njoint = \"{joint}\"\nlaw = \"coulomb\"\nparams = {{ mu = {mu} }}\n"
+        ));
+    }
+    std::fs::write(&lawset, text).expect("write");
+    let (m, l) = (0.1748_f64, 0.105_f64);
+    let inertia = format!("bodies.rod.inertia_kg_m2={}", 2.0 / 9.0 * m * l * l);
+    let json = json_of(
+        &[
+            "mass-response",
+            "--steady",
+            "--lawset",
+            lawset.to_str().expect("utf-8"),
+            "--scale",
+            "0.6",
+            "--set",
+            "geometry.gravity=false",
+            "--set",
+            "bodies.rod.com_from_big_end_m=0.035",
+            "--set",
+            &inertia,
+            "--out",
+            "o",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let changes = json[0]["changes"].as_array().expect("changes");
+    assert_eq!(changes.len(), 7);
+    for c in changes {
+        let w = c["speed_rpm"].as_f64().expect("speed") * PI / 30.0;
+        let (a, b) = (
+            closed_form::friction(w, m),
+            closed_form::friction(w, 0.6 * m),
+        );
+        for (j, joint) in c["joints"].as_array().expect("joints").iter().enumerate() {
+            let want = b[j] - a[j];
+            let got = joint["change_nm"].as_f64().expect("change");
+            assert!(
+                (got - want).abs() <= 0.01 * want.abs(),
+                "{} rpm {}: {got} vs closed form {want}",
+                c["speed_rpm"],
+                joint["joint"]
+            );
+        }
+    }
+}
+
+#[test]
+fn mass_response_is_nonzero_for_load_dependent_laws_and_zero_for_the_damper() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let json = json_of(
+        &[
+            "mass-response",
+            "--steady",
+            "--lawset",
+            "fedem-baseline",
+            "--lawset",
+            "stribeck-duty",
+            "--out",
+            "o",
+            "--json",
+        ],
+        dir.path(),
+    );
+    for set in json.as_array().expect("sets") {
+        for c in set["changes"].as_array().expect("changes") {
+            for j in c["joints"].as_array().expect("joints") {
+                let change = j["change_nm"].as_f64().expect("change");
+                if j["law"] == "polyline-damper" {
+                    assert_eq!(change, 0.0, "the speed-scheduled damper cannot see mass");
+                } else {
+                    assert!(
+                        change != 0.0 && change < 0.0,
+                        "{} {} at {}: {change}",
+                        set["lawset"],
+                        j["law"],
+                        c["speed_rpm"]
+                    );
+                    assert!(j["normal_load_change_n"].as_f64().expect("load") < 0.0);
+                }
+            }
+            // FEDEM's change (table 10.6 - 10.5) is shown alongside.
+            if set["lawset"] == "fedem-baseline" && c["speed_rpm"] == 9000.0 {
+                assert!((c["fedem_change_nm"].as_f64().expect("fedem") + 0.02).abs() < 1e-9);
+            }
+        }
+    }
+    // The sweep writes its plot.
+    let _ = json_of(
+        &[
+            "mass-response",
+            "--steady",
+            "--scales",
+            "0.5,0.8,1.1",
+            "--lawset",
+            "fedem-baseline",
+            "--out",
+            "sweep",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let svg = std::fs::read_to_string(dir.path().join("sweep/mass_sweep.svg")).expect("plot");
+    assert!(svg.contains("rod mass scale (-)") && svg.contains("torque change (N m)"));
+}

@@ -149,6 +149,30 @@ enum Command {
     },
 }
 
+/// The rig (default: the bundled CRF 250 R rig) and law sets (default: the two bundled ones)
+/// a study command works on.
+fn study_inputs(
+    rig: Option<PathBuf>,
+    sets: &[String],
+    lawsets: Vec<String>,
+) -> anyhow::Result<(tribo::rig::Rig, Vec<tribo::lawset::LawSet>)> {
+    let rig_path = rig.unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
+    let rig = tribo::rig::load_rig(&rig_path, sets)?;
+    let names: Vec<String> = if lawsets.is_empty() {
+        tribo::bundled::DEFAULT_LAWSETS
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        lawsets
+    };
+    let loaded = names
+        .iter()
+        .map(|n| tribo::lawset::LawSet::load(n))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((rig, loaded))
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Laws { json } => {
@@ -211,21 +235,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             steady,
             json,
         } => {
-            let rig_path = rig.unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
-            let rig = tribo::rig::load_rig(&rig_path, &sets)?;
-            let names: Vec<String> = if lawsets.is_empty() {
-                tribo::bundled::DEFAULT_LAWSETS
-                    .iter()
-                    .map(|s| s.to_string())
-                    .collect()
-            } else {
-                lawsets
-            };
-            let mut sets_loaded = Vec::new();
-            for n in &names {
-                let mut ls = tribo::lawset::LawSet::load(n)?;
+            let (rig, mut sets_loaded) = study_inputs(rig, &sets, lawsets)?;
+            for ls in &mut sets_loaded {
                 ls.add_law_args(&law_args)?;
-                sets_loaded.push(ls);
             }
             let (data_path, rows) =
                 tribo::study::read_data(data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
@@ -252,20 +264,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
             json,
         } => {
-            let rig_path = rig.unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
-            let rig = tribo::rig::load_rig(&rig_path, &sets)?;
-            let names: Vec<String> = if lawsets.is_empty() {
-                tribo::bundled::DEFAULT_LAWSETS
-                    .iter()
-                    .map(|s| s.to_string())
-                    .collect()
-            } else {
-                lawsets
-            };
-            let sets_loaded = names
-                .iter()
-                .map(|n| tribo::lawset::LawSet::load(n))
-                .collect::<Result<Vec<_>, _>>()?;
+            let (rig, sets_loaded) = study_inputs(rig, &sets, lawsets)?;
             let scale_list = scales.clone().unwrap_or_else(|| vec![scale]);
             if let Some(bad) = scale_list.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
                 anyhow::bail!("--scale/--scales: every scale factor must be positive, got {bad}");

@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use crate::output::write_atomic;
@@ -55,6 +56,49 @@ fn svg(draw: impl FnOnce(&mut String) -> PlotResult) -> std::io::Result<String> 
     Ok(s)
 }
 
+type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A titled chart with labelled axes (units in the labels) on `root`.
+fn frame<'a, 'b>(
+    root: &'a DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    caption: &str,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+    x_desc: &str,
+    y_desc: &str,
+) -> Result<Chart<'a, 'b>, Box<dyn std::error::Error>> {
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, ("sans-serif", 22))
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .x_label_formatter(&|x| {
+            format!("{x:.2}")
+                .trim_end_matches('0')
+                .trim_end_matches('.')
+                .to_string()
+        })
+        .y_desc(y_desc)
+        .draw()?;
+    Ok(chart)
+}
+
+/// The legend, boxed, at `pos`.
+fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, pos: SeriesLabelPosition) -> PlotResult {
+    chart
+        .configure_series_labels()
+        .position(pos)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
 fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
@@ -70,7 +114,6 @@ fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
 
 fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
     let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
-    root.fill(&WHITE)?;
     let speeds: Vec<f64> = c.data.iter().map(|d| d.speed_rpm).collect();
     let (x0, x1) = range(speeds.iter().copied(), 0.05);
     let all = c.data.iter().map(|d| d.torque_nm).chain(
@@ -79,21 +122,14 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
             .flat_map(|s| s.run.plateaus.iter().map(|p| p.motoring_torque_nm)),
     );
     let (y0, y1) = range(all, 0.15);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!("Motoring torque vs engine speed ({}, {})", c.rig, c.mode),
-            ("sans-serif", 22),
-        )
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1, y0.min(0.0)..y1)?;
-    chart
-        .configure_mesh()
-        .x_desc("engine speed (rpm)")
-        .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_desc("motoring torque (N m)")
-        .draw()?;
+    let mut chart = frame(
+        &root,
+        &format!("Motoring torque vs engine speed ({}, {})", c.rig, c.mode),
+        x0..x1,
+        y0.min(0.0)..y1,
+        "engine speed (rpm)",
+        "motoring torque (N m)",
+    )?;
     chart
         .draw_series(
             c.data
@@ -118,19 +154,13 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
             });
         chart.draw_series(pts.iter().map(|p| Cross::new(*p, 4, color.stroke_width(2))))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::LowerRight)?;
     root.present()?;
     Ok(())
 }
 
 fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotResult {
     let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
-    root.fill(&WHITE)?;
     let p = &set.run.plateaus;
     let n_laws = p.first().map_or(0, |x| x.joints.len());
     let speeds: Vec<f64> = p.iter().map(|x| x.set_speed_rpm).collect();
@@ -140,21 +170,14 @@ fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotRe
         .map(|x| x.joints.iter().map(|j| j.friction_torque_nm.max(0.0)).sum())
         .collect();
     let (_, y1) = range(totals.iter().copied().chain([0.0]), 0.1);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!("Friction torque by joint and law: {}", set.lawset),
-            ("sans-serif", 22),
-        )
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1, 0.0..y1)?;
-    chart
-        .configure_mesh()
-        .x_desc("engine speed (rpm)")
-        .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_desc("friction torque at the crank (N m)")
-        .draw()?;
+    let mut chart = frame(
+        &root,
+        &format!("Friction torque by joint and law: {}", set.lawset),
+        x0..x1,
+        0.0..y1,
+        "engine speed (rpm)",
+        "friction torque at the crank (N m)",
+    )?;
     // Stack: draw the cumulative sums from the top down so each band shows its own share.
     for k in (0..n_laws).rev() {
         let color = COLORS[k % COLORS.len()];
@@ -181,36 +204,23 @@ fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotRe
                 Rectangle::new([(x, y - 5), (x + 20, y + 5)], color.mix(0.75).filled())
             });
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
     root.present()?;
     Ok(())
 }
 
 fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
     let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
-    root.fill(&WHITE)?;
     let speeds: Vec<f64> = c.data.iter().map(|d| d.speed_rpm).collect();
     let (x0, x1) = range(speeds.iter().copied(), 0.02);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Lubrication regime of the piston (time share)",
-            ("sans-serif", 22),
-        )
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1, 0.0..1.05)?;
-    chart
-        .configure_mesh()
-        .x_desc("engine speed (rpm)")
-        .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_desc("time share of the regime (-)")
-        .draw()?;
+    let mut chart = frame(
+        &root,
+        "Lubrication regime of the piston (time share)",
+        x0..x1,
+        0.0..1.05,
+        "engine speed (rpm)",
+        "time share of the regime (-)",
+    )?;
     let mut any = false;
     for (i, s) in c.sets.iter().enumerate() {
         let piston: Vec<_> = s
@@ -220,7 +230,7 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
             .filter_map(|p| {
                 p.joints
                     .iter()
-                    .find(|j| j.joint == "piston" && j.regime_share.none < 1.0)
+                    .find(|j| j.joint == "piston" && j.regime_share.none < 0.5)
                     .map(|j| (p.set_speed_rpm, j.regime_share))
             })
             .collect();
@@ -250,12 +260,7 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
             ("sans-serif", 18),
         )))?;
     } else {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     }
     root.present()?;
     Ok(())
@@ -265,7 +270,6 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
 pub fn write_mass_sweep(r: &[crate::study::MassResponse], path: &Path) -> std::io::Result<()> {
     let text = svg(|out| {
         let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
-        root.fill(&WHITE)?;
         let all = r.iter().flat_map(|s| s.changes.iter());
         let (x0, x1) = range(all.clone().map(|c| c.scale), 0.03);
         let (y0, y1) = range(all.map(|c| c.change_nm).chain([0.0]), 0.1);
@@ -273,20 +277,14 @@ pub fn write_mass_sweep(r: &[crate::study::MassResponse], path: &Path) -> std::i
             .first()
             .map(|s| format!("{:?}", s.body).to_lowercase())
             .unwrap_or_default();
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("Motoring torque change vs {body} mass scale"),
-                ("sans-serif", 22),
-            )
-            .margin(15)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
-        chart
-            .configure_mesh()
-            .x_desc(format!("{body} mass scale (-)"))
-            .y_desc("torque change (N m)")
-            .draw()?;
+        let mut chart = frame(
+            &root,
+            &format!("Motoring torque change vs {body} mass scale"),
+            x0..x1,
+            y0..y1,
+            &format!("{body} mass scale (-)"),
+            "torque change (N m)",
+        )?;
         let mut k = 0;
         for set in r {
             let mut speeds: Vec<f64> = set.changes.iter().map(|c| c.speed_rpm).collect();
@@ -310,12 +308,7 @@ pub fn write_mass_sweep(r: &[crate::study::MassResponse], path: &Path) -> std::i
                     });
             }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         root.present()?;
         Ok(())
     })?;

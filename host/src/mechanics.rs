@@ -267,19 +267,45 @@ impl Mechanism {
     /// only combines vectors.
     pub fn kinematics(&self, theta: f64, omega: f64) -> Kinematics {
         let q = self.positions(theta);
-        let jac = self.jacobian_matrix(&q);
-        let lu = jac.lu();
-        let mut e9 = SVector::<f64, NC>::zeros();
+        let c = self.columns(&q);
+        let mut e9 = Q::zeros();
         e9[8] = 1.0;
         // Velocities: Phi_q q' = (0, ..., omega).
-        let qd = lu.solve(&(e9 * omega)).unwrap_or_else(Q::zeros);
+        let qd = c.solve(&(e9 * omega));
         // Accelerations: Phi_q q'' = gamma(q, q') + alpha * e9.
-        let gamma = self.gamma(&q, &qd);
-        let qdd0 = lu.solve(&gamma).unwrap_or_else(Q::zeros);
-        let qdd_alpha = lu.solve(&e9).unwrap_or_else(Q::zeros);
-        // Multipliers: Phi_q^T lambda = Q - M q''.
+        let qdd0 = c.solve(&self.gamma(&q, &qd));
+        let qdd_alpha = c.solve(&e9);
+        self.multipliers(q, qd, qdd0, qdd_alpha, |rhs| c.solve_transpose(rhs))
+    }
+
+    /// [`Mechanism::kinematics`] by dense LU factorisation of the full constraint Jacobian: the
+    /// general multibody route, kept as the reference the structured solve is tested against.
+    pub fn kinematics_dense(&self, theta: f64, omega: f64) -> Kinematics {
+        let q = self.positions(theta);
+        let jac = self.jacobian_matrix(&q);
+        let lu = jac.lu();
         let lu_t = jac.transpose().lu();
-        let solve_t = |rhs: Q| lu_t.solve(&rhs).unwrap_or_else(SVector::<f64, NC>::zeros);
+        let solve = |rhs: &Q| lu.solve(rhs).unwrap_or_else(Q::zeros);
+        let mut e9 = Q::zeros();
+        e9[8] = 1.0;
+        let qd = solve(&(e9 * omega));
+        let qdd0 = solve(&self.gamma(&q, &qd));
+        let qdd_alpha = solve(&e9);
+        self.multipliers(q, qd, qdd0, qdd_alpha, |rhs| {
+            lu_t.solve(rhs).unwrap_or_else(Q::zeros)
+        })
+    }
+
+    /// Multipliers' responses (gravity and inertia at alpha = 0, per unit alpha, per unit friction
+    /// load) from `Phi_q^T lambda = Q - M q''`, given a solver for `Phi_q^T`.
+    fn multipliers(
+        &self,
+        q: Q,
+        qd: Q,
+        qdd0: Q,
+        qdd_alpha: Q,
+        solve_t: impl Fn(&Q) -> Q,
+    ) -> Kinematics {
         let gv = self.geo.gravity_m_s2;
         let mut gravity = Q::zeros();
         gravity[1] = -self.mass[0] * gv;
@@ -290,15 +316,15 @@ impl Mechanism {
             for (i, v) in entries {
                 f[*i] = *v;
             }
-            solve_t(f)
+            solve_t(&f)
         };
         Kinematics {
             q,
             qd,
             qdd0,
             qdd_alpha,
-            lambda0: solve_t(gravity - self.mass.component_mul(&qdd0)),
-            lambda_alpha: solve_t(-self.mass.component_mul(&qdd_alpha)),
+            lambda0: solve_t(&(gravity - self.mass.component_mul(&qdd0))),
+            lambda_alpha: solve_t(&(-self.mass.component_mul(&qdd_alpha))),
             // Generalised force patterns of each friction load (see JointLoads).
             lambda_loads: [
                 unit(&[(2, 1.0)]),
@@ -306,6 +332,17 @@ impl Mechanism {
                 unit(&[(5, -1.0), (8, 1.0)]),
                 unit(&[(7, 1.0)]),
             ],
+        }
+    }
+
+    /// The position-dependent entries of `Phi_q` (see `jacobian_matrix` for the layout).
+    fn columns(&self, q: &Q) -> Columns {
+        let (pc, pr) = (q[2], q[5]);
+        Columns {
+            b_axis: a_s(pc, self.crank_axis_local).1,
+            b_pin: a_s(pc, self.crank_pin_local).1,
+            b_big: a_s(pr, self.rod_big_local).1,
+            b_small: a_s(pr, self.rod_small_local).1,
         }
     }
 
@@ -404,5 +441,54 @@ impl Kinematics {
         // d(drive torque)/d(alpha) is the mechanism's effective inertia at this angle (> 0).
         let inertia = -self.lambda_alpha[8];
         (torque - at_zero) / inertia
+    }
+}
+
+/// The non-constant entries of the constraint Jacobian. The rig is a chain (block, crank, rod,
+/// piston, block), so `Phi_q x = r` and `Phi_q^T y = g` solve by substitution in a fixed order
+/// with one division, by the rod's axial projection `-L cos(psi)`, which never vanishes while
+/// the rod is longer than the crank.
+struct Columns {
+    b_axis: Vector2<f64>,
+    b_pin: Vector2<f64>,
+    b_big: Vector2<f64>,
+    b_small: Vector2<f64>,
+}
+
+impl Columns {
+    /// Solve `Phi_q x = r`.
+    fn solve(&self, r: &Q) -> Q {
+        let mut x = Q::zeros();
+        x[2] = r[8];
+        x[0] = r[0] - self.b_axis.x * x[2];
+        x[1] = r[1] - self.b_axis.y * x[2];
+        x[6] = r[6];
+        x[8] = r[7];
+        let d = self.b_small.x - self.b_big.x;
+        x[5] = (r[2] - x[0] - self.b_pin.x * x[2] + r[4] + x[6]) / d;
+        x[3] = r[4] + x[6] - self.b_small.x * x[5];
+        x[4] = x[1] + self.b_pin.y * x[2] - self.b_big.y * x[5] - r[3];
+        x[7] = x[4] + self.b_small.y * x[5] - r[5];
+        x
+    }
+
+    /// Solve `Phi_q^T y = g`.
+    fn solve_transpose(&self, g: &Q) -> Q {
+        let mut y = Q::zeros();
+        y[5] = -g[7];
+        y[3] = y[5] - g[4];
+        y[7] = g[8];
+        let d = self.b_small.x - self.b_big.x;
+        y[4] = (g[5] - self.b_big.x * g[3] + self.b_big.y * y[3] - self.b_small.y * y[5]) / d;
+        y[2] = y[4] - g[3];
+        y[6] = g[6] + y[4];
+        y[0] = g[0] - y[2];
+        y[1] = g[1] - y[3];
+        y[8] = g[2]
+            - self.b_axis.x * y[0]
+            - self.b_axis.y * y[1]
+            - self.b_pin.x * y[2]
+            - self.b_pin.y * y[3];
+        y
     }
 }

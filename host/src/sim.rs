@@ -373,14 +373,34 @@ impl Simulation {
         saturated: bool,
         guess: &JointLoads,
         oil: (f64, f64),
+        buffer: Vec<f64>,
     ) -> Result<(Eval, JointLoads), SimError> {
         let (temp, visc) = oil;
         let mut loads = *guess;
         let mut prev: Option<[f64; 5]> = None;
-        let mut rates = vec![0.0; self.n_rates()];
+        // The caller's recycled buffer: no allocation per evaluation once warmed up.
+        let mut rates = buffer;
+        rates.clear();
+        rates.resize(self.n_rates(), 0.0);
         // Positions, velocities and the factorised constraints do not depend on the loads:
         // computed once, the iteration below only recombines the multipliers.
         let kin = self.mech.kinematics(theta, omega);
+        let qd = &kin.qd;
+        let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
+        let crank_angle = theta.rem_euclid(TAU);
+        let inputs: [LawInput; 5] = std::array::from_fn(|ji| {
+            let joint = &self.joints[ji];
+            let mut input = LawInput::at_rest(joint.kind);
+            input.contact_radius_m = joint.radius_m;
+            input.contact_length_m = joint.length_m;
+            input.oil_temp_c = temp;
+            input.viscosity_pa_s = visc;
+            input.engine_speed_rad_s = omega;
+            input.crank_angle_rad = crank_angle;
+            input.time_s = t;
+            input.dt_s = dt;
+            input.with_velocity(rel[ji])
+        });
         for it in 1..=self.max_iter {
             let alpha = match control {
                 Ok(alpha) => alpha,
@@ -408,9 +428,7 @@ impl Simulation {
                 };
                 return Ok((e, loads));
             }
-            // Law inputs from this configuration.
-            let qd = &kin.qd;
-            let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
+            // Law inputs: only the loads change from one iteration to the next.
             let comps = [
                 re.main_n * self.shares[0],
                 re.main_n * self.shares[1],
@@ -422,20 +440,11 @@ impl Simulation {
             rates.iter_mut().for_each(|r| *r = 0.0);
             let mut k = 0;
             for (ji, joint) in self.joints.iter().enumerate() {
-                let mut input = LawInput::at_rest(joint.kind);
+                let mut input = inputs[ji];
                 input.normal_load_n = normals[ji];
                 input.reaction_x_n = comps[ji].x;
                 input.reaction_y_n = comps[ji].y;
                 input.reaction_moment_nm = if ji == 4 { re.slide_moment_nm } else { 0.0 };
-                input.contact_radius_m = joint.radius_m;
-                input.contact_length_m = joint.length_m;
-                input.oil_temp_c = temp;
-                input.viscosity_pa_s = visc;
-                input.engine_speed_rad_s = omega;
-                input.crank_angle_rad = theta.rem_euclid(TAU);
-                input.time_s = t;
-                input.dt_s = dt;
-                let input = input.with_velocity(rel[ji]);
                 let mut total = 0.0;
                 for law in &joint.laws {
                     let out =
@@ -582,8 +591,11 @@ impl Simulation {
         let mut records: Vec<Vec<Record>> = vec![Vec::new(); plateaus.len()];
         let mut saturated_time = vec![0.0; plateaus.len()];
         let mut t = 0.0;
-        let (e_start, _) = self.step_eval(t, 0.0, theta, omega, z, &guess)?;
-        let mut last_rates = e_start.rates.clone();
+        // Recycled rate buffers, and the RK4 end state carried into the next step.
+        let mut pool: Vec<Vec<f64>> = Vec::new();
+        let mut carried: Option<(Eval, JointLoads, f64)> = None;
+        let (e_start, _) = self.step_eval(t, 0.0, theta, omega, z, &guess, Vec::new())?;
+        let mut last_rates = e_start.rates;
         for &b in &breaks {
             let (_, w_end, _) = self.cycle.reference(b);
             let w_max = w_end.max(self.cycle.reference(t).1).max(omega);
@@ -598,15 +610,24 @@ impl Simulation {
                 // The reference acceleration may jump at t: start this interval from its own
                 // side of the jump so Simpson's rule never straddles it.
                 let (th0, w0, a0) = self.cycle.reference_after(t);
-                let (e0, l0) =
-                    self.evaluate(t, dt, th0, w0, Ok(a0), false, &guess, self.oil_at(t))?;
-                last_rates.clone_from(&e0.rates);
+                let (e0, l0) = self.evaluate(
+                    t,
+                    dt,
+                    th0,
+                    w0,
+                    Ok(a0),
+                    false,
+                    &guess,
+                    self.oil_at(t),
+                    pool.pop().unwrap_or_default(),
+                )?;
+                pool.push(std::mem::replace(&mut last_rates, e0.rates));
                 guess = l0;
             }
             for i in 1..=m {
                 let t1 = if i == m { b } else { t + dt };
                 let h = t1 - t;
-                let (e_end, incr, new_state) = if prescribed {
+                let (e_end, new_state) = if prescribed {
                     let (th_m, w_m, a_m) = self.cycle.reference(t + 0.5 * h);
                     let (em, lm) = self.evaluate(
                         t + 0.5 * h,
@@ -617,30 +638,55 @@ impl Simulation {
                         false,
                         &guess,
                         self.oil_at(t + 0.5 * h),
+                        pool.pop().unwrap_or_default(),
                     )?;
                     let (th1, w1, a1) = self.cycle.reference(t1);
-                    let (e1, l1) =
-                        self.evaluate(t1, h, th1, w1, Ok(a1), false, &lm, self.oil_at(t1))?;
+                    let (e1, l1) = self.evaluate(
+                        t1,
+                        h,
+                        th1,
+                        w1,
+                        Ok(a1),
+                        false,
+                        &lm,
+                        self.oil_at(t1),
+                        pool.pop().unwrap_or_default(),
+                    )?;
                     guess = l1;
                     max_it = max_it.max(em.iterations).max(e1.iterations);
                     // Simpson's rule on every accumulated rate.
-                    let incr: Vec<f64> = (0..n)
-                        .map(|k| h / 6.0 * (last_rates[k] + 4.0 * em.rates[k] + e1.rates[k]))
-                        .collect();
-                    (e1, incr, (th1, w1, 0.0))
+                    for k in 0..n {
+                        acc[k] += h / 6.0 * (last_rates[k] + 4.0 * em.rates[k] + e1.rates[k]);
+                    }
+                    pool.push(em.rates);
+                    (e1, (th1, w1, 0.0))
                 } else {
-                    let (e1, incr, state) =
-                        self.rk4_step(t, h, theta, omega, z, &mut guess, &mut max_it)?;
-                    (e1, incr, state)
+                    // The previous step's end state is this step's first RK4 stage when the
+                    // step size (which the laws see) is the same.
+                    let first = carried
+                        .take()
+                        .filter(|(e, _, hh)| *hh == h && e.omega == omega)
+                        .map(|(e, l, _)| (e, l));
+                    let (e1, l1, state) = self.rk4_step(
+                        t,
+                        h,
+                        theta,
+                        omega,
+                        z,
+                        &mut guess,
+                        &mut max_it,
+                        &mut acc,
+                        &mut pool,
+                        first,
+                    )?;
+                    guess = l1;
+                    (e1, state)
                 };
-                for k in 0..n {
-                    acc[k] += incr[k];
-                }
                 theta = new_state.0;
                 omega = new_state.1;
                 z = new_state.2;
                 self.commit(t1, h, theta, &e_end, self.oil_at(t1))?;
-                last_rates.clone_from(&e_end.rates);
+                last_rates.copy_from_slice(&e_end.rates);
                 steps += 1;
                 // Low-pass filter of the motoring torque (first order, exact discretisation).
                 let a = (-TAU * self.lowpass_hz * h).exp();
@@ -671,6 +717,11 @@ impl Simulation {
                             rates: last_rates.clone(),
                         });
                     }
+                }
+                if prescribed {
+                    pool.push(e_end.rates);
+                } else {
+                    carried = Some((e_end, guess, h));
                 }
                 t = t1;
             }
@@ -753,6 +804,7 @@ impl Simulation {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn step_eval(
         &self,
         t: f64,
@@ -761,21 +813,35 @@ impl Simulation {
         omega: f64,
         z: f64,
         guess: &JointLoads,
+        buffer: Vec<f64>,
     ) -> Result<(Eval, JointLoads), SimError> {
         match self.drive {
             Drive::Prescribed => {
                 let (th, w, a) = self.cycle.reference(t);
                 let _ = (theta, omega, z);
-                self.evaluate(t, dt, th, w, Ok(a), false, guess, self.oil_at(t))
+                self.evaluate(t, dt, th, w, Ok(a), false, guess, self.oil_at(t), buffer)
             }
             Drive::Pi { .. } => {
                 let (torque, _, sat) = self.pi_torque(t, omega, z);
-                self.evaluate(t, dt, theta, omega, Err(torque), sat, guess, self.oil_at(t))
+                self.evaluate(
+                    t,
+                    dt,
+                    theta,
+                    omega,
+                    Err(torque),
+                    sat,
+                    guess,
+                    self.oil_at(t),
+                    buffer,
+                )
             }
         }
     }
 
-    #[allow(clippy::type_complexity, clippy::too_many_arguments)]
+    /// One classical RK4 step of crank angle, speed and controller integral, with every rate
+    /// accumulated into `acc` by the same weights. `first` is the evaluation at the step's start
+    /// if already known. Returns the evaluation at the step's end and its loads.
+    #[allow(clippy::too_many_arguments)]
     fn rk4_step(
         &self,
         t: f64,
@@ -785,52 +851,72 @@ impl Simulation {
         z: f64,
         guess: &mut JointLoads,
         max_it: &mut u32,
-    ) -> Result<(Eval, Vec<f64>, (f64, f64, f64)), SimError> {
-        let n = self.n_rates();
-        let deriv = |tt: f64,
+        acc: &mut [f64],
+        pool: &mut Vec<Vec<f64>>,
+        first: Option<(Eval, JointLoads)>,
+    ) -> Result<(Eval, JointLoads, (f64, f64, f64)), SimError> {
+        let stage = |tt: f64,
                      th: f64,
                      w: f64,
                      zz: f64,
-                     g: &JointLoads|
-         -> Result<(Eval, JointLoads, [f64; 3], Vec<f64>), SimError> {
+                     g: &JointLoads,
+                     buf: Vec<f64>|
+         -> Result<(Eval, JointLoads, [f64; 3]), SimError> {
             let (torque, dz, sat) = self.pi_torque(tt, w, zz);
-            let (e, l) = self.evaluate(tt, h, th, w, Err(torque), sat, g, self.oil_at(tt))?;
-            let r = e.rates.clone();
-            Ok((e.clone(), l, [w, e.alpha, dz], r))
+            let (e, l) = self.evaluate(tt, h, th, w, Err(torque), sat, g, self.oil_at(tt), buf)?;
+            let k = [w, e.alpha, dz];
+            Ok((e, l, k))
         };
-        let (_e1, l1, k1, r1) = deriv(t, theta, omega, z, guess)?;
-        let (_e2, l2, k2, r2) = deriv(
+        let (e1, l1, k1) = match first {
+            Some((e, l)) => {
+                let (_, dz, _) = self.pi_torque(t, omega, z);
+                let k = [omega, e.alpha, dz];
+                (e, l, k)
+            }
+            None => stage(t, theta, omega, z, guess, pool.pop().unwrap_or_default())?,
+        };
+        let (e2, l2, k2) = stage(
             t + 0.5 * h,
             theta + 0.5 * h * k1[0],
             omega + 0.5 * h * k1[1],
             z + 0.5 * h * k1[2],
             &l1,
+            pool.pop().unwrap_or_default(),
         )?;
-        let (_e3, l3, k3, r3) = deriv(
+        let (e3, l3, k3) = stage(
             t + 0.5 * h,
             theta + 0.5 * h * k2[0],
             omega + 0.5 * h * k2[1],
             z + 0.5 * h * k2[2],
             &l2,
+            pool.pop().unwrap_or_default(),
         )?;
-        let (_e4, l4, k4, r4) = deriv(
+        let (e4, l4, k4) = stage(
             t + h,
             theta + h * k3[0],
             omega + h * k3[1],
             z + h * k3[2],
             &l3,
+            pool.pop().unwrap_or_default(),
         )?;
         let th1 = theta + h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]);
         let w1 = omega + h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]);
         let z1 = z + h / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]);
-        let incr: Vec<f64> = (0..n)
-            .map(|k| h / 6.0 * (r1[k] + 2.0 * r2[k] + 2.0 * r3[k] + r4[k]))
-            .collect();
-        // The state at the step end, for output, commit and the next guess.
-        let (end, lend) = self.step_eval(t + h, h, th1, w1, z1, &l4)?;
+        for (k, a) in acc.iter_mut().enumerate() {
+            *a += h / 6.0 * (e1.rates[k] + 2.0 * e2.rates[k] + 2.0 * e3.rates[k] + e4.rates[k]);
+        }
+        *max_it = (*max_it)
+            .max(e1.iterations)
+            .max(e2.iterations)
+            .max(e3.iterations)
+            .max(e4.iterations);
+        pool.extend([e1.rates, e2.rates, e3.rates, e4.rates]);
+        // The state at the step end, for output, commit and the next step's first stage.
+        let (end, lend) =
+            self.step_eval(t + h, h, th1, w1, z1, &l4, pool.pop().unwrap_or_default())?;
         *guess = lend;
         *max_it = (*max_it).max(end.iterations);
-        Ok((end, incr, (th1, w1, z1)))
+        Ok((end, lend, (th1, w1, z1)))
     }
 
     /// Plateau values over the last whole revolutions of a hold.
@@ -938,6 +1024,7 @@ impl Simulation {
             .any(|j| j.laws.iter().any(|l| !l.state.is_empty()));
         let mut results = Vec::with_capacity(plateaus.len());
         let (mut motor, mut dissipated, mut max_it, mut steps) = (0.0, 0.0, 0_u32, 0_u64);
+        let mut pool: Vec<Vec<f64>> = Vec::new();
         for (pi, p) in plateaus.iter().enumerate() {
             let w = p.omega;
             let oil = (self.temps[pi], self.viscosities[pi]);
@@ -955,7 +1042,17 @@ impl Simulation {
             let mut t = 0.0;
             for _ in 0..max_revs {
                 delta.iter_mut().for_each(|x| *x = 0.0);
-                let (e0, l0) = self.evaluate(t, h, w * t, w, Ok(0.0), false, &guess, oil)?;
+                let (e0, l0) = self.evaluate(
+                    t,
+                    h,
+                    w * t,
+                    w,
+                    Ok(0.0),
+                    false,
+                    &guess,
+                    oil,
+                    pool.pop().unwrap_or_default(),
+                )?;
                 let mut last = e0.rates;
                 guess = l0;
                 for _ in 0..m {
@@ -968,19 +1065,31 @@ impl Simulation {
                         false,
                         &guess,
                         oil,
+                        pool.pop().unwrap_or_default(),
                     )?;
-                    let (e1, l1) =
-                        self.evaluate(t + h, h, w * (t + h), w, Ok(0.0), false, &lm, oil)?;
+                    let (e1, l1) = self.evaluate(
+                        t + h,
+                        h,
+                        w * (t + h),
+                        w,
+                        Ok(0.0),
+                        false,
+                        &lm,
+                        oil,
+                        pool.pop().unwrap_or_default(),
+                    )?;
                     for k in 0..n {
                         delta[k] += h / 6.0 * (last[k] + 4.0 * em.rates[k] + e1.rates[k]);
                     }
                     max_it = max_it.max(em.iterations).max(e1.iterations);
                     t += h;
                     self.commit(t, h, w * t, &e1, oil)?;
-                    last = e1.rates;
+                    pool.push(em.rates);
+                    pool.push(std::mem::replace(&mut last, e1.rates));
                     guess = l1;
                     steps += 1;
                 }
+                pool.push(last);
                 let torque = delta[0] / TAU;
                 if !stateful || (torque - last_torque).abs() <= 1e-9 * torque.abs().max(1e-12) {
                     break;

@@ -194,6 +194,9 @@ struct Eval {
     saturated: bool,
 }
 
+/// Crank angle (rad), speed (rad/s) and the PI controller's integral (rad).
+type CrankState = (f64, f64, f64);
+
 /// A point stored near the end of each hold, for the whole-revolution window.
 #[derive(Debug, Clone)]
 struct Record {
@@ -854,7 +857,7 @@ impl Simulation {
         acc: &mut [f64],
         pool: &mut Vec<Vec<f64>>,
         first: Option<(Eval, JointLoads)>,
-    ) -> Result<(Eval, JointLoads, (f64, f64, f64)), SimError> {
+    ) -> Result<(Eval, JointLoads, CrankState), SimError> {
         let stage = |tt: f64,
                      th: f64,
                      w: f64,

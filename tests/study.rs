@@ -338,3 +338,86 @@ fn mass_response_is_nonzero_for_load_dependent_laws_and_zero_for_the_damper() {
     let svg = std::fs::read_to_string(dir.path().join("sweep/mass_sweep.svg")).expect("plot");
     assert!(svg.contains("rod mass scale (-)") && svg.contains("torque change (N m)"));
 }
+
+#[test]
+fn steady_state_agrees_with_the_full_cycle_within_half_a_percent() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let sets = [
+        "--lawset",
+        "fedem-baseline",
+        "--lawset",
+        "stribeck-duty",
+        "--lawset",
+        "physical-bearings",
+    ];
+    let transient = json_of(
+        &[&["compare", "--out", "t", "--json"][..], &sets].concat(),
+        dir.path(),
+    );
+    let steady = json_of(
+        &[&["compare", "--steady", "--out", "s", "--json"][..], &sets].concat(),
+        dir.path(),
+    );
+    for (a, b) in transient["sets"]
+        .as_array()
+        .expect("sets")
+        .iter()
+        .zip(steady["sets"].as_array().expect("sets"))
+    {
+        for (p, q) in a["run"]["plateaus"]
+            .as_array()
+            .expect("p")
+            .iter()
+            .zip(b["run"]["plateaus"].as_array().expect("p"))
+        {
+            let (x, y) = (
+                p["motoring_torque_nm"].as_f64().unwrap_or(0.0),
+                q["motoring_torque_nm"].as_f64().unwrap_or(1.0),
+            );
+            assert!(
+                (x - y).abs() <= 5e-3 * x.abs(),
+                "{} at {}: transient {x} vs steady {y}",
+                a["lawset"],
+                p["set_speed_rpm"]
+            );
+        }
+    }
+}
+
+#[test]
+fn results_are_byte_identical_serial_or_parallel_and_run_to_run() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let run = |out: &str, threads: Option<&str>| {
+        let mut cmd = Command::new(tribo_exe());
+        cmd.args([
+            "compare",
+            "--steady",
+            "--lawset",
+            "fedem-baseline",
+            "--lawset",
+            "stribeck-duty",
+            "--lawset",
+            "physical-bearings",
+            "--out",
+            out,
+        ])
+        .current_dir(dir.path())
+        .env_remove("TRIBO_PLUGIN_PATH");
+        if let Some(t) = threads {
+            cmd.env("RAYON_NUM_THREADS", t);
+        }
+        let o = cmd.output().expect("runs");
+        assert!(o.status.success(), "{}", text(&o).1);
+    };
+    ensure_plugins_built();
+    run("serial", Some("1"));
+    run("parallel", Some("4"));
+    run("again", None);
+    for f in ["comparison.json", "comparison.csv", "torque_vs_speed.svg"] {
+        let a = std::fs::read(dir.path().join("serial").join(f)).expect("read");
+        for other in ["parallel", "again"] {
+            let b = std::fs::read(dir.path().join(other).join(f)).expect("read");
+            assert!(a == b, "{f} differs between serial and {other}");
+        }
+    }
+}

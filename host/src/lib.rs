@@ -10,6 +10,7 @@
 //! - [`bundled`]: the rigs, law sets and data compiled into the binary;
 //! - [`cycle`], [`oil`]: the test cycle's reference speed, oil viscosity;
 //! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions);
+//! - [`progress`]: progress display for long runs (stderr, terminals only);
 //! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
 //! - [`fit`]: least-squares calibration of a law set's free parameters;
 //! - [`study`]: law-set comparisons against measured data;
@@ -24,6 +25,7 @@ pub mod mechanics;
 pub mod oil;
 pub mod output;
 pub mod plots;
+pub mod progress;
 pub mod report;
 pub mod rig;
 pub mod scaffold;

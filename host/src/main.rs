@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use tribo::progress::Progress;
 use tribo::{laws, scaffold};
 use tribo_plugin_api::loader::discover;
 
@@ -17,6 +18,10 @@ struct Cli {
     /// executable's directory); may be repeated.
     #[arg(long = "plugin", global = true, value_name = "PATH")]
     plugins: Vec<PathBuf>,
+
+    /// No progress display on standard error (it only appears on a terminal anyway).
+    #[arg(long, global = true)]
+    quiet: bool,
 
     #[command(subcommand)]
     command: Command,
@@ -203,6 +208,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             tribo::rig::attach_laws(&mut rig, &law_args)?;
             let registry = discover(&cli.plugins).context("loading law plugins")?;
             let mut sim = tribo::sim::Simulation::new(&rig, &registry)?;
+            let progress = Progress::start("simulating the test cycle", Some(1000), cli.quiet);
+            sim.report_progress(progress.position());
             let result = match &timeseries {
                 _ if steady => sim.run_steady()?,
                 Some(path) => {
@@ -215,6 +222,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 }
                 None => sim.run(None)?,
             };
+            drop(progress);
             if let Some(dir) = &csv {
                 tribo::report::write_csv(&result, dir)
                     .with_context(|| format!("writing CSV into {}", dir.display()))?;
@@ -242,8 +250,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let (data_path, rows) =
                 tribo::study::read_data(data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
             let registry = discover(&cli.plugins).context("loading law plugins")?;
+            let progress = Progress::start("comparing law sets", None, cli.quiet);
             let cmp =
                 tribo::study::compare(&rig, &sets_loaded, &data_path, &rows, &registry, steady)?;
+            drop(progress);
             tribo::plots::write_comparison(&cmp, &out)
                 .with_context(|| format!("writing results into {}", out.display()))?;
             if json {
@@ -272,6 +282,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let registry = discover(&cli.plugins).context("loading law plugins")?;
             let fedem = tribo::study::fedem_rod_change();
             let fedem = (body == tribo::study::ScaledBody::Rod).then_some(fedem.as_slice());
+            let progress = Progress::start("mass response", None, cli.quiet);
             let result = tribo::study::mass_response(
                 &rig,
                 &sets_loaded,
@@ -281,6 +292,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 steady,
                 fedem,
             )?;
+            drop(progress);
             std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
             tribo::output::write_atomic(
                 &out.join("mass_response.json"),
@@ -311,7 +323,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 tribo::study::read_data(data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
             let registry = discover(&cli.plugins).context("loading law plugins")?;
             let free = ls.free_params(&registry, params.as_deref())?;
+            let progress = Progress::start("fitting", None, cli.quiet);
             let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &rows, &registry)?;
+            drop(progress);
             let out = out.unwrap_or_else(|| PathBuf::from(format!("{}-fitted.toml", ls.name())));
             let header = format!(
                 "Calibrated by `tribo fit` on rig {} against {} speeds: RMSE {:.4} N m.\nParameters fitted: {}",

@@ -224,6 +224,7 @@ pub struct Simulation {
     tol: f64,
     max_iter: u32,
     n_laws: usize,
+    progress: Option<crate::progress::Position>,
 }
 
 fn joint_kind(name: &str) -> JointKind {
@@ -327,7 +328,13 @@ impl Simulation {
             tol: f.solver.friction_tol,
             max_iter: f.solver.friction_max_iter,
             n_laws,
+            progress: None,
         })
+    }
+
+    /// Report progress (permille of the simulated cycle, or plateaus done in steady mode) to `p`.
+    pub fn report_progress(&mut self, p: crate::progress::Position) {
+        self.progress = Some(p);
     }
 
     /// The mechanism (for tests and studies).
@@ -691,6 +698,11 @@ impl Simulation {
                 self.commit(t1, h, theta, &e_end, self.oil_at(t1))?;
                 last_rates.copy_from_slice(&e_end.rates);
                 steps += 1;
+                if steps % 4096 == 0 {
+                    if let Some(p) = &self.progress {
+                        p.set((1000.0 * t1 / duration) as u64);
+                    }
+                }
                 // Low-pass filter of the motoring torque (first order, exact discretisation).
                 let a = (-TAU * self.lowpass_hz * h).exp();
                 filtered = a * filtered + (1.0 - a) * e_end.drive_torque;

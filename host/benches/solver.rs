@@ -1,0 +1,112 @@
+//! Solver benchmarks: one evaluation of the rig (mechanics + friction iteration + laws), the
+//! full thesis cycle (both drives), the steady-state comparison, the mass sweep and a fit.
+//!
+//! Needs the release plugins: `cargo build --release && cargo bench -p tribo --bench solver`.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use tribo::lawset::LawSet;
+use tribo::mechanics::JointLoads;
+use tribo::plugin_api::loader::{load_paths, LawRegistry};
+use tribo::rig::{load_rig, Rig};
+use tribo::sim::Simulation;
+use tribo::study::{compare, mass_response, prepare, read_data, ScaledBody};
+
+fn registry() -> LawRegistry {
+    let exe = std::env::current_exe().expect("bench executable path");
+    let dir: PathBuf = exe
+        .parent()
+        .and_then(|d| d.parent())
+        .expect("profile directory")
+        .to_path_buf();
+    load_paths(&[dir]).expect("release plugins: run `cargo build --release` first")
+}
+
+fn rig_with(set: &str, sets: &[&str]) -> Rig {
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    let mut rig = load_rig(&PathBuf::from("crf250r-motored"), &sets).expect("bundled rig");
+    LawSet::load(set).expect("bundled law set").apply(&mut rig);
+    rig
+}
+
+fn bench(c: &mut Criterion) {
+    let reg = registry();
+    let mut g = c.benchmark_group("solver");
+
+    let rig = rig_with("fedem-baseline", &[]);
+    let sim = Simulation::new(&rig, &reg).expect("sim");
+    g.bench_function("kinematics_one_configuration", |b| {
+        b.iter(|| {
+            black_box(
+                sim.mechanism()
+                    .kinematics(black_box(1.234), black_box(628.3)),
+            )
+        })
+    });
+    g.bench_function("mechanics_solve_with_loads", |b| {
+        let loads = JointLoads {
+            main_torque_nm: -0.1,
+            big_end_torque_nm: 0.05,
+            small_end_torque_nm: 0.0,
+            slide_force_n: 12.0,
+        };
+        b.iter(|| {
+            black_box(
+                sim.mechanism()
+                    .solve(black_box(1.234), black_box(628.3), 0.0, &loads),
+            )
+        })
+    });
+
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    for (name, drive) in [
+        ("thesis_cycle_prescribed", "drive={kind=\"prescribed\"}"),
+        ("thesis_cycle_pi", "drive={kind=\"pi\"}"),
+    ] {
+        let rig = rig_with("fedem-baseline", &[drive]);
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut sim = Simulation::new(&rig, &reg).expect("sim");
+                black_box(sim.run(None).expect("run"))
+            })
+        });
+    }
+
+    let base = load_rig(&PathBuf::from("crf250r-motored"), &[]).expect("rig");
+    let sets = vec![
+        LawSet::load("fedem-baseline").expect("set"),
+        LawSet::load("stribeck-duty").expect("set"),
+    ];
+    let (data_path, rows) = read_data("crf250r-measured.csv").expect("data");
+    g.bench_function("compare_steady_two_lawsets_seven_speeds", |b| {
+        b.iter(|| black_box(compare(&base, &sets, &data_path, &rows, &reg, true).expect("compare")))
+    });
+    let scales: Vec<f64> = (0..13).map(|i| 0.5 + 0.05 * i as f64).collect();
+    g.bench_function("mass_sweep_steady_13_scales_two_lawsets", |b| {
+        b.iter(|| {
+            black_box(
+                mass_response(&base, &sets, ScaledBody::Rod, &scales, &reg, true, None)
+                    .expect("sweep"),
+            )
+        })
+    });
+    let start = LawSet::from_text(
+        std::path::Path::new("stribeck-duty-start.toml"),
+        include_str!("../../tests/fixtures/lawsets/stribeck-duty-start.toml"),
+    )
+    .expect("law set");
+    let free = start.free_params(&reg, None).expect("free");
+    let prepared = prepare(&base, &start, Some(&rows)).expect("prepared");
+    let _ = prepared;
+    g.sample_size(10).measurement_time(Duration::from_secs(120));
+    g.bench_function("fit_six_parameters_from_start_values", |b| {
+        b.iter(|| black_box(tribo::fit::fit(&base, &start, &free, &rows, &reg).expect("fit")))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -51,6 +51,21 @@ pub fn to_text(r: &RunResult) -> String {
         "\nenergy: motor work {:.4} J = energy change {:.4} J + dissipated {:.4} J + residual {:.3e} J (relative {:.2e})",
         e.motor_work_j, e.mechanical_energy_change_j, e.dissipated_j, e.residual_j, e.relative_residual
     );
+    if !r.law_time.is_empty() {
+        let _ = writeln!(out, "\ntime in laws (sampled):");
+        for l in &r.law_time {
+            let per_call = if l.calls > 0 {
+                l.seconds / l.calls as f64 * 1e9
+            } else {
+                0.0
+            };
+            let _ = writeln!(
+                out,
+                "  {:<10} {:<16} {:>10} calls {:>9.4} s ({:.0} ns per call)",
+                l.joint, l.law, l.calls, l.seconds, per_call
+            );
+        }
+    }
     for w in &r.warnings {
         let _ = writeln!(out, "warning: {w}");
     }

@@ -525,27 +525,37 @@ fn apply_set(table: &mut toml::Table, assignment: &str) -> Result<String, RigErr
 }
 
 fn serde_error(path: &Path, text: &str, e: &toml::de::Error) -> RigError {
+    let message = e.message().to_string();
     let (line, column, field) = match e.span() {
         Some(span) => {
             let (l, c) = line_col(text, span.start);
-            let word: String = text[span.start.min(text.len())..]
-                .chars()
-                .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == '-')
-                .collect();
-            (Some(l), Some(c), word)
+            // The key named by the message (`unknown field `x``), else the key written on the
+            // offending line, else the line itself is the best description.
+            let named = message.split('`').nth(1).filter(|k| {
+                !k.is_empty()
+                    && k.chars()
+                        .all(|c| c.is_alphanumeric() || c == '_' || c == '-')
+            });
+            let line_key = text
+                .lines()
+                .nth(l - 1)
+                .and_then(|t| t.split_once('='))
+                .map(|(k, _)| k.trim().to_string())
+                .filter(|k| !k.is_empty());
+            let field = named
+                .map(str::to_string)
+                .or(line_key)
+                .unwrap_or_else(|| "(syntax)".into());
+            (Some(l), Some(c), field)
         }
-        None => (None, None, String::new()),
+        None => (None, None, "(file)".into()),
     };
     RigError {
         file: path.to_path_buf(),
         line,
         column,
-        field: if field.is_empty() {
-            "(file)".into()
-        } else {
-            field
-        },
-        message: e.message().to_string(),
+        field,
+        message,
     }
 }
 
@@ -700,7 +710,11 @@ pub fn load_rig(path: &Path, sets: &[String]) -> Result<Rig, RigError> {
         Err(e) => {
             let name = path.to_string_lossy();
             match crate::bundled::rig(&name) {
-                Some(text) => load_rig_text(&PathBuf::from(format!("<bundled>/{}", crate::bundled::file_name(&name))), text, sets),
+                Some(text) => {
+                    let file = crate::bundled::file_name(&name);
+                    let file = if file.ends_with(".toml") { file } else { format!("{file}.toml") };
+                    load_rig_text(&PathBuf::from(format!("<bundled>/{file}")), text, sets)
+                }
                 None => Err(RigError {
                     file: path.to_path_buf(),
                     line: None,

@@ -11,6 +11,7 @@
 
 use std::f64::consts::TAU;
 use std::io::Write;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use nalgebra::Vector2;
 use serde::Serialize;
@@ -58,6 +59,24 @@ pub enum SimError {
         /// Normal load.
         load_n: f64,
     },
+    /// A stateless law returned a force that pushes the motion (F*V > 0).
+    #[error("joint `{joint}`, law `{law}` ({file}) adds energy at t = {time_s:.6} s: force {force} has the sign of the relative velocity {velocity} (normal load {load_n} N); a friction or damping law must oppose the motion")]
+    AddsEnergy {
+        /// Joint.
+        joint: String,
+        /// Law.
+        law: String,
+        /// Library file.
+        file: String,
+        /// Time.
+        time_s: f64,
+        /// Returned value.
+        force: f64,
+        /// Relative velocity.
+        velocity: f64,
+        /// Normal load.
+        load_n: f64,
+    },
     /// The friction/reaction iteration did not converge.
     #[error("the friction/reaction iteration did not converge at t = {time_s:.6} s after {iterations} iterations (normal-load change {change_n:.3e} N, tolerance {tol:.1e} relative); friction this strong makes the joint loads unstable: check the law parameters or raise solver.friction_max_iter")]
     NoConvergence {
@@ -80,6 +99,26 @@ struct BoundLaw {
     name: String,
     instance: LawInstance,
     state: Vec<f64>,
+    /// Calls made, and sampled time in them (every `TIMING_SAMPLE`-th call is timed).
+    calls: AtomicU64,
+    sampled_ns: AtomicU64,
+}
+
+/// One law call in this many is timed; the total is scaled up. Keeps timing off the hot path.
+const TIMING_SAMPLE: u64 = 64;
+
+/// The cost of reading the clock twice, ns, measured once: subtracted from every timed call.
+fn clock_overhead_ns() -> u64 {
+    static OVERHEAD: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *OVERHEAD.get_or_init(|| {
+        let n = 2000;
+        let start = std::time::Instant::now();
+        for _ in 0..n {
+            let c = std::time::Instant::now();
+            std::hint::black_box(c.elapsed());
+        }
+        (start.elapsed().as_nanos() / n) as u64
+    })
 }
 
 /// A joint with its geometry and laws.
@@ -176,6 +215,21 @@ pub struct RunResult {
     pub max_friction_iterations: u32,
     /// Warnings (a drive at its torque limit, say).
     pub warnings: Vec<String>,
+    /// Time spent in each law (estimated from sampled calls).
+    pub law_time: Vec<LawTime>,
+}
+
+/// Time a law took over a run.
+#[derive(Debug, Clone, Serialize)]
+pub struct LawTime {
+    /// Joint.
+    pub joint: String,
+    /// Law.
+    pub law: String,
+    /// Evaluations.
+    pub calls: u64,
+    /// Estimated seconds in the law (one call in 64 timed, the clock's own cost subtracted).
+    pub seconds: f64,
 }
 
 /// Output of one evaluation.
@@ -292,6 +346,8 @@ impl Simulation {
                     name: l.law.clone(),
                     instance,
                     state,
+                    calls: AtomicU64::new(0),
+                    sampled_ns: AtomicU64::new(0),
                 });
                 n_laws += 1;
             }
@@ -457,16 +513,36 @@ impl Simulation {
                 input.reaction_moment_nm = if ji == 4 { re.slide_moment_nm } else { 0.0 };
                 let mut total = 0.0;
                 for law in &joint.laws {
-                    let out =
-                        law.instance
-                            .evaluate(&input, &law.state)
-                            .map_err(|e| SimError::Law {
-                                joint: joint.name.into(),
-                                time_s: t,
-                                source: Box::new(e),
-                            })?;
+                    let timed = law.calls.fetch_add(1, Ordering::Relaxed) % TIMING_SAMPLE == 0;
+                    let clock = timed.then(std::time::Instant::now);
+                    let result = law.instance.evaluate(&input, &law.state);
+                    if let Some(c) = clock {
+                        let ns =
+                            (c.elapsed().as_nanos() as u64).saturating_sub(clock_overhead_ns());
+                        law.sampled_ns.fetch_add(ns, Ordering::Relaxed);
+                    }
+                    let out = result.map_err(|e| SimError::Law {
+                        joint: joint.name.into(),
+                        time_s: t,
+                        source: Box::new(e),
+                    })?;
                     if !out.force.is_finite() {
                         return Err(SimError::NonFinite {
+                            joint: joint.name.into(),
+                            law: law.name.clone(),
+                            file: law.instance.path().display().to_string(),
+                            time_s: t,
+                            force: out.force,
+                            velocity: rel[ji],
+                            load_n: normals[ji],
+                        });
+                    }
+                    // A stateless law must not add energy; a stateful one may return what it stored.
+                    let power = out.force * rel[ji];
+                    if law.state.is_empty()
+                        && power > 1e-9 * (1.0 + (out.force * rel[ji]).abs().sqrt())
+                    {
+                        return Err(SimError::AddsEnergy {
                             joint: joint.name.into(),
                             law: law.name.clone(),
                             file: law.instance.path().display().to_string(),
@@ -784,7 +860,25 @@ impl Simulation {
             steps,
             max_friction_iterations: max_it,
             warnings,
+            law_time: self.law_time(),
         })
+    }
+
+    /// Calls and estimated time per law so far.
+    fn law_time(&self) -> Vec<LawTime> {
+        self.joints
+            .iter()
+            .flat_map(|j| {
+                j.laws.iter().map(move |l| LawTime {
+                    joint: j.name.into(),
+                    law: l.name.clone(),
+                    calls: l.calls.load(Ordering::Relaxed),
+                    seconds: l.sampled_ns.load(Ordering::Relaxed) as f64
+                        * TIMING_SAMPLE as f64
+                        * 1e-9,
+                })
+            })
+            .collect()
     }
 
     /// Whole revolutions in the measurement window at speed `omega` (at least one).
@@ -1138,6 +1232,7 @@ impl Simulation {
             steps,
             max_friction_iterations: max_it,
             warnings: Vec::new(),
+            law_time: self.law_time(),
         })
     }
 }

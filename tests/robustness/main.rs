@@ -1,0 +1,478 @@
+//! One case per failure users can cause: bad inputs, misbehaving plugins, solver trouble. Each
+//! case runs the `tribo` binary and asserts the exit code and the key words of the message
+//! (file, line, field, law, joint: whatever the user needs to fix it).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use common::*;
+
+/// A failure case: how to set it up in a fresh directory, what `tribo` must exit with, and
+/// which words its output must contain.
+struct Case {
+    name: &'static str,
+    setup: fn(&Path) -> Vec<String>,
+    code: i32,
+    words: &'static [&'static str],
+}
+
+fn base_rig() -> String {
+    std::fs::read_to_string(workspace().join("rigs/crf250r-motored.toml")).expect("rig")
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write");
+    p.to_string_lossy().into_owned()
+}
+
+fn args(a: &[&str]) -> Vec<String> {
+    a.iter().map(|s| s.to_string()).collect()
+}
+
+const SHORT: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.3}, {kind=\"hold\", duration_s=0.3}]";
+
+fn misbehaving(dir: &Path, mode: u32) -> Vec<String> {
+    let lib = dir.join("libmisbehaving.so");
+    compile_c(&[c_fixture("misbehaving_law.c")], &lib, true);
+    let params = write(dir, "p.toml", &format!("mode = {mode}\nafter_s = 0.2\n"));
+    let law = format!("piston=fixture-misbehaving:{params}");
+    let rig = workspace().join("rigs/reference-frictionless.toml");
+    let mut a = args(&[
+        "--plugin",
+        &lib.to_string_lossy(),
+        "run",
+        &rig.to_string_lossy(),
+        "--law",
+        &law,
+        "--set",
+        SHORT,
+    ]);
+    a.push("--quiet".into());
+    a
+}
+
+fn cases() -> Vec<Case> {
+    vec![
+        // ---- inputs ----
+        Case {
+            name: "rig: unknown key, with file:line:column",
+            setup: |d| {
+                let p = write(
+                    d,
+                    "rig.toml",
+                    &base_rig().replace("mass_kg = 0.1748", "mass_kg = 0.1748\nmas_scale = 0.6"),
+                );
+                args(&["run", &p])
+            },
+            code: 1,
+            words: &["rig.toml:24:1", "unknown field `mas_scale`"],
+        },
+        Case {
+            name: "rig: TOML syntax error",
+            setup: |d| {
+                let p = write(
+                    d,
+                    "rig.toml",
+                    &base_rig().replace("bore_m = 0.0768", "bore_m = 0.0768 0.1"),
+                );
+                args(&["run", &p])
+            },
+            code: 1,
+            words: &["rig.toml:13:17", "bore_m", "expected newline"],
+        },
+        Case {
+            name: "rig: negative mass",
+            setup: |d| {
+                let p = write(
+                    d,
+                    "rig.toml",
+                    &base_rig().replace("mass_kg = 0.27", "mass_kg = -0.27"),
+                );
+                args(&["run", &p])
+            },
+            code: 1,
+            words: &["bodies.piston.mass_kg", "positive", "-0.27", "rig.toml:"],
+        },
+        Case {
+            name: "rig: rod not longer than the crank",
+            setup: |d| {
+                let p = write(
+                    d,
+                    "rig.toml",
+                    &base_rig().replace("length_m = 0.105", "length_m = 0.02"),
+                );
+                args(&["run", &p])
+            },
+            code: 1,
+            words: &["bodies.rod.length_m", "longer than the crank radius"],
+        },
+        Case {
+            name: "rig: oil temperature outside the viscosity model's range",
+            setup: |_| args(&["run", "crf250r-motored", "--set", "oil.temperature_c=400.0"]),
+            code: 1,
+            words: &[
+                "oil.temperature_c",
+                "400",
+                "outside the viscosity model's range",
+            ],
+        },
+        Case {
+            name: "rig: empty test cycle",
+            setup: |_| args(&["run", "crf250r-motored", "--set", "cycle.segments=[]"]),
+            code: 1,
+            words: &["cycle.segments", "empty"],
+        },
+        Case {
+            name: "rig: non-positive hold",
+            setup: |_| {
+                args(&["run", "crf250r-motored", "--set", "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=1.0}, {kind=\"hold\", duration_s=0.0}]"])
+            },
+            code: 1,
+            words: &["cycle.segments[1].duration_s", "positive"],
+        },
+        Case {
+            name: "law set: poly-line speeds not increasing",
+            setup: |d| {
+                let ls = write(d, "ls.toml", "name = \"x\"\n[[laws]]\njoint = \"main_a\"\nlaw = \"polyline-damper\"\nparams = { speeds_rad_s = [400.0, 300.0], factors = [1.0, 1.0] }\n");
+                args(&["run", "crf250r-motored", "--lawset", &ls])
+            },
+            code: 1,
+            words: &[
+                "polyline-damper",
+                "speeds_rad_s",
+                "strictly increasing",
+                "joints.main_a.laws[0].params",
+            ],
+        },
+        Case {
+            name: "law set: a joint the rig lacks",
+            setup: |d| {
+                let ls = write(
+                    d,
+                    "ls.toml",
+                    "name = \"x\"\n[[laws]]\njoint = \"wrist\"\nlaw = \"coulomb\"\n",
+                );
+                args(&["run", "crf250r-motored", "--lawset", &ls])
+            },
+            code: 1,
+            words: &[
+                "ls.toml:3:9",
+                "laws[0].joint",
+                "no joint `wrist`",
+                "main_a, main_b, big_end, small_end, piston",
+            ],
+        },
+        Case {
+            name: "law: unknown law name",
+            setup: |_| args(&["run", "crf250r-motored", "--law", "piston=no-such-law"]),
+            code: 1,
+            words: &["no law named `no-such-law`", "stribeck-duty"],
+        },
+        Case {
+            name: "law: out-of-range parameter",
+            setup: |d| {
+                let p = write(d, "p.toml", "mu = 12.0\n");
+                args(&[
+                    "run",
+                    "crf250r-motored",
+                    "--law",
+                    &format!("piston=coulomb:{p}"),
+                ])
+            },
+            code: 1,
+            words: &["`mu`", "12", "[0, 10]", "joints.piston.laws[0].params"],
+        },
+        Case {
+            name: "data: missing column",
+            setup: |d| {
+                let data = write(d, "d.csv", "speed_rpm,torque_nm\n3000,1.0\n");
+                args(&[
+                    "compare",
+                    "--steady",
+                    "--data",
+                    &data,
+                    "--out",
+                    &d.join("o").to_string_lossy(),
+                ])
+            },
+            code: 1,
+            words: &["d.csv", "missing column `oil_temp_c`"],
+        },
+        Case {
+            name: "data: non-numeric cell",
+            setup: |d| {
+                let data = write(
+                    d,
+                    "d.csv",
+                    "speed_rpm,torque_nm,oil_temp_c\n3000,1.0,80\n4000,one point five,80\n",
+                );
+                args(&[
+                    "compare",
+                    "--steady",
+                    "--data",
+                    &data,
+                    "--out",
+                    &d.join("o").to_string_lossy(),
+                ])
+            },
+            code: 1,
+            words: &["d.csv:3", "torque_nm", "`one point five` is not a number"],
+        },
+        // ---- plugins ----
+        Case {
+            name: "plugin: not a shared library",
+            setup: |d| {
+                let p = write(d, "libtribo_law_fake.so", "not a library");
+                args(&["--plugin", &p, "laws"])
+            },
+            code: 1,
+            words: &["libtribo_law_fake.so", "not a loadable shared library"],
+        },
+        Case {
+            name: "plugin: wrong architecture",
+            setup: |d| {
+                let mut bytes = std::fs::read(built_library("tribo_law_coulomb")).expect("read");
+                bytes[18] = 0xB7; // e_machine = EM_AARCH64
+                bytes[19] = 0x00;
+                let p = d.join("libtribo_law_arm.so");
+                std::fs::write(&p, bytes).expect("write");
+                args(&["--plugin", &p.to_string_lossy(), "laws"])
+            },
+            code: 1,
+            words: &[
+                "libtribo_law_arm.so",
+                "not a loadable shared library",
+                "built for this platform",
+            ],
+        },
+        Case {
+            name: "plugin: missing symbols",
+            setup: |d| {
+                let lib = d.join("libincomplete.so");
+                compile_c(&[c_fixture("missing_symbol.c")], &lib, true);
+                args(&["--plugin", &lib.to_string_lossy(), "laws"])
+            },
+            code: 1,
+            words: &["libincomplete.so", "tribo_law_create"],
+        },
+        Case {
+            name: "plugin: other contract version",
+            setup: |_| {
+                args(&[
+                    "--plugin",
+                    &built_library("tribo_fixture_contract_mismatch").to_string_lossy(),
+                    "laws",
+                ])
+            },
+            code: 1,
+            words: &[
+                "tribo_fixture_contract_mismatch",
+                "contract version 2",
+                "rebuild the plugin",
+            ],
+        },
+        Case {
+            name: "plugin: panic in create",
+            setup: |d| {
+                let p = write(d, "p.toml", "panic_in_create = true\n");
+                args(&[
+                    "--plugin",
+                    &built_library("tribo_fixture_panic_law").to_string_lossy(),
+                    "run",
+                    "crf250r-motored",
+                    "--law",
+                    &format!("piston=fixture-panic:{p}"),
+                    "--quiet",
+                ])
+            },
+            code: 1,
+            words: &[
+                "fixture-panic",
+                "create",
+                "panic in create",
+                "joints.piston.laws[0].params",
+            ],
+        },
+        Case {
+            name: "plugin: panic in evaluate, host survives and names law, joint and time",
+            setup: |d| {
+                let p = write(d, "p.toml", "panic_above = 5.0\n");
+                args(&[
+                    "--plugin",
+                    &built_library("tribo_fixture_panic_law").to_string_lossy(),
+                    "run",
+                    "reference-frictionless",
+                    "--law",
+                    &format!("piston=fixture-panic:{p}"),
+                    "--set",
+                    SHORT,
+                    "--quiet",
+                ])
+            },
+            code: 1,
+            words: &[
+                "joint `piston`",
+                "t = ",
+                "fixture-panic",
+                "evaluate",
+                "fixture panic: velocity",
+            ],
+        },
+        Case {
+            name: "plugin: law returns NaN",
+            setup: |d| misbehaving(d, 0),
+            code: 1,
+            words: &[
+                "joint `piston`",
+                "fixture-misbehaving",
+                "libmisbehaving.so",
+                "non-finite force (NaN)",
+                "t = 0.2",
+                "velocity",
+                "normal load",
+            ],
+        },
+        Case {
+            name: "plugin: law returns infinity",
+            setup: |d| misbehaving(d, 2),
+            code: 1,
+            words: &["fixture-misbehaving", "non-finite force (inf)"],
+        },
+        Case {
+            name: "plugin: stateless law adds energy",
+            setup: |d| misbehaving(d, 1),
+            code: 1,
+            words: &[
+                "joint `piston`",
+                "fixture-misbehaving",
+                "adds energy",
+                "must oppose the motion",
+            ],
+        },
+        Case {
+            name: "plugin: a run reports the time spent in each law",
+            setup: |_| {
+                args(&[
+                    "run",
+                    "reference-frictionless",
+                    "--lawset",
+                    "fedem-baseline",
+                    "--set",
+                    SHORT,
+                    "--quiet",
+                ])
+            },
+            code: 0,
+            words: &["time in laws", "piston", "fedem-friction", "calls"],
+        },
+        // ---- solver ----
+        Case {
+            name: "solver: friction/reaction iteration does not converge",
+            setup: |_| {
+                args(&[
+                    "run",
+                    "crf250r-motored",
+                    "--lawset",
+                    "fedem-baseline",
+                    "--set",
+                    "solver.friction_max_iter=1",
+                    "--quiet",
+                ])
+            },
+            code: 1,
+            words: &[
+                "did not converge",
+                "after 1 iterations",
+                "solver.friction_max_iter",
+            ],
+        },
+        Case {
+            name: "solver: drive at its torque limit (warning)",
+            setup: |_| {
+                args(&[
+                    "run",
+                    "reference-frictionless",
+                    "--lawset",
+                    "fedem-baseline",
+                    "--set",
+                    "drive={kind=\"pi\", torque_limit_nm=1.2}",
+                    "--set",
+                    SHORT,
+                    "--quiet",
+                ])
+            },
+            code: 0,
+            words: &["warning", "torque limit"],
+        },
+        Case {
+            name: "solver: speed never reaches its plateau (warning)",
+            setup: |_| {
+                args(&[
+                    "run",
+                    "reference-frictionless",
+                    "--lawset",
+                    "fedem-baseline",
+                    "--set",
+                    "drive={kind=\"pi\", torque_limit_nm=0.5}",
+                    "--set",
+                    SHORT,
+                    "--quiet",
+                ])
+            },
+            code: 0,
+            words: &["warning", "reached only", "never settled"],
+        },
+    ]
+}
+
+#[test]
+fn every_failure_ends_with_a_message_that_says_what_to_fix() {
+    ensure_plugins_built();
+    let mut failures = Vec::new();
+    for case in cases() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let a = (case.setup)(dir.path());
+        let out = Command::new(tribo_exe())
+            .args(&a)
+            .current_dir(dir.path())
+            .env_remove("TRIBO_PLUGIN_PATH")
+            .output()
+            .expect("tribo runs");
+        let (stdout, stderr) = text(&out);
+        let all = format!("{stdout}{stderr}");
+        let mut problems = Vec::new();
+        if out.status.code() != Some(case.code) {
+            problems.push(format!(
+                "exit code {:?}, expected {}",
+                out.status.code(),
+                case.code
+            ));
+        }
+        if out.status.code().is_none() {
+            problems.push("killed by a signal (crash)".into());
+        }
+        for w in case.words {
+            if !all.contains(w) {
+                problems.push(format!("missing `{w}`"));
+            }
+        }
+        if !problems.is_empty() {
+            failures.push(format!(
+                "{}: {}\n--- stderr:\n{}",
+                case.name,
+                problems.join("; "),
+                stderr.chars().take(600).collect::<String>()
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} case(s) failed:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}

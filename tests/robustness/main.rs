@@ -4,6 +4,8 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+mod fuzz;
+mod interrupt;
 
 use std::path::Path;
 use std::process::Command;

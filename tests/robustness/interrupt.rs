@@ -1,0 +1,73 @@
+//! A compare killed midway (SIGINT, SIGKILL) leaves the previous results untouched and no
+//! partial file under their names: results are written to temporary files and renamed.
+
+use std::process::Command;
+use std::time::Duration;
+
+use super::common::*;
+
+#[test]
+fn killing_a_compare_midway_leaves_previous_results_intact() {
+    ensure_plugins_built();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("results");
+    let first = Command::new(tribo_exe())
+        .args(["compare", "--steady", "--quiet", "--out"])
+        .arg(&out)
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .output()
+        .expect("runs");
+    assert!(first.status.success(), "{}", text(&first).1);
+    let before = std::fs::read(out.join("comparison.json")).expect("first results");
+    let names_before: Vec<String> = std::fs::read_dir(&out)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+
+    for signal in ["INT", "KILL"] {
+        // The full transient cycle of three law sets takes seconds: long enough to kill midway.
+        let mut child = Command::new(tribo_exe())
+            .args([
+                "compare",
+                "--quiet",
+                "--lawset",
+                "fedem-baseline",
+                "--lawset",
+                "stribeck-duty",
+                "--lawset",
+                "physical-bearings",
+                "--out",
+            ])
+            .arg(&out)
+            .env_remove("TRIBO_PLUGIN_PATH")
+            .spawn()
+            .expect("spawns");
+        std::thread::sleep(Duration::from_millis(700));
+        let status = Command::new("kill")
+            .arg(format!("-{signal}"))
+            .arg(child.id().to_string())
+            .status()
+            .expect("kill runs");
+        assert!(status.success());
+        let exit = child.wait().expect("waits");
+        assert!(
+            !exit.success(),
+            "SIG{signal} arrived after the run finished; the test needs a longer run"
+        );
+        let after =
+            std::fs::read(out.join("comparison.json")).expect("previous results still there");
+        assert!(after == before, "SIG{signal}: comparison.json changed");
+        for name in &names_before {
+            let now = std::fs::read(out.join(name)).expect("file still there");
+            assert!(!now.is_empty(), "SIG{signal}: {name} is empty");
+        }
+        // Nothing new under a result name: only temporary files (dot-prefixed) may remain.
+        for e in std::fs::read_dir(&out).expect("dir") {
+            let name = e.expect("entry").file_name().to_string_lossy().into_owned();
+            assert!(
+                names_before.contains(&name) || name.starts_with('.'),
+                "SIG{signal}: unexpected {name}"
+            );
+        }
+    }
+}

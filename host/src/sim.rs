@@ -32,12 +32,16 @@ pub enum SimError {
     #[error(transparent)]
     Rig(#[from] Box<RigError>),
     /// A law failed while running.
-    #[error("joint `{joint}` at t = {time_s:.6} s: {source}")]
+    #[error("joint `{joint}` at t = {time_s:.6} s (relative velocity {velocity}, normal load {load_n} N): {source}")]
     Law {
         /// Joint.
         joint: String,
         /// Simulation time, s.
         time_s: f64,
+        /// Relative velocity at the failure.
+        velocity: f64,
+        /// Normal load at the failure, N.
+        load_n: f64,
         /// The law's error.
         source: Box<LawError>,
     },
@@ -524,6 +528,8 @@ impl Simulation {
                     let out = result.map_err(|e| SimError::Law {
                         joint: joint.name.into(),
                         time_s: t,
+                        velocity: rel[ji],
+                        load_n: normals[ji],
                         source: Box::new(e),
                     })?;
                     if !out.force.is_finite() {
@@ -619,6 +625,7 @@ impl Simulation {
             input.time_s = t;
             input.dt_s = dt;
             let input = input.with_velocity(rel[ji]);
+            let e_normal = e.normals[ji];
             for law in &mut joint.laws {
                 if !law.state.is_empty() {
                     law.instance
@@ -626,6 +633,8 @@ impl Simulation {
                         .map_err(|e| SimError::Law {
                             joint: joint.name.into(),
                             time_s: t,
+                            velocity: rel[ji],
+                            load_n: e_normal,
                             source: Box::new(e),
                         })?;
                 }

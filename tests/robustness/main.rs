@@ -319,6 +319,8 @@ fn cases() -> Vec<Case> {
             words: &[
                 "joint `piston`",
                 "t = ",
+                "relative velocity",
+                "normal load",
                 "fixture-panic",
                 "evaluate",
                 "fixture panic: velocity",

@@ -46,41 +46,11 @@ pub enum SimError {
         source: Box<LawError>,
     },
     /// A law returned a force that is not a finite number.
-    #[error("joint `{joint}`, law `{law}` ({file}) returned a non-finite force ({force}) at t = {time_s:.6} s for inputs: velocity {velocity}, normal load {load_n} N")]
-    NonFinite {
-        /// Joint.
-        joint: String,
-        /// Law.
-        law: String,
-        /// Library file.
-        file: String,
-        /// Time.
-        time_s: f64,
-        /// Returned value.
-        force: f64,
-        /// Relative velocity.
-        velocity: f64,
-        /// Normal load.
-        load_n: f64,
-    },
+    #[error("joint `{}`, law `{}` ({}) returned a non-finite force ({}) at t = {:.6} s for inputs: velocity {}, normal load {} N", .0.joint, .0.law, .0.file, .0.force, .0.time_s, .0.velocity, .0.load_n)]
+    NonFinite(Box<Fault>),
     /// A stateless law returned a force that pushes the motion (F*V > 0).
-    #[error("joint `{joint}`, law `{law}` ({file}) adds energy at t = {time_s:.6} s: force {force} has the sign of the relative velocity {velocity} (normal load {load_n} N); a friction or damping law must oppose the motion")]
-    AddsEnergy {
-        /// Joint.
-        joint: String,
-        /// Law.
-        law: String,
-        /// Library file.
-        file: String,
-        /// Time.
-        time_s: f64,
-        /// Returned value.
-        force: f64,
-        /// Relative velocity.
-        velocity: f64,
-        /// Normal load.
-        load_n: f64,
-    },
+    #[error("joint `{}`, law `{}` ({}) adds energy at t = {:.6} s: force {} has the sign of the relative velocity {} (normal load {} N); a friction or damping law must oppose the motion", .0.joint, .0.law, .0.file, .0.time_s, .0.force, .0.velocity, .0.load_n)]
+    AddsEnergy(Box<Fault>),
     /// The friction/reaction iteration did not converge.
     #[error("the friction/reaction iteration did not converge at t = {time_s:.6} s after {iterations} iterations (normal-load change {change_n:.3e} N, tolerance {tol:.1e} relative); friction this strong makes the joint loads unstable: check the law parameters or raise solver.friction_max_iter")]
     NoConvergence {
@@ -96,6 +66,25 @@ pub enum SimError {
     /// Writing the time series failed.
     #[error("writing the time series: {0}")]
     Io(#[from] std::io::Error),
+}
+
+/// Where, when and with which inputs a law returned an unusable force.
+#[derive(Debug, Clone)]
+pub struct Fault {
+    /// Joint.
+    pub joint: String,
+    /// Law.
+    pub law: String,
+    /// Library file.
+    pub file: String,
+    /// Simulation time, s.
+    pub time_s: f64,
+    /// The force (or torque) returned.
+    pub force: f64,
+    /// Relative velocity given to the law.
+    pub velocity: f64,
+    /// Normal load given to the law, N.
+    pub load_n: f64,
 }
 
 /// One law bound to one joint.
@@ -532,8 +521,8 @@ impl Simulation {
                         load_n: normals[ji],
                         source: Box::new(e),
                     })?;
-                    if !out.force.is_finite() {
-                        return Err(SimError::NonFinite {
+                    let fault = || {
+                        Box::new(Fault {
                             joint: joint.name.into(),
                             law: law.name.clone(),
                             file: law.instance.path().display().to_string(),
@@ -541,22 +530,15 @@ impl Simulation {
                             force: out.force,
                             velocity: rel[ji],
                             load_n: normals[ji],
-                        });
+                        })
+                    };
+                    if !out.force.is_finite() {
+                        return Err(SimError::NonFinite(fault()));
                     }
                     // A stateless law must not add energy; a stateful one may return what it stored.
                     let power = out.force * rel[ji];
-                    if law.state.is_empty()
-                        && power > 1e-9 * (1.0 + (out.force * rel[ji]).abs().sqrt())
-                    {
-                        return Err(SimError::AddsEnergy {
-                            joint: joint.name.into(),
-                            law: law.name.clone(),
-                            file: law.instance.path().display().to_string(),
-                            time_s: t,
-                            force: out.force,
-                            velocity: rel[ji],
-                            load_n: normals[ji],
-                        });
+                    if law.state.is_empty() && power > 1e-9 * (1.0 + power.abs().sqrt()) {
+                        return Err(SimError::AddsEnergy(fault()));
                     }
                     total += out.force;
                     rates[1 + k] = -out.force * rel[ji];

@@ -208,7 +208,9 @@ pub struct RunResult {
     pub max_friction_iterations: u32,
     /// Warnings (a drive at its torque limit, say).
     pub warnings: Vec<String>,
-    /// Time spent in each law (estimated from sampled calls).
+    /// Time spent in each law (estimated from sampled calls). Printed in the text report only:
+    /// wall-clock time would make JSON and CSV results differ from run to run.
+    #[serde(skip)]
     pub law_time: Vec<LawTime>,
 }
 

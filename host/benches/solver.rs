@@ -13,7 +13,7 @@ use tribo::mechanics::JointLoads;
 use tribo::plugin_api::loader::{load_paths, LawRegistry};
 use tribo::rig::{load_rig, Rig};
 use tribo::sim::Simulation;
-use tribo::study::{compare, mass_response, prepare, read_data, ScaledBody};
+use tribo::study::{compare, mass_response, read_data, ScaledBody};
 
 fn registry() -> LawRegistry {
     let exe = std::env::current_exe().expect("bench executable path");
@@ -99,8 +99,6 @@ fn bench(c: &mut Criterion) {
     )
     .expect("law set");
     let free = start.free_params(&reg, None).expect("free");
-    let prepared = prepare(&base, &start, Some(&rows)).expect("prepared");
-    let _ = prepared;
     g.sample_size(10).measurement_time(Duration::from_secs(120));
     g.bench_function("fit_six_parameters_from_start_values", |b| {
         b.iter(|| black_box(tribo::fit::fit(&base, &start, &free, &rows, &reg).expect("fit")))

@@ -122,9 +122,6 @@ fn a_s(phi: f64, s: Vector2<f64>) -> (Vector2<f64>, Vector2<f64>) {
     (a, Vector2::new(-a.y, a.x))
 }
 
-fn cross(a: Vector2<f64>, b: Vector2<f64>) -> f64 {
-    a.x * b.y - a.y * b.x
-}
 
 /// The rig as a constrained multibody system: local attachment points and mass matrix.
 #[derive(Debug, Clone)]
@@ -372,17 +369,6 @@ impl Mechanism {
     /// Potential energy in gravity, J (zero level at y = 0).
     pub fn potential_energy(&self, q: &Q) -> f64 {
         self.geo.gravity_m_s2 * (self.mass[0] * q[1] + self.mass[3] * q[4] + self.mass[6] * q[7])
-    }
-
-    /// Moment arm helper for tests: the crank pin position for `theta`.
-    pub fn crank_pin(&self, theta: f64) -> Vector2<f64> {
-        let r = self.geo.crank_radius_m;
-        Vector2::new(-r * theta.sin(), r * theta.cos())
-    }
-
-    /// Cross product helper kept public for the solver's moment bookkeeping.
-    pub fn cross(a: Vector2<f64>, b: Vector2<f64>) -> f64 {
-        cross(a, b)
     }
 }
 

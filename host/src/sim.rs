@@ -572,7 +572,6 @@ impl Simulation {
             }
             prev = Some(normals);
             loads = new_loads;
-            let _ = alpha;
         }
         Err(SimError::NoConvergence {
             time_s: t,
@@ -919,8 +918,8 @@ impl Simulation {
     ) -> Result<(Eval, JointLoads), SimError> {
         match self.drive {
             Drive::Prescribed => {
+                // The reference motion defines the state; the integrated one is not used.
                 let (th, w, a) = self.cycle.reference(t);
-                let _ = (theta, omega, z);
                 self.evaluate(t, dt, th, w, Ok(a), false, guess, self.oil_at(t), buffer)
             }
             Drive::Pi { .. } => {

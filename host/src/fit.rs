@@ -3,7 +3,7 @@
 //!
 //! Bounds are kept by a change of variable: each parameter is `lo + (hi - lo) * s(u)` with
 //! `s(u) = (1 + tanh u) / 2` and `u` unbounded, in log space when the bounds span two decades or
-//! more (thresholds, scales). The Jacobian is a central difference in `u`, its columns run in
+//! more (thresholds, scales). The Jacobian is a forward difference in `u`, its columns run in
 //! parallel.
 
 use std::sync::Mutex;
@@ -103,6 +103,9 @@ struct Model<'a> {
     maps: Vec<Map>,
     evaluations: Mutex<usize>,
     error: Mutex<Option<String>>,
+    /// The last parameters run and their torques: the optimiser asks for the Jacobian at the
+    /// point whose residuals it has just computed.
+    last: Mutex<Option<(Vec<f64>, Vec<f64>)>>,
 }
 
 impl Model<'_> {
@@ -132,6 +135,22 @@ impl Model<'_> {
             .unwrap_or_else(|| self.data.iter().map(|d| d.torque_nm + PENALTY_NM).collect())
     }
 
+    /// As `torques_or_penalty`, remembering the result for the next call at the same point.
+    fn torques_cached(&self, x: &[f64]) -> Vec<f64> {
+        if let Ok(last) = self.last.lock() {
+            if let Some((lx, lt)) = last.as_ref() {
+                if lx.as_slice() == x {
+                    return lt.clone();
+                }
+            }
+        }
+        let t = self.torques_or_penalty(x);
+        if let Ok(mut last) = self.last.lock() {
+            *last = Some((x.to_vec(), t.clone()));
+        }
+        t
+    }
+
     fn x_of(&self, u: &DVector<f64>) -> Vec<f64> {
         u.iter().zip(&self.maps).map(|(u, m)| m.to_x(*u)).collect()
     }
@@ -159,7 +178,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        let t = self.model.torques_or_penalty(&self.model.x_of(&self.u));
+        let t = self.model.torques_cached(&self.model.x_of(&self.u));
         Some(DVector::from_iterator(
             t.len(),
             t.iter().zip(self.model.data).map(|(m, d)| m - d.torque_nm),
@@ -167,29 +186,24 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
+        // Forward differences: one extra model run per parameter (the optimiser's own step
+        // control tolerates their O(h) error; central differences doubled the fit's cost).
         let n = self.u.len();
         let m = self.model.data.len();
-        let cols: Vec<Option<Vec<f64>>> = (0..n)
+        let base = self.model.torques_cached(&self.model.x_of(&self.u));
+        let cols: Vec<Vec<f64>> = (0..n)
             .into_par_iter()
             .map(|k| {
-                let h = 1e-4 * (1.0 + self.u[k].abs());
+                let h = 1e-5 * (1.0 + self.u[k].abs());
                 let mut up = self.u.clone();
-                let mut dn = self.u.clone();
                 up[k] += h;
-                dn[k] -= h;
                 let a = self.model.torques_or_penalty(&self.model.x_of(&up));
-                let b = self.model.torques_or_penalty(&self.model.x_of(&dn));
-                Some(
-                    a.iter()
-                        .zip(&b)
-                        .map(|(a, b)| (a - b) / (2.0 * h))
-                        .collect::<Vec<f64>>(),
-                )
+                a.iter().zip(&base).map(|(a, b)| (a - b) / h).collect()
             })
             .collect();
         let mut j = DMatrix::zeros(m, n);
         for (k, c) in cols.into_iter().enumerate() {
-            for (i, v) in c?.into_iter().enumerate() {
+            for (i, v) in c.into_iter().enumerate() {
                 j[(i, k)] = v;
             }
         }
@@ -215,6 +229,7 @@ pub fn fit(
         maps,
         evaluations: Mutex::new(0),
         error: Mutex::new(None),
+        last: Mutex::new(None),
     };
     let u0 = DVector::from_iterator(
         free.len(),

@@ -122,7 +122,6 @@ fn a_s(phi: f64, s: Vector2<f64>) -> (Vector2<f64>, Vector2<f64>) {
     (a, Vector2::new(-a.y, a.x))
 }
 
-
 /// The rig as a constrained multibody system: local attachment points and mass matrix.
 #[derive(Debug, Clone)]
 pub struct Mechanism {

@@ -1147,9 +1147,19 @@ impl Simulation {
                 // equally spaced samples converges spectrally for smooth laws (and like Simpson's
                 // for kinked ones) with one evaluation per step instead of two.
                 for _ in 0..m {
-                    let (e1, l1) = self.evaluate(t + h, h, w * (t + h), w, Ok(0.0), false, &guess, oil, pool.pop().unwrap_or_default())?;
-                    for k in 0..n {
-                        delta[k] += h * e1.rates[k];
+                    let (e1, l1) = self.evaluate(
+                        t + h,
+                        h,
+                        w * (t + h),
+                        w,
+                        Ok(0.0),
+                        false,
+                        &guess,
+                        oil,
+                        pool.pop().unwrap_or_default(),
+                    )?;
+                    for (d, r) in delta.iter_mut().zip(&e1.rates) {
+                        *d += h * r;
                     }
                     max_it = max_it.max(e1.iterations);
                     t += h;

@@ -246,14 +246,37 @@ struct Eval {
 /// Crank angle (rad), speed (rad/s) and the PI controller's integral (rad).
 type CrankState = (f64, f64, f64);
 
-/// A point stored near the end of each hold, for the whole-revolution window.
-#[derive(Debug, Clone)]
-struct Record {
-    t: f64,
-    theta: f64,
-    omega: f64,
-    acc: Vec<f64>,
-    rates: Vec<f64>,
+/// The steps stored near the end of one hold, for its whole-revolution window: time, crank
+/// angle and speed of each, and in one flat buffer its accumulated quantities followed by their
+/// rates. Sized before the run, so stepping through the window does not allocate.
+struct Window {
+    points: Vec<(f64, f64, f64)>,
+    data: Vec<f64>,
+    n: usize,
+}
+
+impl Window {
+    fn with_capacity(points: usize, n: usize) -> Self {
+        Self {
+            points: Vec::with_capacity(points),
+            data: Vec::with_capacity(points * 2 * n),
+            n,
+        }
+    }
+
+    fn push(&mut self, t: f64, theta: f64, omega: f64, acc: &[f64], rates: &[f64]) {
+        self.points.push((t, theta, omega));
+        self.data.extend_from_slice(acc);
+        self.data.extend_from_slice(rates);
+    }
+
+    fn acc(&self, i: usize) -> &[f64] {
+        &self.data[2 * self.n * i..2 * self.n * i + self.n]
+    }
+
+    fn rates(&self, i: usize) -> &[f64] {
+        &self.data[2 * self.n * i + self.n..2 * self.n * (i + 1)]
+    }
 }
 
 /// A ready-to-run simulation: mechanism, cycle, laws and drive.
@@ -666,7 +689,16 @@ impl Simulation {
         let mut guess = JointLoads::default();
         let e0 = self.energy(0.0, 0.0);
         let (mut filtered, mut steps, mut max_it) = (0.0, 0_u64, 0_u32);
-        let mut records: Vec<Vec<Record>> = vec![Vec::new(); plateaus.len()];
+        // Window storage per plateau, sized for the steps its measurement margin will hold.
+        let mut records: Vec<Window> = plateaus
+            .iter()
+            .map(|p| {
+                let w = p.omega.max(1e-9);
+                let h = (self.step_rad / w).min(self.max_step_s);
+                let margin = self.window_s + 2.0 * TAU / w;
+                Window::with_capacity((margin / h).ceil() as usize + 16, n)
+            })
+            .collect();
         let mut saturated_time = vec![0.0; plateaus.len()];
         let mut t = 0.0;
         // Recycled rate buffers, and the RK4 end state carried into the next step.
@@ -792,13 +824,7 @@ impl Simulation {
                         if e_end.saturated {
                             saturated_time[pi] += h;
                         }
-                        records[pi].push(Record {
-                            t: t1,
-                            theta,
-                            omega,
-                            acc: acc.clone(),
-                            rates: last_rates.clone(),
-                        });
+                        records[pi].push(t1, theta, omega, &acc, &last_rates);
                     }
                 }
                 if prescribed {
@@ -1021,19 +1047,24 @@ impl Simulation {
     }
 
     /// Plateau values over the last whole revolutions of a hold.
-    fn measure(&self, pi: usize, omega_ref: f64, t_end: f64, recs: &[Record]) -> PlateauResult {
+    fn measure(&self, pi: usize, omega_ref: f64, t_end: f64, recs: &Window) -> PlateauResult {
         let revs = self.window_revs(omega_ref);
-        let last = recs.last();
-        let (theta_e, acc_e, t_e) = last.map_or((0.0, vec![0.0; self.n_rates()], t_end), |r| {
-            (r.theta, r.acc.clone(), r.t)
-        });
+        let n = self.n_rates();
+        let (t_e, theta_e, acc_e) = match recs.points.len() {
+            0 => (t_end, 0.0, vec![0.0; n]),
+            len => (
+                recs.points[len - 1].0,
+                recs.points[len - 1].1,
+                recs.acc(len - 1).to_vec(),
+            ),
+        };
         let theta_s = theta_e - revs as f64 * TAU;
         // Find the interval holding theta_s and interpolate (cubic Hermite in time).
         let (mut t_s, mut acc_s) = (t_e, acc_e.clone());
-        for w in recs.windows(2) {
-            let (a, b) = (&w[0], &w[1]);
-            if a.theta <= theta_s && theta_s <= b.theta {
-                let h = b.t - a.t;
+        for i in 1..recs.points.len() {
+            let ((ta, tha, wa), (tb, thb, wb)) = (recs.points[i - 1], recs.points[i]);
+            if tha <= theta_s && theta_s <= thb {
+                let h = tb - ta;
                 let herm = |y0: f64, y1: f64, d0: f64, d1: f64, s: f64| {
                     let (s2, s3) = (s * s, s * s * s);
                     (2.0 * s3 - 3.0 * s2 + 1.0) * y0
@@ -1045,16 +1076,22 @@ impl Simulation {
                 let (mut lo, mut hi) = (0.0, 1.0);
                 for _ in 0..60 {
                     let mid = 0.5 * (lo + hi);
-                    if herm(a.theta, b.theta, a.omega, b.omega, mid) < theta_s {
+                    if herm(tha, thb, wa, wb, mid) < theta_s {
                         lo = mid;
                     } else {
                         hi = mid;
                     }
                 }
                 let s = 0.5 * (lo + hi);
-                t_s = a.t + s * h;
-                acc_s = (0..a.acc.len())
-                    .map(|k| herm(a.acc[k], b.acc[k], a.rates[k], b.rates[k], s))
+                t_s = ta + s * h;
+                let (aa, ab, ra, rb) = (
+                    recs.acc(i - 1),
+                    recs.acc(i),
+                    recs.rates(i - 1),
+                    recs.rates(i),
+                );
+                acc_s = (0..n)
+                    .map(|k| herm(aa[k], ab[k], ra[k], rb[k], s))
                     .collect();
                 break;
             }

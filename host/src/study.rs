@@ -420,21 +420,30 @@ pub fn mass_response(
 
 /// FEDEM's torque change with the rod at 60% per speed: table 10.6 minus table 10.5.
 pub fn fedem_rod_change() -> Vec<(f64, f64)> {
+    // The FEDEM tables have `speed_rpm,sim_speed_rad_s,torque_nm` (no oil temperature), so they
+    // are read by column name here rather than through `parse_data`.
     let read = |name: &str| -> Vec<(f64, f64)> {
-        crate::bundled::data(name)
-            .map(|t| {
-                t.lines()
-                    .filter(|l| !l.starts_with('#') && !l.starts_with("speed"))
-                    .filter_map(|l| {
-                        let c: Vec<&str> = l.split(',').collect();
-                        Some((
-                            c.first()?.trim().parse().ok()?,
-                            c.get(2)?.trim().parse().ok()?,
-                        ))
-                    })
-                    .collect()
+        let Some(text) = crate::bundled::data(name) else {
+            return Vec::new();
+        };
+        let mut reader = csv::ReaderBuilder::new()
+            .comment(Some(b'#'))
+            .trim(csv::Trim::All)
+            .from_reader(text.as_bytes());
+        let Ok(headers) = reader.headers().cloned() else {
+            return Vec::new();
+        };
+        let col = |n: &str| headers.iter().position(|h| h == n);
+        let (Some(cs), Some(ct)) = (col("speed_rpm"), col("torque_nm")) else {
+            return Vec::new();
+        };
+        reader
+            .records()
+            .filter_map(|r| {
+                let r = r.ok()?;
+                Some((r.get(cs)?.parse().ok()?, r.get(ct)?.parse().ok()?))
             })
-            .unwrap_or_default()
+            .collect()
     };
     let (a, b) = (read("fedem-tuned.csv"), read("fedem-light-rod.csv"));
     a.iter()

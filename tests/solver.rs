@@ -97,12 +97,20 @@ fn energy_is_conserved_over_the_thesis_cycle_with_friction_on_every_joint() {
     }
 }
 
+/// Fixed-step RK4 for the PI drive (the default is the error-controlled integrator).
+const RK4: &str = "solver.integrator=\"rk4\"";
+
 #[test]
 fn halving_the_step_changes_plateau_torques_by_less_than_a_tenth_of_a_percent() {
+    // Prescribed drive: the quadrature step. PI drive: the default (error-controlled) run
+    // against fixed-step RK4 at half the default step.
     for drive in [None, Some(PI_DRIVE)] {
         let base: Vec<&str> = with(drive.as_slice());
         let mut fine = base.clone();
         fine.push("solver.step_deg=0.5");
+        if drive.is_some() {
+            fine.push(RK4);
+        }
         let (a, b) = (run(&base), run(&fine));
         for (p, q) in a.plateaus.iter().zip(&b.plateaus) {
             let rel =
@@ -116,6 +124,52 @@ fn halving_the_step_changes_plateau_torques_by_less_than_a_tenth_of_a_percent() 
                 q.motoring_torque_nm
             );
         }
+    }
+}
+
+/// Largest relative difference of plateau torques between two runs.
+fn max_rel_diff(a: &RunResult, b: &RunResult) -> f64 {
+    a.plateaus
+        .iter()
+        .zip(&b.plateaus)
+        .map(|(p, q)| {
+            (p.motoring_torque_nm - q.motoring_torque_nm).abs() / q.motoring_torque_nm.abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn error_controlled_pi_run_matches_fine_fixed_step_rk4_even_with_a_sign_function_law() {
+    // Friction on every joint reverses (piston at the dead centres, small end at mid-stroke)
+    // or kinks (the piston's normal load is |side thrust|): the steps must land on or resolve
+    // these. With v_smooth = 1e-9 m/s the Coulomb law is a sign function.
+    let sharp = "joints.piston.laws=[{law=\"coulomb\", params={mu=0.08, v_smooth=1e-9}}]";
+    for extra in [vec![PI_DRIVE], vec![PI_DRIVE, sharp]] {
+        let adaptive = run(&with(&extra));
+        let mut fine_sets = with(&extra);
+        fine_sets.extend([RK4, "solver.step_deg=0.25"]);
+        let fine = run(&fine_sets);
+        let rel = max_rel_diff(&adaptive, &fine);
+        // rel_tol 1e-6: the plateau torques follow to a few 1e-6; 5e-5 leaves room for the
+        // reference's own error, and fails for an integrator off by a step's worth.
+        assert!(
+            rel < 5e-5,
+            "{extra:?}: adaptive vs RK4 at 0.25 degrees differ by {rel:.2e} ({} vs {} steps)",
+            adaptive.steps,
+            fine.steps
+        );
+        assert!(
+            adaptive.energy.relative_residual < 1e-6,
+            "{:?}",
+            adaptive.energy
+        );
+        // It is the point of the integrator: far fewer steps than the fixed 1-degree grid.
+        assert!(
+            adaptive.steps * 4 < fine.steps / 4,
+            "{} steps against {} at 0.25 degrees",
+            adaptive.steps,
+            fine.steps
+        );
     }
 }
 

@@ -9,6 +9,7 @@
 //! - [`lawset`]: law sets (laws on joints, free parameters) usable with any rig;
 //! - [`bundled`]: the rigs, law sets and data compiled into the binary;
 //! - [`cycle`], [`oil`]: the test cycle's reference speed, oil viscosity;
+//! - [`erk`]: embedded Runge-Kutta pairs and step control for the torque-driven crank;
 //! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions);
 //! - [`progress`]: progress display for long runs (stderr, terminals only);
 //! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
@@ -18,6 +19,7 @@
 
 pub mod bundled;
 pub mod cycle;
+pub mod erk;
 pub mod fit;
 pub mod laws;
 pub mod lawset;

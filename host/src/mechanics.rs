@@ -94,6 +94,20 @@ pub struct JointLoads {
     pub slide_force_n: f64,
 }
 
+impl JointLoads {
+    /// Linear extrapolation from `earlier` through `self` by `ratio` of the interval between
+    /// them: a starting guess for the friction iteration at a nearby instant.
+    pub fn extrapolated(&self, earlier: &JointLoads, ratio: f64) -> JointLoads {
+        let x = |a: f64, b: f64| a + ratio * (a - b);
+        JointLoads {
+            main_torque_nm: x(self.main_torque_nm, earlier.main_torque_nm),
+            big_end_torque_nm: x(self.big_end_torque_nm, earlier.big_end_torque_nm),
+            small_end_torque_nm: x(self.small_end_torque_nm, earlier.small_end_torque_nm),
+            slide_force_n: x(self.slide_force_n, earlier.slide_force_n),
+        }
+    }
+}
+
 /// Joint reactions for one configuration: forces on the second body of each joint, N.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reactions {

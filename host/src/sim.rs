@@ -19,8 +19,9 @@ use tribo_plugin_api::loader::{LawError, LawInstance, LawRegistry};
 use tribo_plugin_api::{JointKind, LawInput, Regime};
 
 use crate::cycle::{rad_s_to_rpm, Cycle};
+use crate::erk::{Controller, Pair, DORMAND_PRINCE_54};
 use crate::mechanics::{JointLoads, Mechanism, Reactions, RigGeometry};
-use crate::rig::{Drive, Rig, RigError, Temperature, JOINT_NAMES};
+use crate::rig::{Drive, Integrator, Rig, RigError, Temperature, JOINT_NAMES};
 
 /// Standard gravity, m/s^2.
 pub const GRAVITY_M_S2: f64 = 9.80665;
@@ -62,6 +63,16 @@ pub enum SimError {
         change_n: f64,
         /// Tolerance.
         tol: f64,
+    },
+    /// The adaptive integrator could not meet its tolerance with any usable step.
+    #[error("the adaptive integrator could not meet solver.rel_tol = {rel_tol:.1e} at t = {time_s:.6} s (step down to {step_s:.3e} s): a law is probably discontinuous there; loosen solver.rel_tol or use solver.integrator = \"rk4\"")]
+    StepTooSmall {
+        /// Time.
+        time_s: f64,
+        /// The last step tried, s.
+        step_s: f64,
+        /// The tolerance in force.
+        rel_tol: f64,
     },
     /// Writing the time series failed.
     #[error("writing the time series: {0}")]
@@ -239,9 +250,17 @@ struct Eval {
     rates: Vec<f64>,
     /// Normal load per joint.
     normals: [f64; 5],
+    /// Where the rates stop being smooth when these change sign: each joint's relative
+    /// velocity (a friction force reverses), the piston's lateral reaction (its normal load,
+    /// an absolute value, has a kink) and the PI drive's margin to its torque limit (the
+    /// anti-windup switches its integrator).
+    switches: [f64; SWITCHES],
     iterations: u32,
     saturated: bool,
 }
+
+/// Number of switching functions in an evaluation.
+const SWITCHES: usize = 7;
 
 /// Crank angle (rad), speed (rad/s) and the PI controller's integral (rad).
 type CrankState = (f64, f64, f64);
@@ -293,6 +312,11 @@ pub struct Simulation {
     lowpass_hz: f64,
     step_rad: f64,
     max_step_s: f64,
+    integrator: Integrator,
+    rel_tol: f64,
+    max_step_rad: f64,
+    /// Which of an evaluation's `switches` matter: those of joints that carry a law.
+    switch_mask: [bool; SWITCHES],
     tol: f64,
     max_iter: u32,
     n_laws: usize,
@@ -377,6 +401,12 @@ impl Simulation {
                 laws,
             });
         }
+        let mut switch_mask = [false; SWITCHES];
+        for (ji, j) in joints.iter().enumerate() {
+            switch_mask[ji] = !j.laws.is_empty();
+        }
+        switch_mask[5] = switch_mask[4];
+        switch_mask[6] = matches!(f.drive, Drive::Pi { .. });
         let cycle = Cycle::new(&f.cycle.segments());
         let temps: Vec<f64> = match &f.oil.temperature_c {
             Temperature::Constant(t) => vec![*t; cycle.plateaus().len()],
@@ -399,6 +429,10 @@ impl Simulation {
             lowpass_hz: f.measurement.lowpass_hz,
             step_rad: f.solver.step_deg.to_radians(),
             max_step_s: f.solver.max_step_s,
+            integrator: f.solver.integrator,
+            rel_tol: f.solver.rel_tol,
+            max_step_rad: f.solver.max_step_deg.to_radians(),
+            switch_mask,
             tol: f.solver.friction_tol,
             max_iter: f.solver.friction_max_iter,
             n_laws,
@@ -454,7 +488,7 @@ impl Simulation {
         theta: f64,
         omega: f64,
         control: Result<f64, f64>,
-        saturated: bool,
+        saturation_margin: f64,
         guess: &JointLoads,
         oil: (f64, f64),
         buffer: Vec<f64>,
@@ -462,6 +496,7 @@ impl Simulation {
         let (temp, visc) = oil;
         let mut loads = *guess;
         let mut prev: Option<[f64; 5]> = None;
+        let mut last_change: Option<f64> = None;
         // The caller's recycled buffer: no allocation per evaluation once warmed up.
         let mut rates = buffer;
         rates.clear();
@@ -492,12 +527,24 @@ impl Simulation {
             };
             let re = kin.reactions(alpha, &loads);
             let normals = self.normals(&re);
-            let converged = prev.is_some_and(|p| {
-                let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+            // Converged when the normal loads' distance to the fixed point is within tolerance:
+            // the last change, or once the iteration is seen to contract by a factor rho, the
+            // geometric remainder rho / (1 - rho) of it.
+            let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+            let change = prev.map(|p| {
                 p.iter()
                     .zip(&normals)
-                    .all(|(a, b)| (a - b).abs() <= self.tol * scale)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
             });
+            let converged = change.is_some_and(|d| {
+                let remainder = match last_change {
+                    Some(d0) if d < 0.5 * d0 => d * (d / d0) / (1.0 - d / d0),
+                    _ => d,
+                };
+                remainder <= self.tol * scale
+            });
+            last_change = change;
             let no_laws = self.n_laws == 0;
             if converged || no_laws {
                 rates[0] = re.drive_torque_nm * omega;
@@ -507,8 +554,17 @@ impl Simulation {
                     drive_torque: re.drive_torque_nm,
                     rates,
                     normals,
+                    switches: [
+                        rel[0],
+                        rel[1],
+                        rel[2],
+                        rel[3],
+                        rel[4],
+                        re.slide_lateral_n,
+                        saturation_margin,
+                    ],
                     iterations: it,
-                    saturated,
+                    saturated: saturation_margin < 0.0,
                 };
                 return Ok((e, loads));
             }
@@ -531,13 +587,18 @@ impl Simulation {
                 input.reaction_moment_nm = if ji == 4 { re.slide_moment_nm } else { 0.0 };
                 let mut total = 0.0;
                 for law in &joint.laws {
-                    let timed = law.calls.fetch_add(1, Ordering::Relaxed) % TIMING_SAMPLE == 0;
+                    // One simulation is stepped by one thread: a plain load and store, not a
+                    // locked read-modify-write (which cost ~15% of an evaluation).
+                    let calls = law.calls.load(Ordering::Relaxed);
+                    law.calls.store(calls + 1, Ordering::Relaxed);
+                    let timed = calls % TIMING_SAMPLE == 0;
                     let clock = timed.then(std::time::Instant::now);
                     let result = law.instance.evaluate(&input, &law.state);
                     if let Some(c) = clock {
                         let ns =
                             (c.elapsed().as_nanos() as u64).saturating_sub(clock_overhead_ns());
-                        law.sampled_ns.fetch_add(ns, Ordering::Relaxed);
+                        let sum = law.sampled_ns.load(Ordering::Relaxed);
+                        law.sampled_ns.store(sum + ns, Ordering::Relaxed);
                     }
                     let out = result.map_err(|e| SimError::Law {
                         joint: joint.name.into(),
@@ -704,8 +765,22 @@ impl Simulation {
         // Recycled rate buffers, and the RK4 end state carried into the next step.
         let mut pool: Vec<Vec<f64>> = Vec::new();
         let mut carried: Option<(Eval, JointLoads, f64)> = None;
-        let (e_start, _) = self.step_eval(t, 0.0, theta, omega, z, &guess, Vec::new())?;
-        let mut last_rates = e_start.rates;
+        let (e_start, l_start) = self.step_eval(t, 0.0, theta, omega, z, &guess, Vec::new())?;
+        let mut last_rates = e_start.rates.clone();
+        // The adaptive integrator: stateless laws only (a stateful law's state is advanced with
+        // the step's length, which must then not vary).
+        let stateful = self
+            .joints
+            .iter()
+            .any(|j| j.laws.iter().any(|l| !l.state.is_empty()));
+        let adaptive = !prescribed && self.integrator == Integrator::Adaptive && !stateful;
+        let pair = &DORMAND_PRINCE_54;
+        let control = Controller::new(pair);
+        let mut fsal = (e_start, l_start);
+        let (mut incr, mut est) = (vec![0.0; n], vec![0.0; n]);
+        let mut stages: Vec<Eval> = Vec::with_capacity(pair.stages());
+        let mut h_next = f64::INFINITY;
+        let mut previous_end: Option<(f64, [f64; SWITCHES])> = None;
         for &b in &breaks {
             let (_, w_end, _) = self.cycle.reference(b);
             let w_max = w_end.max(self.cycle.reference(t).1).max(omega);
@@ -726,7 +801,7 @@ impl Simulation {
                     th0,
                     w0,
                     Ok(a0),
-                    false,
+                    f64::INFINITY,
                     &guess,
                     self.oil_at(t),
                     pool.pop().unwrap_or_default(),
@@ -734,10 +809,31 @@ impl Simulation {
                 pool.push(std::mem::replace(&mut last_rates, e0.rates));
                 guess = l0;
             }
-            for i in 1..=m {
+            let mut i = 0_u64;
+            while t < b {
+                i += 1;
                 let t1 = if i == m { b } else { t + dt };
                 let h = t1 - t;
-                let (e_end, new_state) = if prescribed {
+                let (t1, h, e_end, new_state) = if adaptive {
+                    let (h, e1, l1, state) = self.adaptive_step(
+                        pair,
+                        &control,
+                        t,
+                        b,
+                        &mut h_next,
+                        &mut previous_end,
+                        (theta, omega, z),
+                        &fsal,
+                        (&mut incr, &mut est),
+                        &mut stages,
+                        &mut pool,
+                        &mut max_it,
+                    )?;
+                    acc.iter_mut().zip(&incr).for_each(|(a, d)| *a += d);
+                    let t1 = if b - t <= h { b } else { t + h };
+                    guess = l1;
+                    (t1, t1 - t, e1, state)
+                } else if prescribed {
                     let (th_m, w_m, a_m) = self.cycle.reference(t + 0.5 * h);
                     let (em, lm) = self.evaluate(
                         t + 0.5 * h,
@@ -745,7 +841,7 @@ impl Simulation {
                         th_m,
                         w_m,
                         Ok(a_m),
-                        false,
+                        f64::INFINITY,
                         &guess,
                         self.oil_at(t + 0.5 * h),
                         pool.pop().unwrap_or_default(),
@@ -757,7 +853,7 @@ impl Simulation {
                         th1,
                         w1,
                         Ok(a1),
-                        false,
+                        f64::INFINITY,
                         &lm,
                         self.oil_at(t1),
                         pool.pop().unwrap_or_default(),
@@ -769,7 +865,7 @@ impl Simulation {
                         acc[k] += h / 6.0 * (last_rates[k] + 4.0 * em.rates[k] + e1.rates[k]);
                     }
                     pool.push(em.rates);
-                    (e1, (th1, w1, 0.0))
+                    (t1, h, e1, (th1, w1, 0.0))
                 } else {
                     // The previous step's end state is this step's first RK4 stage when the
                     // step size (which the laws see) is the same.
@@ -790,7 +886,7 @@ impl Simulation {
                         first,
                     )?;
                     guess = l1;
-                    (e1, state)
+                    (t1, h, e1, state)
                 };
                 theta = new_state.0;
                 omega = new_state.1;
@@ -829,6 +925,8 @@ impl Simulation {
                 }
                 if prescribed {
                     pool.push(e_end.rates);
+                } else if adaptive {
+                    pool.push(std::mem::replace(&mut fsal, (e_end, guess)).0.rates);
                 } else {
                     carried = Some((e_end, guess, h));
                 }
@@ -904,8 +1002,9 @@ impl Simulation {
         ((self.window_s * omega / TAU).floor() as u32).max(1)
     }
 
-    /// The drive torque and controller state for a PI drive.
-    fn pi_torque(&self, t: f64, omega: f64, z: f64) -> (f64, f64, bool) {
+    /// The drive torque, the controller integral's rate and the margin to the torque limit
+    /// (negative while saturated) for a PI drive.
+    fn pi_torque(&self, t: f64, omega: f64, z: f64) -> (f64, f64, f64) {
         match self.drive {
             Drive::Pi {
                 kp,
@@ -917,17 +1016,17 @@ impl Simulation {
                 let e = self.cycle.reference(t).1 - omega;
                 let raw = kp * e + ki * z;
                 let motor = raw.clamp(-torque_limit_nm, torque_limit_nm);
-                let saturated = raw != motor;
+                let margin = torque_limit_nm - raw.abs();
                 // Conditional integration: stop integrating while saturated in the direction
                 // the error pushes, so the integral cannot wind up.
-                let dz = if saturated && raw.signum() == e.signum() {
+                let dz = if margin < 0.0 && raw.signum() == e.signum() {
                     0.0
                 } else {
                     e
                 };
-                (motor * belt_ratio, dz, saturated)
+                (motor * belt_ratio, dz, margin)
             }
-            Drive::Prescribed => (0.0, 0.0, false),
+            Drive::Prescribed => (0.0, 0.0, f64::INFINITY),
         }
     }
 
@@ -946,7 +1045,17 @@ impl Simulation {
             Drive::Prescribed => {
                 // The reference motion defines the state; the integrated one is not used.
                 let (th, w, a) = self.cycle.reference(t);
-                self.evaluate(t, dt, th, w, Ok(a), false, guess, self.oil_at(t), buffer)
+                self.evaluate(
+                    t,
+                    dt,
+                    th,
+                    w,
+                    Ok(a),
+                    f64::INFINITY,
+                    guess,
+                    self.oil_at(t),
+                    buffer,
+                )
             }
             Drive::Pi { .. } => {
                 let (torque, _, sat) = self.pi_torque(t, omega, z);
@@ -963,6 +1072,253 @@ impl Simulation {
                 )
             }
         }
+    }
+
+    /// One accepted error-controlled step from `t` towards the breakpoint `b`: steps are tried
+    /// from `h_next` (capped by `solver.max_step_deg` and `max_step_s`, and ending exactly on
+    /// `b` when close to it) and shrunk until the estimated error meets `solver.rel_tol`.
+    /// `first` is the evaluation at the step's start. Returns the step taken, the end
+    /// evaluation with its loads and the end state; the accumulated quantities' increment is
+    /// in `incr`, and `h_next` is updated for the following step.
+    #[allow(clippy::too_many_arguments)]
+    fn adaptive_step(
+        &self,
+        pair: &Pair,
+        control: &Controller,
+        t: f64,
+        b: f64,
+        h_next: &mut f64,
+        previous_end: &mut Option<(f64, [f64; SWITCHES])>,
+        y: CrankState,
+        first: &(Eval, JointLoads),
+        (incr, est): (&mut [f64], &mut [f64]),
+        stages: &mut Vec<Eval>,
+        pool: &mut Vec<Vec<f64>>,
+        max_it: &mut u32,
+    ) -> Result<(f64, Eval, JointLoads, CrankState), SimError> {
+        let w = y.1.abs().max(self.cycle.reference(t).1.abs());
+        let h_cap = if w > 0.0 {
+            (self.max_step_rad / w).min(self.max_step_s)
+        } else {
+            self.max_step_s
+        };
+        // One `step_deg` of crank angle: the start step, and the error floor per step.
+        let h_floor = if w > 0.0 {
+            (10.0 * self.step_rad / w).min(self.max_step_s)
+        } else {
+            self.max_step_s
+        };
+        let mut h = h_next.min(h_cap);
+        if !h.is_finite() {
+            h = h_floor;
+        }
+        // A switch predicted (linearly from the last two step ends) to change sign within
+        // the step: end the step on it, so the kink falls between steps.
+        let mut h_switch = f64::INFINITY;
+        if let Some((tp, gp)) = previous_end {
+            for (i, (&a, &g)) in gp.iter().zip(&first.0.switches).enumerate() {
+                if self.switch_mask[i] && a * g > 0.0 && (g - a) * g < 0.0 && t > *tp {
+                    let dt = g * (t - *tp) / (a - g);
+                    if dt > 0.05 * h && dt < h {
+                        h_switch = h_switch.min(dt);
+                    }
+                }
+            }
+        }
+        h = h.min(h_switch);
+        let mut rejected = false;
+        loop {
+            let remaining = b - t;
+            // End on the breakpoint, without leaving a sliver step before it.
+            let h_try = if remaining <= 1.1 * h {
+                remaining
+            } else if remaining < 2.0 * h {
+                0.5 * remaining
+            } else {
+                h
+            };
+            let (err, e1, l1, y1, crossing) =
+                self.pair_step(pair, t, h_try, h_floor, y, first, (incr, est), stages, pool)?;
+            *max_it = (*max_it).max(e1.iterations);
+            if err <= 1.0 {
+                // A step cut short to land on `b` or a switch does not shrink the next one.
+                *h_next =
+                    control
+                        .next(h_try, err, rejected)
+                        .max(if h_try < h || h_switch.is_finite() {
+                            h_next.min(h_cap)
+                        } else {
+                            0.0
+                        });
+                *previous_end = Some((t, first.0.switches));
+                return Ok((h_try, e1, l1, y1));
+            }
+            pool.push(e1.rates);
+            rejected = true;
+            h = control.next(h_try, err, true);
+            // A switch inside the failed step: retry up to it rather than by the error alone.
+            if let Some(f) = crossing {
+                if f > 0.02 && f < 0.95 {
+                    h = f * h_try;
+                }
+            }
+            if h <= 1e-12 * t.abs().max(1e-3) {
+                return Err(SimError::StepTooSmall {
+                    time_s: t,
+                    step_s: h,
+                    rel_tol: self.rel_tol,
+                });
+            }
+        }
+    }
+
+    /// One attempted step of the embedded `pair` of length `h` from state `y` at `t`, `first`
+    /// being the evaluation there. Returns the scaled error estimate (acceptable at <= 1), the
+    /// end evaluation with its loads and the end state, and writes the step's increment of
+    /// every accumulated quantity to `incr`.
+    ///
+    /// A step may err by `rel_tol` times the largest rate of the quantity over the step (at
+    /// least 1 for the crank state, 1e-3 W or N for powers and loads) times the step plus
+    /// `h_floor`: over smooth stretches that bounds the relative error per unit time, so the
+    /// integrals over a hold are good to about `rel_tol`; across a jump of a rate (the drive's
+    /// anti-windup switching, a law's near-discontinuity) the step shrinks until its error is
+    /// below that of `h_floor` of smooth running instead of failing.
+    #[allow(clippy::too_many_arguments)]
+    fn pair_step(
+        &self,
+        pair: &Pair,
+        t: f64,
+        h: f64,
+        h_floor: f64,
+        y: CrankState,
+        first: &(Eval, JointLoads),
+        (incr, est): (&mut [f64], &mut [f64]),
+        stages: &mut Vec<Eval>,
+        pool: &mut Vec<Vec<f64>>,
+    ) -> Result<(f64, Eval, JointLoads, CrankState, Option<f64>), SimError> {
+        const MAX_STAGES: usize = 8;
+        let s = pair.stages();
+        debug_assert!(s <= MAX_STAGES);
+        let mut k = [[0.0_f64; 3]; MAX_STAGES];
+        let (_, dz, _) = self.pi_torque(t, y.1, y.2);
+        k[0] = [y.1, first.0.alpha, dz];
+        // The friction iteration starts from the loads extrapolated (linearly in time) from the
+        // two latest stages: one or two iterations fewer than starting from the latest.
+        let mut loads = first.1;
+        let mut older: Option<(f64, JointLoads)> = None;
+        let mut t_last = t;
+        stages.clear();
+        let mut y1 = [y.0, y.1, y.2];
+        for st in 1..s {
+            let mut ys = [y.0, y.1, y.2];
+            for (j, a) in pair.a[st].iter().enumerate() {
+                for c in 0..3 {
+                    ys[c] += h * a * k[j][c];
+                }
+            }
+            let ts = t + pair.c[st] * h;
+            let (torque, dz, sat) = self.pi_torque(ts, ys[1], ys[2]);
+            let guess = match older {
+                Some((t0, l0)) if t_last > t0 => {
+                    loads.extrapolated(&l0, (ts - t_last) / (t_last - t0))
+                }
+                _ => loads,
+            };
+            let (e, l) = self.evaluate(
+                ts,
+                h,
+                ys[0],
+                ys[1],
+                Err(torque),
+                sat,
+                &guess,
+                self.oil_at(ts),
+                pool.pop().unwrap_or_default(),
+            )?;
+            k[st] = [ys[1], e.alpha, dz];
+            older = Some((t_last, loads));
+            t_last = ts;
+            loads = l;
+            stages.push(e);
+            y1 = ys;
+        }
+        let Some(end) = stages.pop() else {
+            unreachable!("an embedded pair has at least two stages")
+        };
+        let rates: [&[f64]; MAX_STAGES] = std::array::from_fn(|j| {
+            if j == 0 {
+                &first.0.rates[..]
+            } else if j == s - 1 {
+                &end.rates[..]
+            } else if j < s - 1 {
+                &stages[j - 1].rates[..]
+            } else {
+                &[]
+            }
+        });
+        let mut err = 0.0_f64;
+        // The crank state: angle, speed, controller integral.
+        for c in 0..3 {
+            let (est, peak) = k[..s]
+                .iter()
+                .zip(pair.e)
+                .fold((0.0, 1.0_f64), |(sum, peak), (kj, e)| {
+                    (sum + e * kj[c], peak.max(kj[c].abs()))
+                });
+            err = err.max((h * est).abs() / (self.rel_tol * (h + h_floor) * peak));
+        }
+        // The step's increments (propagated weights) and error estimates (error weights) of
+        // every accumulated quantity, stage by stage so the loops run over contiguous rates.
+        incr.fill(0.0);
+        est.fill(0.0);
+        for (j, r) in rates.iter().enumerate().take(s) {
+            let (b, e) = (h * pair.b[j], h * pair.e[j]);
+            if b != 0.0 {
+                incr.iter_mut().zip(r.iter()).for_each(|(d, r)| *d += b * r);
+            }
+            if e != 0.0 {
+                est.iter_mut().zip(r.iter()).for_each(|(d, r)| *d += e * r);
+            }
+        }
+        // Powers (motor and laws) share one scale, normal loads another: a small quantity
+        // cannot be resolved below the evaluation's own noise, which the friction iteration's
+        // tolerance sets relative to the largest of its group. Regime times are not
+        // controlled: their indicators jump by nature.
+        let nl = self.n_laws;
+        for (lo, hi) in [(0, 1 + nl), (1 + 5 * nl, 1 + 6 * nl)] {
+            let peak = rates[..s]
+                .iter()
+                .flat_map(|r| r[lo..hi].iter())
+                .fold(1e-3_f64, |m, r| m.max(r.abs()));
+            let worst = est[lo..hi].iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            err = err.max(worst / (self.rel_tol * (h + h_floor) * peak));
+        }
+        // The first switch to change sign, located by linear interpolation between the stages
+        // around it (as a fraction of the step).
+        let mut crossing: Option<f64> = None;
+        let switch = |j: usize| -> &[f64; SWITCHES] {
+            if j == 0 {
+                &first.0.switches
+            } else if j == s - 1 {
+                &end.switches
+            } else {
+                &stages[j - 1].switches
+            }
+        };
+        for i in (0..SWITCHES).filter(|i| self.switch_mask[*i]) {
+            for j in 1..s {
+                let (a, g) = (switch(j - 1)[i], switch(j)[i]);
+                if a * g < 0.0 && pair.c[j] > pair.c[j - 1] {
+                    let f = pair.c[j - 1] + (pair.c[j] - pair.c[j - 1]) * a / (a - g);
+                    crossing = Some(crossing.map_or(f, |c: f64| c.min(f)));
+                    break;
+                }
+            }
+        }
+        for e in stages.drain(..) {
+            pool.push(e.rates);
+        }
+        Ok((err, end, loads, (y1[0], y1[1], y1[2]), crossing))
     }
 
     /// One classical RK4 step of crank angle, speed and controller integral, with every rate
@@ -1190,7 +1546,7 @@ impl Simulation {
                         w * (t + h),
                         w,
                         Ok(0.0),
-                        false,
+                        f64::INFINITY,
                         &guess,
                         oil,
                         pool.pop().unwrap_or_default(),

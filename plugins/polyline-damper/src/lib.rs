@@ -59,7 +59,9 @@ impl PolylineDamper {
         if w >= s[n - 1] {
             return f[n - 1];
         }
-        let i = s.partition_point(|x| *x <= w);
+        // A branch-free count over the (few) breakpoints: the engine speed dithers around a
+        // breakpoint on every plateau, where a binary search mispredicts.
+        let i = s.iter().filter(|x| **x <= w).count();
         let t = (w - s[i - 1]) / (s[i] - s[i - 1]);
         f[i - 1] + t * (f[i] - f[i - 1])
     }

@@ -7,7 +7,8 @@
 //!
 //! Drives: `prescribed` evaluates the exact reference motion (no ODE for the mechanics; Simpson
 //! quadrature of powers per step); `pi` integrates crank angle, speed and the controller's
-//! integral with classical RK4, powers integrated as part of the same RK4 state.
+//! integral with the error-controlled Dormand-Prince 5(4) pair (or fixed-step RK4 with stateful
+//! laws or `solver.integrator = "rk4"`), powers integrated as part of the same state.
 
 use std::f64::consts::TAU;
 use std::io::Write;
@@ -1102,15 +1103,16 @@ impl Simulation {
         } else {
             self.max_step_s
         };
-        // One `step_deg` of crank angle: the start step, and the error floor per step.
-        let h_floor = if w > 0.0 {
-            (10.0 * self.step_rad / w).min(self.max_step_s)
-        } else {
-            self.max_step_s
-        };
+        // Across a jump a step may err as much as a longest step of smooth running may.
+        let h_floor = h_cap;
         let mut h = h_next.min(h_cap);
         if !h.is_finite() {
-            h = h_floor;
+            // The first step: one `step_deg` of crank angle.
+            h = if w > 0.0 {
+                (self.step_rad / w).min(self.max_step_s)
+            } else {
+                self.max_step_s
+            };
         }
         // A switch predicted (linearly from the last two step ends) to change sign within
         // the step: end the step on it, so the kink falls between steps.
@@ -1178,11 +1180,11 @@ impl Simulation {
     /// every accumulated quantity to `incr`.
     ///
     /// A step may err by `rel_tol` times the largest rate of the quantity over the step (at
-    /// least 1 for the crank state, 1e-3 W or N for powers and loads) times the step plus
-    /// `h_floor`: over smooth stretches that bounds the relative error per unit time, so the
-    /// integrals over a hold are good to about `rel_tol`; across a jump of a rate (the drive's
-    /// anti-windup switching, a law's near-discontinuity) the step shrinks until its error is
-    /// below that of `h_floor` of smooth running instead of failing.
+    /// least 1 for the crank state; for powers and for normal loads the largest of the group,
+    /// at least 1e-3 W or N) times the step plus `h_floor`. Over smooth stretches that bounds
+    /// the error per unit time, so the integrals over a hold are good to about `rel_tol`;
+    /// across a jump of a rate (a law's near-discontinuity, the drive's anti-windup switch) the
+    /// step shrinks until its error is that of an `h_floor` step instead of failing for ever.
     #[allow(clippy::too_many_arguments)]
     fn pair_step(
         &self,

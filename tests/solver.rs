@@ -255,6 +255,24 @@ fn bad_rig_values_are_rejected_naming_the_field() {
         &["positive"],
     );
     expect_rig_error(&["cycle.segments=[]"], "cycle.segments", &["empty"]);
+    expect_rig_error(&["solver.rel_tol=0"], "solver.rel_tol", &["positive"]);
+    expect_rig_error(&["solver.rel_tol=0.5"], "solver.rel_tol", &["at most 1e-2"]);
+    expect_rig_error(
+        &["solver.max_step_deg=120"],
+        "solver.max_step_deg",
+        &["at most 90"],
+    );
+    // A value serde refuses is reported at its field, not at the value's text.
+    expect_rig_error(
+        &["solver.integrator=\"euler\""],
+        "solver.integrator",
+        &["unknown variant `euler`", "`adaptive`", "`rk4`"],
+    );
+    expect_rig_error(
+        &["bodies.rod.mass_kg=\"heavy\""],
+        "bodies.rod.mass_kg",
+        &["invalid type"],
+    );
     expect_rig_error(
         &["cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=1.0}, {kind=\"hold\", duration_s=0.0}]"],
         "cycle.segments[1].duration_s",
@@ -299,6 +317,17 @@ fn errors_in_the_file_carry_line_and_column() {
         e.message.contains("small_end"),
         "lists the joints that exist: {e}"
     );
+
+    // An unknown enum value: its line, and the field (not the value) named.
+    let text = format!("{}\n[solver]\nintegrator = \"euler\"\n", base_text());
+    let e = load_rig_text(Path::new("rig.toml"), &text, &[]).expect_err("unknown integrator");
+    let line = text.lines().count();
+    assert_eq!(
+        (e.line, e.field.as_str()),
+        (Some(line), "solver.integrator"),
+        "{e}"
+    );
+    assert!(e.message.contains("expected `adaptive` or `rk4`"), "{e}");
 }
 
 #[test]

@@ -562,15 +562,22 @@ fn apply_set(table: &mut toml::Table, assignment: &str) -> Result<String, RigErr
     Ok(key.to_string())
 }
 
-fn serde_error(path: &Path, text: &str, e: &toml::de::Error) -> RigError {
+/// A deserialisation error of one file read as written; `field` is the dotted path serde was
+/// at (empty when unknown).
+fn serde_error(path: &Path, text: &str, e: &toml::de::Error, field: &str) -> RigError {
     let message = e.message().to_string();
     let (line, column, field) = match e.span() {
         Some(span) => {
             let (l, c) = line_col(text, span.start);
-            // The key named by the message (`unknown field `x``), else the key written on the
+            // An unknown key is named by the message (`unknown field `x``); any other error
+            // is at the path serde was deserialising; failing both, the key written on the
             // offending line, else the line itself is the best description.
+            let unknown = message.starts_with("unknown field");
+            let at_path =
+                (!unknown && !field.is_empty() && field != ".").then(|| field.to_string());
             let named = message.split('`').nth(1).filter(|k| {
-                !k.is_empty()
+                unknown
+                    && !k.is_empty()
                     && k.chars()
                         .all(|c| c.is_alphanumeric() || c == '_' || c == '-')
             });
@@ -580,8 +587,8 @@ fn serde_error(path: &Path, text: &str, e: &toml::de::Error) -> RigError {
                 .and_then(|t| t.split_once('='))
                 .map(|(k, _)| k.trim().to_string())
                 .filter(|k| !k.is_empty());
-            let field = named
-                .map(str::to_string)
+            let field = at_path
+                .or(named.map(str::to_string))
                 .or(line_key)
                 .unwrap_or_else(|| "(syntax)".into());
             (Some(l), Some(c), field)
@@ -680,7 +687,7 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         text: text.to_string(),
     }];
     let parse = |src: &Source| -> Result<toml::Table, RigError> {
-        toml::from_str(&src.text).map_err(|e| serde_error(&src.path, &src.text, &e))
+        toml::from_str(&src.text).map_err(|e| serde_error(&src.path, &src.text, &e, ""))
     };
     let mut tables = vec![parse(&sources[0])?];
     while let Some(ext) = tables.last_mut().and_then(|t| t.remove("extends")) {
@@ -726,10 +733,24 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
     }
     let file = if single && sets.is_empty() {
         // The file exactly as written: toml's spans give precise locations.
-        toml::from_str::<RigFile>(text).map_err(|e| serde_error(path, text, &e))?
+        serde_path_to_error::deserialize::<_, RigFile>(toml::Deserializer::new(text)).map_err(
+            |e| {
+                let field = e.path().to_string();
+                serde_error(path, text, e.inner(), &field)
+            },
+        )?
     } else {
-        RigFile::deserialize(toml::Value::Table(table))
-            .map_err(|e| locate_key(&sources, e.message(), &overridden))?
+        // Merged tables have no spans: the path serde was at names the field, which is then
+        // found in the file that sets it (or in --set); an unknown key is found by name.
+        serde_path_to_error::deserialize::<_, RigFile>(toml::Value::Table(table)).map_err(|e| {
+            let field = e.path().to_string();
+            let message = e.inner().message();
+            if message.starts_with("unknown field") || field.is_empty() || field == "." {
+                locate_key(&sources, message, &overridden)
+            } else {
+                field_error(&sources, &overridden, &field, message.to_string())
+            }
+        })?
     };
     let rig = Rig {
         file,

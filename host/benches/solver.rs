@@ -11,7 +11,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use tribo::lawset::LawSet;
 use tribo::mechanics::JointLoads;
 use tribo::plugin_api::loader::{load_paths, LawRegistry};
-use tribo::rig::{load_rig, Rig};
+use tribo::rig::{load_rig, LawRef, Rig};
 use tribo::sim::Simulation;
 use tribo::study::{compare, mass_response, read_data, ScaledBody};
 
@@ -66,7 +66,15 @@ fn bench(c: &mut Criterion) {
         ("thesis_cycle_prescribed", "drive={kind=\"prescribed\"}"),
         ("thesis_cycle_pi", "drive={kind=\"pi\"}"),
     ] {
-        let rig = rig_with("fedem-baseline", &[drive]);
+        // A dynamic-plugin law on every joint: fedem-baseline leaves the small end free (the
+        // thesis did not model it); it gets the big end's coefficient [T table 9.5].
+        let mut rig = rig_with("fedem-baseline", &[drive]);
+        let mut params = toml::Table::new();
+        params.insert("mu".into(), toml::Value::Float(0.0025));
+        rig.file.joints.small_end.laws.push(LawRef {
+            law: "fedem-friction".into(),
+            params,
+        });
         g.bench_function(name, |b| {
             b.iter(|| {
                 let mut sim = Simulation::new(&rig, &reg).expect("sim");

@@ -318,6 +318,8 @@ pub struct Simulation {
     max_step_rad: f64,
     /// Which of an evaluation's `switches` matter: those of joints that carry a law.
     switch_mask: [bool; SWITCHES],
+    /// Whether any bound law keeps state (then steps are fixed and committed).
+    stateful: bool,
     tol: f64,
     max_iter: u32,
     n_laws: usize,
@@ -408,6 +410,9 @@ impl Simulation {
         }
         switch_mask[5] = switch_mask[4];
         switch_mask[6] = matches!(f.drive, Drive::Pi { .. });
+        let stateful = joints
+            .iter()
+            .any(|j| j.laws.iter().any(|l| !l.state.is_empty()));
         let cycle = Cycle::new(&f.cycle.segments());
         let temps: Vec<f64> = match &f.oil.temperature_c {
             Temperature::Constant(t) => vec![*t; cycle.plateaus().len()],
@@ -434,6 +439,7 @@ impl Simulation {
             rel_tol: f.solver.rel_tol,
             max_step_rad: f.solver.max_step_deg.to_radians(),
             switch_mask,
+            stateful,
             tol: f.solver.friction_tol,
             max_iter: f.solver.friction_max_iter,
             n_laws,
@@ -624,7 +630,10 @@ impl Simulation {
                     }
                     // A stateless law must not add energy; a stateful one may return what it stored.
                     let power = out.force * rel[ji];
-                    if law.state.is_empty() && power > 1e-9 * (1.0 + power.abs().sqrt()) {
+                    if power > 0.0
+                        && law.state.is_empty()
+                        && power > 1e-9 * (1.0 + power.abs().sqrt())
+                    {
                         return Err(SimError::AddsEnergy(fault()));
                     }
                     total += out.force;
@@ -675,6 +684,9 @@ impl Simulation {
         e: &Eval,
         oil: (f64, f64),
     ) -> Result<(), SimError> {
+        if !self.stateful {
+            return Ok(());
+        }
         let (temp, visc) = oil;
         let qd = self.mech.kinematics(theta, e.omega).qd;
         let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
@@ -770,11 +782,7 @@ impl Simulation {
         let mut last_rates = e_start.rates.clone();
         // The adaptive integrator: stateless laws only (a stateful law's state is advanced with
         // the step's length, which must then not vary).
-        let stateful = self
-            .joints
-            .iter()
-            .any(|j| j.laws.iter().any(|l| !l.state.is_empty()));
-        let adaptive = !prescribed && self.integrator == Integrator::Adaptive && !stateful;
+        let adaptive = !prescribed && self.integrator == Integrator::Adaptive && !self.stateful;
         let pair = &DORMAND_PRINCE_54;
         let control = Controller::new(pair);
         let mut fsal = (e_start, l_start);

@@ -34,6 +34,17 @@ impl Pair {
     }
 }
 
+/// Weights of Dormand-Prince 5(4)'s propagated solution (also its last stage row).
+const DP54_B: [f64; 7] = [
+    35.0 / 384.0,
+    0.0,
+    500.0 / 1113.0,
+    125.0 / 192.0,
+    -2187.0 / 6784.0,
+    11.0 / 84.0,
+    0.0,
+];
+
 /// Dormand & Prince, "A family of embedded Runge-Kutta formulae", J. Comp. Appl. Math. 6(1),
 /// 1980: order 5 with an order-4 error estimate, 7 stages, FSAL (MATLAB's `ode45`).
 pub const DORMAND_PRINCE_54: Pair = Pair {
@@ -57,24 +68,10 @@ pub const DORMAND_PRINCE_54: Pair = Pair {
             49.0 / 176.0,
             -5103.0 / 18656.0,
         ],
-        &[
-            35.0 / 384.0,
-            0.0,
-            500.0 / 1113.0,
-            125.0 / 192.0,
-            -2187.0 / 6784.0,
-            11.0 / 84.0,
-        ],
+        // FSAL: the last stage is evaluated at the propagated solution.
+        DP54_B.as_slice().split_at(6).0,
     ],
-    b: &[
-        35.0 / 384.0,
-        0.0,
-        500.0 / 1113.0,
-        125.0 / 192.0,
-        -2187.0 / 6784.0,
-        11.0 / 84.0,
-        0.0,
-    ],
+    b: &DP54_B,
     e: &[
         35.0 / 384.0 - 5179.0 / 57600.0,
         0.0,

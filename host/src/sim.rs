@@ -257,7 +257,13 @@ struct Eval {
     /// anti-windup switches its integrator).
     switches: [f64; SWITCHES],
     iterations: u32,
-    saturated: bool,
+}
+
+impl Eval {
+    /// Whether the PI drive sat at its torque limit (its margin is the last switch).
+    fn saturated(&self) -> bool {
+        self.switches[SWITCHES - 1] < 0.0
+    }
 }
 
 /// Number of switching functions in an evaluation.
@@ -571,7 +577,6 @@ impl Simulation {
                         saturation_margin,
                     ],
                     iterations: it,
-                    saturated: saturation_margin < 0.0,
                 };
                 return Ok((e, loads));
             }
@@ -768,7 +773,7 @@ impl Simulation {
             .iter()
             .map(|p| {
                 let w = p.omega.max(1e-9);
-                let h = (self.step_rad / w).min(self.max_step_s);
+                let h = self.time_step(self.step_rad, w);
                 let margin = self.window_s + 2.0 * TAU / w;
                 Window::with_capacity((margin / h).ceil() as usize + 16, n)
             })
@@ -793,11 +798,7 @@ impl Simulation {
         for &b in &breaks {
             let (_, w_end, _) = self.cycle.reference(b);
             let w_max = w_end.max(self.cycle.reference(t).1).max(omega);
-            let dt_target = if w_max > 0.0 {
-                (self.step_rad / w_max).min(self.max_step_s)
-            } else {
-                self.max_step_s
-            };
+            let dt_target = self.time_step(self.step_rad, w_max);
             let m = ((b - t) / dt_target).ceil().max(1.0) as u64;
             let dt = (b - t) / m as f64;
             if prescribed {
@@ -824,7 +825,7 @@ impl Simulation {
                 let t1 = if i == m { b } else { t + dt };
                 let h = t1 - t;
                 let (t1, h, e_end, new_state) = if adaptive {
-                    let (h, e1, l1, state) = self.adaptive_step(
+                    let (t1, e1, l1, state) = self.adaptive_step(
                         pair,
                         &control,
                         t,
@@ -839,7 +840,6 @@ impl Simulation {
                         &mut max_it,
                     )?;
                     acc.iter_mut().zip(&incr).for_each(|(a, d)| *a += d);
-                    let t1 = if b - t <= h { b } else { t + h };
                     guess = l1;
                     (t1, t1 - t, e1, state)
                 } else if prescribed {
@@ -926,7 +926,7 @@ impl Simulation {
                 for (pi, p) in plateaus.iter().enumerate() {
                     let margin = self.window_s + 2.0 * TAU / p.omega.max(1e-9) + 2.0 * h;
                     if t1 >= p.t_end - margin && t1 <= p.t_end + 1e-12 {
-                        if e_end.saturated {
+                        if e_end.saturated() {
                             saturated_time[pi] += h;
                         }
                         records[pi].push(t1, theta, omega, &acc, &last_rates);
@@ -1004,6 +1004,16 @@ impl Simulation {
                 })
             })
             .collect()
+    }
+
+    /// The time the crank needs to turn `angle_rad` at speed `omega`, capped by
+    /// `solver.max_step_s` (which also covers a crank at rest).
+    fn time_step(&self, angle_rad: f64, omega: f64) -> f64 {
+        if omega > 0.0 {
+            (angle_rad / omega).min(self.max_step_s)
+        } else {
+            self.max_step_s
+        }
     }
 
     /// Whole revolutions in the measurement window at speed `omega` (at least one).
@@ -1086,9 +1096,10 @@ impl Simulation {
     /// One accepted error-controlled step from `t` towards the breakpoint `b`: steps are tried
     /// from `h_next` (capped by `solver.max_step_deg` and `max_step_s`, and ending exactly on
     /// `b` when close to it) and shrunk until the estimated error meets `solver.rel_tol`.
-    /// `first` is the evaluation at the step's start. Returns the step taken, the end
-    /// evaluation with its loads and the end state; the accumulated quantities' increment is
-    /// in `incr`, and `h_next` is updated for the following step.
+    /// `first` is the evaluation at the step's start. Returns the step's end time (exactly `b`
+    /// when it lands there), the end evaluation with its loads and the end state; the
+    /// accumulated quantities' increment is in `incr`, and `h_next` is updated for the
+    /// following step.
     #[allow(clippy::too_many_arguments)]
     fn adaptive_step(
         &self,
@@ -1106,22 +1117,15 @@ impl Simulation {
         max_it: &mut u32,
     ) -> Result<(f64, Eval, JointLoads, CrankState), SimError> {
         let w = y.1.abs().max(self.cycle.reference(t).1.abs());
-        let h_cap = if w > 0.0 {
-            (self.max_step_rad / w).min(self.max_step_s)
-        } else {
-            self.max_step_s
-        };
+        let h_cap = self.time_step(self.max_step_rad, w);
         // Across a jump a step may err as much as a longest step of smooth running may.
         let h_floor = h_cap;
-        let mut h = h_next.min(h_cap);
-        if !h.is_finite() {
-            // The first step: one `step_deg` of crank angle.
-            h = if w > 0.0 {
-                (self.step_rad / w).min(self.max_step_s)
-            } else {
-                self.max_step_s
-            };
-        }
+        // The first step: one `step_deg` of crank angle.
+        let planned = if h_next.is_finite() {
+            h_next.min(h_cap)
+        } else {
+            self.time_step(self.step_rad, w)
+        };
         // A switch predicted (linearly from the last two step ends) to change sign within
         // the step: end the step on it, so the kink falls between steps.
         let mut h_switch = f64::INFINITY;
@@ -1129,13 +1133,13 @@ impl Simulation {
             for (i, (&a, &g)) in gp.iter().zip(&first.0.switches).enumerate() {
                 if self.switch_mask[i] && a * g > 0.0 && (g - a) * g < 0.0 && t > *tp {
                     let dt = g * (t - *tp) / (a - g);
-                    if dt > 0.05 * h && dt < h {
+                    if dt > 0.05 * planned && dt < planned {
                         h_switch = h_switch.min(dt);
                     }
                 }
             }
         }
-        h = h.min(h_switch);
+        let mut h = planned.min(h_switch);
         let mut rejected = false;
         loop {
             let remaining = b - t;
@@ -1152,16 +1156,12 @@ impl Simulation {
             *max_it = (*max_it).max(e1.iterations);
             if err <= 1.0 {
                 // A step cut short to land on `b` or a switch does not shrink the next one.
-                *h_next =
-                    control
-                        .next(h_try, err, rejected)
-                        .max(if h_try < h || h_switch.is_finite() {
-                            h_next.min(h_cap)
-                        } else {
-                            0.0
-                        });
+                let next = control.next(h_try, err, rejected);
+                let cut_short = h_switch.is_finite() || h_try < h;
+                *h_next = if cut_short { next.max(planned) } else { next };
                 *previous_end = Some((t, first.0.switches));
-                return Ok((h_try, e1, l1, y1));
+                let t1 = if h_try == remaining { b } else { t + h_try };
+                return Ok((t1, e1, l1, y1));
             }
             pool.push(e1.rates);
             rejected = true;
@@ -1255,17 +1255,13 @@ impl Simulation {
         let Some(end) = stages.pop() else {
             unreachable!("an embedded pair has at least two stages")
         };
-        let rates: [&[f64]; MAX_STAGES] = std::array::from_fn(|j| {
-            if j == 0 {
-                &first.0.rates[..]
-            } else if j == s - 1 {
-                &end.rates[..]
-            } else if j < s - 1 {
-                &stages[j - 1].rates[..]
-            } else {
-                &[]
-            }
+        // Stage j's evaluation: the given first, the stored middle ones, the end.
+        let evals: [&Eval; MAX_STAGES] = std::array::from_fn(|j| match j {
+            0 => &first.0,
+            j if j < s - 1 => &stages[j - 1],
+            _ => &end,
         });
+        let rates: [&[f64]; MAX_STAGES] = std::array::from_fn(|j| &evals[j].rates[..]);
         let mut err = 0.0_f64;
         // The crank state: angle, speed, controller integral.
         for c in 0..3 {
@@ -1306,18 +1302,9 @@ impl Simulation {
         // The first switch to change sign, located by linear interpolation between the stages
         // around it (as a fraction of the step).
         let mut crossing: Option<f64> = None;
-        let switch = |j: usize| -> &[f64; SWITCHES] {
-            if j == 0 {
-                &first.0.switches
-            } else if j == s - 1 {
-                &end.switches
-            } else {
-                &stages[j - 1].switches
-            }
-        };
         for i in (0..SWITCHES).filter(|i| self.switch_mask[*i]) {
             for j in 1..s {
-                let (a, g) = (switch(j - 1)[i], switch(j)[i]);
+                let (a, g) = (evals[j - 1].switches[i], evals[j].switches[i]);
                 if a * g < 0.0 && pair.c[j] > pair.c[j - 1] {
                     let f = pair.c[j - 1] + (pair.c[j] - pair.c[j - 1]) * a / (a - g);
                     crossing = Some(crossing.map_or(f, |c: f64| c.min(f)));

@@ -31,6 +31,12 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
     p.to_string_lossy().into_owned()
 }
 
+/// `tribo run` on the CRF 250 R rig written to `dir` with `from` replaced by `to`.
+fn run_edited_rig(dir: &Path, from: &str, to: &str) -> Vec<String> {
+    let p = write(dir, "rig.toml", &base_rig().replace(from, to));
+    args(&["run", &p])
+}
+
 fn args(a: &[&str]) -> Vec<String> {
     a.iter().map(|s| s.to_string()).collect()
 }
@@ -62,53 +68,25 @@ fn cases() -> Vec<Case> {
         // ---- inputs ----
         Case {
             name: "rig: unknown key, with file:line:column",
-            setup: |d| {
-                let p = write(
-                    d,
-                    "rig.toml",
-                    &base_rig().replace("mass_kg = 0.1748", "mass_kg = 0.1748\nmas_scale = 0.6"),
-                );
-                args(&["run", &p])
-            },
+            setup: |d| run_edited_rig(d, "mass_kg = 0.1748", "mass_kg = 0.1748\nmas_scale = 0.6"),
             code: 1,
             words: &["rig.toml:24:1", "unknown field `mas_scale`"],
         },
         Case {
             name: "rig: TOML syntax error",
-            setup: |d| {
-                let p = write(
-                    d,
-                    "rig.toml",
-                    &base_rig().replace("bore_m = 0.0768", "bore_m = 0.0768 0.1"),
-                );
-                args(&["run", &p])
-            },
+            setup: |d| run_edited_rig(d, "bore_m = 0.0768", "bore_m = 0.0768 0.1"),
             code: 1,
             words: &["rig.toml:13:17", "bore_m", "expected newline"],
         },
         Case {
             name: "rig: negative mass",
-            setup: |d| {
-                let p = write(
-                    d,
-                    "rig.toml",
-                    &base_rig().replace("mass_kg = 0.27", "mass_kg = -0.27"),
-                );
-                args(&["run", &p])
-            },
+            setup: |d| run_edited_rig(d, "mass_kg = 0.27", "mass_kg = -0.27"),
             code: 1,
             words: &["bodies.piston.mass_kg", "positive", "-0.27", "rig.toml:"],
         },
         Case {
             name: "rig: rod not longer than the crank",
-            setup: |d| {
-                let p = write(
-                    d,
-                    "rig.toml",
-                    &base_rig().replace("length_m = 0.105", "length_m = 0.02"),
-                );
-                args(&["run", &p])
-            },
+            setup: |d| run_edited_rig(d, "length_m = 0.105", "length_m = 0.02"),
             code: 1,
             words: &["bodies.rod.length_m", "longer than the crank radius"],
         },

@@ -436,7 +436,12 @@ impl Kinematics {
     /// The crank acceleration at which the drive torque equals `torque` under `loads` (a crank
     /// driven by a torque rather than a prescribed motion).
     pub fn alpha_for_torque(&self, torque: f64, loads: &JointLoads) -> f64 {
-        let at_zero = -self.lambda(0.0, loads)[8];
+        // Only the drive torque's multiplier is needed: one row, not the whole solve.
+        let at_zero = -(self.lambda0[8]
+            + self.lambda_loads[0][8] * loads.main_torque_nm
+            + self.lambda_loads[1][8] * loads.big_end_torque_nm
+            + self.lambda_loads[2][8] * loads.small_end_torque_nm
+            + self.lambda_loads[3][8] * loads.slide_force_n);
         // d(drive torque)/d(alpha) is the mechanism's effective inertia at this angle (> 0).
         let inertia = -self.lambda_alpha[8];
         (torque - at_zero) / inertia

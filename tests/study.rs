@@ -101,8 +101,9 @@ fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
     // piston assembly of 0.225 kg (the rig's 0.27 kg is an estimate) close the gaps.
     let dir = tempfile::tempdir().expect("temp dir");
     let thesis_pi = "drive={kind=\"pi\", kp=0.05, ki=3.0, torque_limit_nm=5.0}";
-    let json = json_of(
-        &[
+    // The thesis's tuned PI drive and the lighter piston, compared against `extra` arguments.
+    let compare = |extra: &[&str]| {
+        let mut args = vec![
             "compare",
             "--lawset",
             "fedem-baseline",
@@ -110,12 +111,12 @@ fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
             thesis_pi,
             "--set",
             "bodies.piston.mass_kg=0.225",
-            "--out",
-            "o",
             "--json",
-        ],
-        dir.path(),
-    );
+        ];
+        args.extend_from_slice(extra);
+        json_of(&args, dir.path())
+    };
+    let json = compare(&["--out", "o"]);
     let model: Vec<f64> = json["sets"][0]["run"]["plateaus"]
         .as_array()
         .expect("plateaus")
@@ -142,23 +143,7 @@ fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
         csv.push_str(&format!("{},{t},80\n", w * 30.0 / PI));
     }
     std::fs::write(&data, csv).expect("write");
-    let json = json_of(
-        &[
-            "compare",
-            "--lawset",
-            "fedem-baseline",
-            "--set",
-            thesis_pi,
-            "--set",
-            "bodies.piston.mass_kg=0.225",
-            "--data",
-            data.to_str().expect("utf-8"),
-            "--out",
-            "o2",
-            "--json",
-        ],
-        dir.path(),
-    );
+    let json = compare(&["--data", data.to_str().expect("utf-8"), "--out", "o2"]);
     let errors: Vec<f64> = json["sets"][0]["errors_nm"]
         .as_array()
         .expect("errors")
@@ -389,20 +374,11 @@ fn results_are_byte_identical_serial_or_parallel_and_run_to_run() {
     let dir = tempfile::tempdir().expect("temp dir");
     let run = |out: &str, threads: Option<&str>| {
         let mut cmd = Command::new(tribo_exe());
-        cmd.args([
-            "compare",
-            "--steady",
-            "--lawset",
-            "fedem-baseline",
-            "--lawset",
-            "stribeck-duty",
-            "--lawset",
-            "physical-bearings",
-            "--out",
-            out,
-        ])
-        .current_dir(dir.path())
-        .env_remove("TRIBO_PLUGIN_PATH");
+        cmd.args(["compare", "--steady"])
+            .args(ALL_LAWSETS)
+            .args(["--out", out])
+            .current_dir(dir.path())
+            .env_remove("TRIBO_PLUGIN_PATH");
         if let Some(t) = threads {
             cmd.env("RAYON_NUM_THREADS", t);
         }

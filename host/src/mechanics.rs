@@ -98,12 +98,26 @@ impl JointLoads {
     /// Linear extrapolation from `earlier` through `self` by `ratio` of the interval between
     /// them: a starting guess for the friction iteration at a nearby instant.
     pub fn extrapolated(&self, earlier: &JointLoads, ratio: f64) -> JointLoads {
-        let x = |a: f64, b: f64| a + ratio * (a - b);
+        let (a, b) = (self.components(), earlier.components());
+        JointLoads::from_components(std::array::from_fn(|i| a[i] + ratio * (a[i] - b[i])))
+    }
+
+    /// The four loads in the order of the multiplier responses: main, big end, small end, slide.
+    fn components(&self) -> [f64; 4] {
+        [
+            self.main_torque_nm,
+            self.big_end_torque_nm,
+            self.small_end_torque_nm,
+            self.slide_force_n,
+        ]
+    }
+
+    fn from_components([main, big_end, small_end, slide]: [f64; 4]) -> JointLoads {
         JointLoads {
-            main_torque_nm: x(self.main_torque_nm, earlier.main_torque_nm),
-            big_end_torque_nm: x(self.big_end_torque_nm, earlier.big_end_torque_nm),
-            small_end_torque_nm: x(self.small_end_torque_nm, earlier.small_end_torque_nm),
-            slide_force_n: x(self.slide_force_n, earlier.slide_force_n),
+            main_torque_nm: main,
+            big_end_torque_nm: big_end,
+            small_end_torque_nm: small_end,
+            slide_force_n: slide,
         }
     }
 }
@@ -410,12 +424,11 @@ impl Kinematics {
     }
 
     fn lambda(&self, alpha: f64, loads: &JointLoads) -> SVector<f64, NC> {
-        self.lambda0
-            + self.lambda_alpha * alpha
-            + self.lambda_loads[0] * loads.main_torque_nm
-            + self.lambda_loads[1] * loads.big_end_torque_nm
-            + self.lambda_loads[2] * loads.small_end_torque_nm
-            + self.lambda_loads[3] * loads.slide_force_n
+        let mut l = self.lambda0 + self.lambda_alpha * alpha;
+        for (response, load) in self.lambda_loads.iter().zip(loads.components()) {
+            l += response * load;
+        }
+        l
     }
 
     /// Joint reactions and the drive torque at crank acceleration `alpha` under `loads`.
@@ -437,11 +450,13 @@ impl Kinematics {
     /// driven by a torque rather than a prescribed motion).
     pub fn alpha_for_torque(&self, torque: f64, loads: &JointLoads) -> f64 {
         // Only the drive torque's multiplier is needed: one row, not the whole solve.
-        let at_zero = -(self.lambda0[8]
-            + self.lambda_loads[0][8] * loads.main_torque_nm
-            + self.lambda_loads[1][8] * loads.big_end_torque_nm
-            + self.lambda_loads[2][8] * loads.small_end_torque_nm
-            + self.lambda_loads[3][8] * loads.slide_force_n);
+        let at_zero = -self
+            .lambda_loads
+            .iter()
+            .zip(loads.components())
+            .fold(self.lambda0[8], |sum, (response, load)| {
+                sum + response[8] * load
+            });
         // d(drive torque)/d(alpha) is the mechanism's effective inertia at this angle (> 0).
         let inertia = -self.lambda_alpha[8];
         (torque - at_zero) / inertia

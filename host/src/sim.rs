@@ -118,6 +118,51 @@ const TIMING_SAMPLE: u64 = 256;
 /// motion, and at 100 the mean loads still agree with fine fixed-step RK4 to about 1e-4.
 const NORMALS_TOL_FACTOR: f64 = 100.0;
 
+/// Where each accumulated quantity sits in an evaluation's rate vector, for `n` laws: the motor
+/// power, then each law's dissipated power, its four regime indicators and its normal load.
+#[derive(Debug, Clone, Copy)]
+struct RateLayout {
+    n: usize,
+}
+
+impl RateLayout {
+    const MOTOR: usize = 0;
+    fn len(self) -> usize {
+        1 + 6 * self.n
+    }
+    /// Every law's dissipated power.
+    fn powers(self) -> std::ops::Range<usize> {
+        1..1 + self.n
+    }
+    /// Every law's regime indicators.
+    fn regimes(self) -> std::ops::Range<usize> {
+        1 + self.n..1 + 5 * self.n
+    }
+    /// Every law's normal load.
+    fn normals(self) -> std::ops::Range<usize> {
+        1 + 5 * self.n..1 + 6 * self.n
+    }
+    fn power(self, k: usize) -> usize {
+        1 + k
+    }
+    fn regime(self, k: usize, regime: usize) -> usize {
+        1 + self.n + 4 * k + regime
+    }
+    fn normal(self, k: usize) -> usize {
+        1 + 5 * self.n + k
+    }
+    /// The error-controlled groups with their tolerance factors: the motor and law powers at
+    /// `rel_tol`; the normal loads, only reported as means and never fed back, at
+    /// `NORMALS_TOL_FACTOR` times it (a magnitude's valleys near zero need no steps the powers
+    /// do not). Regime times are not controlled: their indicators jump by nature.
+    fn controlled(self) -> [(std::ops::Range<usize>, f64); 2] {
+        [
+            (Self::MOTOR..self.powers().end, 1.0),
+            (self.normals(), NORMALS_TOL_FACTOR),
+        ]
+    }
+}
+
 /// The crank angle within the revolution, [0, 2 pi). `rem_euclid` is exact but calls a software
 /// `fmod` that loops over the exponent difference (1.5% of a PI run); one floor is within a few
 /// ulp of the accumulated angle, far below its own integration error.
@@ -536,8 +581,8 @@ impl Simulation {
         (self.temps[i], self.viscosities[i])
     }
 
-    fn n_rates(&self) -> usize {
-        1 + self.n_laws * 6
+    fn layout(&self) -> RateLayout {
+        RateLayout { n: self.n_laws }
     }
 
     /// Normal loads per joint from the reactions.
@@ -574,7 +619,7 @@ impl Simulation {
         // The caller's recycled buffer: no allocation per evaluation once warmed up.
         let mut rates = buffer;
         rates.clear();
-        rates.resize(self.n_rates(), 0.0);
+        rates.resize(self.layout().len(), 0.0);
         // Positions, velocities and the factorised constraints do not depend on the loads:
         // computed once, the iteration below only recombines the multipliers.
         let kin = self.mech.kinematics(theta, omega);
@@ -594,7 +639,7 @@ impl Simulation {
             input.dt_s = dt;
             input.with_velocity(rel[ji])
         });
-        let nl = self.n_laws;
+        let layout = self.layout();
         for it in 1..=self.max_iter {
             let alpha = match control {
                 Ok(alpha) => alpha,
@@ -620,9 +665,9 @@ impl Simulation {
                 remainder <= self.tol * scale
             });
             last_change = change;
-            let no_laws = nl == 0;
+            let no_laws = self.n_laws == 0;
             if converged || no_laws {
-                rates[0] = re.drive_torque_nm * omega;
+                rates[RateLayout::MOTOR] = re.drive_torque_nm * omega;
                 let e = Eval {
                     omega,
                     alpha,
@@ -653,7 +698,7 @@ impl Simulation {
             let mut new_loads = JointLoads::default();
             // Powers and mean loads are written for every law below; only the regime
             // indicators are set sparsely and need clearing.
-            rates[1 + nl..1 + 5 * nl].fill(0.0);
+            rates[layout.regimes()].fill(0.0);
             let mut k = 0;
             for (ji, joint) in self.joints.iter().enumerate() {
                 let input = &mut inputs[ji];
@@ -688,9 +733,9 @@ impl Simulation {
                     }
                     total += out.force;
                     let regime = out.regime().unwrap_or(Regime::None) as usize;
-                    rates[1 + k] = -power;
-                    rates[1 + nl + 4 * k + regime] = 1.0;
-                    rates[1 + 5 * nl + k] = normals[ji];
+                    rates[layout.power(k)] = -power;
+                    rates[layout.regime(k, regime)] = 1.0;
+                    rates[layout.normal(k)] = normals[ji];
                     k += 1;
                 }
                 match ji {
@@ -780,7 +825,7 @@ impl Simulation {
 
     /// Run the whole test cycle. With `timeseries`, one CSV line per step is streamed to it.
     pub fn run(&mut self, mut timeseries: Option<&mut dyn Write>) -> Result<RunResult, SimError> {
-        let n = self.n_rates();
+        let n = self.layout().len();
         let duration = self.cycle.duration();
         let plateaus = self.cycle.plateaus().to_vec();
         // Grid breakpoints: segment ends, and for a prescribed crank the exact window starts,
@@ -989,7 +1034,7 @@ impl Simulation {
         }
         let e1 = self.energy(theta, omega);
         let motor_work = acc[0];
-        let dissipated: f64 = acc[1..1 + self.n_laws].iter().sum();
+        let dissipated: f64 = acc[self.layout().powers()].iter().sum();
         let residual = motor_work - (e1 - e0) - dissipated;
         let energy = EnergyBalance {
             motor_work_j: motor_work,
@@ -1234,7 +1279,7 @@ impl Simulation {
     ///
     /// A step may err by `rel_tol` times the largest rate of the quantity over the step (at
     /// least 1 for the crank state; for powers and for normal loads the largest of the group,
-    /// at least 1e-3 W or N) times the step plus `h_floor`. Over smooth stretches that bounds
+    /// at least 1e-3 W or N; see [`RateLayout::controlled`]) times the step plus `h_floor`. Over smooth stretches that bounds
     /// the error per unit time, so the integrals over a hold are good to about `rel_tol`;
     /// across a jump of a rate (a law's near-discontinuity, the drive's anti-windup switch) the
     /// step shrinks until its error is that of an `h_floor` step instead of failing for ever.
@@ -1320,9 +1365,8 @@ impl Simulation {
         }
         // The step's increments (propagated weights) and error estimates (error weights) of
         // every accumulated quantity, stage by stage so the loops run over contiguous rates.
-        // Only the controlled groups (powers, normal loads) need an error estimate.
-        let nl = self.n_laws;
-        let controlled = [0..1 + nl, 1 + 5 * nl..1 + 6 * nl];
+        // Only the controlled groups need an error estimate.
+        let controlled = self.layout().controlled();
         incr.fill(0.0);
         est.fill(0.0);
         for (j, r) in rates.iter().enumerate().take(s) {
@@ -1331,29 +1375,23 @@ impl Simulation {
                 incr.iter_mut().zip(r.iter()).for_each(|(d, r)| *d += b * r);
             }
             if e != 0.0 {
-                for range in controlled.clone() {
+                for (range, _) in &controlled {
                     est[range.clone()]
                         .iter_mut()
-                        .zip(&r[range])
+                        .zip(&r[range.clone()])
                         .for_each(|(d, r)| *d += e * r);
                 }
             }
         }
-        // Powers (motor and laws) share one scale, normal loads another: a small quantity
-        // cannot be resolved below the evaluation's own noise, which the friction iteration's
-        // tolerance sets relative to the largest of its group. The normal loads are only
-        // reported (as means), never fed back, so they get `NORMALS_TOL_FACTOR` times the
-        // tolerance: a magnitude's valleys near zero need no steps the powers do not.
-        // Regime times are not controlled: their indicators jump by nature.
-        for (lo, hi, factor) in [
-            (0, 1 + nl, 1.0),
-            (1 + 5 * nl, 1 + 6 * nl, NORMALS_TOL_FACTOR),
-        ] {
+        // Each group shares one scale, the largest rate of the group over the step: a small
+        // quantity cannot be resolved below the evaluation's own noise, which the friction
+        // iteration's tolerance sets relative to the largest of its group.
+        for (range, factor) in controlled {
             let peak = rates[..s]
                 .iter()
-                .flat_map(|r| r[lo..hi].iter())
+                .flat_map(|r| r[range.clone()].iter())
                 .fold(1e-3_f64, |m, r| m.max(r.abs()));
-            let worst = est[lo..hi].iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            let worst = est[range].iter().fold(0.0_f64, |m, x| m.max(x.abs()));
             err = err.max(worst / (factor * self.rel_tol * (h + h_floor) * peak));
         }
         // The first switch to change sign, located by linear interpolation between the stages
@@ -1459,7 +1497,7 @@ impl Simulation {
     /// Plateau values over the last whole revolutions of a hold.
     fn measure(&self, pi: usize, omega_ref: f64, t_end: f64, recs: &Window) -> PlateauResult {
         let revs = self.window_revs(omega_ref);
-        let n = self.n_rates();
+        let n = self.layout().len();
         let (t_e, theta_e, acc_e) = match recs.points.len() {
             0 => (t_end, 0.0, vec![0.0; n]),
             len => (
@@ -1526,17 +1564,18 @@ impl Simulation {
         revs: u32,
     ) -> PlateauResult {
         let d = |k: usize| delta[k];
+        let layout = self.layout();
         let mut joints = Vec::new();
         let mut k = 0;
         for joint in &self.joints {
             for law in &joint.laws {
-                let share = |r: usize| d(1 + self.n_laws + 4 * k + r) / dt;
+                let share = |r: usize| d(layout.regime(k, r)) / dt;
                 joints.push(LawResult {
                     joint: joint.name.into(),
                     law: law.name.clone(),
-                    friction_torque_nm: d(1 + k) / dtheta,
-                    power_w: d(1 + k) / dt,
-                    mean_normal_load_n: d(1 + 5 * self.n_laws + k) / dt,
+                    friction_torque_nm: d(layout.power(k)) / dtheta,
+                    power_w: d(layout.power(k)) / dt,
+                    mean_normal_load_n: d(layout.normal(k)) / dt,
                     regime_share: RegimeShare {
                         none: share(0),
                         boundary: share(1),
@@ -1565,7 +1604,7 @@ impl Simulation {
     /// repeated until the revolution's mean torque repeats to 1e-9 (at most 200).
     pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
         let plateaus = self.cycle.plateaus().to_vec();
-        let n = self.n_rates();
+        let n = self.layout().len();
         let stateful = self
             .joints
             .iter()
@@ -1622,7 +1661,7 @@ impl Simulation {
                 last_torque = torque;
             }
             motor += delta[0];
-            dissipated += delta[1..1 + self.n_laws].iter().sum::<f64>();
+            dissipated += delta[self.layout().powers()].iter().sum::<f64>();
             results.push(self.plateau_result(pi, w, &delta, TAU / w, TAU, [t - TAU / w, t], 1));
         }
         // Over a periodic revolution the mechanical energy returns to its start value, so the
@@ -1650,5 +1689,43 @@ impl Simulation {
             warnings: Vec::new(),
             law_time: self.law_time(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crank_angle_agrees_with_the_exact_remainder() {
+        // Angles a long cycle reaches (11.5 s near 1000 rad/s), negative ones, and exact turns.
+        let mut theta = -50.0;
+        while theta < 1.2e4 {
+            let (fast, exact) = (crank_angle(theta), theta.rem_euclid(TAU));
+            assert!((0.0..TAU).contains(&fast), "{theta}: {fast}");
+            // Equal up to the rounding of the turn count, or across the wrap at 2 pi.
+            let d = (fast - exact).abs();
+            assert!(d.min(TAU - d) < 1e-11, "{theta}: {fast} vs {exact}");
+            theta += 0.37;
+        }
+        for turns in [-3.0, 0.0, 1.0, 1000.0] {
+            assert!(crank_angle(turns * TAU) < 1e-9 || crank_angle(turns * TAU) > TAU - 1e-9);
+        }
+    }
+
+    #[test]
+    fn rate_layout_tiles_the_rate_vector() {
+        let l = RateLayout { n: 3 };
+        let mut seen = vec![0; l.len()];
+        seen[RateLayout::MOTOR] += 1;
+        for k in 0..3 {
+            seen[l.power(k)] += 1;
+            seen[l.normal(k)] += 1;
+            (0..4).for_each(|r| seen[l.regime(k, r)] += 1);
+            assert!(l.powers().contains(&l.power(k)));
+            assert!(l.normals().contains(&l.normal(k)));
+            assert!(l.regimes().contains(&l.regime(k, 3)));
+        }
+        assert!(seen.iter().all(|&c| c == 1), "{seen:?}");
     }
 }

@@ -16,6 +16,16 @@ pub fn workspace() -> PathBuf {
         .to_path_buf()
 }
 
+/// `--lawset` arguments naming every bundled law set.
+pub const ALL_LAWSETS: [&str; 6] = [
+    "--lawset",
+    "fedem-baseline",
+    "--lawset",
+    "stribeck-duty",
+    "--lawset",
+    "physical-bearings",
+];
+
 /// The `tribo` binary under test.
 pub fn tribo_exe() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_tribo"))

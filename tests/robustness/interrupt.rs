@@ -27,17 +27,9 @@ fn killing_a_compare_midway_leaves_previous_results_intact() {
     for signal in ["INT", "KILL"] {
         // The full transient cycle of three law sets takes seconds: long enough to kill midway.
         let mut child = Command::new(tribo_exe())
-            .args([
-                "compare",
-                "--quiet",
-                "--lawset",
-                "fedem-baseline",
-                "--lawset",
-                "stribeck-duty",
-                "--lawset",
-                "physical-bearings",
-                "--out",
-            ])
+            .args(["compare", "--quiet"])
+            .args(ALL_LAWSETS)
+            .arg("--out")
             .arg(&out)
             .env_remove("TRIBO_PLUGIN_PATH")
             .spawn()

@@ -13,7 +13,7 @@ use tribo::mechanics::JointLoads;
 use tribo::plugin_api::loader::{load_paths, LawRegistry};
 use tribo::rig::{load_rig, LawRef, Rig};
 use tribo::sim::Simulation;
-use tribo::study::{compare, mass_response, read_data, ScaledBody};
+use tribo::study::{compare, mass_response, CompareOptions, DataRun, ScaledBody};
 
 fn registry() -> LawRegistry {
     let exe = std::env::current_exe().expect("bench executable path");
@@ -88,9 +88,14 @@ fn bench(c: &mut Criterion) {
         LawSet::load("fedem-baseline").expect("set"),
         LawSet::load("stribeck-duty").expect("set"),
     ];
-    let (data_path, rows) = read_data("crf250r-measured.csv").expect("data");
+    let data = DataRun::read("crf250r-measured.csv").expect("data");
+    let steady_no_cv = CompareOptions {
+        steady: true,
+        no_cv: true,
+        validate: Vec::new(),
+    };
     g.bench_function("compare_steady_two_lawsets_seven_speeds", |b| {
-        b.iter(|| black_box(compare(&base, &sets, &data_path, &rows, &reg, true).expect("compare")))
+        b.iter(|| black_box(compare(&base, &sets, &data, &reg, &steady_no_cv).expect("compare")))
     });
     let scales: Vec<f64> = (0..13).map(|i| 0.5 + 0.05 * i as f64).collect();
     g.bench_function("mass_sweep_steady_13_scales_two_lawsets", |b| {
@@ -107,9 +112,39 @@ fn bench(c: &mut Criterion) {
     )
     .expect("law set");
     let free = start.free_params(&reg, None).expect("free");
+    let no_cv = tribo::fit::FitOptions {
+        cross_validate: false,
+        ..Default::default()
+    };
     g.sample_size(10).measurement_time(Duration::from_secs(120));
     g.bench_function("fit_six_parameters_from_start_values", |b| {
-        b.iter(|| black_box(tribo::fit::fit(&base, &start, &free, &rows, &reg).expect("fit")))
+        b.iter(|| {
+            black_box(
+                tribo::fit::fit(
+                    &base,
+                    &start,
+                    &free,
+                    std::slice::from_ref(&data),
+                    &reg,
+                    &no_cv,
+                )
+                .expect("fit"),
+            )
+        })
+    });
+    // Leave-one-out scoring of the six-parameter set on seven points: seven refits, each
+    // warm-started from the set's values (the cost `compare` pays for an out-of-sample verdict).
+    let model = tribo::fit::TorqueModel::new(&base, &start, &free, vec![data.clone()], &reg);
+    let x: Vec<f64> = free.iter().map(|f| f.value).collect();
+    let residuals: Vec<f64> = model
+        .torques(&x)
+        .expect("runs")
+        .iter()
+        .zip(&data.rows)
+        .map(|(m, d)| m - d.torque_nm)
+        .collect();
+    g.bench_function("leave_one_out_six_parameters_seven_points", |b| {
+        b.iter(|| black_box(tribo::score::scores_for_fit(&model, &x, &residuals, true)))
     });
     g.finish();
 }

@@ -21,6 +21,23 @@ pub struct LawSetFile {
     pub description: String,
     /// Laws, each on one joint.
     pub laws: Vec<LawEntry>,
+    /// Parameters tuned to measured data outside Tribo (by hand, or in another program), which
+    /// Tribo cannot refit: scores on those data count them and give no out-of-sample error.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_fit: Option<PriorFit>,
+}
+
+/// A record that a law set's values were tuned to a data set elsewhere.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PriorFit {
+    /// How many numbers were tuned.
+    pub parameters: usize,
+    /// The data file they were tuned to (file name, as bundled or on disk).
+    pub data: String,
+    /// Where the tuning is described.
+    #[serde(default)]
+    pub source: String,
 }
 
 /// One law on one joint.
@@ -156,6 +173,16 @@ impl LawSet {
             });
         }
         Ok(())
+    }
+
+    /// Parameters tuned to `data_file` outside Tribo, if the set records such a tuning for a
+    /// file of that name.
+    pub fn prior_fit_on(&self, data_file: &Path) -> Option<&PriorFit> {
+        let name = data_file.file_name()?.to_string_lossy();
+        self.file
+            .prior_fit
+            .as_ref()
+            .filter(|p| crate::bundled::file_name(&p.data) == name)
     }
 
     /// Name.

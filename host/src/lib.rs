@@ -13,7 +13,9 @@
 //! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions);
 //! - [`progress`]: progress display for long runs (stderr, terminals only);
 //! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
-//! - [`fit`]: least-squares calibration of a law set's free parameters;
+//! - [`fit`]: least-squares calibration of a law set's free parameters (one or several runs);
+//! - [`score`], [`uncertainty`]: out-of-sample scores (leave-one-out, AICc, BIC, validation
+//!   data) and the linearised parameter uncertainty with the 95% band of the torque;
 //! - [`study`]: law-set comparisons against measured data;
 //! - [`sim`]: the run through the test cycle with laws on the joints, and plateau measurement.
 
@@ -31,7 +33,9 @@ pub mod progress;
 pub mod report;
 pub mod rig;
 pub mod scaffold;
+pub mod score;
 pub mod sim;
 pub mod study;
+pub mod uncertainty;
 
 pub use tribo_plugin_api as plugin_api;

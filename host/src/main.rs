@@ -86,6 +86,13 @@ enum Command {
         /// Steady state at each speed instead of the full test cycle.
         #[arg(long)]
         steady: bool,
+        /// Data never used in fitting (CSV as for --data), scored separately; repeatable.
+        #[arg(long = "validate", value_name = "FILE")]
+        validate: Vec<String>,
+        /// Skip the leave-one-out refits and rank by in-sample RMSE (which rewards sets with
+        /// many free parameters; the table says so).
+        #[arg(long)]
+        no_cv: bool,
         /// Print JSON instead of the table.
         #[arg(long)]
         json: bool,
@@ -131,9 +138,21 @@ enum Command {
         /// Parameters to fit, JOINT.LAW.PARAM,... (default: those the law set marks free).
         #[arg(long, value_delimiter = ',')]
         params: Option<Vec<String>>,
-        /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the thesis's table 10.4).
+        /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the thesis's table 10.4);
+        /// repeat for several runs: one parameter set is fitted to all, each point at its own
+        /// oil temperature.
+        #[arg(long = "data", value_name = "FILE")]
+        data: Vec<String>,
+        /// Data never used in fitting, scored with the fitted values; repeatable.
+        #[arg(long = "validate", value_name = "FILE")]
+        validate: Vec<String>,
+        /// Start points: the law set's values, then quasi-random points over the bounds; the
+        /// best result is kept and the spread of the others reported.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+        starts: u32,
+        /// Skip the leave-one-out cross-validation.
         #[arg(long)]
-        data: Option<String>,
+        no_cv: bool,
         /// Override rig values, as for `run`.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         sets: Vec<String>,
@@ -241,18 +260,29 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             sets,
             out,
             steady,
+            validate,
+            no_cv,
             json,
         } => {
             let (rig, mut sets_loaded) = study_inputs(rig, &sets, lawsets)?;
             for ls in &mut sets_loaded {
                 ls.add_law_args(&law_args)?;
             }
-            let (data_path, rows) =
-                tribo::study::read_data(data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+            let data = tribo::study::DataRun::read(
+                data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA),
+            )?;
+            let validate = validate
+                .iter()
+                .map(|v| tribo::study::DataRun::read(v))
+                .collect::<Result<Vec<_>, _>>()?;
             let registry = discover(&cli.plugins).context("loading law plugins")?;
             let progress = Progress::start("comparing law sets", None, cli.quiet);
-            let cmp =
-                tribo::study::compare(&rig, &sets_loaded, &data_path, &rows, &registry, steady)?;
+            let options = tribo::study::CompareOptions {
+                steady,
+                no_cv,
+                validate,
+            };
+            let cmp = tribo::study::compare(&rig, &sets_loaded, &data, &registry, &options)?;
             drop(progress);
             tribo::plots::write_comparison(&cmp, &out)
                 .with_context(|| format!("writing results into {}", out.display()))?;
@@ -260,7 +290,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&cmp)?);
             } else {
                 print!("{}", tribo::report::comparison_text(&cmp));
-                println!("\nwrote {}/comparison.csv, comparison.json, torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg", out.display());
+                println!("\nwrote {}/comparison.csv, scores.csv, validation.csv, comparison.json, torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg", out.display());
             }
         }
         Command::MassResponse {
@@ -312,6 +342,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             lawset,
             params,
             data,
+            validate,
+            starts,
+            no_cv,
             sets,
             out,
             json,
@@ -319,19 +352,40 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let rig_path = rig.unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
             let rig = tribo::rig::load_rig(&rig_path, &sets)?;
             let ls = tribo::lawset::LawSet::load(&lawset)?;
-            let (_, rows) =
-                tribo::study::read_data(data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+            let data = if data.is_empty() {
+                vec![tribo::bundled::DEFAULT_DATA.to_string()]
+            } else {
+                data
+            };
+            let runs = data
+                .iter()
+                .map(|d| tribo::study::DataRun::read(d))
+                .collect::<Result<Vec<_>, _>>()?;
+            let validate = validate
+                .iter()
+                .map(|v| tribo::study::DataRun::read(v))
+                .collect::<Result<Vec<_>, _>>()?;
             let registry = discover(&cli.plugins).context("loading law plugins")?;
             let free = ls.free_params(&registry, params.as_deref())?;
             let progress = Progress::start("fitting", None, cli.quiet);
-            let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &rows, &registry)?;
+            let options = tribo::fit::FitOptions {
+                starts: starts as usize,
+                cross_validate: !no_cv,
+                validate,
+            };
+            let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &runs, &registry, &options)?;
             drop(progress);
             let out = out.unwrap_or_else(|| PathBuf::from(format!("{}-fitted.toml", ls.name())));
             let header = format!(
-                "Calibrated by `tribo fit` on rig {} against {} speeds: RMSE {:.4} N m.\nParameters fitted: {}",
+                "Calibrated by `tribo fit` on rig {} against {} points in {} run(s): RMSE {:.4} N m in sample, {} N m leave-one-out.\nParameters fitted: {}",
                 rig.file.name,
-                rows.len(),
+                result.measured_nm.len(),
+                runs.len(),
                 result.rmse_nm,
+                result
+                    .scores
+                    .cv_rmse_nm
+                    .map_or("(not computed)".to_string(), |v| format!("{v:.4}")),
                 result.params.join(", ")
             );
             let text = fitted

@@ -32,7 +32,9 @@ fn io(e: impl std::fmt::Display) -> std::io::Error {
 pub fn write_comparison(c: &Comparison, dir: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let json = serde_json::to_string_pretty(c).map_err(io)?;
-    let csv = crate::report::comparison_csv(c);
+    let csv = crate::report::comparison_csv(c)?;
+    let scores = crate::report::scores_csv(c)?;
+    let validation = crate::report::validation_csv(c)?;
     let mut svgs = vec![(
         "torque_vs_speed.svg".to_string(),
         svg(|s| torque_plot(c, s))?,
@@ -44,6 +46,8 @@ pub fn write_comparison(c: &Comparison, dir: &Path) -> std::io::Result<()> {
     svgs.push(("piston_regimes.svg".into(), svg(|s| regimes_plot(c, s))?));
     // Render everything first; only then replace files.
     write_atomic(&dir.join("comparison.csv"), csv.as_bytes())?;
+    write_atomic(&dir.join("scores.csv"), scores.as_bytes())?;
+    write_atomic(&dir.join("validation.csv"), validation.as_bytes())?;
     for (name, text) in &svgs {
         write_atomic(&dir.join(name), text.as_bytes())?;
     }
@@ -138,6 +142,23 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
         )?
         .label("measured")
         .legend(|(x, y)| Circle::new((x, y), 5, BLACK.filled()));
+    // The 95% bands first, shaded, so every line stays visible on top of them.
+    for (i, s) in c.sets.iter().enumerate() {
+        let color = COLORS[i % COLORS.len()];
+        if let (Some(lo), Some(hi)) = (&s.band_lower_nm, &s.band_upper_nm) {
+            let mut poly: Vec<(f64, f64)> = Vec::new();
+            for (p, h) in s.run.plateaus.iter().zip(hi) {
+                poly.push((p.set_speed_rpm, h.min(y1)));
+            }
+            for (p, l) in s.run.plateaus.iter().zip(lo).rev() {
+                poly.push((p.set_speed_rpm, l.max(y0.min(0.0))));
+            }
+            chart.draw_series(std::iter::once(Polygon::new(
+                poly,
+                color.mix(0.18).filled(),
+            )))?;
+        }
+    }
     for (i, s) in c.sets.iter().enumerate() {
         let color = COLORS[i % COLORS.len()];
         let pts: Vec<(f64, f64)> = s
@@ -146,9 +167,21 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
             .iter()
             .map(|p| (p.set_speed_rpm, p.motoring_torque_nm))
             .collect();
+        let loo = s
+            .scores
+            .cv_rmse_nm
+            .map_or("-".to_string(), |v| format!("{v:.3}"));
+        let band = if s.band_lower_nm.is_some() && s.scores.free_params > 0 {
+            ", shaded: 95% band"
+        } else {
+            ""
+        };
         chart
             .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
-            .label(format!("{} (RMSE {:.3} N m)", s.lawset, s.rmse_nm))
+            .label(format!(
+                "{} (RMSE {:.3}, LOO {loo} N m{band})",
+                s.lawset, s.rmse_nm
+            ))
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
             });

@@ -114,7 +114,14 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> std::io::Result<()> {
     crate::output::write_atomic(&dir.join("joints.csv"), j.as_bytes())
 }
 
-/// The side-by-side table, per-joint contributions and each law set's RMSE and largest error.
+/// A number with `prec` decimals, or `-` where there is none.
+fn opt(x: Option<f64>, prec: usize) -> String {
+    x.filter(|v| v.is_finite())
+        .map_or("-".to_string(), |v| format!("{v:.prec$}"))
+}
+
+/// The side-by-side table with each set's 95% band, the out-of-sample scores and ranking,
+/// validation scores, and per-joint contributions (joints as rows, speeds as columns).
 pub fn comparison_text(c: &crate::study::Comparison) -> String {
     let mut out = String::new();
     let _ = writeln!(
@@ -125,7 +132,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     let _ = write!(out, "{:>7} {:>9}", "rpm", "measured");
     for s in &c.sets {
         let w = s.lawset.len().max(9);
-        let _ = write!(out, "  {:>w$} {:>7}", s.lawset, "error");
+        let _ = write!(out, "  {:>w$} {:>7} {:>7}", s.lawset, "error", "band95");
     }
     let _ = writeln!(out, "\n{:>7} {:>9}", "", "N m");
     for (i, d) in c.data.iter().enumerate() {
@@ -137,48 +144,76 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
                 .plateaus
                 .get(i)
                 .map_or(f64::NAN, |p| p.motoring_torque_nm);
+            let band = s
+                .uncertainty
+                .band_half_width_nm
+                .as_ref()
+                .and_then(|b| b.get(i).copied())
+                .map_or("-".to_string(), |h| format!("+-{h:.3}"));
             let _ = write!(
                 out,
-                "  {:>w$.3} {:>+7.3}",
+                "  {:>w$.3} {:>+7.3} {:>7}",
                 m,
-                s.errors_nm.get(i).copied().unwrap_or(f64::NAN)
+                s.errors_nm.get(i).copied().unwrap_or(f64::NAN),
+                band
             );
         }
         out.push('\n');
     }
-    let _ = write!(out, "{:>17}", "RMSE");
-    for s in &c.sets {
-        let w = s.lawset.len().max(9);
-        let _ = write!(out, "  {:>w$.3} {:>7}", s.rmse_nm, "");
+    let _ = writeln!(out, "\nscores, ranked by {}", c.ranked_by);
+    let _ = writeln!(
+        out,
+        "{:>4}  {:<22} {:>5} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "rank", "law set", "free", "points", "RMSE", "LOO RMSE", "max|err|", "AICc", "BIC"
+    );
+    let mut ranked: Vec<&crate::study::SetResult> = c.sets.iter().collect();
+    ranked.sort_by_key(|s| s.rank);
+    for s in &ranked {
+        let _ = writeln!(
+            out,
+            "{:>4}  {:<22} {:>5} {:>6} {:>8.3} {:>8} {:>8.3} {:>8} {:>8}",
+            s.rank,
+            s.lawset,
+            if s.scores.prior_fitted_params > 0 {
+                format!("0+{}", s.scores.prior_fitted_params)
+            } else {
+                s.scores.free_params.to_string()
+            },
+            s.scores.points,
+            s.rmse_nm,
+            opt(s.scores.cv_rmse_nm, 3),
+            s.max_abs_error_nm,
+            opt(s.scores.aicc, 1),
+            opt(s.scores.bic, 1)
+        );
     }
-    let _ = write!(out, "\n{:>17}", "max |error|");
-    for s in &c.sets {
-        let w = s.lawset.len().max(9);
-        let _ = write!(out, "  {:>w$.3} {:>7}", s.max_abs_error_nm, "");
+    let _ = writeln!(out, "  (RMSE in N m; RMSE is in sample, LOO RMSE out of sample; free: parameters fitted here + tuned to these data elsewhere;\n   AICc and BIC count those and the noise variance, lower is better)");
+    for s in &ranked {
+        let mut notes: Vec<String> = Vec::new();
+        if s.band_wider_than_data {
+            notes.push(match &s.uncertainty.band_half_width_nm {
+                Some(_) => "its 95% band is wider than the spread of the measured torques: these data do not determine its prediction".into(),
+                None => "no band can be given (see below), so nothing bounds its prediction between the data points".into(),
+            });
+        }
+        notes.extend(s.scores.notes.iter().cloned());
+        notes.extend(s.uncertainty.statements.iter().cloned());
+        for v in &s.validation {
+            notes.push(format!(
+                "validation data {}: RMSE {:.3} N m, max |error| {:.3} N m over {} points",
+                v.file,
+                v.rmse_nm,
+                v.max_abs_error_nm,
+                v.measured_nm.len()
+            ));
+        }
+        for n in notes {
+            let _ = writeln!(out, "  {}: {n}", s.lawset);
+        }
     }
-    out.push_str("\n\nper-joint contributions (friction torque at the crank, N m)\n");
+    out.push_str("\nper-joint contributions (friction torque at the crank, N m)\n");
     for s in &c.sets {
-        let _ = writeln!(out, "  {}", s.lawset);
-        let Some(first) = s.run.plateaus.first() else {
-            continue;
-        };
-        let labels: Vec<String> = first
-            .joints
-            .iter()
-            .map(|j| format!("{}:{}", j.joint, j.law))
-            .collect();
-        let _ = write!(out, "  {:>7}", "rpm");
-        for l in &labels {
-            let _ = write!(out, " {:>24}", l);
-        }
-        out.push('\n');
-        for p in &s.run.plateaus {
-            let _ = write!(out, "  {:>7.0}", p.set_speed_rpm);
-            for j in &p.joints {
-                let _ = write!(out, " {:>24.4}", j.friction_torque_nm);
-            }
-            out.push('\n');
-        }
+        out.push_str(&joint_table(s));
         for w in &s.run.warnings {
             let _ = writeln!(out, "  warning: {w}");
         }
@@ -186,67 +221,269 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     out
 }
 
-/// `comparison.csv`: one row per speed and law set.
-pub fn comparison_csv(c: &crate::study::Comparison) -> String {
-    let mut out = String::from(
-        "speed_rpm,measured_torque_nm,oil_temp_c,lawset,model_torque_nm,error_nm,mean_speed_rpm\n",
-    );
-    for s in &c.sets {
-        for (i, d) in c.data.iter().enumerate() {
-            if let Some(p) = s.run.plateaus.get(i) {
-                let _ = writeln!(
-                    out,
-                    "{},{},{},{},{},{},{}",
-                    d.speed_rpm,
-                    d.torque_nm,
-                    d.oil_temp_c,
-                    s.lawset,
-                    p.motoring_torque_nm,
-                    s.errors_nm[i],
-                    p.mean_speed_rpm
-                );
-            }
+/// One law set's per-joint friction torques: a row per joint and law, a column per speed, so
+/// the table's width grows with the speeds (8 characters each), not with the laws.
+fn joint_table(s: &crate::study::SetResult) -> String {
+    let mut out = String::new();
+    let Some(first) = s.run.plateaus.first() else {
+        return out;
+    };
+    let labels: Vec<String> = first
+        .joints
+        .iter()
+        .map(|j| format!("{}:{}", j.joint, j.law))
+        .collect();
+    let w = labels
+        .iter()
+        .map(|l| l.len())
+        .max()
+        .unwrap_or(0)
+        .max(s.lawset.len() + 2);
+    let _ = write!(out, "  {:<w$}", s.lawset);
+    for p in &s.run.plateaus {
+        let _ = write!(out, " {:>7.0}", p.set_speed_rpm);
+    }
+    out.push('\n');
+    for (k, l) in labels.iter().enumerate() {
+        let _ = write!(out, "  {l:<w$}");
+        for p in &s.run.plateaus {
+            let v = p.joints.get(k).map_or(f64::NAN, |j| j.friction_torque_nm);
+            let _ = write!(out, " {v:>7.4}");
         }
+        out.push('\n');
     }
     out
 }
 
-/// The calibration report: values, residual per speed, RMSE and warnings.
+/// CSV text from a header and rows (through the `csv` writer, so names with commas or quotes
+/// stay one field).
+fn csv_text(header: &[&str], rows: Vec<Vec<String>>) -> std::io::Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(header).map_err(std::io::Error::other)?;
+    for r in rows {
+        w.write_record(&r).map_err(std::io::Error::other)?;
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| std::io::Error::other(e.to_string()))?;
+    String::from_utf8(bytes).map_err(std::io::Error::other)
+}
+
+fn cell(x: Option<f64>) -> String {
+    x.map_or(String::new(), |v| v.to_string())
+}
+
+/// `comparison.csv`: one row per speed and law set, with the leave-one-out error and the band.
+pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
+    let mut rows = Vec::new();
+    for s in &c.sets {
+        for (i, d) in c.data.iter().enumerate() {
+            if let Some(p) = s.run.plateaus.get(i) {
+                rows.push(vec![
+                    d.speed_rpm.to_string(),
+                    d.torque_nm.to_string(),
+                    d.oil_temp_c.to_string(),
+                    s.lawset.clone(),
+                    p.motoring_torque_nm.to_string(),
+                    s.errors_nm[i].to_string(),
+                    p.mean_speed_rpm.to_string(),
+                    cell(s.scores.cv_errors_nm.get(i).copied().flatten()),
+                    cell(s.band_lower_nm.as_ref().and_then(|b| b.get(i).copied())),
+                    cell(s.band_upper_nm.as_ref().and_then(|b| b.get(i).copied())),
+                ]);
+            }
+        }
+    }
+    csv_text(
+        &[
+            "speed_rpm",
+            "measured_torque_nm",
+            "oil_temp_c",
+            "lawset",
+            "model_torque_nm",
+            "error_nm",
+            "mean_speed_rpm",
+            "loo_error_nm",
+            "band95_lower_nm",
+            "band95_upper_nm",
+        ],
+        rows,
+    )
+}
+
+/// `scores.csv`: one row per law set: ranking, free parameters, in-sample and cross-validated
+/// RMSE, AIC, AICc, BIC, and the validation RMSE of each `--validate` file.
+pub fn scores_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
+    let rows = c
+        .sets
+        .iter()
+        .map(|s| {
+            vec![
+                s.lawset.clone(),
+                s.rank.to_string(),
+                s.scores.free_params.to_string(),
+                s.scores.prior_fitted_params.to_string(),
+                s.scores.points.to_string(),
+                s.rmse_nm.to_string(),
+                cell(s.scores.cv_rmse_nm),
+                s.max_abs_error_nm.to_string(),
+                cell(s.scores.aic),
+                cell(s.scores.aicc),
+                cell(s.scores.bic),
+                s.band_wider_than_data.to_string(),
+                s.validation
+                    .iter()
+                    .map(|v| format!("{}={}", v.file, v.rmse_nm))
+                    .collect::<Vec<_>>()
+                    .join(";"),
+            ]
+        })
+        .collect();
+    csv_text(
+        &[
+            "lawset",
+            "rank",
+            "free_params",
+            "prior_fitted_params",
+            "points",
+            "rmse_nm",
+            "loo_rmse_nm",
+            "max_abs_error_nm",
+            "aic",
+            "aicc",
+            "bic",
+            "band_wider_than_data",
+            "validation_rmse_nm",
+        ],
+        rows,
+    )
+}
+
+/// `validation.csv`: every law set's prediction of every `--validate` point (header only when
+/// none was given).
+pub fn validation_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
+    let mut rows = Vec::new();
+    for s in &c.sets {
+        for v in &s.validation {
+            for i in 0..v.measured_nm.len() {
+                rows.push(vec![
+                    s.lawset.clone(),
+                    v.file.clone(),
+                    v.speeds_rpm[i].to_string(),
+                    v.oil_temp_c[i].to_string(),
+                    v.measured_nm[i].to_string(),
+                    v.model_nm[i].to_string(),
+                    v.errors_nm[i].to_string(),
+                ]);
+            }
+        }
+    }
+    csv_text(
+        &[
+            "lawset",
+            "file",
+            "speed_rpm",
+            "oil_temp_c",
+            "measured_torque_nm",
+            "model_torque_nm",
+            "error_nm",
+        ],
+        rows,
+    )
+}
+
+/// The calibration report: values with intervals and bounds, residuals per run, the
+/// out-of-sample scores, how the optimiser stopped, and every warning.
 pub fn fit_text(r: &crate::fit::FitResult) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "law set {}: {} parameters, {} model evaluations, stopped: {}\n",
+        "law set {}: {} parameters, {} points in {} run(s), {} model evaluations ({} failed)\nstopped: {}\n",
         r.lawset,
         r.params.len(),
+        r.measured_nm.len(),
+        r.runs.len(),
         r.evaluations,
+        r.failed_evaluations,
         r.termination
     );
     let _ = writeln!(
         out,
-        "{:<36} {:>12} {:>12} {:>12}   bounds",
-        "parameter", "start", "fitted", "1 sigma"
+        "{:<34} {:>11} {:>11} {:>10} {:>23}  bounds",
+        "parameter", "start", "fitted", "1 sigma", "95% interval"
     );
     for i in 0..r.params.len() {
+        let interval = r
+            .uncertainty
+            .interval95
+            .get(i)
+            .copied()
+            .flatten()
+            .map_or("not determined".to_string(), |[a, b]| {
+                format!("[{a:.3e}, {b:.3e}]")
+            });
+        let bound = r.at_bound[i]
+            .as_ref()
+            .map_or(String::new(), |b| format!("  ON {b} BOUND"));
         let _ = writeln!(
             out,
-            "{:<36} {:>12.5e} {:>12.5e} {:>12.2e}   [{}, {}]",
-            r.params[i], r.start[i], r.values[i], r.std_dev[i], r.bounds[i][0], r.bounds[i][1]
+            "{:<34} {:>11.4e} {:>11.4e} {:>10} {:>23}  [{}, {}]{bound}",
+            r.params[i],
+            r.start[i],
+            r.values[i],
+            r.std_dev[i].map_or("-".to_string(), |s| format!("{s:.2e}")),
+            interval,
+            r.bounds[i][0],
+            r.bounds[i][1]
         );
     }
+    for run in &r.runs {
+        let _ = writeln!(
+            out,
+            "\nrun {}: RMSE {:.4} N m\n{:>7} {:>6} {:>10} {:>10} {:>10} {:>8}",
+            run.file, run.rmse_nm, "rpm", "oil C", "measured", "model", "residual", "band95"
+        );
+        for i in 0..run.speeds_rpm.len() {
+            let band = run
+                .band_half_width_nm
+                .as_ref()
+                .map_or("-".to_string(), |b| format!("+-{:.3}", b[i]));
+            let _ = writeln!(
+                out,
+                "{:>7.0} {:>6.1} {:>10.3} {:>10.3} {:>+10.4} {:>8}",
+                run.speeds_rpm[i],
+                run.oil_temp_c[i],
+                run.measured_nm[i],
+                run.model_nm[i],
+                run.residuals_nm[i],
+                band
+            );
+        }
+    }
+    let sc = &r.scores;
     let _ = writeln!(
         out,
-        "\n{:>7} {:>10} {:>10} {:>10}",
-        "rpm", "measured", "model", "residual"
+        "\nRMSE {:.4} N m in sample, {} N m leave-one-out ({} free parameters, {} points); AICc {}, BIC {}",
+        r.rmse_nm,
+        opt(sc.cv_rmse_nm, 4),
+        sc.free_params,
+        sc.points,
+        opt(sc.aicc, 2),
+        opt(sc.bic, 2)
     );
-    for i in 0..r.speeds_rpm.len() {
+    for v in &r.validation {
         let _ = writeln!(
             out,
-            "{:>7.0} {:>10.3} {:>10.3} {:>+10.4}",
-            r.speeds_rpm[i], r.measured_nm[i], r.model_nm[i], r.residuals_nm[i]
+            "validation {}: RMSE {:.4} N m, max |error| {:.4} N m",
+            v.file, v.rmse_nm, v.max_abs_error_nm
         );
     }
-    let _ = writeln!(out, "\nRMSE {:.4} N m", r.rmse_nm);
+    if r.starts.len() > 1 {
+        let _ = writeln!(out, "\nstart points:");
+        for s in &r.starts {
+            let _ = writeln!(out, "  RMSE {:>8}  {}", opt(s.rmse_nm, 4), s.termination);
+        }
+    }
     for w in &r.warnings {
         let _ = writeln!(out, "warning: {w}");
     }

@@ -8,9 +8,12 @@ use serde::Serialize;
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::cycle::Segment;
+use crate::fit::TorqueModel;
 use crate::lawset::LawSet;
 use crate::rig::{Rig, RigError, Temperature};
+use crate::score::{self, Scores, Validation};
 use crate::sim::{RunResult, SimError, Simulation};
+use crate::uncertainty::{uncertainty, Uncertainty};
 
 /// Why a study failed.
 #[derive(Debug, thiserror::Error)]
@@ -47,6 +50,22 @@ pub struct DataRow {
     pub torque_nm: f64,
     /// Oil temperature, C.
     pub oil_temp_c: f64,
+}
+
+/// One measured run: a data file's points (distinct speeds, each at its own oil temperature).
+#[derive(Debug, Clone, Serialize)]
+pub struct DataRun {
+    /// The data file (or `<bundled>/NAME`).
+    pub file: PathBuf,
+    /// Its points, sorted by speed.
+    pub rows: Vec<DataRow>,
+}
+
+impl DataRun {
+    /// Read a data run from a file or a bundled data file by name (see [`read_data`]).
+    pub fn read(arg: &str) -> Result<Self, StudyError> {
+        read_data(arg).map(|(file, rows)| Self { file, rows })
+    }
 }
 
 /// Read a `speed_rpm,torque_nm,oil_temp_c` CSV from disk, or a bundled data file by name.
@@ -186,10 +205,25 @@ pub struct SetResult {
     pub run: RunResult,
     /// Model minus measurement at each speed, N m.
     pub errors_nm: Vec<f64>,
-    /// Root-mean-square error, N m.
+    /// Root-mean-square error, N m (in sample: the set's parameters as they are).
     pub rmse_nm: f64,
     /// Largest absolute error, N m.
     pub max_abs_error_nm: f64,
+    /// Place in the ranking by cross-validated RMSE (1 = best).
+    pub rank: usize,
+    /// Out-of-sample scores: leave-one-out RMSE, free parameters, AICc, BIC.
+    pub scores: Scores,
+    /// The linearised uncertainty of the free parameters and the 95% band of the torque.
+    pub uncertainty: Uncertainty,
+    /// Lower edge of the 95% confidence band of the model torque at each speed, N m.
+    pub band_lower_nm: Option<Vec<f64>>,
+    /// Upper edge of the band, N m.
+    pub band_upper_nm: Option<Vec<f64>>,
+    /// The band is wider than the spread of the measured torques: the data do not determine
+    /// this set's prediction.
+    pub band_wider_than_data: bool,
+    /// Scores on data never used in fitting (`--validate`).
+    pub validation: Vec<Validation>,
 }
 
 /// A side-by-side comparison.
@@ -203,8 +237,21 @@ pub struct Comparison {
     pub data: Vec<DataRow>,
     /// `steady` or `transient`.
     pub mode: String,
-    /// Each law set.
+    /// What the ranking rests on, in words.
+    pub ranked_by: String,
+    /// Each law set, in the order given.
     pub sets: Vec<SetResult>,
+}
+
+/// How `compare` scores the law sets.
+#[derive(Debug, Clone, Default)]
+pub struct CompareOptions {
+    /// Steady state at each speed instead of the full test cycle.
+    pub steady: bool,
+    /// Skip the leave-one-out refits (rank by in-sample RMSE, and say so).
+    pub no_cv: bool,
+    /// Data never used in fitting, scored separately.
+    pub validate: Vec<DataRun>,
 }
 
 /// RMSE and largest absolute error of `model` against `measured`.
@@ -215,27 +262,72 @@ pub fn errors(model: &[f64], measured: &[f64]) -> (Vec<f64>, f64, f64) {
     (e, rmse, max)
 }
 
-/// Run every law set on `rig` at the data's speeds and temperatures, in parallel. The order of
-/// the results is the order of `lawsets`, whatever the scheduling.
+/// Run every law set on `rig` at the data's speeds and temperatures, in parallel, and score
+/// each out of sample. The order of the results is the order of `lawsets`, whatever the
+/// scheduling; `rank` orders them by cross-validated RMSE.
 pub fn compare(
     rig: &Rig,
     lawsets: &[LawSet],
-    data_file: &Path,
-    data: &[DataRow],
+    data: &DataRun,
     registry: &LawRegistry,
-    steady: bool,
+    options: &CompareOptions,
 ) -> Result<Comparison, StudyError> {
-    let measured: Vec<f64> = data.iter().map(|r| r.torque_nm).collect();
-    let sets = lawsets
-        .par_iter()
+    let measured: Vec<f64> = data.rows.iter().map(|r| r.torque_nm).collect();
+    let spread = measured.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - measured.iter().copied().fold(f64::INFINITY, f64::min);
+    // Every set's free parameters are resolved before anything runs: a bad law-set entry is
+    // reported at once, not after the other sets' runs.
+    let frees = lawsets
+        .iter()
         .map(|ls| {
-            let r = prepare(rig, ls, Some(data))?;
-            let run = run_rig(&r, registry, steady).map_err(|source| StudyError::Run {
+            if ls.file.laws.iter().any(|e| !e.free.is_empty()) {
+                ls.free_params(registry, None).map_err(Box::new)
+            } else {
+                Ok(Vec::new())
+            }
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut sets = lawsets
+        .par_iter()
+        .zip(frees.par_iter())
+        .map(|(ls, free)| {
+            let r = prepare(rig, ls, Some(&data.rows))?;
+            let run = run_rig(&r, registry, options.steady).map_err(|source| StudyError::Run {
                 lawset: ls.name().into(),
                 source: Box::new(source),
             })?;
             let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
             let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
+            let tm = TorqueModel::new(rig, ls, free, vec![data.clone()], registry);
+            let x: Vec<f64> = free.iter().map(|f| f.value).collect();
+            let mut scores = score::scores_for_fit(&tm, &x, &errors_nm, !options.no_cv);
+            // The in-sample figure is the compare run's own (steady or full cycle).
+            scores.rmse_nm = rmse_nm;
+            if let Some(prior) = ls.prior_fit_on(&data.file) {
+                score::apply_prior_fit(&mut scores, &errors_nm, prior);
+            }
+            let unc = if free.is_empty() {
+                Uncertainty::none(errors_nm.len())
+            } else {
+                uncertainty(&tm, &x, &errors_nm)
+            };
+            let (band_lower_nm, band_upper_nm) = match &unc.band_half_width_nm {
+                Some(h) => (
+                    Some(model.iter().zip(h).map(|(m, h)| m - h).collect()),
+                    Some(model.iter().zip(h).map(|(m, h)| m + h).collect()),
+                ),
+                None => (None, None),
+            };
+            let widest = unc
+                .band_half_width_nm
+                .as_ref()
+                .map(|h| 2.0 * h.iter().copied().fold(0.0, f64::max));
+            let band_wider_than_data = !free.is_empty() && widest.is_none_or(|w| w > spread);
+            let validation = options
+                .validate
+                .iter()
+                .map(|v| score::validate(rig, ls, v, registry, options.steady))
+                .collect::<Result<Vec<_>, _>>()?;
             Ok(SetResult {
                 lawset: ls.name().into(),
                 file: ls.path.display().to_string(),
@@ -243,17 +335,49 @@ pub fn compare(
                 errors_nm,
                 rmse_nm,
                 max_abs_error_nm,
+                rank: 0,
+                scores,
+                uncertainty: unc,
+                band_lower_nm,
+                band_upper_nm,
+                band_wider_than_data,
+                validation,
             })
         })
         .collect::<Result<Vec<_>, StudyError>>()?;
+    // Cross-validated sets first, by their out-of-sample error; sets without one (tuned
+    // elsewhere, or a fold failed) after them, by their in-sample error.
+    let key = |s: &SetResult| {
+        if options.no_cv {
+            (0, s.rmse_nm)
+        } else {
+            match s.scores.cv_rmse_nm {
+                Some(cv) => (0, cv),
+                None => (1, s.rmse_nm),
+            }
+        }
+    };
+    let mut order: Vec<usize> = (0..sets.len()).collect();
+    order.sort_by(|a, b| {
+        let (ka, kb) = (key(&sets[*a]), key(&sets[*b]));
+        ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+    });
+    for (place, i) in order.into_iter().enumerate() {
+        sets[i].rank = place + 1;
+    }
     Ok(Comparison {
         rig: rig.file.name.clone(),
-        data_file: data_file.display().to_string(),
-        data: data.to_vec(),
-        mode: if steady {
+        data_file: data.file.display().to_string(),
+        data: data.rows.clone(),
+        mode: if options.steady {
             "steady".into()
         } else {
             "transient".into()
+        },
+        ranked_by: if options.no_cv {
+            "in-sample RMSE (cross-validation skipped with --no-cv): rewards sets with many free parameters".into()
+        } else {
+            "leave-one-out cross-validated RMSE: each point predicted by the set refitted without it (a set without free parameters: its in-sample RMSE; sets tuned to these data elsewhere have no out-of-sample figure and rank last)".into()
         },
         sets,
     })

@@ -1,0 +1,292 @@
+//! What the data say about a calibrated parameter set: standard deviations and correlations
+//! from the linearised covariance `s^2 (J^T J)^-1`, the conditioning of the problem, and the 95%
+//! confidence band of the model torque at each data point (the delta method).
+//!
+//! Why the covariance and not a bootstrap: a residual bootstrap needs hundreds of refits (each
+//! a full calibration), and with as few residual degrees of freedom as engine friction data
+//! have (7 points, 2 to 6 parameters) the resampled residuals carry almost no information. The
+//! linearisation is stated, and where it cannot be trusted (a near-singular `J^T J`, no degrees
+//! of freedom) the report says so instead of printing numbers.
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+use statrs::distribution::{ContinuousCDF, StudentsT};
+
+use crate::fit::TorqueModel;
+
+/// The linearised uncertainty of a parameter set on its data.
+#[derive(Debug, Clone, Serialize)]
+pub struct Uncertainty {
+    /// Residual degrees of freedom: points minus free parameters.
+    pub dof: usize,
+    /// Residual standard deviation `sqrt(RSS / dof)`, N m (`None` without degrees of freedom).
+    pub residual_sd_nm: Option<f64>,
+    /// Student's t quantile for a two-sided 95% interval at `dof`.
+    pub t95: Option<f64>,
+    /// 1-sigma standard deviation of each parameter; `None` where undetermined.
+    pub std_dev: Vec<Option<f64>>,
+    /// 95% interval of each parameter (value +- t95 sigma); `None` where undetermined.
+    pub interval95: Vec<Option<[f64; 2]>>,
+    /// Correlation matrix of the parameters, when it exists.
+    pub correlation: Option<Vec<Vec<f64>>>,
+    /// Ratio of the largest to the smallest singular value of the Jacobian in relative
+    /// parameter changes: how close the data come to not telling the parameters apart.
+    pub condition_number: Option<f64>,
+    /// Half-width of the 95% confidence band of the model torque at each point, N m.
+    pub band_half_width_nm: Option<Vec<f64>>,
+    /// Plain statements of what is not determined and why.
+    pub statements: Vec<String>,
+}
+
+impl Uncertainty {
+    /// No free parameters: nothing is estimated, nothing uncertain from fitting.
+    pub fn none(points: usize) -> Self {
+        Self {
+            dof: points,
+            residual_sd_nm: None,
+            t95: None,
+            std_dev: Vec::new(),
+            interval95: Vec::new(),
+            correlation: None,
+            condition_number: None,
+            band_half_width_nm: Some(vec![0.0; points]),
+            statements: Vec::new(),
+        }
+    }
+}
+
+/// Condition number above which `J^T J` is treated as singular (relative parameter changes).
+const SINGULAR_CONDITION: f64 = 1e8;
+
+/// A parameter's finite-difference step: relative to its value, or to its range near zero.
+fn step(x: f64, bounds: [f64; 2]) -> f64 {
+    1e-6 * x
+        .abs()
+        .max(1e-3 * (bounds[1] - bounds[0]).abs())
+        .max(1e-300)
+}
+
+/// The Jacobian of the model torques with respect to the physical parameters at `x`: central
+/// differences, one-sided at a bound. A column whose runs fail is `None`.
+fn jacobian(model: &TorqueModel<'_>, x: &[f64], base: &[f64]) -> Vec<Option<Vec<f64>>> {
+    let free = model.free();
+    (0..x.len())
+        .map(|k| {
+            let [lo, hi] = free[k].bounds;
+            let h = step(x[k], free[k].bounds);
+            let at = |v: f64| {
+                let mut p = x.to_vec();
+                p[k] = v;
+                model.torques(&p).ok()
+            };
+            let col = if x[k] + h <= hi && x[k] - h >= lo {
+                let (a, b) = (at(x[k] + h)?, at(x[k] - h)?);
+                a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect()
+            } else if x[k] + h <= hi {
+                let a = at(x[k] + h)?;
+                a.iter().zip(base).map(|(a, b)| (a - b) / h).collect()
+            } else {
+                let b = at(x[k] - h)?;
+                base.iter().zip(&b).map(|(a, b)| (a - b) / h).collect()
+            };
+            Some(col)
+        })
+        .collect()
+}
+
+/// The uncertainty of parameters `x` of `model`, whose residuals there are `residuals`.
+pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Uncertainty {
+    let (m, n) = (residuals.len(), x.len());
+    if n == 0 {
+        return Uncertainty::none(m);
+    }
+    let free = model.free();
+    let ids: Vec<&str> = free.iter().map(|f| f.id.as_str()).collect();
+    let dof = m.saturating_sub(n);
+    let rss: f64 = residuals.iter().map(|r| r * r).sum();
+    let residual_sd = (dof > 0).then(|| (rss / dof as f64).sqrt());
+    let t95 = (dof > 0)
+        .then(|| StudentsT::new(0.0, 1.0, dof as f64).ok())
+        .flatten()
+        .map(|t| t.inverse_cdf(0.975));
+    let mut statements = Vec::new();
+    let mut out = Uncertainty {
+        dof,
+        residual_sd_nm: residual_sd,
+        t95,
+        std_dev: vec![None; n],
+        interval95: vec![None; n],
+        correlation: None,
+        condition_number: None,
+        band_half_width_nm: None,
+        statements: Vec::new(),
+    };
+    if m <= n {
+        statements.push(format!(
+            "{n} free parameters for {m} data points: no residual degrees of freedom, so the fit can pass through every point and the data say nothing about the parameters' uncertainty; fix some parameters or add data"
+        ));
+    }
+    let Ok(base) = model.torques(x) else {
+        statements.push("the model does not run at the fitted values".into());
+        out.statements = statements;
+        return out;
+    };
+    let cols = jacobian(model, x, &base);
+    let mut failed = Vec::new();
+    // Relative sensitivities: d torque / d ln x (or per unit range near zero).
+    let scale: Vec<f64> = x
+        .iter()
+        .zip(free)
+        .map(|(v, f)| {
+            if v.abs() > 1e-3 * (f.bounds[1] - f.bounds[0]).abs() {
+                v.abs()
+            } else {
+                (f.bounds[1] - f.bounds[0]).abs()
+            }
+        })
+        .collect();
+    let mut j = DMatrix::zeros(m, n);
+    for (k, c) in cols.iter().enumerate() {
+        match c {
+            Some(c) => {
+                for i in 0..m {
+                    j[(i, k)] = c[i];
+                }
+            }
+            None => failed.push(ids[k]),
+        }
+    }
+    if !failed.is_empty() {
+        statements.push(format!(
+            "the model does not run next to the fitted values of {}: their sensitivities are unknown",
+            failed.join(", ")
+        ));
+    }
+    for k in 0..n {
+        let sens = (0..m)
+            .map(|i| (j[(i, k)] * scale[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if sens < 1e-6 {
+            statements.push(format!(
+                "{}: the torque does not respond to it here (sensitivity {sens:.1e} N m per relative change); its value is arbitrary",
+                ids[k]
+            ));
+        }
+    }
+    let js = DMatrix::from_fn(m, n, |i, k| j[(i, k)] * scale[k]);
+    let svd = js.clone().svd(true, true);
+    let sv = &svd.singular_values;
+    let smax = sv.iter().copied().fold(0.0_f64, f64::max);
+    let smin = if m >= n {
+        sv.iter().copied().fold(f64::INFINITY, f64::min)
+    } else {
+        0.0
+    };
+    let cond = if smin > 0.0 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
+    out.condition_number = cond.is_finite().then_some(cond);
+    if !failed.is_empty() || dof == 0 {
+        out.statements = statements;
+        return out;
+    }
+    if cond > SINGULAR_CONDITION {
+        // The weakest direction: the parameter combination the data cannot see.
+        let weakest = svd.v_t.as_ref().and_then(|vt| {
+            let k = (0..sv.len()).min_by(|a, b| sv[*a].total_cmp(&sv[*b]))?;
+            Some(vt.row(k).iter().copied().collect::<Vec<f64>>())
+        });
+        let combo = weakest
+            .map(|w| {
+                let mut terms: Vec<(f64, &str)> =
+                    w.iter().copied().zip(ids.iter().copied()).collect();
+                terms.sort_by(|a, b| b.0.abs().total_cmp(&a.0.abs()));
+                terms
+                    .iter()
+                    .filter(|(c, _)| c.abs() > 0.1)
+                    .map(|(c, id)| format!("{c:+.2} d ln {id}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+            .unwrap_or_default();
+        statements.push(format!(
+            "J^T J is singular or nearly so (condition number {}): the data cannot tell the parameters apart along {combo}; no uncertainties or bands are given; fix one of these parameters or add data that separate them",
+            if cond.is_finite() { format!("{cond:.1e}") } else { "infinite".into() }
+        ));
+        out.statements = statements;
+        return out;
+    }
+    let s2 = rss / dof as f64;
+    let jtj = js.transpose() * &js;
+    let Some(inv) = jtj.try_inverse() else {
+        statements.push("J^T J could not be inverted: no uncertainties are given".into());
+        out.statements = statements;
+        return out;
+    };
+    // Covariance in physical units: S (s^2 (Js^T Js)^-1) S.
+    let cov = DMatrix::from_fn(n, n, |a, b| s2 * inv[(a, b)] * scale[a] * scale[b]);
+    let t = t95.unwrap_or(f64::NAN);
+    let sd: Vec<f64> = (0..n).map(|k| cov[(k, k)].max(0.0).sqrt()).collect();
+    for k in 0..n {
+        out.std_dev[k] = Some(sd[k]);
+        out.interval95[k] = Some([x[k] - t * sd[k], x[k] + t * sd[k]]);
+        if sd[k] > 0.5 * x[k].abs() {
+            statements.push(format!(
+                "{}: poorly determined, {:.4e} +- {:.2e} (1 sigma)",
+                ids[k], x[k], sd[k]
+            ));
+        }
+    }
+    let corr: Vec<Vec<f64>> = (0..n)
+        .map(|a| {
+            (0..n)
+                .map(|b| cov[(a, b)] / (sd[a] * sd[b]).max(1e-300))
+                .collect()
+        })
+        .collect();
+    for a in 0..n {
+        for b in a + 1..n {
+            if corr[a][b].abs() > 0.99 {
+                statements.push(format!(
+                    "{} and {} are {:.3} correlated: the data fix a combination of them, not each",
+                    ids[a], ids[b], corr[a][b]
+                ));
+            }
+        }
+    }
+    out.correlation = Some(corr);
+    // Delta method: var(T_i) = g_i^T C g_i with g_i the Jacobian row in physical units.
+    let band = (0..m)
+        .map(|i| {
+            let mut v = 0.0;
+            for a in 0..n {
+                for b in 0..n {
+                    v += j[(i, a)] * cov[(a, b)] * j[(i, b)];
+                }
+            }
+            t * v.max(0.0).sqrt()
+        })
+        .collect();
+    out.band_half_width_nm = Some(band);
+    out.statements = statements;
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn t_quantiles_match_tables() {
+        // Two-sided 95% quantiles of Student's t (any statistics table).
+        for (dof, q) in [(1.0, 12.706), (2.0, 4.303), (5.0, 2.571), (30.0, 2.042)] {
+            let t = StudentsT::new(0.0, 1.0, dof)
+                .expect("valid")
+                .inverse_cdf(0.975);
+            assert!((t - q).abs() < 1e-3, "dof {dof}: {t}");
+        }
+    }
+}

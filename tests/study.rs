@@ -44,6 +44,8 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
         "stribeck-duty",
         "RMSE",
         "max |error|",
+        "LOO RMSE",
+        "ranked by leave-one-out cross-validated RMSE",
         "per-joint contributions",
     ] {
         assert!(stdout.contains(word), "`{word}` missing:\n{stdout}");
@@ -51,6 +53,8 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
     let results = dir.path().join("results");
     for f in [
         "comparison.csv",
+        "scores.csv",
+        "validation.csv",
         "comparison.json",
         "torque_vs_speed.svg",
         "contributions_fedem-baseline.svg",

@@ -163,15 +163,15 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     let _ = writeln!(out, "\nscores, ranked by {}", c.ranked_by);
     let _ = writeln!(
         out,
-        "{:>4}  {:<22} {:>5} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8}",
-        "rank", "law set", "free", "points", "RMSE", "LOO RMSE", "max|err|", "AICc", "BIC"
+        "{:>4}  {:<22} {:>5} {:>6} {:>8} {:>8} {:>11} {:>8} {:>8}",
+        "rank", "law set", "free", "points", "RMSE", "LOO RMSE", "max |error|", "AICc", "BIC"
     );
     let mut ranked: Vec<&crate::study::SetResult> = c.sets.iter().collect();
     ranked.sort_by_key(|s| s.rank);
     for s in &ranked {
         let _ = writeln!(
             out,
-            "{:>4}  {:<22} {:>5} {:>6} {:>8.3} {:>8} {:>8.3} {:>8} {:>8}",
+            "{:>4}  {:<22} {:>5} {:>6} {:>8.3} {:>8} {:>11.3} {:>8} {:>8}",
             s.rank,
             s.lawset,
             if s.scores.prior_fitted_params > 0 {

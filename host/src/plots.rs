@@ -134,15 +134,7 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
         "engine speed (rpm)",
         "motoring torque (N m)",
     )?;
-    chart
-        .draw_series(
-            c.data
-                .iter()
-                .map(|d| Circle::new((d.speed_rpm, d.torque_nm), 5, BLACK.filled())),
-        )?
-        .label("measured")
-        .legend(|(x, y)| Circle::new((x, y), 5, BLACK.filled()));
-    // The 95% bands first, shaded, so every line stays visible on top of them.
+    // The 95% bands first, shaded, so the measurements and lines stay visible on top of them.
     for (i, s) in c.sets.iter().enumerate() {
         let color = COLORS[i % COLORS.len()];
         if let (Some(lo), Some(hi)) = (&s.band_lower_nm, &s.band_upper_nm) {
@@ -159,6 +151,14 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
             )))?;
         }
     }
+    chart
+        .draw_series(
+            c.data
+                .iter()
+                .map(|d| Circle::new((d.speed_rpm, d.torque_nm), 5, BLACK.filled())),
+        )?
+        .label("measured")
+        .legend(|(x, y)| Circle::new((x, y), 5, BLACK.filled()));
     for (i, s) in c.sets.iter().enumerate() {
         let color = COLORS[i % COLORS.len()];
         let pts: Vec<(f64, f64)> = s

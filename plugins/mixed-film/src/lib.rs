@@ -316,7 +316,10 @@ mod tests {
             let exact = 2f64.powf((n - 1.0) / 2.0) * gamma((n + 1.0) / 2.0)
                 / (2.0 * std::f64::consts::PI).sqrt();
             let q = gaussian_integral(n, 0.0);
-            assert!((q - exact).abs() < 1e-10 * exact, "F_{n}(0) = {q} vs {exact}");
+            assert!(
+                (q - exact).abs() < 1e-10 * exact,
+                "F_{n}(0) = {q} vs {exact}"
+            );
         }
         // n = 0 is the Gaussian tail: F_0(x) = erfc(x / sqrt 2) / 2; at x = 1, 0.158655254.
         assert!((gaussian_integral(0.0, 1.0) - 0.158_655_253_931_457).abs() < 1e-9);
@@ -458,7 +461,11 @@ mod tests {
         for eta in [0.005, 0.02, 0.08] {
             let c = rough.contact(&slide(1e-4, 100.0, eta));
             assert!(c.share > 1.0 - 1e-5, "{}", c.share);
-            assert!((c.friction_n - 12.0).abs() < 1e-5 * 12.0, "{}", c.friction_n);
+            assert!(
+                (c.friction_n - 12.0).abs() < 1e-5 * 12.0,
+                "{}",
+                c.friction_n
+            );
         }
     }
 
@@ -499,7 +506,10 @@ mod tests {
     fn rejects_out_of_range_values() {
         assert_eq!(law("mu_b = -0.1").unwrap_err().parameter, "mu_b");
         assert_eq!(law("sigma_m = 0.0").unwrap_err().parameter, "sigma_m");
-        assert_eq!(law("face_width_m = 1.0").unwrap_err().parameter, "face_width_m");
+        assert_eq!(
+            law("face_width_m = 1.0").unwrap_err().parameter,
+            "face_width_m"
+        );
         assert_eq!(law("c_h = 0.0").unwrap_err().parameter, "c_h");
         assert_eq!(law("preload_n = -1.0").unwrap_err().parameter, "preload_n");
         assert!(law("unknown = 1.0").is_err());

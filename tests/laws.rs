@@ -10,7 +10,7 @@ use common::*;
 const SHORT_CYCLE: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.5}, {kind=\"hold\", duration_s=0.8}]";
 
 /// (law, joint, parameter TOML)
-const CASES: [(&str, &str, &str); 8] = [
+const CASES: [(&str, &str, &str); 9] = [
     ("coulomb", "piston", "mu = 0.08"),
     ("c-coulomb", "piston", "mu = 0.08"),
     ("fedem-friction", "big_end", "mu = 0.0025"),
@@ -25,6 +25,11 @@ const CASES: [(&str, &str, &str); 8] = [
         "mu_b = 0.1\nc = 1.0\nk = 0.5\nh_boundary = 1e-6\nh_hydrodynamic = 1e-4\npreload_n = 30.0",
     ),
     ("petroff-journal", "big_end", "clearance_m = 2e-5"),
+    (
+        "mixed-film",
+        "piston",
+        "mu_b = 0.1\nc_h = 1.884\nface_width_m = 1e-3\nsigma_m = 0.3e-6\npreload_n = 220.0",
+    ),
     ("rolling-bearing", "main_b", "mu = 0.0011"),
     // The paper's sigma2 = 0.4 s/m per newton is mu ~ 4 at piston speeds; scaled for an engine.
     (
@@ -119,6 +124,24 @@ fn stribeck_duty_reports_regimes_on_the_rig() {
 }
 
 #[test]
+fn mixed_film_reports_film_parameter_regimes_on_the_rig() {
+    let json = run_with(CASES[6].0, CASES[6].1, CASES[6].2, &[]);
+    let share = &json["plateaus"][0]["joints"][0]["regime_share"];
+    let get = |k: &str| share[k].as_f64().unwrap_or(0.0);
+    let total: f64 = ["none", "boundary", "mixed", "hydrodynamic"]
+        .iter()
+        .map(|k| get(k))
+        .sum();
+    assert!((total - 1.0).abs() < 1e-6, "{share}");
+    // A 1 mm face at 3000 rpm: a film of several um over 0.3 um roughness at mid-stroke, asperity
+    // contact only near the dead centres (film parameter below 3 where the speed is small).
+    assert!(
+        get("hydrodynamic") > 0.5 && get("boundary") > 0.0,
+        "{share}"
+    );
+}
+
+#[test]
 fn fedem_friction_plateau_torques_do_not_depend_on_the_sign_smoothing() {
     // The full thesis cycle with the table 9.5 coefficients, smoothing scale 1 mm/s vs 10 um/s.
     let rig = workspace().join("rigs/reference-frictionless.toml");
@@ -205,5 +228,5 @@ fn stateless_laws_dissipate_and_their_derivatives_match_finite_differences() {
             }
         }
     }
-    assert_eq!(checked, 7, "every stateless law was swept");
+    assert_eq!(checked, 8, "every stateless law was swept");
 }

@@ -28,6 +28,10 @@ const LAWSETS: &[(&str, &str)] = &[
         include_str!("../../rigs/lawsets/stribeck-duty.toml"),
     ),
     (
+        "mixed-film.toml",
+        include_str!("../../rigs/lawsets/mixed-film.toml"),
+    ),
+    (
         "physical-bearings.toml",
         include_str!("../../rigs/lawsets/physical-bearings.toml"),
     ),

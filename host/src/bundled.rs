@@ -58,7 +58,7 @@ pub const DEFAULT_RIG: &str = "crf250r-motored.toml";
 /// The default measurement data.
 pub const DEFAULT_DATA: &str = "crf250r-measured.csv";
 /// The default law sets compared.
-pub const DEFAULT_LAWSETS: [&str; 2] = ["fedem-baseline", "stribeck-duty"];
+pub const DEFAULT_LAWSETS: [&str; 3] = ["fedem-baseline", "stribeck-duty", "mixed-film"];
 
 /// `name` with a `.toml`/`.csv` suffix as it is stored (accepts `crf250r-motored` too).
 pub fn file_name(name: &str) -> String {

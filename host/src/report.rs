@@ -114,6 +114,26 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> std::io::Result<()> {
     crate::output::write_atomic(&dir.join("joints.csv"), j.as_bytes())
 }
 
+/// `text` broken into lines of at most `width` characters at spaces, continuation lines
+/// starting with `indent`.
+fn wrap(text: &str, width: usize, indent: &str) -> String {
+    let mut out = String::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        if !line.is_empty() && line.len() + 1 + word.len() > width {
+            out.push_str(&line);
+            out.push('\n');
+            line = indent.to_string();
+        } else if !line.is_empty() && line != indent {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    out.push_str(&line);
+    out.push('\n');
+    out
+}
+
 /// A number with `prec` decimals, or `-` where there is none.
 fn opt(x: Option<f64>, prec: usize) -> String {
     x.filter(|v| v.is_finite())
@@ -129,16 +149,21 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
         "rig {}  data {}  mode {}\n",
         c.rig, c.data_file, c.mode
     );
-    let _ = write!(out, "{:>7} {:>9}", "rpm", "measured");
+    // One block of 22 characters per set (model, error, band), whatever its name's length,
+    // so three or four sets stay within 100 columns.
+    let _ = write!(out, "{:>7} {:>9}", "", "");
     for s in &c.sets {
-        let w = s.lawset.len().max(9);
-        let _ = write!(out, "  {:>w$} {:>7} {:>7}", s.lawset, "error", "band95");
+        let name: String = s.lawset.chars().take(21).collect();
+        let _ = write!(out, " | {name:<21}");
     }
-    let _ = writeln!(out, "\n{:>7} {:>9}", "", "N m");
+    let _ = write!(out, "\n{:>7} {:>9}", "rpm", "measured");
+    for _ in &c.sets {
+        let _ = write!(out, " | {:>6} {:>6} {:>7}", "model", "error", "+-95%");
+    }
+    out.push('\n');
     for (i, d) in c.data.iter().enumerate() {
         let _ = write!(out, "{:>7.0} {:>9.3}", d.speed_rpm, d.torque_nm);
         for s in &c.sets {
-            let w = s.lawset.len().max(9);
             let m = s
                 .run
                 .plateaus
@@ -149,10 +174,10 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
                 .band_half_width_nm
                 .as_ref()
                 .and_then(|b| b.get(i).copied())
-                .map_or("-".to_string(), |h| format!("+-{h:.3}"));
+                .map_or("-".to_string(), |h| format!("{h:.3}"));
             let _ = write!(
                 out,
-                "  {:>w$.3} {:>+7.3} {:>7}",
+                " | {:>6.3} {:>+6.3} {:>7}",
                 m,
                 s.errors_nm.get(i).copied().unwrap_or(f64::NAN),
                 band
@@ -160,7 +185,12 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
         }
         out.push('\n');
     }
-    let _ = writeln!(out, "\nscores, ranked by {}", c.ranked_by);
+    let _ = writeln!(
+        out,
+        "(N m; +-95%: half-width of the 95% confidence band of the model torque from its fitted parameters)"
+    );
+    out.push('\n');
+    out.push_str(&wrap(&format!("scores, ranked by {}", c.ranked_by), 98, ""));
     let _ = writeln!(
         out,
         "{:>4}  {:<22} {:>5} {:>6} {:>8} {:>8} {:>11} {:>8} {:>8}",
@@ -187,7 +217,10 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             opt(s.scores.bic, 1)
         );
     }
-    let _ = writeln!(out, "  (RMSE in N m; RMSE is in sample, LOO RMSE out of sample; free: parameters fitted here + tuned to these data elsewhere;\n   AICc and BIC count those and the noise variance, lower is better)");
+    let _ = writeln!(
+        out,
+        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; free: parameters fitted here\n   + tuned to these data elsewhere; AICc and BIC count those and the noise variance,\n   lower is better)"
+    );
     for s in &ranked {
         let mut notes: Vec<String> = Vec::new();
         if s.band_wider_than_data {
@@ -208,7 +241,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             ));
         }
         for n in notes {
-            let _ = writeln!(out, "  {}: {n}", s.lawset);
+            out.push_str(&wrap(&format!("  {}: {n}", s.lawset), 98, "      "));
         }
     }
     out.push_str("\nper-joint contributions (friction torque at the crank, N m)\n");

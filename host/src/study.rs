@@ -306,7 +306,17 @@ pub fn compare(
             if let Some(prior) = ls.prior_fit_on(&data.file) {
                 score::apply_prior_fit(&mut scores, &errors_nm, prior);
             }
-            let unc = if free.is_empty() {
+            let prior = ls.prior_fit_on(&data.file);
+            let unc = if let Some(p) = prior {
+                // Tuned elsewhere: no covariance of those numbers exists here.
+                let mut u = Uncertainty::none(errors_nm.len());
+                u.band_half_width_nm = None;
+                u.statements.push(format!(
+                    "no band: its {} tuned numbers have no covariance Tribo could estimate",
+                    p.parameters
+                ));
+                u
+            } else if free.is_empty() {
                 Uncertainty::none(errors_nm.len())
             } else {
                 uncertainty(&tm, &x, &errors_nm)

@@ -193,15 +193,24 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     out.push_str(&wrap(&format!("scores, ranked by {}", c.ranked_by), 98, ""));
     let _ = writeln!(
         out,
-        "{:>4}  {:<22} {:>5} {:>6} {:>8} {:>8} {:>11} {:>8} {:>8}",
-        "rank", "law set", "free", "points", "RMSE", "LOO RMSE", "max |error|", "AICc", "BIC"
+        "{:>4}  {:<22} {:>5} {:>6} {:>8} {:>8} {:>11} {:>8} {:>8} {:>9}",
+        "rank",
+        "law set",
+        "free",
+        "points",
+        "RMSE",
+        "LOO RMSE",
+        "max |error|",
+        "AICc",
+        "BIC",
+        "+10C max"
     );
     let mut ranked: Vec<&crate::study::SetResult> = c.sets.iter().collect();
     ranked.sort_by_key(|s| s.rank);
     for s in &ranked {
         let _ = writeln!(
             out,
-            "{:>4}  {:<22} {:>5} {:>6} {:>8.3} {:>8} {:>11.3} {:>8} {:>8}",
+            "{:>4}  {:<22} {:>5} {:>6} {:>8.3} {:>8} {:>11.3} {:>8} {:>8} {:>+8.1}%{}",
             s.rank,
             s.lawset,
             if s.scores.prior_fitted_params > 0 {
@@ -214,12 +223,20 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             opt(s.scores.cv_rmse_nm, 3),
             s.max_abs_error_nm,
             opt(s.scores.aicc, 1),
-            opt(s.scores.bic, 1)
+            opt(s.scores.bic, 1),
+            s.temperature_response.max_rise_percent_per_10c,
+            if s.temperature_response.max_rise_percent_per_10c
+                > crate::score::TEMPERATURE_RISE_FLAG_PERCENT
+            {
+                "!"
+            } else {
+                ""
+            }
         );
     }
     let _ = writeln!(
         out,
-        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; free: parameters fitted here\n   + tuned to these data elsewhere; AICc and BIC count those and the noise variance,\n   lower is better)"
+        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; free: parameters fitted here\n   + tuned to these data elsewhere; AICc and BIC count those and the noise variance,\n   lower is better; +10C max: largest torque change per 10 C of oil warming, ! above 10%)"
     );
     for s in &ranked {
         let mut notes: Vec<String> = Vec::new();
@@ -323,6 +340,7 @@ pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
                     cell(s.scores.cv_errors_nm.get(i).copied().flatten()),
                     cell(s.band_lower_nm.as_ref().and_then(|b| b.get(i).copied())),
                     cell(s.band_upper_nm.as_ref().and_then(|b| b.get(i).copied())),
+                    cell(s.temperature_response.percent_per_10c.get(i).copied()),
                 ]);
             }
         }
@@ -339,6 +357,7 @@ pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
             "loo_error_nm",
             "band95_lower_nm",
             "band95_upper_nm",
+            "torque_change_percent_per_10c",
         ],
         rows,
     )
@@ -364,6 +383,7 @@ pub fn scores_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
                 cell(s.scores.aicc),
                 cell(s.scores.bic),
                 s.band_wider_than_data.to_string(),
+                s.temperature_response.max_rise_percent_per_10c.to_string(),
                 s.validation
                     .iter()
                     .map(|v| format!("{}={}", v.file, v.rmse_nm))
@@ -386,6 +406,7 @@ pub fn scores_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
             "aicc",
             "bic",
             "band_wider_than_data",
+            "max_torque_rise_percent_per_10c",
             "validation_rmse_nm",
         ],
         rows,

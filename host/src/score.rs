@@ -231,6 +231,68 @@ pub fn apply_prior_fit(scores: &mut Scores, residuals: &[f64], prior: &crate::la
     ));
 }
 
+/// How a law set's torque moves when the oil warms: at each data point, the relative change of
+/// the steady-state torque per +10 C, from runs 5 C below and above the point's temperature.
+/// Lubrication physics gives a fall in full film (viscous shear scales with viscosity to a
+/// power between 0.5 and 1) and at most a modest rise where a mixed regime loses film, so a
+/// steep rise flags a law (or a calibration) to look at before trusting its verdict.
+#[derive(Debug, Clone, Serialize)]
+pub struct TemperatureResponse {
+    /// Change of torque per +10 C at each data point, percent.
+    pub percent_per_10c: Vec<f64>,
+    /// The largest rise over the points, percent per 10 C.
+    pub max_rise_percent_per_10c: f64,
+}
+
+/// Rise, percent per 10 C, above which `compare` flags a set's temperature response.
+pub const TEMPERATURE_RISE_FLAG_PERCENT: f64 = 10.0;
+
+/// The temperature response of `lawset` at the points of `data` (see [`TemperatureResponse`]).
+pub fn temperature_response(
+    rig: &Rig,
+    lawset: &LawSet,
+    data: &DataRun,
+    registry: &LawRegistry,
+) -> Result<TemperatureResponse, StudyError> {
+    let (lo_c, hi_c) = crate::oil::VALID_RANGE_C;
+    let shifted = |dt: f64| DataRun {
+        file: data.file.clone(),
+        rows: data
+            .rows
+            .iter()
+            .map(|d| crate::study::DataRow {
+                oil_temp_c: (d.oil_temp_c + dt).clamp(lo_c, hi_c),
+                ..*d
+            })
+            .collect(),
+    };
+    let (cold, warm) = (shifted(-5.0), shifted(5.0));
+    let run = |d: &DataRun| validate(rig, lawset, d, registry, true).map(|v| v.model_nm);
+    let (tc, tw) = (run(&cold)?, run(&warm)?);
+    let percent_per_10c: Vec<f64> = tc
+        .iter()
+        .zip(&tw)
+        .zip(cold.rows.iter().zip(&warm.rows))
+        .map(|((c, w), (dc, dw))| {
+            let span = (dw.oil_temp_c - dc.oil_temp_c).max(1e-9);
+            let mid = 0.5 * (c + w);
+            if mid.abs() < 1e-12 {
+                0.0
+            } else {
+                100.0 * (w - c) / mid * 10.0 / span
+            }
+        })
+        .collect();
+    let max_rise = percent_per_10c
+        .iter()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    Ok(TemperatureResponse {
+        percent_per_10c,
+        max_rise_percent_per_10c: max_rise,
+    })
+}
+
 /// Score `lawset` as it is on `data` (a run through the data's speeds at their oil
 /// temperatures, steady state or the full cycle).
 pub fn validate(

@@ -11,7 +11,7 @@ use crate::cycle::Segment;
 use crate::fit::TorqueModel;
 use crate::lawset::LawSet;
 use crate::rig::{Rig, RigError, Temperature};
-use crate::score::{self, Scores, Validation};
+use crate::score::{self, Scores, TemperatureResponse, Validation};
 use crate::sim::{RunResult, SimError, Simulation};
 use crate::uncertainty::{uncertainty, Uncertainty};
 
@@ -222,6 +222,8 @@ pub struct SetResult {
     /// The band is wider than the spread of the measured torques: the data do not determine
     /// this set's prediction.
     pub band_wider_than_data: bool,
+    /// How the torque moves as the oil warms, at each data point.
+    pub temperature_response: TemperatureResponse,
     /// Scores on data never used in fitting (`--validate`).
     pub validation: Vec<Validation>,
 }
@@ -338,6 +340,22 @@ pub fn compare(
                 .iter()
                 .map(|v| score::validate(rig, ls, v, registry, options.steady))
                 .collect::<Result<Vec<_>, _>>()?;
+            let temperature_response = score::temperature_response(rig, ls, data, registry)?;
+            if temperature_response.max_rise_percent_per_10c
+                > score::TEMPERATURE_RISE_FLAG_PERCENT
+            {
+                let (i, _) = temperature_response
+                    .percent_per_10c
+                    .iter()
+                    .enumerate()
+                    .fold((0, f64::NEG_INFINITY), |a, (i, v)| if *v > a.1 { (i, *v) } else { a });
+                scores.notes.push(format!(
+                    "its torque rises {:.0}% per 10 C of oil warming at {:.0} rpm: full-film friction falls as oil thins and a mixed regime losing film rarely gives more than {:.0}%; check the law's regime transition before trusting this set away from the measured temperatures",
+                    temperature_response.max_rise_percent_per_10c,
+                    data.rows[i].speed_rpm,
+                    score::TEMPERATURE_RISE_FLAG_PERCENT
+                ));
+            }
             Ok(SetResult {
                 lawset: ls.name().into(),
                 file: ls.path.display().to_string(),
@@ -351,6 +369,7 @@ pub fn compare(
                 band_lower_nm,
                 band_upper_nm,
                 band_wider_than_data,
+                temperature_response,
                 validation,
             })
         })

@@ -280,3 +280,77 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
     }
     out
 }
+
+/// The sweep's tables for people: the oil and its viscosity at each temperature, then per law
+/// set the motoring torque with speeds as rows and temperatures as columns.
+pub fn sweep_text(s: &crate::study::Sweep) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "rig {}  mode {}", s.rig, s.mode);
+    let _ = writeln!(out, "oil: {}", s.oil.description);
+    let _ = write!(out, "viscosity (mPa s):");
+    for (t, v) in s.temps_c.iter().zip(&s.viscosities_pa_s) {
+        let _ = write!(out, "  {t} C {:.2}", v * 1e3);
+    }
+    out.push('\n');
+    let n = s.speeds_rpm.len();
+    for set in &s.sets {
+        let _ = writeln!(out, "\nlaw set {}: motoring torque, N m", set.lawset);
+        let _ = write!(out, "{:>7}", "rpm");
+        for t in &s.temps_c {
+            let _ = write!(out, " {:>9}", format!("{t} C"));
+        }
+        out.push('\n');
+        for (i, rpm) in s.speeds_rpm.iter().enumerate() {
+            let _ = write!(out, "{rpm:>7.0}");
+            for k in 0..s.temps_c.len() {
+                let _ = write!(out, " {:>9.4}", set.torque(k, i, n));
+            }
+            out.push('\n');
+        }
+        for w in &set.warnings {
+            let _ = writeln!(out, "warning: {w}");
+        }
+    }
+    out
+}
+
+/// `sweep.csv`: one row per law set, temperature and speed (in the JSON's order: law set, then
+/// temperature, then speed), with the friction torque of each joint (all its laws summed) in
+/// its own column `<joint>_friction_nm`. Numbers are written in Rust's shortest round-trip form,
+/// so they parse back to exactly the JSON's values.
+pub fn sweep_csv(s: &crate::study::Sweep) -> Result<String, csv::Error> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut header: Vec<String> = [
+        "lawset",
+        "speed_rpm",
+        "oil_temp_c",
+        "viscosity_pa_s",
+        "torque_nm",
+    ]
+    .iter()
+    .map(|h| h.to_string())
+    .collect();
+    header.extend(
+        crate::rig::JOINT_NAMES
+            .iter()
+            .map(|j| format!("{j}_friction_nm")),
+    );
+    w.write_record(&header)?;
+    for set in &s.sets {
+        for p in &set.points {
+            let mut row = vec![
+                set.lawset.clone(),
+                p.speed_rpm.to_string(),
+                p.oil_temp_c.to_string(),
+                p.viscosity_pa_s.to_string(),
+                p.torque_nm.to_string(),
+            ];
+            row.extend(p.joints.iter().map(|j| j.friction_torque_nm.to_string()));
+            w.write_record(&row)?;
+        }
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| csv::Error::from(e.into_error()))?;
+    Ok(String::from_utf8_lossy(&bytes).into_owned())
+}

@@ -369,16 +369,23 @@ fn legend_beside(
     Ok(())
 }
 
-/// Colour of temperature `k` of `n`: from blue (coldest) to red (hottest), so the lines read as
-/// a temperature scale.
+/// Colour of temperature `k` of `n`: along a cold-to-hot scale (blue, teal, ochre, orange, dark
+/// red), so the lines read as temperatures and neighbours stay distinguishable.
 fn temperature_color(k: usize, n: usize) -> RGBColor {
-    let f = if n > 1 {
-        k as f64 / (n - 1) as f64
-    } else {
-        0.0
-    };
-    let mix = |a: f64, b: f64| (a + (b - a) * f).round() as u8;
-    RGBColor(mix(31.0, 214.0), mix(80.0, 39.0), mix(200.0, 40.0))
+    const STOPS: [(f64, f64, f64); 5] = [
+        (33.0, 102.0, 172.0),
+        (27.0, 158.0, 119.0),
+        (200.0, 160.0, 0.0),
+        (230.0, 97.0, 1.0),
+        (165.0, 0.0, 38.0),
+    ];
+    let f = if n > 1 { k as f64 / (n - 1) as f64 } else { 0.0 };
+    let x = f * (STOPS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(STOPS.len() - 2);
+    let u = x - i as f64;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    let mix = |p: f64, q: f64| (p + (q - p) * u).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
 }
 
 /// File-name-safe form of a law-set name (letters, digits, `-`, `_`, `.`; anything else `_`).
@@ -404,7 +411,9 @@ fn sweep_plot(
     let root = SVGBackend::with_string(out, (960, 560)).into_drawing_area();
     root.fill(&WHITE)?;
     let labels: Vec<String> = s.temps_c.iter().map(|t| format!("{t} C")).collect();
-    let (plot, side) = root.split_horizontally(960 - legend_width(&labels));
+    let title = "oil temperature";
+    let width = legend_width(&[labels.as_slice(), &[title.to_string()]].concat());
+    let (plot, side) = root.split_horizontally(960 - width);
     let (x0, x1) = range(s.speeds_rpm.iter().copied(), 0.05);
     let (y0, y1) = range(set.points.iter().map(|p| p.torque_nm).chain([0.0]), 0.1);
     let mut chart = frame(
@@ -430,7 +439,7 @@ fn sweep_plot(
         chart.draw_series(pts.iter().map(|p| Circle::new(*p, 3, color.filled())))?;
         entries.push((label.clone(), Swatch::Line(color)));
     }
-    legend_beside(&side, "oil temperature", &entries)?;
+    legend_beside(&side, title, &entries)?;
     root.present()?;
     Ok(())
 }

@@ -416,6 +416,12 @@ fn sweep_plot(
     let (plot, side) = root.split_horizontally(960 - width);
     let (x0, x1) = range(s.speeds_rpm.iter().copied(), 0.05);
     let (y0, y1) = range(set.points.iter().map(|p| p.torque_nm).chain([0.0]), 0.1);
+    // From zero unless a torque is negative (a law set that drives the crank).
+    let y0 = if set.points.iter().any(|p| p.torque_nm < 0.0) {
+        y0
+    } else {
+        0.0
+    };
     let mut chart = frame(
         &plot,
         &format!(
@@ -423,7 +429,7 @@ fn sweep_plot(
             set.lawset
         ),
         x0..x1,
-        y0.min(0.0)..y1,
+        y0..y1,
         "engine speed (rpm)",
         "motoring torque (N m)",
     )?;

@@ -24,7 +24,7 @@ pub struct LawSetFile {
 }
 
 /// One law on one joint.
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LawEntry {
     /// Joint name.

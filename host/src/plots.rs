@@ -379,7 +379,11 @@ fn temperature_color(k: usize, n: usize) -> RGBColor {
         (230.0, 97.0, 1.0),
         (165.0, 0.0, 38.0),
     ];
-    let f = if n > 1 { k as f64 / (n - 1) as f64 } else { 0.0 };
+    let f = if n > 1 {
+        k as f64 / (n - 1) as f64
+    } else {
+        0.0
+    };
     let x = f * (STOPS.len() - 1) as f64;
     let i = (x.floor() as usize).min(STOPS.len() - 2);
     let u = x - i as f64;

@@ -253,25 +253,35 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
     out
 }
 
-/// The mass-response tables.
+/// The mass-response tables. The FEDEM thesis's change (table 10.6 minus 10.5) is a column
+/// only beside the thesis's own law set, labelled as the thesis's; other law sets have none.
 pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
     let mut out = String::new();
     for set in r {
+        let thesis = set.changes.iter().any(|c| c.fedem_change_nm.is_some());
         let _ = writeln!(out, "law set {}: {:?} scaled", set.lawset, set.body);
-        let _ = writeln!(
+        let _ = write!(
             out,
-            "{:>7} {:>6} {:>10} {:>10} {:>10} {:>12}",
-            "rpm", "scale", "original", "scaled", "change", "FEDEM change"
+            "{:>7} {:>6} {:>10} {:>10} {:>10}",
+            "rpm", "scale", "original", "scaled", "change"
         );
+        if thesis {
+            let _ = write!(out, " {:>26}", "FEDEM thesis (T 10.6-10.5)");
+        }
+        out.push('\n');
         for c in &set.changes {
-            let fedem = c
-                .fedem_change_nm
-                .map_or("".to_string(), |f| format!("{f:+.3}"));
-            let _ = writeln!(
+            let _ = write!(
                 out,
-                "{:>7.0} {:>6.2} {:>10.4} {:>10.4} {:>+10.4} {:>12}",
-                c.speed_rpm, c.scale, c.original_nm, c.scaled_nm, c.change_nm, fedem
+                "{:>7.0} {:>6.2} {:>10.4} {:>10.4} {:>+10.4}",
+                c.speed_rpm, c.scale, c.original_nm, c.scaled_nm, c.change_nm
             );
+            if thesis {
+                let fedem = c
+                    .fedem_change_nm
+                    .map_or(String::new(), |f| format!("{f:+.3}"));
+                let _ = write!(out, " {fedem:>26}");
+            }
+            out.push('\n');
             for j in &c.joints {
                 let _ = writeln!(out, "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N", j.joint, j.law, j.change_nm, j.normal_load_change_n);
             }

@@ -324,7 +324,9 @@ pub struct SpeedChange {
     pub scaled_nm: f64,
     /// Change, N m.
     pub change_nm: f64,
-    /// FEDEM's change for the same speed (table 10.6 minus 10.5, rod at 0.6), N m.
+    /// The FEDEM thesis's change for the same speed (table 10.6 minus 10.5, rod at 0.6), N m:
+    /// present only in the rows of the thesis's own law set (see [`is_thesis_lawset`]) at
+    /// scale 0.6 of the rod; absent (null) for every other law set.
     pub fedem_change_nm: Option<f64>,
     /// Per joint and law.
     pub joints: Vec<JointChange>,
@@ -342,7 +344,8 @@ pub struct MassResponse {
 }
 
 /// Torque change per speed and joint when `body` is scaled by each of `scales`, for each law
-/// set, against the unscaled rig. Runs in parallel; results in input order.
+/// set, against the unscaled rig. Runs in parallel; results in input order. `fedem` (speed,
+/// change) is attached only to the thesis's own law set ([`is_thesis_lawset`]).
 #[allow(clippy::too_many_arguments)]
 pub fn mass_response(
     rig: &Rig,
@@ -374,6 +377,8 @@ pub fn mass_response(
     let per_set = scales.len() + 1;
     let mut out = Vec::new();
     for (i, ls) in lawsets.iter().enumerate() {
+        // FEDEM's change belongs to the thesis's model only, never to a user's law set.
+        let fedem = fedem.filter(|_| is_thesis_lawset(ls));
         let original = &runs[i * per_set];
         let mut changes = Vec::new();
         for (k, s) in scales.iter().enumerate() {
@@ -419,6 +424,20 @@ pub fn mass_response(
         });
     }
     Ok(out)
+}
+
+/// The name of the thesis's own law set, whose FEDEM results (tables 10.5, 10.6) may be shown
+/// beside it.
+pub const THESIS_LAWSET: &str = "fedem-baseline";
+
+/// Whether `lawset` is the thesis's FEDEM model: the same laws, joints and parameters as the
+/// bundled `fedem-baseline` (compared as parsed values, so comments, formatting, the file's
+/// name and the set's name do not matter, while any changed coefficient or added law does).
+/// Only then do the FEDEM thesis's numbers belong beside its results.
+pub fn is_thesis_lawset(lawset: &LawSet) -> bool {
+    crate::bundled::lawset(THESIS_LAWSET)
+        .and_then(|text| LawSet::from_text(Path::new(THESIS_LAWSET), text).ok())
+        .is_some_and(|thesis| thesis.file.laws == lawset.file.laws)
 }
 
 /// FEDEM's torque change with the rod at 60% per speed: table 10.6 minus table 10.5.

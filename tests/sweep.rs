@@ -427,3 +427,57 @@ fn fedem_thesis_change_is_shown_only_beside_the_thesis_law_set() {
     );
     assert!(fedem_values(&json[0]).is_empty());
 }
+
+#[test]
+fn an_oil_file_names_and_replaces_the_oil_and_its_mistakes_are_located() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let oil = dir.path().join("oil.toml");
+    std::fs::write(
+        &oil,
+        "[oil]\nname = \"SAE 5W-30 car oil, typical\"\ngrade = \"5W-30\"\nsource = \"estimate: test\"\nviscosity = { model = \"two-point\", kv40_cst = 65.0, kv100_cst = 11.0 }\n",
+    )
+    .expect("write");
+    let json = json_of(
+        &[
+            "sweep",
+            "--oil",
+            oil.to_str().expect("utf-8"),
+            "--lawset",
+            &fixture("petroff-mains.toml"),
+            "--temps",
+            "50,100",
+            "--speeds",
+            "4000",
+            "--out",
+            "o",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert_eq!(json["oil"]["name"], "SAE 5W-30 car oil, typical");
+    assert_eq!(json["oil"]["grade"], "5W-30");
+    for (t, v) in [50.0, 100.0]
+        .iter()
+        .zip(json["viscosities_pa_s"].as_array().expect("v"))
+    {
+        let want = astm_d341_cst(65.0, 11.0, *t) * 1e-6 * 860.0;
+        assert!((num(v) - want).abs() <= 1e-9 * want, "{t} C: {v} vs {want}");
+    }
+    std::fs::write(&oil, "[oil]\nname = \"x\"\ncolour = \"red\"\n").expect("write");
+    let out = tribo_in(
+        &[
+            "sweep",
+            "--oil",
+            oil.to_str().expect("utf-8"),
+            "--out",
+            "o2",
+        ],
+        dir.path(),
+    );
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("oil.toml:3:") && stderr.contains("unknown field `colour`"),
+        "{stderr}"
+    );
+}

@@ -47,6 +47,10 @@ enum Command {
         /// Override any rig value by its dotted path, e.g. bodies.rod.mass_scale=0.6.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         sets: Vec<String>,
+        /// Another oil: a TOML file with an [oil] table (name, grade, source, viscosity,
+        /// density_kg_m3), applied before --set.
+        #[arg(long, value_name = "FILE.toml")]
+        oil: Option<PathBuf>,
         /// Attach a law set (bundled name or file), replacing the rig's laws; --law adds to it.
         #[arg(long)]
         lawset: Option<String>,
@@ -172,6 +176,10 @@ enum Command {
             allow_hyphen_values = true
         )]
         speeds: String,
+        /// Another oil: a TOML file with an [oil] table (name, grade, source, viscosity,
+        /// density_kg_m3), applied before --set.
+        #[arg(long, value_name = "FILE.toml")]
+        oil: Option<PathBuf>,
         /// Override rig values, as for `run` (e.g. another oil:
         /// 'oil.viscosity={model="vogel", k_cst=0.1, theta1_c=1100, theta2_c=120}').
         #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -217,6 +225,17 @@ fn study_inputs(
     Ok((rig, loaded))
 }
 
+/// `--oil FILE` as `--set oil.KEY=VALUE` overrides, placed before the user's own `--set`s so
+/// those still win.
+fn with_oil_file(oil: Option<&std::path::Path>, sets: Vec<String>) -> anyhow::Result<Vec<String>> {
+    let Some(path) = oil else {
+        return Ok(sets);
+    };
+    let mut all = tribo::rig::oil_file_sets(path)?;
+    all.extend(sets);
+    Ok(all)
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Laws { json } => {
@@ -234,12 +253,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             rig,
             laws: law_args,
             sets,
+            oil,
             lawset,
             steady,
             json,
             csv,
             timeseries,
         } => {
+            let sets = with_oil_file(oil.as_deref(), sets)?;
             let mut rig = tribo::rig::load_rig(&rig, &sets)?;
             if let Some(ls) = lawset {
                 tribo::lawset::LawSet::load(&ls)?.apply(&mut rig);
@@ -392,6 +413,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             laws: law_args,
             temps,
             speeds,
+            oil,
             sets,
             out,
             json,
@@ -400,6 +422,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let temps_c = tribo::study::parse_list("--temps", &temps)?;
             let speeds_rpm = tribo::study::parse_list("--speeds", &speeds)?;
             tribo::study::check_sweep_inputs(&temps_c, &speeds_rpm)?;
+            let sets = with_oil_file(oil.as_deref(), sets)?;
             let (rig, mut sets_loaded) = study_inputs(rig, &sets, lawsets)?;
             for ls in &mut sets_loaded {
                 ls.add_law_args(&law_args)?;

@@ -14,7 +14,7 @@
 //! - [`progress`]: progress display for long runs (stderr, terminals only);
 //! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
 //! - [`fit`]: least-squares calibration of a law set's free parameters;
-//! - [`study`]: law-set comparisons against measured data;
+//! - [`study`]: law-set comparisons against measured data, mass response, temperature sweep;
 //! - [`sim`]: the run through the test cycle with laws on the joints, and plateau measurement.
 
 pub mod bundled;

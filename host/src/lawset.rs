@@ -41,7 +41,7 @@ pub struct PriorFit {
 }
 
 /// One law on one joint.
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LawEntry {
     /// Joint name.

@@ -16,7 +16,7 @@
 //! - [`fit`]: least-squares calibration of a law set's free parameters (one or several runs);
 //! - [`score`], [`uncertainty`]: out-of-sample scores (leave-one-out, AICc, BIC, validation
 //!   data) and the linearised parameter uncertainty with the 95% band of the torque;
-//! - [`study`]: law-set comparisons against measured data;
+//! - [`study`]: law-set comparisons against measured data, mass response, temperature sweep;
 //! - [`sim`]: the run through the test cycle with laws on the joints, and plateau measurement.
 
 pub mod bundled;

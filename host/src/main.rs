@@ -47,6 +47,10 @@ enum Command {
         /// Override any rig value by its dotted path, e.g. bodies.rod.mass_scale=0.6.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         sets: Vec<String>,
+        /// Another oil: a TOML file with an [oil] table (name, grade, source, viscosity,
+        /// density_kg_m3), applied before --set.
+        #[arg(long, value_name = "FILE.toml")]
+        oil: Option<PathBuf>,
         /// Attach a law set (bundled name or file), replacing the rig's laws; --law adds to it.
         #[arg(long)]
         lawset: Option<String>,
@@ -163,6 +167,49 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Motoring torque over oil temperature and engine speed for each law set (steady state):
+    /// a table per law set, sweep.csv, sweep.json and one plot per law set.
+    Sweep {
+        /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
+        rig: Option<PathBuf>,
+        /// Law set (bundled name or file); repeat for several (default: fedem-baseline and
+        /// stribeck-duty).
+        #[arg(long = "lawset")]
+        lawsets: Vec<String>,
+        /// Attach a law to every law set: JOINT=LAW[:PARAMS.toml] (added to the set's laws there).
+        #[arg(long = "law", value_name = "JOINT=LAW[:PARAMS_TOML_FILE]")]
+        laws: Vec<String>,
+        /// Oil temperatures, C, comma-separated (within the viscosity model's valid range).
+        #[arg(
+            long,
+            value_name = "C,C,...",
+            default_value = "40,50,60,70,80,90,100,110",
+            allow_hyphen_values = true
+        )]
+        temps: String,
+        /// Engine speeds, rpm, comma-separated.
+        #[arg(
+            long,
+            value_name = "RPM,RPM,...",
+            default_value = "3000,4000,5000,6000,7000,8000,9000",
+            allow_hyphen_values = true
+        )]
+        speeds: String,
+        /// Another oil: a TOML file with an [oil] table (name, grade, source, viscosity,
+        /// density_kg_m3), applied before --set.
+        #[arg(long, value_name = "FILE.toml")]
+        oil: Option<PathBuf>,
+        /// Override rig values, as for `run` (e.g. another oil:
+        /// 'oil.viscosity={model="vogel", k_cst=0.1, theta1_c=1100, theta2_c=120}').
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// Output directory for sweep.csv, sweep.json and sweep_<lawset>.svg.
+        #[arg(long, default_value = "tribo-sweep")]
+        out: PathBuf,
+        /// Print JSON instead of the tables.
+        #[arg(long)]
+        json: bool,
+    },
     /// Generate a new law plugin crate with a documented law, parameters and unit tests.
     NewLaw {
         /// Law name: lowercase letters, digits and hyphens (e.g. `my-law`).
@@ -197,6 +244,17 @@ fn study_inputs(
     Ok((rig, loaded))
 }
 
+/// `--oil FILE` as `--set oil.KEY=VALUE` overrides, placed before the user's own `--set`s so
+/// those still win.
+fn with_oil_file(oil: Option<&std::path::Path>, sets: Vec<String>) -> anyhow::Result<Vec<String>> {
+    let Some(path) = oil else {
+        return Ok(sets);
+    };
+    let mut all = tribo::rig::oil_file_sets(path)?;
+    all.extend(sets);
+    Ok(all)
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Laws { json } => {
@@ -214,12 +272,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             rig,
             laws: law_args,
             sets,
+            oil,
             lawset,
             steady,
             json,
             csv,
             timeseries,
         } => {
+            let sets = with_oil_file(oil.as_deref(), sets)?;
             let mut rig = tribo::rig::load_rig(&rig, &sets)?;
             if let Some(ls) = lawset {
                 tribo::lawset::LawSet::load(&ls)?.apply(&mut rig);
@@ -249,6 +309,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if json {
                 println!("{}", serde_json::to_string_pretty(&result)?);
             } else {
+                println!("oil: {}", rig.file.oil.describe());
                 print!("{}", tribo::report::to_text(&result));
             }
         }
@@ -398,6 +459,47 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             } else {
                 print!("{}", tribo::report::fit_text(&result));
                 println!("wrote the calibrated law set to {}", out.display());
+            }
+        }
+        Command::Sweep {
+            rig,
+            lawsets,
+            laws: law_args,
+            temps,
+            speeds,
+            oil,
+            sets,
+            out,
+            json,
+        } => {
+            // Inputs are checked before anything is loaded or run.
+            let temps_c = tribo::study::parse_list("--temps", &temps)?;
+            let speeds_rpm = tribo::study::parse_list("--speeds", &speeds)?;
+            tribo::study::check_sweep_inputs(&temps_c, &speeds_rpm)?;
+            let sets = with_oil_file(oil.as_deref(), sets)?;
+            let (rig, mut sets_loaded) = study_inputs(rig, &sets, lawsets)?;
+            for ls in &mut sets_loaded {
+                ls.add_law_args(&law_args)?;
+            }
+            let registry = discover(&cli.plugins).context("loading law plugins")?;
+            let total = (sets_loaded.len() * temps_c.len()) as u64;
+            let progress = Progress::start("temperature sweep", Some(total), cli.quiet);
+            let result = tribo::study::sweep(
+                &rig,
+                &sets_loaded,
+                &temps_c,
+                &speeds_rpm,
+                &registry,
+                Some(&progress.position()),
+            )?;
+            drop(progress);
+            let files = tribo::plots::write_sweep(&result, &out)
+                .with_context(|| format!("writing results into {}", out.display()))?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&result)?);
+            } else {
+                print!("{}", tribo::report::sweep_text(&result));
+                println!("\nwrote {}/{}", out.display(), files.join(", "));
             }
         }
         Command::NewLaw { name, dir } => {

@@ -1,9 +1,9 @@
 //! Oil viscosity against temperature.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// How kinematic viscosity depends on temperature.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(tag = "model", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum ViscosityModel {
     /// Vogel: nu = k * exp(theta1 / (T + theta2)), nu in cSt, T in C.
@@ -31,6 +31,22 @@ pub enum ViscosityModel {
 pub const VALID_RANGE_C: (f64, f64) = (-20.0, 160.0);
 
 impl ViscosityModel {
+    /// The model and its constants in one line, as a user would write them back (`vogel k_cst=...`),
+    /// so a report says exactly which curve produced its viscosities.
+    pub fn describe(&self) -> String {
+        match *self {
+            Self::Vogel {
+                k_cst,
+                theta1_c,
+                theta2_c,
+            } => format!("Vogel k_cst={k_cst} theta1_c={theta1_c} theta2_c={theta2_c}"),
+            Self::TwoPoint {
+                kv40_cst,
+                kv100_cst,
+            } => format!("Walther/ASTM D341 two-point kv40_cst={kv40_cst} kv100_cst={kv100_cst}"),
+        }
+    }
+
     /// Kinematic viscosity in cSt (mm^2/s) at `t_c` degrees Celsius.
     pub fn kinematic_cst(&self, t_c: f64) -> f64 {
         match *self {

@@ -193,9 +193,19 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
 }
 
 fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotResult {
-    let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
+    let root = SVGBackend::with_string(out, (1000, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
     let p = &set.run.plateaus;
     let n_laws = p.first().map_or(0, |x| x.joints.len());
+    let labels: Vec<String> = (0..n_laws)
+        .map(|k| {
+            p.first()
+                .map(|x| format!("{} ({})", x.joints[k].joint, x.joints[k].law))
+                .unwrap_or_default()
+        })
+        .collect();
+    // The legend gets its own column right of the plot, so it can never cover a stack.
+    let (plot, side) = root.split_horizontally(1000 - legend_width(&labels));
     let speeds: Vec<f64> = p.iter().map(|x| x.set_speed_rpm).collect();
     let (x0, x1) = range(speeds.iter().copied(), 0.02);
     let totals: Vec<f64> = p
@@ -204,7 +214,7 @@ fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotRe
         .collect();
     let (_, y1) = range(totals.iter().copied().chain([0.0]), 0.1);
     let mut chart = frame(
-        &root,
+        &plot,
         &format!("Friction torque by joint and law: {}", set.lawset),
         x0..x1,
         0.0..y1,
@@ -226,18 +236,14 @@ fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotRe
                 )
             })
             .collect();
-        let label = p
-            .first()
-            .map(|x| format!("{} ({})", x.joints[k].joint, x.joints[k].law))
-            .unwrap_or_default();
-        chart
-            .draw_series(AreaSeries::new(pts, 0.0, color.mix(0.75)).border_style(color))?
-            .label(label)
-            .legend(move |(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 20, y + 5)], color.mix(0.75).filled())
-            });
+        chart.draw_series(AreaSeries::new(pts, 0.0, color.mix(0.75)).border_style(color))?;
     }
-    legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+    // Listed top down in the order the bands are stacked (topmost band first).
+    let entries: Vec<(String, Swatch)> = (0..n_laws)
+        .rev()
+        .map(|k| (labels[k].clone(), Swatch::Fill(COLORS[k % COLORS.len()])))
+        .collect();
+    legend_beside(&side, "joint (law)", &entries)?;
     root.present()?;
     Ok(())
 }
@@ -346,4 +352,156 @@ pub fn write_mass_sweep(r: &[crate::study::MassResponse], path: &Path) -> std::i
         Ok(())
     })?;
     write_atomic(path, text.as_bytes())
+}
+
+/// How a legend entry is drawn: a line (series) or a filled box (stacked band).
+#[derive(Clone, Copy)]
+enum Swatch {
+    Line(RGBColor),
+    Fill(RGBColor),
+}
+
+/// Width in pixels of a legend column for `labels` at 14 px sans-serif, with its swatch.
+fn legend_width(labels: &[String]) -> u32 {
+    let chars = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32;
+    (chars * 8 + 60).clamp(90, 320)
+}
+
+/// A legend drawn in its own area beside the plot (never over the data): a title, then one
+/// swatch and label per entry, top down.
+fn legend_beside(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    title: &str,
+    entries: &[(String, Swatch)],
+) -> PlotResult {
+    area.fill(&WHITE)?;
+    let (x0, mut y) = (8_i32, 60_i32);
+    area.draw(&Text::new(
+        title.to_string(),
+        (x0, y - 24),
+        ("sans-serif", 15),
+    ))?;
+    for (label, swatch) in entries {
+        match *swatch {
+            Swatch::Line(c) => area.draw(&PathElement::new(
+                vec![(x0, y), (x0 + 24, y)],
+                c.stroke_width(3),
+            ))?,
+            Swatch::Fill(c) => area.draw(&Rectangle::new(
+                [(x0, y - 6), (x0 + 24, y + 6)],
+                c.mix(0.75).filled(),
+            ))?,
+        }
+        area.draw(&Text::new(
+            label.clone(),
+            (x0 + 32, y - 7),
+            ("sans-serif", 14),
+        ))?;
+        y += 24;
+    }
+    Ok(())
+}
+
+/// Colour of temperature `k` of `n`: along a cold-to-hot scale (blue, teal, ochre, orange, dark
+/// red), so the lines read as temperatures and neighbours stay distinguishable.
+fn temperature_color(k: usize, n: usize) -> RGBColor {
+    const STOPS: [(f64, f64, f64); 5] = [
+        (33.0, 102.0, 172.0),
+        (27.0, 158.0, 119.0),
+        (200.0, 160.0, 0.0),
+        (230.0, 97.0, 1.0),
+        (165.0, 0.0, 38.0),
+    ];
+    let f = if n > 1 {
+        k as f64 / (n - 1) as f64
+    } else {
+        0.0
+    };
+    let x = f * (STOPS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(STOPS.len() - 2);
+    let u = x - i as f64;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    let mix = |p: f64, q: f64| (p + (q - p) * u).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// File-name-safe form of a law-set name (letters, digits, `-`, `_`, `.`; anything else `_`).
+pub fn file_stem(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// Torque vs speed of one law set of a sweep, one line per oil temperature, legend in C beside
+/// the plot.
+fn sweep_plot(
+    s: &crate::study::Sweep,
+    set: &crate::study::SweepSet,
+    out: &mut String,
+) -> PlotResult {
+    let root = SVGBackend::with_string(out, (960, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let labels: Vec<String> = s.temps_c.iter().map(|t| format!("{t} C")).collect();
+    let title = "oil temperature";
+    let width = legend_width(&[labels.as_slice(), &[title.to_string()]].concat());
+    let (plot, side) = root.split_horizontally(960 - width);
+    let (x0, x1) = range(s.speeds_rpm.iter().copied(), 0.05);
+    let (y0, y1) = range(set.points.iter().map(|p| p.torque_nm).chain([0.0]), 0.1);
+    // From zero unless a torque is negative (a law set that drives the crank).
+    let y0 = if set.points.iter().any(|p| p.torque_nm < 0.0) {
+        y0
+    } else {
+        0.0
+    };
+    let mut chart = frame(
+        &plot,
+        &format!(
+            "Motoring torque vs speed by oil temperature: {}",
+            set.lawset
+        ),
+        x0..x1,
+        y0..y1,
+        "engine speed (rpm)",
+        "motoring torque (N m)",
+    )?;
+    let n = s.speeds_rpm.len();
+    let mut entries = Vec::new();
+    for (k, label) in labels.iter().enumerate() {
+        let color = temperature_color(k, s.temps_c.len());
+        let mut pts: Vec<(f64, f64)> = (0..n)
+            .map(|i| (s.speeds_rpm[i], set.torque(k, i, n)))
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
+        chart.draw_series(pts.iter().map(|p| Circle::new(*p, 3, color.filled())))?;
+        entries.push((label.clone(), Swatch::Line(color)));
+    }
+    legend_beside(&side, title, &entries)?;
+    root.present()?;
+    Ok(())
+}
+
+/// Write `sweep.csv`, `sweep.json` and `sweep_<lawset>.svg` per law set into `dir`. Everything
+/// is rendered first and each file is written under a temporary name and renamed, so a failure
+/// leaves earlier results intact. Returns the names of the files written.
+pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> std::io::Result<Vec<String>> {
+    std::fs::create_dir_all(dir)?;
+    let json = serde_json::to_string_pretty(s).map_err(io)?;
+    let csv = crate::report::sweep_csv(s).map_err(io)?;
+    let mut files = vec![("sweep.csv".to_string(), csv)];
+    for set in &s.sets {
+        let name = format!("sweep_{}.svg", file_stem(&set.lawset));
+        files.push((name, svg(|out| sweep_plot(s, set, out))?));
+    }
+    files.push(("sweep.json".into(), json));
+    for (name, text) in &files {
+        write_atomic(&dir.join(name), text.as_bytes())?;
+    }
+    Ok(files.into_iter().map(|(n, _)| n).collect())
 }

@@ -544,25 +544,35 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
     out
 }
 
-/// The mass-response tables.
+/// The mass-response tables. The FEDEM thesis's change (table 10.6 minus 10.5) is a column
+/// only beside the thesis's own law set, labelled as the thesis's; other law sets have none.
 pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
     let mut out = String::new();
     for set in r {
+        let thesis = set.changes.iter().any(|c| c.fedem_change_nm.is_some());
         let _ = writeln!(out, "law set {}: {:?} scaled", set.lawset, set.body);
-        let _ = writeln!(
+        let _ = write!(
             out,
-            "{:>7} {:>6} {:>10} {:>10} {:>10} {:>12}",
-            "rpm", "scale", "original", "scaled", "change", "FEDEM change"
+            "{:>7} {:>6} {:>10} {:>10} {:>10}",
+            "rpm", "scale", "original", "scaled", "change"
         );
+        if thesis {
+            let _ = write!(out, " {:>26}", "FEDEM thesis (T 10.6-10.5)");
+        }
+        out.push('\n');
         for c in &set.changes {
-            let fedem = c
-                .fedem_change_nm
-                .map_or("".to_string(), |f| format!("{f:+.3}"));
-            let _ = writeln!(
+            let _ = write!(
                 out,
-                "{:>7.0} {:>6.2} {:>10.4} {:>10.4} {:>+10.4} {:>12}",
-                c.speed_rpm, c.scale, c.original_nm, c.scaled_nm, c.change_nm, fedem
+                "{:>7.0} {:>6.2} {:>10.4} {:>10.4} {:>+10.4}",
+                c.speed_rpm, c.scale, c.original_nm, c.scaled_nm, c.change_nm
             );
+            if thesis {
+                let fedem = c
+                    .fedem_change_nm
+                    .map_or(String::new(), |f| format!("{f:+.3}"));
+                let _ = write!(out, " {fedem:>26}");
+            }
+            out.push('\n');
             for j in &c.joints {
                 let _ = writeln!(out, "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N", j.joint, j.law, j.change_nm, j.normal_load_change_n);
             }
@@ -570,4 +580,78 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
         out.push('\n');
     }
     out
+}
+
+/// The sweep's tables for people: the oil and its viscosity at each temperature, then per law
+/// set the motoring torque with speeds as rows and temperatures as columns.
+pub fn sweep_text(s: &crate::study::Sweep) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "rig {}  mode {}", s.rig, s.mode);
+    let _ = writeln!(out, "oil: {}", s.oil.description);
+    let _ = write!(out, "viscosity (mPa s):");
+    for (t, v) in s.temps_c.iter().zip(&s.viscosities_pa_s) {
+        let _ = write!(out, "  {t} C {:.2}", v * 1e3);
+    }
+    out.push('\n');
+    let n = s.speeds_rpm.len();
+    for set in &s.sets {
+        let _ = writeln!(out, "\nlaw set {}: motoring torque, N m", set.lawset);
+        let _ = write!(out, "{:>7}", "rpm");
+        for t in &s.temps_c {
+            let _ = write!(out, " {:>9}", format!("{t} C"));
+        }
+        out.push('\n');
+        for (i, rpm) in s.speeds_rpm.iter().enumerate() {
+            let _ = write!(out, "{rpm:>7.0}");
+            for k in 0..s.temps_c.len() {
+                let _ = write!(out, " {:>9.4}", set.torque(k, i, n));
+            }
+            out.push('\n');
+        }
+        for w in &set.warnings {
+            let _ = writeln!(out, "warning: {w}");
+        }
+    }
+    out
+}
+
+/// `sweep.csv`: one row per law set, temperature and speed (in the JSON's order: law set, then
+/// temperature, then speed), with the friction torque of each joint (all its laws summed) in
+/// its own column `<joint>_friction_nm`. Numbers are written in Rust's shortest round-trip form,
+/// so they parse back to exactly the JSON's values.
+pub fn sweep_csv(s: &crate::study::Sweep) -> Result<String, csv::Error> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut header: Vec<String> = [
+        "lawset",
+        "speed_rpm",
+        "oil_temp_c",
+        "viscosity_pa_s",
+        "torque_nm",
+    ]
+    .iter()
+    .map(|h| h.to_string())
+    .collect();
+    header.extend(
+        crate::rig::JOINT_NAMES
+            .iter()
+            .map(|j| format!("{j}_friction_nm")),
+    );
+    w.write_record(&header)?;
+    for set in &s.sets {
+        for p in &set.points {
+            let mut row = vec![
+                set.lawset.clone(),
+                p.speed_rpm.to_string(),
+                p.oil_temp_c.to_string(),
+                p.viscosity_pa_s.to_string(),
+                p.torque_nm.to_string(),
+            ];
+            row.extend(p.joints.iter().map(|j| j.friction_torque_nm.to_string()));
+            w.write_record(&row)?;
+        }
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| csv::Error::from(e.into_error()))?;
+    Ok(String::from_utf8_lossy(&bytes).into_owned())
 }

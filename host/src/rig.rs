@@ -207,12 +207,45 @@ pub struct LawRef {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Oil {
+    /// What the oil is, e.g. "SAE 10W-50 motorcycle oil, typical" (shown in reports, so a
+    /// result says which oil produced it). Descriptive only. A rig (or `--set`) that replaces
+    /// `viscosity` without naming the oil drops the inherited name, grade and source.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// SAE viscosity grade, e.g. "10W-50". Descriptive only.
+    #[serde(default)]
+    pub grade: Option<String>,
+    /// Where the viscosity data come from (datasheet, estimate and why). Descriptive only.
+    #[serde(default)]
+    pub source: Option<String>,
     /// Viscosity model.
     pub viscosity: ViscosityModel,
     /// Density, kg/m^3.
     pub density_kg_m3: f64,
     /// Oil temperature, C: one value, or one per plateau.
     pub temperature_c: Temperature,
+}
+
+impl Oil {
+    /// The oil's name and grade for a report line, or a note that it has none.
+    pub fn title(&self) -> String {
+        match (&self.name, &self.grade) {
+            (Some(n), Some(g)) => format!("{n}; grade SAE {g}"),
+            (Some(n), None) => n.clone(),
+            (None, Some(g)) => format!("SAE {g} oil"),
+            (None, None) => "unnamed oil".into(),
+        }
+    }
+
+    /// One line naming the oil, its viscosity model with constants, and the source.
+    pub fn describe(&self) -> String {
+        let mut s = format!("{}; {}", self.title(), self.viscosity.describe());
+        if let Some(src) = &self.source {
+            s.push_str("; source: ");
+            s.push_str(src);
+        }
+        s
+    }
 }
 
 /// One oil temperature for the whole run, or one per plateau.
@@ -666,6 +699,19 @@ fn merge(base: &mut toml::Table, child: toml::Table) {
     }
 }
 
+/// The oil's descriptive keys: they describe one viscosity curve, so they do not survive a
+/// change of `oil.viscosity` that does not restate them.
+const OIL_DESCRIPTION: [&str; 3] = ["name", "grade", "source"];
+
+/// Remove the oil's name, grade and source from a rig table (its viscosity is being replaced).
+fn forget_oil_description(table: &mut toml::Table) {
+    if let Some(toml::Value::Table(oil)) = table.get_mut("oil") {
+        for k in OIL_DESCRIPTION {
+            oil.remove(k);
+        }
+    }
+}
+
 /// Find the text of a rig named by `extends` in `from`: next to it on disk, else bundled.
 fn resolve_extends(from: &Path, name: &str) -> Option<Source> {
     if let Some(dir) = from.parent() {
@@ -727,7 +773,25 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
     let single = tables.len() == 1;
     let mut table = tables.pop().unwrap_or_default();
     while let Some(child) = tables.pop() {
+        let oil = child.get("oil").and_then(toml::Value::as_table);
+        let names_oil = oil.is_some_and(|o| OIL_DESCRIPTION.iter().any(|k| o.contains_key(*k)));
+        if oil.is_some_and(|o| o.contains_key("viscosity")) && !names_oil {
+            forget_oil_description(&mut table);
+        }
         merge(&mut table, child);
+    }
+    let set_keys: Vec<&str> = sets
+        .iter()
+        .map(|s| s.split_once('=').map_or(s.as_str(), |(k, _)| k).trim())
+        .collect();
+    let changes_viscosity = set_keys
+        .iter()
+        .any(|k| *k == "oil" || *k == "oil.viscosity" || k.starts_with("oil.viscosity."));
+    let names_oil = set_keys
+        .iter()
+        .any(|k| OIL_DESCRIPTION.iter().any(|d| *k == format!("oil.{d}")));
+    if changes_viscosity && !names_oil {
+        forget_oil_description(&mut table);
     }
     for s in sets {
         overridden.push(apply_set(&mut table, s)?);
@@ -1067,4 +1131,64 @@ pub fn attach_laws(rig: &mut Rig, args: &[String]) -> Result<(), RigError> {
         rig.overridden.push(format!("joints.{joint}.laws"));
     }
     Ok(())
+}
+
+/// Keys an oil file's `[oil]` table may hold: what describes the oil itself (temperatures
+/// belong to the rig's cycle or to the sweep).
+pub const OIL_FILE_KEYS: [&str; 5] = ["name", "grade", "source", "viscosity", "density_kg_m3"];
+
+/// Read an oil file (`--oil FILE.toml`: an `[oil]` table with any of [`OIL_FILE_KEYS`]) and turn
+/// it into `--set oil.KEY=VALUE` overrides, to be applied before the user's own `--set`s. The
+/// file is checked here, so its mistakes are reported at its own line and column: unknown keys,
+/// and a viscosity model that does not parse.
+pub fn oil_file_sets(path: &Path) -> Result<Vec<String>, RigError> {
+    let err = |text: &str, field: &str, message: String| {
+        let at = locate(text, field).map(|s| line_col(text, s.start));
+        RigError {
+            file: path.to_path_buf(),
+            line: at.map(|a| a.0),
+            column: at.map(|a| a.1),
+            field: field.into(),
+            message,
+        }
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| RigError {
+        file: path.to_path_buf(),
+        line: None,
+        column: None,
+        field: "(file)".into(),
+        message: format!("cannot read the oil file: {e}"),
+    })?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| serde_error(path, &text, &e, ""))?;
+    if let Some(k) = table.keys().find(|k| *k != "oil") {
+        return Err(err(
+            &text,
+            k,
+            format!("unknown key `{k}`: an oil file holds one `[oil]` table"),
+        ));
+    }
+    let oil = match table.get("oil") {
+        Some(toml::Value::Table(t)) => t,
+        _ => return Err(err(&text, "oil", "expected an `[oil]` table".into())),
+    };
+    let mut sets = Vec::new();
+    for (k, v) in oil {
+        if !OIL_FILE_KEYS.contains(&k.as_str()) {
+            return Err(err(
+                &text,
+                &format!("oil.{k}"),
+                format!(
+                    "unknown field `{k}`, expected one of {}",
+                    OIL_FILE_KEYS.join(", ")
+                ),
+            ));
+        }
+        if k == "viscosity" {
+            v.clone()
+                .try_into::<ViscosityModel>()
+                .map_err(|e| err(&text, "oil.viscosity", e.message().to_string()))?;
+        }
+        sets.push(format!("oil.{k}={v}"));
+    }
+    Ok(sets)
 }

@@ -29,6 +29,9 @@ pub enum StudyError {
         /// The failure.
         source: Box<SimError>,
     },
+    /// A sweep's temperatures or speeds are unusable.
+    #[error(transparent)]
+    Input(#[from] SweepInputError),
     /// A data file problem.
     #[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Data {
@@ -474,7 +477,9 @@ pub struct SpeedChange {
     pub scaled_nm: f64,
     /// Change, N m.
     pub change_nm: f64,
-    /// FEDEM's change for the same speed (table 10.6 minus 10.5, rod at 0.6), N m.
+    /// The FEDEM thesis's change for the same speed (table 10.6 minus 10.5, rod at 0.6), N m:
+    /// present only in the rows of the thesis's own law set (see [`is_thesis_lawset`]) at
+    /// scale 0.6 of the rod; absent (null) for every other law set.
     pub fedem_change_nm: Option<f64>,
     /// Per joint and law.
     pub joints: Vec<JointChange>,
@@ -492,7 +497,8 @@ pub struct MassResponse {
 }
 
 /// Torque change per speed and joint when `body` is scaled by each of `scales`, for each law
-/// set, against the unscaled rig. Runs in parallel; results in input order.
+/// set, against the unscaled rig. Runs in parallel; results in input order. `fedem` (speed,
+/// change) is attached only to the thesis's own law set ([`is_thesis_lawset`]).
 #[allow(clippy::too_many_arguments)]
 pub fn mass_response(
     rig: &Rig,
@@ -524,6 +530,8 @@ pub fn mass_response(
     let per_set = scales.len() + 1;
     let mut out = Vec::new();
     for (i, ls) in lawsets.iter().enumerate() {
+        // FEDEM's change belongs to the thesis's model only, never to a user's law set.
+        let fedem = fedem.filter(|_| is_thesis_lawset(ls));
         let original = &runs[i * per_set];
         let mut changes = Vec::new();
         for (k, s) in scales.iter().enumerate() {
@@ -571,6 +579,20 @@ pub fn mass_response(
     Ok(out)
 }
 
+/// The name of the thesis's own law set, whose FEDEM results (tables 10.5, 10.6) may be shown
+/// beside it.
+pub const THESIS_LAWSET: &str = "fedem-baseline";
+
+/// Whether `lawset` is the thesis's FEDEM model: the same laws, joints and parameters as the
+/// bundled `fedem-baseline` (compared as parsed values, so comments, formatting, the file's
+/// name and the set's name do not matter, while any changed coefficient or added law does).
+/// Only then do the FEDEM thesis's numbers belong beside its results.
+pub fn is_thesis_lawset(lawset: &LawSet) -> bool {
+    crate::bundled::lawset(THESIS_LAWSET)
+        .and_then(|text| LawSet::from_text(Path::new(THESIS_LAWSET), text).ok())
+        .is_some_and(|thesis| thesis.file.laws == lawset.file.laws)
+}
+
 /// FEDEM's torque change with the rod at 60% per speed: table 10.6 minus table 10.5.
 pub fn fedem_rod_change() -> Vec<(f64, f64)> {
     // The FEDEM tables have `speed_rpm,sim_speed_rad_s,torque_nm` (no oil temperature), so they
@@ -603,4 +625,275 @@ pub fn fedem_rod_change() -> Vec<(f64, f64)> {
         .zip(&b)
         .map(|((rpm, t0), (_, t1))| (*rpm, t1 - t0))
         .collect()
+}
+
+/// What the oil of a sweep is: the rig's descriptive fields and its viscosity model, so the
+/// JSON says which curve produced the viscosities.
+#[derive(Debug, Clone, Serialize)]
+pub struct OilInfo {
+    /// Name, if the rig gives one.
+    pub name: Option<String>,
+    /// SAE viscosity grade, if given.
+    pub grade: Option<String>,
+    /// Source of the viscosity data, if given.
+    pub source: Option<String>,
+    /// The viscosity model and its constants.
+    pub viscosity: crate::oil::ViscosityModel,
+    /// Density, kg/m^3.
+    pub density_kg_m3: f64,
+    /// One-line description (name, grade, model constants, source), as printed.
+    pub description: String,
+}
+
+impl OilInfo {
+    /// The oil of `rig`.
+    pub fn of(rig: &Rig) -> Self {
+        let o = &rig.file.oil;
+        Self {
+            name: o.name.clone(),
+            grade: o.grade.clone(),
+            source: o.source.clone(),
+            viscosity: o.viscosity.clone(),
+            density_kg_m3: o.density_kg_m3,
+            description: o.describe(),
+        }
+    }
+
+    /// Dynamic viscosity at `t_c` C, Pa s (kinematic viscosity times density, as the solver
+    /// computes it).
+    pub fn dynamic_pa_s(&self, t_c: f64) -> f64 {
+        self.viscosity.kinematic_cst(t_c) * 1e-6 * self.density_kg_m3
+    }
+}
+
+/// Friction torque of one joint (all its laws summed) at one sweep point.
+#[derive(Debug, Clone, Serialize)]
+pub struct JointTorque {
+    /// Joint name.
+    pub joint: String,
+    /// Friction torque at the crank, N m.
+    pub friction_torque_nm: f64,
+}
+
+/// One (speed, temperature) point of a law set's sweep.
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepPoint {
+    /// Engine speed, rpm.
+    pub speed_rpm: f64,
+    /// Oil temperature, C.
+    pub oil_temp_c: f64,
+    /// Dynamic viscosity at that temperature, Pa s.
+    pub viscosity_pa_s: f64,
+    /// Mean motoring torque over the steady revolution, N m.
+    pub torque_nm: f64,
+    /// Per joint in [`crate::rig::JOINT_NAMES`] order (joints without a law give zero).
+    pub joints: Vec<JointTorque>,
+}
+
+/// One law set's sweep: points ordered by temperature, then speed (the input order).
+#[derive(Debug, Clone, Serialize)]
+pub struct SweepSet {
+    /// Law-set name.
+    pub lawset: String,
+    /// Its file.
+    pub file: String,
+    /// Every (temperature, speed) point.
+    pub points: Vec<SweepPoint>,
+    /// Warnings of the runs.
+    pub warnings: Vec<String>,
+}
+
+impl SweepSet {
+    /// The torque at speed index `i` and temperature index `k` of a sweep over `n_speeds`
+    /// speeds.
+    pub fn torque(&self, k: usize, i: usize, n_speeds: usize) -> f64 {
+        self.points
+            .get(k * n_speeds + i)
+            .map_or(f64::NAN, |p| p.torque_nm)
+    }
+}
+
+/// A temperature and speed sweep of several law sets (steady state at every point).
+#[derive(Debug, Clone, Serialize)]
+pub struct Sweep {
+    /// Rig name.
+    pub rig: String,
+    /// The oil (name, grade, model, source).
+    pub oil: OilInfo,
+    /// Always `steady`: each point is the periodic steady state at that speed.
+    pub mode: String,
+    /// Oil temperatures, C, in the order given.
+    pub temps_c: Vec<f64>,
+    /// Dynamic viscosity at each temperature, Pa s.
+    pub viscosities_pa_s: Vec<f64>,
+    /// Engine speeds, rpm, in the order given.
+    pub speeds_rpm: Vec<f64>,
+    /// Each law set.
+    pub sets: Vec<SweepSet>,
+}
+
+/// Why a sweep's temperatures or speeds are unusable; names the command-line option.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{option}: {message}")]
+pub struct SweepInputError {
+    /// The option, e.g. `--temps`.
+    pub option: String,
+    /// What is wrong and what is allowed.
+    pub message: String,
+}
+
+/// Parse a comma-separated list of numbers given to `option` (`40,50,60`). Empty lists, empty
+/// items and non-numbers are errors naming the option.
+pub fn parse_list(option: &str, text: &str) -> Result<Vec<f64>, SweepInputError> {
+    let err = |message: String| SweepInputError {
+        option: option.into(),
+        message,
+    };
+    if text.trim().is_empty() {
+        return Err(err(
+            "the list is empty; give comma-separated numbers, e.g. 40,60,80".into(),
+        ));
+    }
+    text.split(',')
+        .map(|item| {
+            let item = item.trim();
+            item.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| err(format!("`{item}` is not a number")))
+        })
+        .collect()
+}
+
+/// Check a sweep's temperatures (inside [`crate::oil::VALID_RANGE_C`]) and speeds (positive),
+/// both non-empty and without repeats, before any run starts.
+pub fn check_sweep_inputs(temps_c: &[f64], speeds_rpm: &[f64]) -> Result<(), SweepInputError> {
+    let err = |option: &str, message: String| SweepInputError {
+        option: option.into(),
+        message,
+    };
+    let (lo, hi) = crate::oil::VALID_RANGE_C;
+    if temps_c.is_empty() {
+        return Err(err("--temps", "the list is empty".into()));
+    }
+    if speeds_rpm.is_empty() {
+        return Err(err("--speeds", "the list is empty".into()));
+    }
+    if let Some(t) = temps_c.iter().find(|t| !(**t >= lo && **t <= hi)) {
+        return Err(err(
+            "--temps",
+            format!("{t} C is outside the viscosity model's valid range [{lo}, {hi}] C"),
+        ));
+    }
+    if let Some(s) = speeds_rpm.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+        return Err(err(
+            "--speeds",
+            format!("every speed must be positive (rpm), got {s}"),
+        ));
+    }
+    for (option, list, unit) in [("--temps", temps_c, "C"), ("--speeds", speeds_rpm, "rpm")] {
+        for (i, a) in list.iter().enumerate() {
+            if list[..i].contains(a) {
+                return Err(err(option, format!("{a} {unit} is given twice")));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `rig` with `lawset` attached, driven through `speeds_rpm` (the thesis's ramp-and-hold
+/// pattern) with the oil at `temp_c` on every plateau.
+fn sweep_rig(
+    rig: &Rig,
+    lawset: &LawSet,
+    speeds_rpm: &[f64],
+    temp_c: f64,
+) -> Result<Rig, Box<RigError>> {
+    let rows: Vec<DataRow> = speeds_rpm
+        .iter()
+        .map(|s| DataRow {
+            speed_rpm: *s,
+            torque_nm: 0.0,
+            oil_temp_c: temp_c,
+        })
+        .collect();
+    prepare(rig, lawset, Some(&rows))
+}
+
+/// Run every law set at every temperature over `speeds_rpm`, in steady state, in parallel
+/// (one job per law set and temperature; `progress`, if given, counts finished jobs). Results
+/// are in input order whatever the scheduling, so the output is deterministic.
+pub fn sweep(
+    rig: &Rig,
+    lawsets: &[LawSet],
+    temps_c: &[f64],
+    speeds_rpm: &[f64],
+    registry: &LawRegistry,
+    progress: Option<&crate::progress::Position>,
+) -> Result<Sweep, StudyError> {
+    check_sweep_inputs(temps_c, speeds_rpm)?;
+    let jobs: Vec<(usize, f64)> = (0..lawsets.len())
+        .flat_map(|i| temps_c.iter().map(move |t| (i, *t)))
+        .collect();
+    let runs = jobs
+        .par_iter()
+        .map(|(i, t)| {
+            let ls = &lawsets[*i];
+            let r = sweep_rig(rig, ls, speeds_rpm, *t)?;
+            let run = run_rig(&r, registry, true).map_err(|e| StudyError::Run {
+                lawset: ls.name().into(),
+                source: Box::new(e),
+            });
+            if let Some(p) = progress {
+                p.inc();
+            }
+            run
+        })
+        .collect::<Result<Vec<RunResult>, StudyError>>()?;
+    let oil = OilInfo::of(rig);
+    let mut sets = Vec::with_capacity(lawsets.len());
+    for (i, ls) in lawsets.iter().enumerate() {
+        let mut points = Vec::with_capacity(temps_c.len() * speeds_rpm.len());
+        let mut warnings = Vec::new();
+        for (k, t) in temps_c.iter().enumerate() {
+            let run = &runs[i * temps_c.len() + k];
+            warnings.extend(run.warnings.iter().map(|w| format!("{t} C: {w}")));
+            for p in &run.plateaus {
+                let joints = crate::rig::JOINT_NAMES
+                    .iter()
+                    .map(|name| JointTorque {
+                        joint: (*name).into(),
+                        friction_torque_nm: p
+                            .joints
+                            .iter()
+                            .filter(|j| j.joint == *name)
+                            .map(|j| j.friction_torque_nm)
+                            .sum(),
+                    })
+                    .collect();
+                points.push(SweepPoint {
+                    speed_rpm: p.set_speed_rpm,
+                    oil_temp_c: p.oil_temp_c,
+                    viscosity_pa_s: p.viscosity_pa_s,
+                    torque_nm: p.motoring_torque_nm,
+                    joints,
+                });
+            }
+        }
+        sets.push(SweepSet {
+            lawset: ls.name().into(),
+            file: ls.path.display().to_string(),
+            points,
+            warnings,
+        });
+    }
+    Ok(Sweep {
+        rig: rig.file.name.clone(),
+        viscosities_pa_s: temps_c.iter().map(|t| oil.dynamic_pa_s(*t)).collect(),
+        oil,
+        mode: "steady".into(),
+        temps_c: temps_c.to_vec(),
+        speeds_rpm: speeds_rpm.to_vec(),
+        sets,
+    })
 }

@@ -449,3 +449,91 @@ fn compare_scores_validation_data_and_ranks_by_the_cross_validated_error() {
     assert!(rows.iter().all(|x| x.len() == headers));
     assert!(rows.iter().any(|x| &x[3] == "truth, free"));
 }
+
+/// Piston torque and boundary time share of every joint, per speed, for `lawset` with the oil at
+/// `temp_c`.
+fn plateaus_at(dir: &Path, lawset: &str, temp_c: f64) -> Vec<(f64, Vec<f64>)> {
+    let grid = dir.join(format!("grid-{lawset}-{temp_c}.csv"));
+    let mut text = String::from("speed_rpm,torque_nm,oil_temp_c\n");
+    for s in SPEEDS {
+        text.push_str(&format!("{s},1.0,{temp_c}\n"));
+    }
+    std::fs::write(&grid, text).expect("write");
+    let j = json_of(
+        &[
+            "compare",
+            "--steady",
+            "--no-cv",
+            "--lawset",
+            lawset,
+            "--data",
+            grid.to_str().expect("utf-8"),
+            "--out",
+            "o-t",
+            "--json",
+        ],
+        dir,
+    );
+    j["sets"][0]["run"]["plateaus"]
+        .as_array()
+        .expect("plateaus")
+        .iter()
+        .map(|p| {
+            let shares = p["joints"]
+                .as_array()
+                .expect("joints")
+                .iter()
+                .map(|j| j["regime_share"]["boundary"].as_f64().unwrap_or(0.0))
+                .collect();
+            (p["motoring_torque_nm"].as_f64().expect("torque"), shares)
+        })
+        .collect()
+}
+
+#[test]
+fn every_bundled_set_responds_to_warmer_oil_as_lubrication_physics_says() {
+    // Between 75 and 85 C the oil thins by a quarter. Full-film friction must fall with it; a
+    // rise is physical only where a contact loses film, which shows as a longer share of each
+    // revolution in boundary lubrication. A set without viscosity in its laws must not move.
+    let dir = tempfile::tempdir().expect("temp dir");
+    for set in [
+        "fedem-baseline",
+        "stribeck-duty",
+        "mixed-film",
+        "physical-bearings",
+    ] {
+        let (cold, warm) = (
+            plateaus_at(dir.path(), set, 75.0),
+            plateaus_at(dir.path(), set, 85.0),
+        );
+        for (k, ((t75, b75), (t85, b85))) in cold.iter().zip(&warm).enumerate() {
+            let change = t85 / t75 - 1.0;
+            let film_lost = b75.iter().zip(b85).any(|(a, b)| b > &(a + 1e-6));
+            if change > 1e-9 {
+                assert!(
+                    film_lost,
+                    "{set} at {} rpm: torque rises {:.1}% from 75 to 85 C with no contact losing film",
+                    SPEEDS[k],
+                    100.0 * change
+                );
+            }
+            if set == "fedem-baseline" || set == "physical-bearings" {
+                assert!(
+                    change.abs() < 1e-9,
+                    "{set} is temperature-blind, moved {change}"
+                );
+            }
+            // A rise beyond the 10% the acceptance allows needs the documented cause, and
+            // even then the boundary share must grow by a comparable fraction.
+            if change > 0.10 {
+                let grew = b75.iter().zip(b85).map(|(a, b)| b - a).fold(0.0, f64::max);
+                assert!(
+                    grew > 0.02,
+                    "{set} at {} rpm: +{:.1}% with boundary share +{grew:.3}",
+                    SPEEDS[k],
+                    100.0 * change
+                );
+            }
+        }
+    }
+}

@@ -314,6 +314,9 @@ fn a_parameter_pushed_past_its_range_is_reported_on_its_bound() {
     let fit = fit_json(dir.path(), &text, &runs[..1], &["--no-cv"]);
     assert_eq!(fit["at_bound"][0], "upper", "{}", fit["at_bound"]);
     assert!(fit["warnings"].to_string().contains("upper bound"));
+    // A bound that holds is an active constraint: no sigma or interval is claimed for it.
+    assert!(fit["std_dev"][0].is_null(), "{}", fit["std_dev"]);
+    assert!(fit["uncertainty"]["interval95"][0].is_null());
 }
 
 #[test]

@@ -23,7 +23,7 @@ use crate::lawset::{FreeParam, LawSet};
 use crate::rig::Rig;
 use crate::score::{self, Scores, Validation};
 use crate::study::{errors, prepare, run_rig, DataRun, StudyError};
-use crate::uncertainty::{uncertainty, Uncertainty};
+use crate::uncertainty::{uncertainty_within_bounds, Uncertainty};
 
 /// How to calibrate.
 #[derive(Debug, Clone)]
@@ -489,7 +489,7 @@ fn start_points(free: &[FreeParam], n: usize) -> Vec<Vec<f64>> {
 }
 
 /// Which bound, if any, `x` ended on (within 0.1% of the range, in the optimiser's scale).
-fn bound_hit(x: f64, bounds: [f64; 2]) -> Option<String> {
+pub fn bound_hit(x: f64, bounds: [f64; 2]) -> Option<String> {
     let s = Map::new(bounds).unit(x);
     if s <= 1e-3 {
         Some("lower".into())
@@ -552,7 +552,12 @@ pub fn fit(
         .torques(&x)
         .map_err(|e| data_error(format!("the fitted values do not run: {e}")))?;
     let (residuals_nm, rmse_nm, _) = errors(&torques, &measured);
-    let unc = uncertainty(&model, &x, &residuals_nm);
+    let on_bound: Vec<bool> = x
+        .iter()
+        .zip(free)
+        .map(|(v, f)| bound_hit(*v, f.bounds).is_some())
+        .collect();
+    let unc = uncertainty_within_bounds(&model, &x, &residuals_nm, &on_bound);
     let scores = score::scores_for_fit(&model, &x, &residuals_nm, options.cross_validate);
     let fitted = lawset.with_values(free, &x);
     let validation = options

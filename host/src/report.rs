@@ -452,7 +452,7 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "law set {}: {} parameters, {} points in {} run(s), {} model evaluations ({} failed)\nstopped: {}\n",
+        "law set {}: {} parameter(s), {} points in {} run(s), {} model evaluations ({} failed)\nstopped: {}\n",
         r.lawset,
         r.params.len(),
         r.measured_nm.len(),
@@ -467,15 +467,14 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
         "parameter", "start", "fitted", "1 sigma", "95% interval"
     );
     for i in 0..r.params.len() {
-        let interval = r
-            .uncertainty
-            .interval95
-            .get(i)
-            .copied()
-            .flatten()
-            .map_or("not determined".to_string(), |[a, b]| {
-                format!("[{a:.3e}, {b:.3e}]")
-            });
+        let interval = r.uncertainty.interval95.get(i).copied().flatten().map_or(
+            if r.at_bound[i].is_some() {
+                "held on its bound".to_string()
+            } else {
+                "not determined".to_string()
+            },
+            |[a, b]| format!("[{a:.3e}, {b:.3e}]"),
+        );
         let bound = r.at_bound[i]
             .as_ref()
             .map_or(String::new(), |b| format!("  ON {b} BOUND"));

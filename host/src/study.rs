@@ -13,7 +13,7 @@ use crate::lawset::LawSet;
 use crate::rig::{Rig, RigError, Temperature};
 use crate::score::{self, Scores, TemperatureResponse, Validation};
 use crate::sim::{RunResult, SimError, Simulation};
-use crate::uncertainty::{uncertainty, Uncertainty};
+use crate::uncertainty::{uncertainty_within_bounds, Uncertainty};
 
 /// Why a study failed.
 #[derive(Debug, thiserror::Error)]
@@ -324,7 +324,11 @@ pub fn compare(
             } else if free.is_empty() {
                 Uncertainty::none(errors_nm.len())
             } else {
-                uncertainty(&tm, &x, &errors_nm)
+                let on_bound: Vec<bool> = free
+                    .iter()
+                    .map(|f| crate::fit::bound_hit(f.value, f.bounds).is_some())
+                    .collect();
+                uncertainty_within_bounds(&tm, &x, &errors_nm, &on_bound)
             };
             let (band_lower_nm, band_upper_nm) = match &unc.band_half_width_nm {
                 Some(h) => (

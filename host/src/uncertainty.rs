@@ -94,6 +94,69 @@ fn jacobian(model: &TorqueModel<'_>, x: &[f64], base: &[f64]) -> Vec<Option<Vec<
         .collect()
 }
 
+/// The uncertainty of parameters `x` of `model` where some may sit on their bounds. A bound
+/// that holds is an active constraint: the linearisation is only valid for the parameters
+/// inside their ranges, so those on a bound are held at it (no sigma, no interval) and the
+/// others' uncertainty and the band are computed with them fixed.
+pub fn uncertainty_within_bounds(
+    model: &TorqueModel<'_>,
+    x: &[f64],
+    residuals: &[f64],
+    on_bound: &[bool],
+) -> Uncertainty {
+    if !on_bound.iter().any(|b| *b) {
+        return uncertainty(model, x, residuals);
+    }
+    let (rig, lawset, registry) = model.parts();
+    let free = model.free();
+    let pinned = lawset.with_values(free, x);
+    let inner: Vec<crate::lawset::FreeParam> = free
+        .iter()
+        .zip(on_bound)
+        .filter(|(_, b)| !**b)
+        .map(|(f, _)| f.clone())
+        .collect();
+    let xi: Vec<f64> = x
+        .iter()
+        .zip(on_bound)
+        .filter(|(_, b)| !**b)
+        .map(|(v, _)| *v)
+        .collect();
+    let sub = TorqueModel::new(rig, &pinned, &inner, model.runs().to_vec(), registry);
+    let mut u = if inner.is_empty() {
+        let mut u = Uncertainty::none(residuals.len());
+        u.band_half_width_nm = Some(vec![0.0; residuals.len()]);
+        u
+    } else {
+        uncertainty(&sub, &xi, residuals)
+    };
+    // Back to the full parameter list: the pinned ones have no sigma.
+    let mut it_sd = u.std_dev.clone().into_iter();
+    let mut it_iv = u.interval95.clone().into_iter();
+    u.std_dev = on_bound
+        .iter()
+        .map(|b| if *b { None } else { it_sd.next().flatten() })
+        .collect();
+    u.interval95 = on_bound
+        .iter()
+        .map(|b| if *b { None } else { it_iv.next().flatten() })
+        .collect();
+    u.correlation = None;
+    let held: Vec<&str> = free
+        .iter()
+        .zip(on_bound)
+        .filter(|(_, b)| **b)
+        .map(|(f, _)| f.id.as_str())
+        .collect();
+    u.statements.push(format!(
+        "{} {} on {} bound: held there as an active constraint (the data push past the allowed range), so sigmas and the band cover only the parameters inside their ranges",
+        held.join(", "),
+        if held.len() == 1 { "is" } else { "are" },
+        if held.len() == 1 { "its" } else { "their" }
+    ));
+    u
+}
+
 /// The uncertainty of parameters `x` of `model`, whose residuals there are `residuals`.
 pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Uncertainty {
     let (m, n) = (residuals.len(), x.len());

@@ -124,8 +124,11 @@ pub fn uncertainty_within_bounds(
         .collect();
     let sub = TorqueModel::new(rig, &pinned, &inner, model.runs().to_vec(), registry);
     let mut u = if inner.is_empty() {
+        // Nothing inside its range is left to vary: no band can be estimated (a zero band
+        // would claim a certainty the data never gave).
         let mut u = Uncertainty::none(residuals.len());
-        u.band_half_width_nm = Some(vec![0.0; residuals.len()]);
+        u.band_half_width_nm = None;
+        u.std_dev = vec![None; 0];
         u
     } else {
         uncertainty(&sub, &xi, residuals)

@@ -187,7 +187,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     }
     let _ = writeln!(
         out,
-        "(N m; +-95%: half-width of the 95% confidence band of the model torque from its fitted parameters)"
+        "(N m; +-95%: half-width of the 95% confidence band of the model torque from its fitted\n parameters; -: nothing fitted inside its range, no band)"
     );
     out.push('\n');
     out.push_str(&wrap(&format!("scores, ranked by {}", c.ranked_by), 98, ""));

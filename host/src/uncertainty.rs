@@ -39,7 +39,8 @@ pub struct Uncertainty {
 }
 
 impl Uncertainty {
-    /// No free parameters: nothing is estimated, nothing uncertain from fitting.
+    /// No free parameters: nothing is estimated, so no band from fitting exists (the set's
+    /// structural error is what its residuals show).
     pub fn none(points: usize) -> Self {
         Self {
             dof: points,
@@ -49,7 +50,7 @@ impl Uncertainty {
             interval95: Vec::new(),
             correlation: None,
             condition_number: None,
-            band_half_width_nm: Some(vec![0.0; points]),
+            band_half_width_nm: None,
             statements: Vec::new(),
         }
     }

@@ -53,17 +53,20 @@ pub enum SimError {
     /// A stateless law returned a force that pushes the motion (F*V > 0).
     #[error("joint `{}`, law `{}` ({}) adds energy at t = {:.6} s: force {} has the sign of the relative velocity {} (normal load {} N); a friction or damping law must oppose the motion", .0.joint, .0.law, .0.file, .0.time_s, .0.force, .0.velocity, .0.load_n)]
     AddsEnergy(Box<Fault>),
-    /// The friction/reaction iteration did not converge.
-    #[error("the friction/reaction iteration did not converge at t = {time_s:.6} s after {iterations} iterations (normal-load change {change_n:.3e} N, tolerance {tol:.1e} relative); friction this strong makes the joint loads unstable: check the law parameters or raise solver.friction_max_iter")]
+    /// The friction/reaction iteration did not converge: which joints' loads did not settle,
+    /// with their laws, so the user knows which law to look at.
+    #[error("{}", no_convergence_text(*.time_s, *.iterations, *.change_n, *.tol, .unsettled))]
     NoConvergence {
         /// Time.
         time_s: f64,
         /// Iterations made.
         iterations: u32,
-        /// Last change of the largest normal load.
+        /// Largest last change of a normal load, N.
         change_n: f64,
-        /// Tolerance.
+        /// Tolerance, relative to the largest normal load.
         tol: f64,
+        /// The law-bearing joints whose loads did not settle.
+        unsettled: Vec<Unsettled>,
     },
     /// The adaptive integrator could not meet its tolerance with any usable step.
     #[error("the adaptive integrator could not meet solver.rel_tol = {rel_tol:.1e} at t = {time_s:.6} s (step down to {step_s:.3e} s): a law is probably discontinuous there; loosen solver.rel_tol or use solver.integrator = \"rk4\"")]
@@ -216,6 +219,155 @@ fn unusable(joint: &BoundJoint, law: &BoundLaw, t: f64, input: &LawInput, force:
     } else {
         SimError::NonFinite(fault)
     }
+}
+
+/// Relative finite-difference step of phase 2's Jacobian, in `u = sqrt(W)` (about the square
+/// root of the machine epsilon: half the digits for the derivative, ample for Newton).
+const NEWTON_FD_STEP: f64 = 1.5e-8;
+/// Shortest step phase 2's backtracking tries, as a fraction of the Newton step, before it
+/// gives up (seven halvings).
+const NEWTON_MIN_STEP: f64 = 1.0 / 128.0;
+/// Phase 1 is kept while it is predicted to settle within this many more iterations (and the
+/// limit): a Newton step costs one round of laws per law-bearing joint (up to five) plus at
+/// least one more, so three of them cost about as much as twenty plain iterations.
+const PLAIN_ITERATIONS_WORTH_KEEPING: f64 = 20.0;
+
+/// Whether the plain fixed-point iteration will not settle in reasonable time, judged from its
+/// last change `d` and the change two iterations before, `d2` (N): their ratio is the
+/// contraction over two iterations, robust to the alternating sign of an iteration that
+/// overshoots. Not contracting, or predicted (geometric series) to need more than
+/// `PLAIN_ITERATIONS_WORTH_KEEPING` or `remaining` further iterations to bring the remainder
+/// within `tol_n`, means it stalls.
+fn plain_iteration_stalls(d: f64, d2: f64, tol_n: f64, remaining: u32) -> bool {
+    if d2 <= 0.0 || d <= 0.0 {
+        return false;
+    }
+    let rho = (d / d2).sqrt();
+    if rho >= 1.0 {
+        return true;
+    }
+    // d * rho^n * rho / (1 - rho) <= tol_n
+    let needed = (tol_n * (1.0 - rho) / (d * rho)).ln() / rho.ln();
+    needed > PLAIN_ITERATIONS_WORTH_KEEPING.min(f64::from(remaining))
+}
+
+/// The friction loads from each joint's total law force or torque (main bearings summed).
+fn loads_from(totals: &[f64; 5]) -> JointLoads {
+    let mut loads = JointLoads::default();
+    loads.main_torque_nm += totals[0];
+    loads.main_torque_nm += totals[1];
+    loads.big_end_torque_nm = totals[2];
+    loads.small_end_torque_nm = totals[3];
+    loads.slide_force_n = totals[4];
+    loads
+}
+
+/// One evaluation's friction/reaction problem: what stays fixed while the loads settle (the
+/// factorised kinematics, the drive's control, the joints' relative velocities) and the law
+/// inputs, of which only the loads change.
+struct Problem {
+    kin: crate::mechanics::Kinematics,
+    control: Result<f64, f64>,
+    rel: [f64; 5],
+    inputs: [LawInput; 5],
+    t: f64,
+}
+
+impl Problem {
+    /// Crank acceleration and reactions under the friction `loads`.
+    fn solve(&self, loads: &JointLoads) -> (f64, Reactions) {
+        let alpha = match self.control {
+            Ok(alpha) => alpha,
+            Err(torque) => self.kin.alpha_for_torque(torque, loads),
+        };
+        (alpha, self.kin.reactions(alpha, loads))
+    }
+}
+
+/// The reactions where phase 2 began: their directions give the law inputs' components.
+struct Base {
+    comps: [Vector2<f64>; 5],
+    normals: [f64; 5],
+    moment: f64,
+}
+
+impl Base {
+    /// Set joint `ji`'s law input to the normal load `w` (N), its components along the base
+    /// reaction's direction.
+    fn load_input(&self, input: &mut LawInput, ji: usize, w: f64) {
+        let f = if self.normals[ji] > 0.0 {
+            w / self.normals[ji]
+        } else {
+            0.0
+        };
+        input.normal_load_n = w;
+        input.reaction_x_n = self.comps[ji].x * f;
+        input.reaction_y_n = self.comps[ji].y * f;
+        input.reaction_moment_nm = if ji == 4 { self.moment } else { 0.0 };
+    }
+}
+
+/// A round of laws and reactions (phase 2), and the result of a settled iteration.
+struct Settled {
+    alpha: f64,
+    re: Reactions,
+    normals: [f64; 5],
+    loads: JointLoads,
+    /// Total law force or torque per joint.
+    totals: [f64; 5],
+    iterations: u32,
+}
+
+/// A joint whose normal load did not settle, with its laws (for the error message).
+#[derive(Debug, Clone)]
+pub struct Unsettled {
+    /// Joint.
+    pub joint: String,
+    /// Laws bound to it.
+    pub laws: Vec<String>,
+    /// Last change (or residual) of its normal load, N.
+    pub change_n: f64,
+}
+
+/// The message of [`SimError::NoConvergence`]: where, which joints and laws, what to do.
+fn no_convergence_text(
+    time_s: f64,
+    iterations: u32,
+    change_n: f64,
+    tol: f64,
+    unsettled: &[Unsettled],
+) -> String {
+    let head = format!(
+        "the friction/reaction iteration did not converge at t = {time_s:.6} s after {iterations} iterations"
+    );
+    if unsettled.is_empty() {
+        return format!(
+            "{head}, too few to see the normal loads settle: raise solver.friction_max_iter"
+        );
+    }
+    let one = |x: &Unsettled| {
+        let laws: Vec<String> = x.laws.iter().map(|l| format!("`{l}`")).collect();
+        let noun = if x.laws.len() == 1 { "law" } else { "laws" };
+        format!("`{}` ({noun} {})", x.joint, laws.join(", "))
+    };
+    let items: Vec<String> = unsettled.iter().map(one).collect();
+    let joints = match items.split_last() {
+        Some((last, [])) => format!("joint {last}"),
+        Some((last, rest)) => format!("joints {} and {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    let n_laws: usize = unsettled.iter().map(|x| x.laws.len()).sum();
+    let whose = if n_laws == 1 {
+        "that law's"
+    } else {
+        "those laws'"
+    };
+    format!(
+        "{head}: the normal load of {joints} did not settle (last change {change_n:.3e} N, \
+         tolerance {tol:.1e} of the largest load); check {whose} parameters at these loads (its load \
+         sensitivity may be too strong or discontinuous there) or raise \
+         solver.friction_max_iter"
+    )
 }
 
 /// The cost of reading the clock twice, ns, measured once: subtracted from every timed call.
@@ -616,6 +768,7 @@ impl Simulation {
         let mut loads = *guess;
         let mut prev: Option<[f64; 5]> = None;
         let mut last_change: Option<f64> = None;
+        let mut older_change: Option<f64> = None;
         // The caller's recycled buffer: no allocation per evaluation once warmed up.
         let mut rates = buffer;
         rates.clear();
@@ -626,7 +779,7 @@ impl Simulation {
         let qd = &kin.qd;
         let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
         let crank_angle = crank_angle(theta);
-        let mut inputs: [LawInput; 5] = std::array::from_fn(|ji| {
+        let inputs: [LawInput; 5] = std::array::from_fn(|ji| {
             let joint = &self.joints[ji];
             let mut input = LawInput::at_rest(joint.kind);
             input.contact_radius_m = joint.radius_m;
@@ -639,13 +792,39 @@ impl Simulation {
             input.dt_s = dt;
             input.with_velocity(rel[ji])
         });
+        let mut p = Problem {
+            kin,
+            control,
+            rel,
+            inputs,
+            t,
+        };
+        let finish = |rates: Vec<f64>, alpha: f64, re: &Reactions, normals, iterations| {
+            let mut rates = rates;
+            rates[RateLayout::MOTOR] = re.drive_torque_nm * omega;
+            Eval {
+                omega,
+                alpha,
+                drive_torque: re.drive_torque_nm,
+                rates,
+                normals,
+                switches: [
+                    rel[0],
+                    rel[1],
+                    rel[2],
+                    rel[3],
+                    rel[4],
+                    re.slide_lateral_n,
+                    saturation_margin,
+                ],
+                iterations,
+            }
+        };
         let layout = self.layout();
+        // Phase 1: the plain fixed-point iteration (solve, evaluate the laws at the resulting
+        // normal loads, repeat). It settles every bundled law set in a few iterations.
         for it in 1..=self.max_iter {
-            let alpha = match control {
-                Ok(alpha) => alpha,
-                Err(torque) => kin.alpha_for_torque(torque, &loads),
-            };
-            let re = kin.reactions(alpha, &loads);
+            let (alpha, re) = p.solve(&loads);
             let normals = self.normals(&re);
             // Converged when the normal loads' distance to the fixed point is within tolerance:
             // the last change, or once the iteration is seen to contract by a factor rho, the
@@ -664,110 +843,354 @@ impl Simulation {
                 };
                 remainder <= self.tol * scale
             });
+            let stalls = match (change, older_change) {
+                (Some(d), Some(d2)) if !converged => {
+                    plain_iteration_stalls(d, d2, self.tol * scale, self.max_iter - it)
+                }
+                _ => false,
+            };
+            older_change = last_change;
             last_change = change;
-            let no_laws = self.n_laws == 0;
-            if converged || no_laws {
-                rates[RateLayout::MOTOR] = re.drive_torque_nm * omega;
-                let e = Eval {
-                    omega,
-                    alpha,
-                    drive_torque: re.drive_torque_nm,
-                    rates,
-                    normals,
-                    switches: [
-                        rel[0],
-                        rel[1],
-                        rel[2],
-                        rel[3],
-                        rel[4],
-                        re.slide_lateral_n,
-                        saturation_margin,
-                    ],
-                    iterations: it,
-                };
+            if converged || self.n_laws == 0 {
+                let e = finish(rates, alpha, &re, normals, it);
                 return Ok((e, loads));
             }
+            if stalls {
+                let s = self.settle_by_newton(&mut p, it, &re, &normals, &mut rates)?;
+                let e = finish(rates, s.alpha, &s.re, s.normals, s.iterations);
+                return Ok((e, s.loads));
+            }
             // Law inputs: only the loads change from one iteration to the next.
-            let comps = [
-                re.main_n * self.shares[0],
-                re.main_n * self.shares[1],
-                re.big_end_n,
-                re.small_end_n,
-                Vector2::new(0.0, re.slide_lateral_n),
-            ];
-            let mut new_loads = JointLoads::default();
+            let comps = self.components(&re);
+            let mut totals = [0.0; 5];
             // Powers and mean loads are written for every law below; only the regime
             // indicators are set sparsely and need clearing.
             rates[layout.regimes()].fill(0.0);
             let mut k = 0;
             for (ji, joint) in self.joints.iter().enumerate() {
-                let input = &mut inputs[ji];
+                let input = &mut p.inputs[ji];
                 input.normal_load_n = normals[ji];
                 input.reaction_x_n = comps[ji].x;
                 input.reaction_y_n = comps[ji].y;
                 input.reaction_moment_nm = if ji == 4 { re.slide_moment_nm } else { 0.0 };
-                let input = &*input;
-                let mut total = 0.0;
-                for law in &joint.laws {
-                    // One simulation is stepped by one thread: a plain load and store, not a
-                    // locked read-modify-write (which cost ~15% of an evaluation).
-                    let calls = law.calls.load(Ordering::Relaxed);
-                    law.calls.store(calls + 1, Ordering::Relaxed);
-                    let out = if calls % TIMING_SAMPLE == 0 {
-                        timed_evaluate(law, input)
-                    } else {
-                        law.instance.evaluate(input, &law.state)
-                    };
-                    let out = match out {
-                        Ok(out) => out,
-                        Err(e) => return Err(law_failed(joint, t, input, e)),
-                    };
-                    // A stateless law must not add energy; a stateful one may return what it
-                    // stored.
-                    let power = out.force * rel[ji];
-                    let adds = power > 0.0
-                        && law.state.is_empty()
-                        && power > 1e-9 * (1.0 + power.abs().sqrt());
-                    if !out.force.is_finite() || adds {
-                        return Err(unusable(joint, law, t, input, out.force));
-                    }
-                    total += out.force;
-                    let regime = out.regime().unwrap_or(Regime::None) as usize;
-                    rates[layout.power(k)] = -power;
-                    rates[layout.regime(k, regime)] = 1.0;
-                    rates[layout.normal(k)] = normals[ji];
-                    k += 1;
-                }
-                match ji {
-                    0 | 1 => new_loads.main_torque_nm += total,
-                    2 => new_loads.big_end_torque_nm = total,
-                    3 => new_loads.small_end_torque_nm = total,
-                    _ => new_loads.slide_force_n = total,
-                }
+                totals[ji] = self.joint_force(&p, ji, Some((&mut rates, k)))?;
+                k += joint.laws.len();
             }
+            let new_loads = loads_from(&totals);
             if it == self.max_iter {
-                let change = prev.map_or(f64::INFINITY, |p| {
-                    p.iter()
-                        .zip(&normals)
-                        .map(|(a, b)| (a - b).abs())
-                        .fold(0.0, f64::max)
-                });
-                return Err(SimError::NoConvergence {
-                    time_s: t,
-                    iterations: it,
-                    change_n: change,
-                    tol: self.tol,
-                });
+                // Where the next solve would move the loads: the joints that did not settle.
+                let (_, next) = p.solve(&new_loads);
+                let next = self.normals(&next);
+                let changes = std::array::from_fn(|ji| (next[ji] - normals[ji]).abs());
+                let scale = next.iter().fold(scale, |m, n| m.max(*n));
+                return Err(self.no_convergence(t, it, &changes, scale));
             }
             prev = Some(normals);
             loads = new_loads;
         }
-        Err(SimError::NoConvergence {
-            time_s: t,
-            iterations: self.max_iter,
-            change_n: f64::NAN,
-            tol: self.tol,
+        // Not reached (the last iteration returns), but an error is the honest answer.
+        Err(self.no_convergence(t, self.max_iter, &[f64::NAN; 5], 1.0))
+    }
+
+    /// The reaction components each joint's laws see: main bearings (each its share), big end,
+    /// small end (global x, y) and the slide (along and normal to its axis).
+    fn components(&self, re: &Reactions) -> [Vector2<f64>; 5] {
+        [
+            re.main_n * self.shares[0],
+            re.main_n * self.shares[1],
+            re.big_end_n,
+            re.small_end_n,
+            Vector2::new(0.0, re.slide_lateral_n),
+        ]
+    }
+
+    /// The friction force (slide) or torque (revolute) of all laws on joint `ji` for its input
+    /// in `p`, checked (finite; a stateless law must not add energy). With `record`, each law's
+    /// power, regime and load are written into the rate vector from law index `k` on.
+    fn joint_force(
+        &self,
+        p: &Problem,
+        ji: usize,
+        record: Option<(&mut [f64], usize)>,
+    ) -> Result<f64, SimError> {
+        let joint = &self.joints[ji];
+        let layout = self.layout();
+        let input = &p.inputs[ji];
+        let mut record = record;
+        let mut total = 0.0;
+        for (i, law) in joint.laws.iter().enumerate() {
+            // One simulation is stepped by one thread: a plain load and store, not a locked
+            // read-modify-write (which cost ~15% of an evaluation).
+            let calls = law.calls.load(Ordering::Relaxed);
+            law.calls.store(calls + 1, Ordering::Relaxed);
+            let out = if calls % TIMING_SAMPLE == 0 {
+                timed_evaluate(law, input)
+            } else {
+                law.instance.evaluate(input, &law.state)
+            };
+            let out = match out {
+                Ok(out) => out,
+                Err(e) => return Err(law_failed(joint, p.t, input, e)),
+            };
+            // A stateless law must not add energy; a stateful one may return what it stored.
+            let power = out.force * p.rel[ji];
+            let adds =
+                power > 0.0 && law.state.is_empty() && power > 1e-9 * (1.0 + power.abs().sqrt());
+            if !out.force.is_finite() || adds {
+                return Err(unusable(joint, law, p.t, input, out.force));
+            }
+            total += out.force;
+            if let Some((rates, k)) = record.as_mut() {
+                let regime = out.regime().unwrap_or(Regime::None) as usize;
+                rates[layout.power(*k + i)] = -power;
+                rates[layout.regime(*k + i, regime)] = 1.0;
+                rates[layout.normal(*k + i)] = input.normal_load_n;
+            }
+        }
+        Ok(total)
+    }
+
+    /// Phase 2 of the friction/reaction iteration, entered when the plain iteration does not
+    /// contract (see `plain_iteration_stalls`): a damped Newton iteration on the normal loads
+    /// the laws see, `W`, solving `N(W) = W` where `N` is one round of laws and reactions.
+    ///
+    /// The unknowns are `u = sqrt(W)` per joint that carries laws. A law whose force grows like
+    /// `sqrt(W)` (hydrodynamic friction) has an unbounded load sensitivity at `W = 0`, which makes
+    /// the plain iteration (and Newton in `W`) oscillate; in `u` it is smooth, and laws smooth in
+    /// `W` stay smooth. The Jacobian of `N(u^2) - u^2` comes from one-sided differences, one
+    /// joint's laws and one re-combination of the multipliers per column (the kinematics stay
+    /// factorised); each step is halved until the residual's 2-norm decreases, so a step over
+    /// the kink where a reaction changes sign cannot make it diverge. The law inputs' reaction
+    /// components keep the direction of the reactions at entry, scaled to the trial load.
+    ///
+    /// Converged by the same test as phase 1: every law-bearing joint's `|N(W) - W|` within
+    /// `solver.friction_tol` times the largest normal load. The result is that last round: its
+    /// loads are exactly those of the final solve and of the powers recorded in `rates`.
+    fn settle_by_newton(
+        &self,
+        p: &mut Problem,
+        mut it: u32,
+        entry: &Reactions,
+        entry_normals: &[f64; 5],
+        rates: &mut [f64],
+    ) -> Result<Settled, SimError> {
+        let active: [bool; 5] = std::array::from_fn(|ji| !self.joints[ji].laws.is_empty());
+        let base = Base {
+            comps: self.components(entry),
+            normals: *entry_normals,
+            moment: entry.slide_moment_nm,
+        };
+        let mut u: [f64; 5] = std::array::from_fn(|ji| entry_normals[ji].sqrt());
+        let mut cur = self.round(p, &base, &u, rates)?;
+        loop {
+            let residual: [f64; 5] = std::array::from_fn(|ji| {
+                if active[ji] {
+                    cur.normals[ji] - u[ji] * u[ji]
+                } else {
+                    0.0
+                }
+            });
+            let scale = cur.normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+            if residual.iter().all(|r| r.abs() <= self.tol * scale) {
+                return Ok(Settled {
+                    iterations: it,
+                    ..cur
+                });
+            }
+            if it >= self.max_iter {
+                let changes = residual.map(f64::abs);
+                return Err(self.no_convergence(p.t, it, &changes, scale));
+            }
+            it += 1;
+            // Jacobian of rho(u) = N(u^2) - u^2; joints without laws keep an identity row.
+            let mut jac = nalgebra::Matrix5::<f64>::identity();
+            for j in (0..5).filter(|&j| active[j]) {
+                let h = NEWTON_FD_STEP * u[j].max(scale.sqrt());
+                let uj = u[j] + h;
+                base.load_input(&mut p.inputs[j], j, uj * uj);
+                let mut totals = cur.totals;
+                totals[j] = self.joint_force(p, j, None)?;
+                let (_, re) = p.solve(&loads_from(&totals));
+                let n = self.normals(&re);
+                for i in (0..5).filter(|&i| active[i]) {
+                    let own = if i == j { 2.0 * u[j] + h } else { 0.0 };
+                    jac[(i, j)] = (n[i] - cur.normals[i]) / h - own;
+                }
+            }
+            let rhs = nalgebra::Vector5::from_fn(|i, _| -residual[i]);
+            let norm0 = residual.iter().map(|r| r * r).sum::<f64>().sqrt();
+            let step = jac.lu().solve(&rhs);
+            let mut length = if step.is_some() { 1.0 } else { 0.0 };
+            let step = step.unwrap_or_else(nalgebra::Vector5::zeros);
+            // Backtracking: the first step length whose residual is smaller.
+            loop {
+                if length < NEWTON_MIN_STEP {
+                    // No descent along the Newton direction (a local minimum of the residual
+                    // across a reaction's sign change, or a kink): settle the worst joint alone.
+                    let worst = (0..5)
+                        .filter(|&ji| active[ji])
+                        .fold(None, |w: Option<usize>, ji| match w {
+                            Some(b) if residual[b].abs() >= residual[ji].abs() => Some(b),
+                            _ => Some(ji),
+                        });
+                    let settled = match worst {
+                        Some(j) => self.bracket_joint(p, &base, &cur, &u, j, scale)?,
+                        None => None,
+                    };
+                    let Some(uj) = settled else {
+                        let changes = residual.map(f64::abs);
+                        return Err(self.no_convergence(p.t, it, &changes, scale));
+                    };
+                    if let Some(j) = worst {
+                        u[j] = uj;
+                    }
+                    cur = self.round(p, &base, &u, rates)?;
+                    break;
+                }
+                let trial_u: [f64; 5] = std::array::from_fn(|ji| (u[ji] + length * step[ji]).abs());
+                let trial = self.round(p, &base, &trial_u, rates)?;
+                let norm = (0..5)
+                    .filter(|&ji| active[ji])
+                    .map(|ji| (trial.normals[ji] - trial_u[ji] * trial_u[ji]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                if norm <= (1.0 - 1e-4 * length) * norm0 {
+                    u = trial_u;
+                    cur = trial;
+                    break;
+                }
+                length *= 0.5;
+            }
+        }
+    }
+
+    /// Settle joint `j` alone, the other joints' loads held at `u^2`: a root of
+    /// `rho_j(x) = N_j - x^2` in `x = sqrt(W_j)` by regula falsi (Illinois) on a bracket.
+    /// `rho_j(0) >= 0` always (a normal load is a magnitude) and `rho_j` falls below zero once
+    /// `x^2` outgrows the load the friction can cause, so a bracket `[0, x]` exists: unlike
+    /// Newton, this cannot stall at a local minimum of the residual. `None` if no bracket is
+    /// found (the caller reports the joint as unsettled); a law's failure is passed on.
+    fn bracket_joint(
+        &self,
+        p: &mut Problem,
+        base: &Base,
+        cur: &Settled,
+        u: &[f64; 5],
+        j: usize,
+        scale: f64,
+    ) -> Result<Option<f64>, SimError> {
+        let mut rho = |x: f64| -> Result<f64, SimError> {
+            base.load_input(&mut p.inputs[j], j, x * x);
+            let mut totals = cur.totals;
+            totals[j] = self.joint_force(p, j, None)?;
+            let (_, re) = p.solve(&loads_from(&totals));
+            Ok(self.normals(&re)[j] - x * x)
+        };
+        let tol_n = 0.25 * self.tol * scale;
+        let (mut lo, mut r_lo) = (0.0, rho(0.0)?);
+        if r_lo <= tol_n {
+            return Ok(Some(0.0));
+        }
+        let (mut hi, mut r_hi) = (u[j], rho(u[j])?);
+        let mut grow = 0;
+        while r_hi > 0.0 {
+            // Beyond every root: the load the friction can cause grows slower than x^2.
+            grow += 1;
+            if grow > 60 || !r_hi.is_finite() {
+                return Ok(None);
+            }
+            lo = hi;
+            r_lo = r_hi;
+            hi = 2.0 * hi + 1e-3 * scale.sqrt();
+            r_hi = rho(hi)?;
+        }
+        // Illinois: regula falsi that halves the weight of an end kept twice in a row.
+        let mut kept = 0_i32;
+        for _ in 0..200 {
+            let x = if r_lo - r_hi > 0.0 {
+                (lo * -r_hi + hi * r_lo) / (r_lo - r_hi)
+            } else {
+                0.5 * (lo + hi)
+            };
+            let r = rho(x)?;
+            if r.abs() <= tol_n || hi - lo <= 4.0 * f64::EPSILON * hi {
+                return Ok(Some(x));
+            }
+            if r > 0.0 {
+                lo = x;
+                r_lo = r;
+                if kept > 0 {
+                    r_hi *= 0.5;
+                }
+                kept = 1;
+            } else {
+                hi = x;
+                r_hi = r;
+                if kept < 0 {
+                    r_lo *= 0.5;
+                }
+                kept = -1;
+            }
+        }
+        Ok(None)
+    }
+
+    /// One round of phase 2: every law evaluated at the loads `u^2` (powers, regimes and loads
+    /// recorded in `rates`), then the reactions under the resulting friction loads.
+    fn round(
+        &self,
+        p: &mut Problem,
+        base: &Base,
+        u: &[f64; 5],
+        rates: &mut [f64],
+    ) -> Result<Settled, SimError> {
+        rates[self.layout().regimes()].fill(0.0);
+        let mut totals = [0.0; 5];
+        let mut k = 0;
+        for (ji, joint) in self.joints.iter().enumerate() {
+            if !joint.laws.is_empty() {
+                base.load_input(&mut p.inputs[ji], ji, u[ji] * u[ji]);
+                totals[ji] = self.joint_force(p, ji, Some((rates, k)))?;
+            }
+            k += joint.laws.len();
+        }
+        let loads = loads_from(&totals);
+        let (alpha, re) = p.solve(&loads);
+        Ok(Settled {
+            alpha,
+            normals: self.normals(&re),
+            re,
+            loads,
+            totals,
+            iterations: 0,
         })
+    }
+
+    /// The error for an iteration that did not settle: `changes` per joint (N), the joints
+    /// with laws whose change exceeds the tolerance named with their laws.
+    #[cold]
+    fn no_convergence(&self, t: f64, iterations: u32, changes: &[f64; 5], scale: f64) -> SimError {
+        let tol_n = self.tol * scale;
+        // Empty when every change is within tolerance: the limit came before a second solve.
+        let unsettled: Vec<Unsettled> = self
+            .joints
+            .iter()
+            .zip(changes)
+            .filter(|(j, _)| !j.laws.is_empty())
+            .filter(|(_, c)| !(**c <= tol_n))
+            .map(|(j, c)| Unsettled {
+                joint: j.name.into(),
+                laws: j.laws.iter().map(|l| l.name.clone()).collect(),
+                change_n: *c,
+            })
+            .collect();
+        SimError::NoConvergence {
+            time_s: t,
+            iterations,
+            change_n: changes.iter().fold(0.0, |m, c| m.max(*c)),
+            tol: self.tol,
+            unsettled,
+        }
     }
 
     /// Commit every stateful law over the accepted step ending at `e`.

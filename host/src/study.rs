@@ -19,12 +19,14 @@ pub enum StudyError {
     #[error(transparent)]
     Rig(#[from] Box<RigError>),
     /// A run failed.
-    #[error("law set `{lawset}`: {source}")]
+    // The run's message is part of this one and not also a `source`: the CLI prints the
+    // chain of sources, which repeated it.
+    #[error("law set `{lawset}`: {error}")]
     Run {
         /// Law set.
         lawset: String,
         /// The failure.
-        source: Box<SimError>,
+        error: Box<SimError>,
     },
     /// A data file problem.
     #[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
@@ -230,9 +232,9 @@ pub fn compare(
         .par_iter()
         .map(|ls| {
             let r = prepare(rig, ls, Some(data))?;
-            let run = run_rig(&r, registry, steady).map_err(|source| StudyError::Run {
+            let run = run_rig(&r, registry, steady).map_err(|e| StudyError::Run {
                 lawset: ls.name().into(),
-                source: Box::new(source),
+                error: Box::new(e),
             })?;
             let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
             let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
@@ -364,7 +366,7 @@ pub fn mass_response(
             };
             run_rig(&r, registry, steady).map_err(|e| StudyError::Run {
                 lawset: ls.name().into(),
-                source: Box::new(e),
+                error: Box::new(e),
             })
         })
         .collect::<Result<Vec<RunResult>, StudyError>>()?;

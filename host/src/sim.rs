@@ -230,7 +230,7 @@ const NEWTON_MIN_STEP: f64 = 1.0 / 128.0;
 /// Phase 1 is kept while it is predicted to settle within this many more iterations (and the
 /// limit): a Newton step costs one round of laws per law-bearing joint (up to five) plus at
 /// least one more, so three of them cost about as much as twenty plain iterations.
-const PLAIN_ITERATIONS_WORTH_KEEPING: f64 = 20.0;
+const PLAIN_ITERATIONS_WORTH_KEEPING: u32 = 20;
 
 /// Whether the plain fixed-point iteration will not settle in reasonable time, judged from its
 /// last change `d` and the change two iterations before, `d2` (N): their ratio is the
@@ -246,9 +246,10 @@ fn plain_iteration_stalls(d: f64, d2: f64, tol_n: f64, remaining: u32) -> bool {
     if rho >= 1.0 {
         return true;
     }
-    // d * rho^n * rho / (1 - rho) <= tol_n
-    let needed = (tol_n * (1.0 - rho) / (d * rho)).ln() / rho.ln();
-    needed > PLAIN_ITERATIONS_WORTH_KEEPING.min(f64::from(remaining))
+    // Still above tolerance after `limit` more iterations: d rho^limit rho / (1 - rho) > tol_n
+    // (a product rather than a logarithm: this runs at every slow evaluation).
+    let limit = PLAIN_ITERATIONS_WORTH_KEEPING.min(remaining);
+    d * rho.powi(limit as i32) * rho > tol_n * (1.0 - rho)
 }
 
 /// The friction loads from each joint's total law force or torque (main bearings summed).
@@ -264,16 +265,17 @@ fn loads_from(totals: &[f64; 5]) -> JointLoads {
 
 /// One evaluation's friction/reaction problem: what stays fixed while the loads settle (the
 /// factorised kinematics, the drive's control, the joints' relative velocities) and the law
-/// inputs, of which only the loads change.
-struct Problem {
-    kin: crate::mechanics::Kinematics,
+/// inputs, of which only the loads change. Borrowed, not moved: copying the kinematics and the
+/// inputs cost 2% of a PI run's instructions.
+struct Problem<'a> {
+    kin: &'a crate::mechanics::Kinematics,
     control: Result<f64, f64>,
     rel: [f64; 5],
-    inputs: [LawInput; 5],
+    inputs: &'a mut [LawInput; 5],
     t: f64,
 }
 
-impl Problem {
+impl Problem<'_> {
     /// Crank acceleration and reactions under the friction `loads`.
     fn solve(&self, loads: &JointLoads) -> (f64, Reactions) {
         let alpha = match self.control {
@@ -783,7 +785,7 @@ impl Simulation {
         let qd = &kin.qd;
         let rel = [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]];
         let crank_angle = crank_angle(theta);
-        let inputs: [LawInput; 5] = std::array::from_fn(|ji| {
+        let mut inputs: [LawInput; 5] = std::array::from_fn(|ji| {
             let joint = &self.joints[ji];
             let mut input = LawInput::at_rest(joint.kind);
             input.contact_radius_m = joint.radius_m;
@@ -796,13 +798,6 @@ impl Simulation {
             input.dt_s = dt;
             input.with_velocity(rel[ji])
         });
-        let mut p = Problem {
-            kin,
-            control,
-            rel,
-            inputs,
-            t,
-        };
         let finish = |rates: Vec<f64>, alpha: f64, re: &Reactions, normals, iterations, newton| {
             let mut rates = rates;
             rates[RateLayout::MOTOR] = re.drive_torque_nm * omega;
@@ -829,7 +824,11 @@ impl Simulation {
         // Phase 1: the plain fixed-point iteration (solve, evaluate the laws at the resulting
         // normal loads, repeat). It settles every bundled law set in a few iterations.
         for it in 1..=self.max_iter {
-            let (alpha, re) = p.solve(&loads);
+            let alpha = match control {
+                Ok(alpha) => alpha,
+                Err(torque) => kin.alpha_for_torque(torque, &loads),
+            };
+            let re = kin.reactions(alpha, &loads);
             let normals = self.normals(&re);
             // Converged when the normal loads' distance to the fixed point is within tolerance:
             // the last change, or once the iteration is seen to contract by a factor rho, the
@@ -861,31 +860,84 @@ impl Simulation {
                 return Ok((e, loads));
             }
             if stalls {
+                let mut p = Problem {
+                    kin: &kin,
+                    control,
+                    rel,
+                    inputs: &mut inputs,
+                    t,
+                };
                 let s = self.settle_by_newton(&mut p, it, &re, &normals, &mut rates)?;
                 let e = finish(rates, s.alpha, &s.re, s.normals, s.iterations, true);
                 return Ok((e, s.loads));
             }
-            // Law inputs: only the loads change from one iteration to the next.
+            // Law inputs: only the loads change from one iteration to the next. (The law loop
+            // is written out here rather than calling `joint_force`: this is the hot path, and
+            // the call cost a tenth of a PI run's instructions.)
             let comps = self.components(&re);
-            let mut totals = [0.0; 5];
+            let mut new_loads = JointLoads::default();
             // Powers and mean loads are written for every law below; only the regime
             // indicators are set sparsely and need clearing.
             rates[layout.regimes()].fill(0.0);
             let mut k = 0;
             for (ji, joint) in self.joints.iter().enumerate() {
-                let input = &mut p.inputs[ji];
+                let input = &mut inputs[ji];
                 input.normal_load_n = normals[ji];
                 input.reaction_x_n = comps[ji].x;
                 input.reaction_y_n = comps[ji].y;
                 input.reaction_moment_nm = if ji == 4 { re.slide_moment_nm } else { 0.0 };
-                totals[ji] = self.joint_force(&p, ji, Some((&mut rates, k)))?;
-                k += joint.laws.len();
+                let input = &*input;
+                let mut total = 0.0;
+                for law in &joint.laws {
+                    // One simulation is stepped by one thread: a plain load and store, not a
+                    // locked read-modify-write (which cost ~15% of an evaluation).
+                    let calls = law.calls.load(Ordering::Relaxed);
+                    law.calls.store(calls + 1, Ordering::Relaxed);
+                    let out = if calls % TIMING_SAMPLE == 0 {
+                        timed_evaluate(law, input)
+                    } else {
+                        law.instance.evaluate(input, &law.state)
+                    };
+                    let out = match out {
+                        Ok(out) => out,
+                        Err(e) => return Err(law_failed(joint, t, input, e)),
+                    };
+                    // A stateless law must not add energy; a stateful one may return what it
+                    // stored.
+                    let power = out.force * rel[ji];
+                    let adds = power > 0.0
+                        && law.state.is_empty()
+                        && power > 1e-9 * (1.0 + power.abs().sqrt());
+                    if !out.force.is_finite() || adds {
+                        return Err(unusable(joint, law, t, input, out.force));
+                    }
+                    total += out.force;
+                    let regime = out.regime().unwrap_or(Regime::None) as usize;
+                    rates[layout.power(k)] = -power;
+                    rates[layout.regime(k, regime)] = 1.0;
+                    rates[layout.normal(k)] = normals[ji];
+                    k += 1;
+                }
+                match ji {
+                    0 | 1 => new_loads.main_torque_nm += total,
+                    2 => new_loads.big_end_torque_nm = total,
+                    3 => new_loads.small_end_torque_nm = total,
+                    _ => new_loads.slide_force_n = total,
+                }
             }
-            let new_loads = loads_from(&totals);
             if it == self.max_iter {
                 // The joints whose loads were still moving: the last change, or after a single
                 // solve, the one the next solve would make.
-                let before = prev.unwrap_or_else(|| self.normals(&p.solve(&new_loads).1));
+                let before = prev.unwrap_or_else(|| {
+                    let p = Problem {
+                        kin: &kin,
+                        control,
+                        rel,
+                        inputs: &mut inputs,
+                        t,
+                    };
+                    self.normals(&p.solve(&new_loads).1)
+                });
                 let changes = std::array::from_fn(|ji| (before[ji] - normals[ji]).abs());
                 let scale = before.iter().fold(scale, |m, n| m.max(*n));
                 return Err(self.no_convergence(t, it, &changes, scale));
@@ -914,7 +966,7 @@ impl Simulation {
     /// power, regime and load are written into the rate vector from law index `k` on.
     fn joint_force(
         &self,
-        p: &Problem,
+        p: &Problem<'_>,
         ji: usize,
         record: Option<(&mut [f64], usize)>,
     ) -> Result<f64, SimError> {
@@ -973,7 +1025,7 @@ impl Simulation {
     /// loads are exactly those of the final solve and of the powers recorded in `rates`.
     fn settle_by_newton(
         &self,
-        p: &mut Problem,
+        p: &mut Problem<'_>,
         mut it: u32,
         entry: &Reactions,
         entry_normals: &[f64; 5],
@@ -1078,7 +1130,7 @@ impl Simulation {
     /// found (the caller reports the joint as unsettled); a law's failure is passed on.
     fn bracket_joint(
         &self,
-        p: &mut Problem,
+        p: &mut Problem<'_>,
         base: &Base,
         cur: &Settled,
         u: &[f64; 5],
@@ -1145,7 +1197,7 @@ impl Simulation {
     /// recorded in `rates`), then the reactions under the resulting friction loads.
     fn round(
         &self,
-        p: &mut Problem,
+        p: &mut Problem<'_>,
         base: &Base,
         u: &[f64; 5],
         rates: &mut [f64],

@@ -447,3 +447,176 @@ fn run_cli_reports_bad_rigs_and_writes_json_csv_and_timeseries() {
     assert!(series.starts_with("time_s,theta_rad,speed_rpm,motoring_torque_nm"));
     assert!(series.lines().count() > 1000);
 }
+
+// ---- friction/reaction iteration with a load-singular law (issue "Predictive comparison", 6) ----
+
+/// The sqrt-load fixture library (hydrodynamic friction ~ sqrt(load), c_h = 5 on the piston in
+/// its law set): `dF/dW` is unbounded where the side thrust passes through zero.
+fn sqrt_law() -> std::path::PathBuf {
+    built_library("tribo_fixture_sqrt_load_law")
+}
+
+fn sqrt_lawset() -> String {
+    workspace()
+        .join("tests/fixtures/lawsets/sqrt-load-piston.toml")
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// `tribo` with the fixture plugin: parsed JSON of stdout, or a failure with stderr.
+fn sqrt_json(args: &[&str], dir: &Path) -> serde_json::Value {
+    let lib = sqrt_law();
+    let mut all = vec!["--quiet", "--plugin", lib.to_str().expect("utf-8")];
+    all.extend_from_slice(args);
+    let out = std::process::Command::new(tribo_exe())
+        .args(&all)
+        .current_dir(dir)
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .output()
+        .expect("tribo runs");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "tribo {all:?} failed: {stderr}");
+    serde_json::from_str(&stdout).expect("JSON on stdout")
+}
+
+#[test]
+fn sqrt_load_piston_law_converges_in_full_cycle_and_steady_compare_and_they_agree() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let set = sqrt_lawset();
+    let transient = sqrt_json(
+        &["compare", "--lawset", &set, "--out", "t", "--json"],
+        dir.path(),
+    );
+    let steady = sqrt_json(
+        &[
+            "compare", "--steady", "--lawset", &set, "--out", "s", "--json",
+        ],
+        dir.path(),
+    );
+    let plateaus = |v: &serde_json::Value| v["sets"][0]["run"]["plateaus"].clone();
+    let (a, b) = (plateaus(&transient), plateaus(&steady));
+    let (a, b) = (
+        a.as_array().expect("plateaus"),
+        b.as_array().expect("plateaus"),
+    );
+    assert_eq!(a.len(), 7);
+    assert_eq!(b.len(), 7);
+    for (p, q) in a.iter().zip(b) {
+        let x = p["motoring_torque_nm"].as_f64().expect("torque");
+        let y = q["motoring_torque_nm"].as_f64().expect("torque");
+        assert!(
+            x > 0.1,
+            "{} rpm: the law dissipates: {x} N m",
+            p["set_speed_rpm"]
+        );
+        assert!(
+            (x - y).abs() <= 5e-3 * x.abs(),
+            "{} rpm: transient {x} vs steady {y}",
+            p["set_speed_rpm"]
+        );
+        // The piston law's own share agrees too (not just the total).
+        let piston = |v: &serde_json::Value| {
+            v["joints"]
+                .as_array()
+                .expect("joints")
+                .iter()
+                .find(|j| j["joint"] == "piston")
+                .and_then(|j| j["friction_torque_nm"].as_f64())
+                .expect("piston law")
+        };
+        let (xp, yp) = (piston(p), piston(q));
+        assert!((xp - yp).abs() <= 5e-3 * xp.abs(), "piston {xp} vs {yp}");
+    }
+}
+
+#[test]
+fn sqrt_load_piston_law_closes_the_energy_balance_with_both_drives() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let set = sqrt_lawset();
+    let rig = workspace().join("rigs/crf250r-motored.toml");
+    let rig = rig.to_str().expect("utf-8");
+    for extra in [None, Some(PI_DRIVE)] {
+        let mut args = vec!["run", rig, "--lawset", &set, "--json"];
+        if let Some(d) = extra {
+            args.extend_from_slice(&["--set", d]);
+        }
+        let r = sqrt_json(&args, dir.path());
+        let e = &r["energy"];
+        let get = |k: &str| e[k].as_f64().expect("energy term");
+        let (work, change, dissipated) = (
+            get("motor_work_j"),
+            get("mechanical_energy_change_j"),
+            get("dissipated_j"),
+        );
+        assert!(dissipated > 1000.0, "{} drive: {e}", r["drive"]);
+        // motor work = dissipated + change of kinetic and potential energy
+        assert!(
+            (work - change - dissipated).abs() < 1e-6 * work,
+            "{} drive: motor work {work} J, energy change {change} J, dissipated {dissipated} J",
+            r["drive"]
+        );
+        assert!(get("relative_residual").abs() < 1e-6);
+    }
+}
+
+#[test]
+fn a_law_that_admits_no_consistent_load_fails_naming_the_joint_and_the_law() {
+    // Coulomb with mu = 10 on the piston: where friction adds to the side thrust the load it
+    // causes grows faster than the load itself (k mu > 1), so N = R0 + k mu N has no solution.
+    let rig =
+        load(&["joints.piston.laws=[{law=\"coulomb\", params={mu=10.0}}]"]).expect("rig is valid");
+    let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("coulomb loads");
+    let err = Simulation::new(&rig, &registry)
+        .expect("simulation builds")
+        .run(None)
+        .expect_err("no consistent load exists");
+    let msg = err.to_string();
+    match &err {
+        tribo::sim::SimError::NoConvergence { unsettled, .. } => {
+            assert_eq!(unsettled.len(), 1, "{msg}");
+            assert_eq!(unsettled[0].joint, "piston");
+            assert_eq!(unsettled[0].laws, ["coulomb"]);
+        }
+        other => panic!("expected NoConvergence, got {other}"),
+    }
+    for words in [
+        "did not converge at t =",
+        "joint `piston` (law `coulomb`)",
+        "solver.friction_max_iter",
+    ] {
+        assert!(msg.contains(words), "`{words}` missing: {msg}");
+    }
+    assert!(!msg.contains("big_end") && !msg.contains("main_a"), "{msg}");
+}
+
+#[test]
+fn iteration_limit_too_low_to_settle_names_every_unsettled_law() {
+    // Two iterations: the plain iteration sees one change of the sqrt law's loads and stops.
+    let lib = sqrt_law();
+    let set = sqrt_lawset();
+    let out = run_tribo(
+        &[
+            "--quiet",
+            "--plugin",
+            lib.to_str().expect("utf-8"),
+            "run",
+            "crf250r-motored",
+            "--lawset",
+            &set,
+            "--set",
+            "solver.friction_max_iter=2",
+        ],
+        None,
+    );
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("did not converge")
+            && stderr.contains("after 2 iterations")
+            && stderr.contains("(law `sqrt-load-test`)")
+            && stderr.contains("solver.friction_max_iter"),
+        "{stderr}"
+    );
+    // One sentence, not repeated by the error chain.
+    assert_eq!(stderr.matches("did not converge").count(), 1, "{stderr}");
+}

@@ -307,7 +307,7 @@ pub fn validate(
     let r = prepare(rig, lawset, Some(&data.rows))?;
     let run = run_rig(&r, registry, steady).map_err(|source| StudyError::Run {
         lawset: lawset.name().into(),
-        source: Box::new(source),
+        error: Box::new(source),
     })?;
     let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
     let measured: Vec<f64> = data.rows.iter().map(|d| d.torque_nm).collect();

@@ -22,12 +22,14 @@ pub enum StudyError {
     #[error(transparent)]
     Rig(#[from] Box<RigError>),
     /// A run failed.
-    #[error("law set `{lawset}`: {source}")]
+    // The run's message is part of this one and not also a `source`: the CLI prints the
+    // chain of sources, which repeated it.
+    #[error("law set `{lawset}`: {error}")]
     Run {
         /// Law set.
         lawset: String,
         /// The failure.
-        source: Box<SimError>,
+        error: Box<SimError>,
     },
     /// A sweep's temperatures or speeds are unusable.
     #[error(transparent)]
@@ -297,9 +299,9 @@ pub fn compare(
         .zip(frees.par_iter())
         .map(|(ls, free)| {
             let r = prepare(rig, ls, Some(&data.rows))?;
-            let run = run_rig(&r, registry, options.steady).map_err(|source| StudyError::Run {
+            let run = run_rig(&r, registry, options.steady).map_err(|e| StudyError::Run {
                 lawset: ls.name().into(),
-                source: Box::new(source),
+                error: Box::new(e),
             })?;
             let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
             let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
@@ -527,7 +529,7 @@ pub fn mass_response(
             };
             run_rig(&r, registry, steady).map_err(|e| StudyError::Run {
                 lawset: ls.name().into(),
-                source: Box::new(e),
+                error: Box::new(e),
             })
         })
         .collect::<Result<Vec<RunResult>, StudyError>>()?;
@@ -846,7 +848,7 @@ pub fn sweep(
             let r = sweep_rig(rig, ls, speeds_rpm, *t)?;
             let run = run_rig(&r, registry, true).map_err(|e| StudyError::Run {
                 lawset: ls.name().into(),
-                source: Box::new(e),
+                error: Box::new(e),
             });
             if let Some(p) = progress {
                 p.inc();

@@ -106,35 +106,53 @@ fn bench(c: &mut Criterion) {
             )
         })
     });
-    let start = LawSet::from_text(
-        std::path::Path::new("stribeck-duty-start.toml"),
-        include_str!("../../tests/fixtures/lawsets/stribeck-duty-start.toml"),
-    )
-    .expect("law set");
-    let free = start.free_params(&reg, None).expect("free");
+    let fixture = |name: &str, text: &str| {
+        let set = LawSet::from_text(std::path::Path::new(name), text).expect("law set");
+        let free = set.free_params(&reg, None).expect("free");
+        (set, free)
+    };
     let no_cv = tribo::fit::FitOptions {
         cross_validate: false,
         ..Default::default()
     };
     g.sample_size(10).measurement_time(Duration::from_secs(120));
-    g.bench_function("fit_six_parameters_from_start_values", |b| {
-        b.iter(|| {
-            black_box(
-                tribo::fit::fit(
-                    &base,
-                    &start,
-                    &free,
-                    std::slice::from_ref(&data),
-                    &reg,
-                    &no_cv,
+    for (label, name, text) in [
+        (
+            "fit_six_parameters_from_start_values",
+            "stribeck-duty-6p-start.toml",
+            include_str!("../../tests/fixtures/lawsets/stribeck-duty-6p-start.toml"),
+        ),
+        (
+            "fit_three_bounded_parameters_from_start_values",
+            "stribeck-duty-start.toml",
+            include_str!("../../tests/fixtures/lawsets/stribeck-duty-start.toml"),
+        ),
+    ] {
+        let (start, free) = fixture(name, text);
+        g.bench_function(label, |b| {
+            b.iter(|| {
+                black_box(
+                    tribo::fit::fit(
+                        &base,
+                        &start,
+                        &free,
+                        std::slice::from_ref(&data),
+                        &reg,
+                        &no_cv,
+                    )
+                    .expect("fit"),
                 )
-                .expect("fit"),
-            )
-        })
-    });
-    // Leave-one-out scoring of the six-parameter set on seven points: seven refits, each
-    // warm-started from the set's values (the cost `compare` pays for an out-of-sample verdict).
-    let model = tribo::fit::TorqueModel::new(&base, &start, &free, vec![data.clone()], &reg);
+            })
+        });
+    }
+    // Leave-one-out scoring of the six-parameter calibration on seven points: seven refits,
+    // each warm-started from the set's values (the cost `compare` pays for an out-of-sample
+    // verdict on such a set).
+    let (six, free) = fixture(
+        "stribeck-duty-6p-2026-11-21.toml",
+        include_str!("../../tests/fixtures/lawsets/stribeck-duty-6p-2026-11-21.toml"),
+    );
+    let model = tribo::fit::TorqueModel::new(&base, &six, &free, vec![data.clone()], &reg);
     let x: Vec<f64> = free.iter().map(|f| f.value).collect();
     let residuals: Vec<f64> = model
         .torques(&x)

@@ -351,7 +351,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&cmp)?);
             } else {
                 print!("{}", tribo::report::comparison_text(&cmp));
-                println!("\nwrote {}/comparison.csv, scores.csv, validation.csv, comparison.json, torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg", out.display());
+                println!(
+                    "\nwrote into {}: comparison.csv, scores.csv, validation.csv, comparison.json,\n  torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg",
+                    out.display()
+                );
             }
         }
         Command::MassResponse {

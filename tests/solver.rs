@@ -10,7 +10,7 @@ use std::path::Path;
 use common::*;
 use tribo::plugin_api::loader::load_paths;
 use tribo::rig::{load_rig_text, Rig, RigError};
-use tribo::sim::{RunResult, Simulation};
+use tribo::sim::RunResult;
 
 fn rig_path() -> std::path::PathBuf {
     workspace().join("rigs/reference-frictionless.toml")
@@ -33,7 +33,7 @@ fn load(sets: &[&str]) -> Result<Rig, RigError> {
 fn run(sets: &[&str]) -> RunResult {
     let rig = load(sets).expect("rig is valid");
     let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("coulomb loads");
-    Simulation::new(&rig, &registry)
+    tribo::rig::simulation(&rig, &registry)
         .expect("simulation builds")
         .run(None)
         .expect("run succeeds")
@@ -368,7 +368,7 @@ fn unknown_law_name_is_rejected_naming_the_field_and_what_exists() {
     let rig =
         load(&["joints.big_end.laws=[{law=\"stribeck-magic\"}]"]).expect("structurally valid");
     let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("loads");
-    let e = Simulation::new(&rig, &registry)
+    let e = tribo::rig::simulation(&rig, &registry)
         .err()
         .expect("unknown law rejected")
         .to_string();
@@ -566,7 +566,7 @@ fn a_law_that_admits_no_consistent_load_fails_naming_the_joint_and_the_law() {
     let rig =
         load(&["joints.piston.laws=[{law=\"coulomb\", params={mu=10.0}}]"]).expect("rig is valid");
     let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("coulomb loads");
-    let err = Simulation::new(&rig, &registry)
+    let err = tribo::rig::simulation(&rig, &registry)
         .expect("simulation builds")
         .run(None)
         .expect_err("no consistent load exists");

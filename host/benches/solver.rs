@@ -12,7 +12,6 @@ use tribo::lawset::LawSet;
 use tribo::mechanics::JointLoads;
 use tribo::plugin_api::loader::{load_paths, LawRegistry};
 use tribo::rig::{load_rig, LawRef, Rig};
-use tribo::sim::Simulation;
 use tribo::study::{compare, mass_response, CompareOptions, DataRun, ScaledBody};
 
 fn registry() -> LawRegistry {
@@ -37,7 +36,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("solver");
 
     let rig = rig_with("fedem-baseline", &[]);
-    let sim = Simulation::new(&rig, &reg).expect("sim");
+    let sim = tribo::rig::simulation(&rig, &reg).expect("sim");
     g.bench_function("kinematics_one_configuration", |b| {
         b.iter(|| {
             black_box(
@@ -77,7 +76,7 @@ fn bench(c: &mut Criterion) {
         });
         g.bench_function(name, |b| {
             b.iter(|| {
-                let mut sim = Simulation::new(&rig, &reg).expect("sim");
+                let mut sim = tribo::rig::simulation(&rig, &reg).expect("sim");
                 black_box(sim.run(None).expect("run"))
             })
         });

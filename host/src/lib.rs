@@ -19,23 +19,16 @@
 //! - [`study`]: law-set comparisons against measured data, mass response, temperature sweep;
 //! - [`sim`]: the run through the test cycle with laws on the joints, and plateau measurement.
 
-pub mod bundled;
-pub mod cycle;
-pub mod erk;
-pub mod fit;
 pub mod laws;
-pub mod lawset;
-pub mod mechanics;
-pub mod oil;
 pub mod output;
 pub mod plots;
 pub mod progress;
 pub mod report;
-pub mod rig;
 pub mod scaffold;
-pub mod score;
-pub mod sim;
-pub mod study;
-pub mod uncertainty;
+
+// The layers below the CLI, under the names the binary, tests and benches use.
+pub use tribo_config::{bundled, lawset, rig};
+pub use tribo_core::{cycle, erk, mechanics, model, observe, oil, sim};
+pub use tribo_studies::{fit, score, study, uncertainty};
 
 pub use tribo_plugin_api as plugin_api;

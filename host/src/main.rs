@@ -108,7 +108,7 @@ enum Command {
         rig: Option<PathBuf>,
         /// Body to scale.
         #[arg(long, value_enum, default_value = "rod")]
-        body: tribo::study::ScaledBody,
+        body: BodyArg,
         /// Mass (and inertia) scale factor.
         #[arg(long, default_value_t = 0.6)]
         scale: f64,
@@ -220,6 +220,27 @@ enum Command {
     },
 }
 
+/// The body a mass study scales, as the command line spells it.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum BodyArg {
+    /// The connecting rod (mass and inertia).
+    Rod,
+    /// The piston assembly (mass).
+    Piston,
+    /// The crankshaft (mass and inertia).
+    Crank,
+}
+
+impl From<BodyArg> for tribo::study::ScaledBody {
+    fn from(b: BodyArg) -> Self {
+        match b {
+            BodyArg::Rod => Self::Rod,
+            BodyArg::Piston => Self::Piston,
+            BodyArg::Crank => Self::Crank,
+        }
+    }
+}
+
 /// The rig (default: the bundled CRF 250 R rig) and law sets (default: the two bundled ones)
 /// a study command works on.
 fn study_inputs(
@@ -286,7 +307,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             tribo::rig::attach_laws(&mut rig, &law_args)?;
             let registry = discover(&cli.plugins).context("loading law plugins")?;
-            let mut sim = tribo::sim::Simulation::new(&rig, &registry)?;
+            let mut sim = tribo::rig::simulation(&rig, &registry)?;
             let progress = Progress::start("simulating the test cycle", Some(1000), cli.quiet);
             sim.report_progress(progress.position());
             let result = match &timeseries {
@@ -375,6 +396,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             let registry = discover(&cli.plugins).context("loading law plugins")?;
             let fedem = tribo::study::fedem_rod_change();
+            let body = tribo::study::ScaledBody::from(body);
             let fedem = (body == tribo::study::ScaledBody::Rod).then_some(fedem.as_slice());
             let progress = Progress::start("mass response", None, cli.quiet);
             let result = tribo::study::mass_response(

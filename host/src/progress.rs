@@ -3,32 +3,14 @@
 //! not ask for `--quiet`. The work itself only stores a position in an atomic now and then.
 
 use std::io::IsTerminal;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-/// Shared position of a long computation, cheap to update from any thread.
-#[derive(Debug, Clone, Default)]
-pub struct Position(Arc<AtomicU64>);
-
-impl Position {
-    /// Set the position (units of the total given to [`Progress::start`]).
-    pub fn set(&self, pos: u64) {
-        self.0.store(pos, Ordering::Relaxed);
-    }
-
-    /// Add one.
-    pub fn inc(&self) {
-        self.0.fetch_add(1, Ordering::Relaxed);
-    }
-
-    fn get(&self) -> u64 {
-        self.0.load(Ordering::Relaxed)
-    }
-}
+pub use tribo_core::observe::Position;
 
 /// A progress display; stops and clears itself when dropped.
 pub struct Progress {

@@ -30,3 +30,4 @@ pub use law::{assert_law_is_consistent, create_from_table, describe as describe_
 
 /// Re-exported so law crates need no direct serde dependency for their parameter type.
 pub use serde;
+pub use toml;

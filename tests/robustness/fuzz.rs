@@ -9,7 +9,6 @@ use proptest::prelude::*;
 use tribo::lawset::LawSet;
 use tribo::plugin_api::loader::{load_paths, LawRegistry};
 use tribo::rig::load_rig_text;
-use tribo::sim::Simulation;
 
 use super::common::*;
 
@@ -165,7 +164,7 @@ proptest! {
             let mut rig = rig;
             set.apply(&mut rig);
             // Creating every law instance checks the parameters against each law's declaration.
-            let _ = Simulation::new(&rig, registry());
+            let _ = tribo::rig::simulation(&rig, registry());
             let _ = set.free_params(registry(), None);
         }
     }

@@ -15,14 +15,14 @@ use std::io::Write;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use nalgebra::Vector2;
-use serde::Serialize;
 use tribo_plugin_api::loader::{LawError, LawInstance, LawRegistry};
+use tribo_plugin_api::serde::Serialize;
 use tribo_plugin_api::{JointKind, LawInput, LawOutput, Regime};
 
 use crate::cycle::{rad_s_to_rpm, Cycle};
 use crate::erk::{Controller, Pair, DORMAND_PRINCE_54};
 use crate::mechanics::{JointLoads, Mechanism, Reactions, RigGeometry};
-use crate::rig::{Drive, Integrator, Rig, RigError, Temperature, JOINT_NAMES};
+use crate::model::{Drive, Integrator, RigFile, Temperature, JOINT_NAMES};
 
 /// Standard gravity, m/s^2.
 pub const GRAVITY_M_S2: f64 = 9.80665;
@@ -30,9 +30,18 @@ pub const GRAVITY_M_S2: f64 = 9.80665;
 /// Why a run failed.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
-    /// The rig is unusable (a law name that no plugin provides, bad law parameters).
-    #[error(transparent)]
-    Rig(#[from] Box<RigError>),
+    /// A law cannot be bound (a law name that no plugin provides, bad law parameters): `field`
+    /// is its dotted path in the model, `at` where the configuration layer found it
+    /// (`file:line:column`), if it knows.
+    #[error("{}{field}: {message}", at.as_deref().map(|a| format!("{a}: ")).unwrap_or_default())]
+    Setup {
+        /// Where the field was written, if known.
+        at: Option<String>,
+        /// Dotted path of the field, e.g. `joints.piston.laws[0].params`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A law failed while running.
     #[error("joint `{joint}` at t = {time_s:.6} s (relative velocity {velocity}, normal load {load_n} N): {source}")]
     Law {
@@ -397,6 +406,7 @@ struct BoundJoint {
 
 /// Per-law result for one plateau.
 #[derive(Debug, Clone, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
 pub struct LawResult {
     /// Joint name.
     pub joint: String,
@@ -414,6 +424,7 @@ pub struct LawResult {
 
 /// Time shares of the lubrication regimes (they add up to 1).
 #[derive(Debug, Clone, Copy, Serialize, Default)]
+#[serde(crate = "tribo_plugin_api::serde")]
 pub struct RegimeShare {
     /// The law reported no regime.
     pub none: f64,
@@ -427,6 +438,7 @@ pub struct RegimeShare {
 
 /// One measured plateau.
 #[derive(Debug, Clone, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
 pub struct PlateauResult {
     /// Reference speed, rpm.
     pub set_speed_rpm: f64,
@@ -448,6 +460,7 @@ pub struct PlateauResult {
 
 /// Energy bookkeeping over the whole run.
 #[derive(Debug, Clone, Copy, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
 pub struct EnergyBalance {
     /// Work of the drive torque on the crank, J.
     pub motor_work_j: f64,
@@ -463,6 +476,7 @@ pub struct EnergyBalance {
 
 /// Everything a run produces.
 #[derive(Debug, Clone, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
 pub struct RunResult {
     /// Rig name.
     pub rig: String,
@@ -488,6 +502,7 @@ pub struct RunResult {
 
 /// Time a law took over a run.
 #[derive(Debug, Clone, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
 pub struct LawTime {
     /// Joint.
     pub joint: String,
@@ -593,7 +608,7 @@ pub struct Simulation {
     tol: f64,
     max_iter: u32,
     n_laws: usize,
-    progress: Option<crate::progress::Position>,
+    progress: Option<crate::observe::Position>,
 }
 
 fn joint_kind(name: &str) -> JointKind {
@@ -605,9 +620,14 @@ fn joint_kind(name: &str) -> JointKind {
 }
 
 impl Simulation {
-    /// Bind the rig's laws (from `registry`) and prepare the mechanism and cycle.
-    pub fn new(rig: &Rig, registry: &LawRegistry) -> Result<Self, SimError> {
-        let f = &rig.file;
+    /// Bind the model's laws (from `registry`) and prepare the mechanism and cycle.
+    pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
+        let f = model;
+        let setup = |field: String, e: &dyn std::fmt::Display| SimError::Setup {
+            at: None,
+            field,
+            message: e.to_string(),
+        };
         let c = &f.bodies.crank;
         let (mu, ru) = (c.unbalance_mass_kg * c.mass_scale, c.unbalance_radius_m);
         let m_crank = c.mass_kg * c.mass_scale + mu;
@@ -652,10 +672,10 @@ impl Simulation {
                 let field = format!("joints.{name}.laws[{i}]");
                 let lib = registry
                     .get(&l.law)
-                    .map_err(|e| Box::new(rig.error(&format!("{field}.law"), e.to_string())))?;
+                    .map_err(|e| setup(format!("{field}.law"), &e))?;
                 let instance = lib
                     .create(&l.params)
-                    .map_err(|e| Box::new(rig.error(&format!("{field}.params"), e.to_string())))?;
+                    .map_err(|e| setup(format!("{field}.params"), &e))?;
                 let state = vec![0.0; instance.state_size()];
                 laws.push(BoundLaw {
                     name: l.law.clone(),
@@ -718,7 +738,7 @@ impl Simulation {
     }
 
     /// Report progress (permille of the simulated cycle, or plateaus done in steady mode) to `p`.
-    pub fn report_progress(&mut self, p: crate::progress::Position) {
+    pub fn report_progress(&mut self, p: crate::observe::Position) {
         self.progress = Some(p);
     }
 
@@ -2234,16 +2254,19 @@ mod tests {
     }
 
     fn sqrt_simulation() -> Simulation {
-        let text = crate::bundled::rig("crf250r-motored").expect("bundled rig");
-        let sets = ["joints.piston.laws=[{law=\"sqrt-unit\", params={c_h=5.0}}]".to_string()];
-        let rig =
-            crate::rig::load_rig_text(std::path::Path::new("crf250r-motored.toml"), text, &sets)
-                .expect("rig is valid");
+        // The bundled rig as plain data (the configuration layer's defaults are serde's).
+        let text = include_str!("../../../rigs/crf250r-motored.toml");
+        let mut model: RigFile = toml::from_str(text).expect("rig parses");
+        let params: toml::Table = toml::from_str("c_h = 5.0").expect("params");
+        model.joints.piston.laws = vec![crate::model::LawRef {
+            law: "sqrt-unit".into(),
+            params,
+        }];
         let mut registry = LawRegistry::new();
         registry
             .insert(LawLibrary::in_process::<SqrtLoad>().expect("law describes itself"))
             .expect("one law");
-        Simulation::new(&rig, &registry).expect("simulation builds")
+        Simulation::new(&model, &registry).expect("simulation builds")
     }
 
     /// The plain fixed-point iteration alone, from the frictionless loads, written out with the

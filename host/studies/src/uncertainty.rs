@@ -111,7 +111,7 @@ pub fn uncertainty_within_bounds(
     let (rig, lawset, registry) = model.parts();
     let free = model.free();
     let pinned = lawset.with_values(free, x);
-    let inner: Vec<crate::lawset::FreeParam> = free
+    let inner: Vec<tribo_config::lawset::FreeParam> = free
         .iter()
         .zip(on_bound)
         .filter(|(_, b)| !**b)

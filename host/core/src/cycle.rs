@@ -1,9 +1,10 @@
 //! The test cycle: the reference crank speed as ramps and holds, and the plateaus measured.
 
-use serde::Deserialize;
+use tribo_plugin_api::serde::{Deserialize, Serialize};
 
 /// One piece of a test cycle, as written in a rig file.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
 pub enum Segment {
     /// Linear change of the reference speed to `to_rpm` over `duration_s`.

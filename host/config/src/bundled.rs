@@ -5,15 +5,15 @@
 const RIGS: &[(&str, &str)] = &[
     (
         "crf250r-motored.toml",
-        include_str!("../../rigs/crf250r-motored.toml"),
+        include_str!("../../../rigs/crf250r-motored.toml"),
     ),
     (
         "crf250r-light-rod.toml",
-        include_str!("../../rigs/crf250r-light-rod.toml"),
+        include_str!("../../../rigs/crf250r-light-rod.toml"),
     ),
     (
         "reference-frictionless.toml",
-        include_str!("../../rigs/reference-frictionless.toml"),
+        include_str!("../../../rigs/reference-frictionless.toml"),
     ),
 ];
 
@@ -21,19 +21,19 @@ const RIGS: &[(&str, &str)] = &[
 const LAWSETS: &[(&str, &str)] = &[
     (
         "fedem-baseline.toml",
-        include_str!("../../rigs/lawsets/fedem-baseline.toml"),
+        include_str!("../../../rigs/lawsets/fedem-baseline.toml"),
     ),
     (
         "stribeck-duty.toml",
-        include_str!("../../rigs/lawsets/stribeck-duty.toml"),
+        include_str!("../../../rigs/lawsets/stribeck-duty.toml"),
     ),
     (
         "mixed-film.toml",
-        include_str!("../../rigs/lawsets/mixed-film.toml"),
+        include_str!("../../../rigs/lawsets/mixed-film.toml"),
     ),
     (
         "physical-bearings.toml",
-        include_str!("../../rigs/lawsets/physical-bearings.toml"),
+        include_str!("../../../rigs/lawsets/physical-bearings.toml"),
     ),
 ];
 
@@ -41,15 +41,15 @@ const LAWSETS: &[(&str, &str)] = &[
 const DATA: &[(&str, &str)] = &[
     (
         "crf250r-measured.csv",
-        include_str!("../../rigs/data/crf250r-measured.csv"),
+        include_str!("../../../rigs/data/crf250r-measured.csv"),
     ),
     (
         "fedem-tuned.csv",
-        include_str!("../../rigs/data/fedem-tuned.csv"),
+        include_str!("../../../rigs/data/fedem-tuned.csv"),
     ),
     (
         "fedem-light-rod.csv",
-        include_str!("../../rigs/data/fedem-light-rod.csv"),
+        include_str!("../../../rigs/data/fedem-light-rod.csv"),
     ),
 ];
 

@@ -19,11 +19,11 @@ use rayon::prelude::*;
 use serde::Serialize;
 use tribo_plugin_api::loader::LawRegistry;
 
-use crate::lawset::{FreeParam, LawSet};
-use crate::rig::Rig;
 use crate::score::{self, Scores, Validation};
 use crate::study::{errors, prepare, run_rig, DataRun, StudyError};
 use crate::uncertainty::{uncertainty_within_bounds, Uncertainty};
+use tribo_config::lawset::{FreeParam, LawSet};
+use tribo_config::rig::Rig;
 
 /// How to calibrate.
 #[derive(Debug, Clone)]

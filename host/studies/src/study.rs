@@ -7,13 +7,13 @@ use rayon::prelude::*;
 use serde::Serialize;
 use tribo_plugin_api::loader::LawRegistry;
 
-use crate::cycle::Segment;
 use crate::fit::TorqueModel;
-use crate::lawset::LawSet;
-use crate::rig::{Rig, RigError, Temperature};
 use crate::score::{self, Scores, TemperatureResponse, Validation};
-use crate::sim::{RunResult, SimError, Simulation};
 use crate::uncertainty::{uncertainty_within_bounds, Uncertainty};
+use tribo_config::lawset::LawSet;
+use tribo_config::rig::{Rig, RigError, Temperature};
+use tribo_core::cycle::Segment;
+use tribo_core::sim::{RunResult, SimError};
 
 /// Why a study failed.
 #[derive(Debug, thiserror::Error)]
@@ -79,9 +79,12 @@ pub fn read_data(arg: &str) -> Result<(PathBuf, Vec<DataRow>), StudyError> {
     let path = PathBuf::from(arg);
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
-        Err(e) => match crate::bundled::data(arg) {
+        Err(e) => match tribo_config::bundled::data(arg) {
             Some(t) => {
-                let name = PathBuf::from(format!("<bundled>/{}", crate::bundled::file_name(arg)));
+                let name = PathBuf::from(format!(
+                    "<bundled>/{}",
+                    tribo_config::bundled::file_name(arg)
+                ));
                 return parse_data(&name, t).map(|r| (name, r));
             }
             None => {
@@ -184,14 +187,14 @@ pub fn prepare(rig: &Rig, lawset: &LawSet, data: Option<&[DataRow]>) -> Result<R
             Temperature::PerPlateau(rows.iter().map(|x| x.oil_temp_c).collect());
         r.overridden.push("cycle".into());
         r.overridden.push("oil.temperature_c".into());
-        crate::rig::revalidate(&r)?;
+        tribo_config::rig::revalidate(&r)?;
     }
     Ok(r)
 }
 
 /// Run one rig (steady-state or full cycle).
 pub fn run_rig(rig: &Rig, registry: &LawRegistry, steady: bool) -> Result<RunResult, SimError> {
-    let mut sim = Simulation::new(rig, registry)?;
+    let mut sim = tribo_config::rig::simulation(rig, registry)?;
     if steady {
         sim.run_steady()
     } else {
@@ -422,7 +425,7 @@ pub fn compare(
 }
 
 /// Which body a mass study scales.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ScaledBody {
     /// The connecting rod (mass and inertia).
@@ -449,7 +452,7 @@ pub fn scaled(rig: &Rig, body: ScaledBody, scale: f64) -> Result<Rig, Box<RigErr
         }
     }
     r.overridden.push("bodies".into());
-    crate::rig::revalidate(&r)?;
+    tribo_config::rig::revalidate(&r)?;
     Ok(r)
 }
 
@@ -594,7 +597,7 @@ pub const THESIS_LAWSET: &str = "fedem-baseline";
 /// name and the set's name do not matter, while any changed coefficient or added law does).
 /// Only then do the FEDEM thesis's numbers belong beside its results.
 pub fn is_thesis_lawset(lawset: &LawSet) -> bool {
-    crate::bundled::lawset(THESIS_LAWSET)
+    tribo_config::bundled::lawset(THESIS_LAWSET)
         .and_then(|text| LawSet::from_text(Path::new(THESIS_LAWSET), text).ok())
         .is_some_and(|thesis| thesis.file.laws == lawset.file.laws)
 }
@@ -604,7 +607,7 @@ pub fn fedem_rod_change() -> Vec<(f64, f64)> {
     // The FEDEM tables have `speed_rpm,sim_speed_rad_s,torque_nm` (no oil temperature), so they
     // are read by column name here rather than through `parse_data`.
     let read = |name: &str| -> Vec<(f64, f64)> {
-        let Some(text) = crate::bundled::data(name) else {
+        let Some(text) = tribo_config::bundled::data(name) else {
             return Vec::new();
         };
         let mut reader = csv::ReaderBuilder::new()
@@ -644,7 +647,7 @@ pub struct OilInfo {
     /// Source of the viscosity data, if given.
     pub source: Option<String>,
     /// The viscosity model and its constants.
-    pub viscosity: crate::oil::ViscosityModel,
+    pub viscosity: tribo_core::oil::ViscosityModel,
     /// Density, kg/m^3.
     pub density_kg_m3: f64,
     /// One-line description (name, grade, model constants, source), as printed.
@@ -692,7 +695,7 @@ pub struct SweepPoint {
     pub viscosity_pa_s: f64,
     /// Mean motoring torque over the steady revolution, N m.
     pub torque_nm: f64,
-    /// Per joint in [`crate::rig::JOINT_NAMES`] order (joints without a law give zero).
+    /// Per joint in [`tribo_config::rig::JOINT_NAMES`] order (joints without a law give zero).
     pub joints: Vec<JointTorque>,
 }
 
@@ -771,14 +774,14 @@ pub fn parse_list(option: &str, text: &str) -> Result<Vec<f64>, SweepInputError>
         .collect()
 }
 
-/// Check a sweep's temperatures (inside [`crate::oil::VALID_RANGE_C`]) and speeds (positive),
+/// Check a sweep's temperatures (inside [`tribo_core::oil::VALID_RANGE_C`]) and speeds (positive),
 /// both non-empty and without repeats, before any run starts.
 pub fn check_sweep_inputs(temps_c: &[f64], speeds_rpm: &[f64]) -> Result<(), SweepInputError> {
     let err = |option: &str, message: String| SweepInputError {
         option: option.into(),
         message,
     };
-    let (lo, hi) = crate::oil::VALID_RANGE_C;
+    let (lo, hi) = tribo_core::oil::VALID_RANGE_C;
     if temps_c.is_empty() {
         return Err(err("--temps", "the list is empty".into()));
     }
@@ -835,7 +838,7 @@ pub fn sweep(
     temps_c: &[f64],
     speeds_rpm: &[f64],
     registry: &LawRegistry,
-    progress: Option<&crate::progress::Position>,
+    progress: Option<&tribo_core::observe::Position>,
 ) -> Result<Sweep, StudyError> {
     check_sweep_inputs(temps_c, speeds_rpm)?;
     let jobs: Vec<(usize, f64)> = (0..lawsets.len())
@@ -865,7 +868,7 @@ pub fn sweep(
             let run = &runs[i * temps_c.len() + k];
             warnings.extend(run.warnings.iter().map(|w| format!("{t} C: {w}")));
             for p in &run.plateaus {
-                let joints = crate::rig::JOINT_NAMES
+                let joints = tribo_config::rig::JOINT_NAMES
                     .iter()
                     .map(|name| JointTorque {
                         joint: (*name).into(),

@@ -22,9 +22,9 @@ use serde::Serialize;
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::fit::{calibrate, TorqueModel};
-use crate::lawset::LawSet;
-use crate::rig::Rig;
 use crate::study::{errors, prepare, run_rig, DataRun, StudyError};
+use tribo_config::lawset::LawSet;
+use tribo_config::rig::Rig;
 
 /// Out-of-sample and information-criterion scores of one law set on one data set.
 #[derive(Debug, Clone, Serialize)]
@@ -209,7 +209,11 @@ pub fn scores_for_fit(
 
 /// Account for parameters tuned to the same data outside Tribo: the information criteria count
 /// them, and no out-of-sample error can be computed because Tribo cannot refit them.
-pub fn apply_prior_fit(scores: &mut Scores, residuals: &[f64], prior: &crate::lawset::PriorFit) {
+pub fn apply_prior_fit(
+    scores: &mut Scores,
+    residuals: &[f64],
+    prior: &tribo_config::lawset::PriorFit,
+) {
     let rss: f64 = residuals.iter().map(|r| r * r).sum();
     let k = scores.free_params + prior.parameters;
     let (aic, aicc, bic) = information_criteria(rss, residuals.len(), k);
@@ -256,7 +260,7 @@ pub fn temperature_response(
     data: &DataRun,
     registry: &LawRegistry,
 ) -> Result<TemperatureResponse, StudyError> {
-    let (lo_c, hi_c) = crate::oil::VALID_RANGE_C;
+    let (lo_c, hi_c) = tribo_core::oil::VALID_RANGE_C;
     let shifted = |dt: f64| DataRun {
         file: data.file.clone(),
         rows: data

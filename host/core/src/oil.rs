@@ -1,9 +1,10 @@
 //! Oil viscosity against temperature.
 
-use serde::{Deserialize, Serialize};
+use tribo_plugin_api::serde::{Deserialize, Serialize};
 
 /// How kinematic viscosity depends on temperature.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
 #[serde(tag = "model", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum ViscosityModel {
     /// Vogel: nu = k * exp(theta1 / (T + theta2)), nu in cSt, T in C.

@@ -1,0 +1,448 @@
+//! The rig model as plain data: geometry, bodies, joints with their laws, oil, drive, cycle,
+//! measurement and solver settings. This is what the solver consumes; reading it from files,
+//! `extends`, `--set` overrides and validation live in the configuration layer (`tribo-config`).
+//! The types derive serde (through the plugin contract's re-export) so a file or a program can
+//! describe a rig the same way.
+
+use tribo_plugin_api::serde::{Deserialize, Serialize};
+use tribo_plugin_api::toml;
+
+use crate::cycle::{thesis_cycle, Segment};
+use crate::oil::ViscosityModel;
+
+/// A rig file as written. Every table rejects unknown keys.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct RigFile {
+    /// Rig name, used in reports.
+    pub name: String,
+    /// Free text.
+    #[serde(default)]
+    pub description: String,
+    /// Crank radius, bore, gravity.
+    pub geometry: Geometry,
+    /// Crank, rod and piston.
+    pub bodies: Bodies,
+    /// The five joints and the laws on them.
+    pub joints: Joints,
+    /// Oil properties and temperatures.
+    pub oil: Oil,
+    /// How the crank is driven.
+    pub drive: Drive,
+    /// The test cycle (default: the thesis cycle).
+    #[serde(default)]
+    pub cycle: CycleSpec,
+    /// How plateau values are measured.
+    #[serde(default)]
+    pub measurement: Measurement,
+    /// Numerical settings.
+    #[serde(default)]
+    pub solver: SolverSettings,
+}
+
+/// Geometry of the crank train.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Geometry {
+    /// Crank radius (half the stroke), m.
+    pub crank_radius_m: f64,
+    /// Cylinder bore, m.
+    pub bore_m: f64,
+    /// Include gravity (9.81 m/s^2 along -y, the cylinder axis pointing up).
+    #[serde(default = "yes")]
+    pub gravity: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+fn one() -> f64 {
+    1.0
+}
+fn half() -> f64 {
+    0.5
+}
+fn deg180() -> f64 {
+    180.0
+}
+
+/// The three moving bodies.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Bodies {
+    /// Crankshaft.
+    pub crank: Crank,
+    /// Connecting rod.
+    pub rod: Rod,
+    /// Piston assembly.
+    pub piston: Piston,
+}
+
+/// Crankshaft.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Crank {
+    /// Moment of inertia about the crank axis, without the unbalance mass, kg m^2.
+    pub inertia_kg_m2: f64,
+    /// Mass of the balanced part (centre of mass on the axis), kg; loads the mains under gravity.
+    pub mass_kg: f64,
+    /// Unbalance (counterweight) mass, kg.
+    #[serde(default)]
+    pub unbalance_mass_kg: f64,
+    /// Radius of the unbalance mass, m.
+    #[serde(default)]
+    pub unbalance_radius_m: f64,
+    /// Angle of the unbalance mass from the crank pin, degrees (180: opposite the pin).
+    #[serde(default = "deg180")]
+    pub unbalance_angle_deg: f64,
+    /// Mass scale factor.
+    #[serde(default = "one")]
+    pub mass_scale: f64,
+    /// Inertia scale factor.
+    #[serde(default = "one")]
+    pub inertia_scale: f64,
+}
+
+/// Connecting rod.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Rod {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// In-plane moment of inertia about the centre of mass, kg m^2.
+    pub inertia_kg_m2: f64,
+    /// Centre-to-centre length, m.
+    pub length_m: f64,
+    /// Centre-of-mass distance from the big-end centre, m.
+    pub com_from_big_end_m: f64,
+    /// Mass scale factor (FEDEM-style mass scaling, the lighter-rod study).
+    #[serde(default = "one")]
+    pub mass_scale: f64,
+    /// Inertia scale factor.
+    #[serde(default = "one")]
+    pub inertia_scale: f64,
+}
+
+/// Piston assembly.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Piston {
+    /// Mass of piston, rings, pin and clips, kg.
+    pub mass_kg: f64,
+    /// Mass scale factor.
+    #[serde(default = "one")]
+    pub mass_scale: f64,
+}
+
+/// The joints of the rig. There is no other joint: an unknown name is an error.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Joints {
+    /// First main bearing (crank to block).
+    pub main_a: Joint,
+    /// Second main bearing.
+    pub main_b: Joint,
+    /// Big end (crank pin to rod).
+    pub big_end: Joint,
+    /// Small end (rod to piston pin).
+    pub small_end: Joint,
+    /// Piston-cylinder slide.
+    pub piston: Joint,
+}
+
+/// Names of the joints, in report order.
+pub const JOINT_NAMES: [&str; 5] = ["main_a", "main_b", "big_end", "small_end", "piston"];
+
+impl Joints {
+    /// Joints with their names, in [`JOINT_NAMES`] order.
+    pub fn named(&self) -> [(&'static str, &Joint); 5] {
+        [
+            ("main_a", &self.main_a),
+            ("main_b", &self.main_b),
+            ("big_end", &self.big_end),
+            ("small_end", &self.small_end),
+            ("piston", &self.piston),
+        ]
+    }
+
+    /// Mutable access by name.
+    pub fn get_mut(&mut self, name: &str) -> Option<&mut Joint> {
+        match name {
+            "main_a" => Some(&mut self.main_a),
+            "main_b" => Some(&mut self.main_b),
+            "big_end" => Some(&mut self.big_end),
+            "small_end" => Some(&mut self.small_end),
+            "piston" => Some(&mut self.piston),
+            _ => None,
+        }
+    }
+}
+
+/// One joint: contact geometry and the laws acting on it.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Joint {
+    /// Contact radius, m (journal/pin radius; half the bore for the piston).
+    pub radius_m: f64,
+    /// Contact length, m.
+    pub length_m: f64,
+    /// Share of the crank's main-bearing reaction this bearing carries (mains only).
+    #[serde(default = "half")]
+    pub load_share: f64,
+    /// Friction and damping laws, summed.
+    #[serde(default)]
+    pub laws: Vec<LawRef>,
+}
+
+/// A law attached to a joint.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct LawRef {
+    /// Law name as listed by `tribo laws`.
+    pub law: String,
+    /// Parameters (defaults for anything left out).
+    #[serde(default)]
+    pub params: toml::Table,
+}
+
+/// Oil.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Oil {
+    /// What the oil is, e.g. "SAE 10W-50 motorcycle oil, typical" (shown in reports, so a
+    /// result says which oil produced it). Descriptive only. A rig (or `--set`) that replaces
+    /// `viscosity` without naming the oil drops the inherited name, grade and source.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// SAE viscosity grade, e.g. "10W-50". Descriptive only.
+    #[serde(default)]
+    pub grade: Option<String>,
+    /// Where the viscosity data come from (datasheet, estimate and why). Descriptive only.
+    #[serde(default)]
+    pub source: Option<String>,
+    /// Viscosity model.
+    pub viscosity: ViscosityModel,
+    /// Density, kg/m^3.
+    pub density_kg_m3: f64,
+    /// Oil temperature, C: one value, or one per plateau.
+    pub temperature_c: Temperature,
+}
+
+impl Oil {
+    /// The oil's name and grade for a report line, or a note that it has none.
+    pub fn title(&self) -> String {
+        match (&self.name, &self.grade) {
+            (Some(n), Some(g)) => format!("{n}; grade SAE {g}"),
+            (Some(n), None) => n.clone(),
+            (None, Some(g)) => format!("SAE {g} oil"),
+            (None, None) => "unnamed oil".into(),
+        }
+    }
+
+    /// One line naming the oil, its viscosity model with constants, and the source.
+    pub fn describe(&self) -> String {
+        let mut s = format!("{}; {}", self.title(), self.viscosity.describe());
+        if let Some(src) = &self.source {
+            s.push_str("; source: ");
+            s.push_str(src);
+        }
+        s
+    }
+}
+
+/// One oil temperature for the whole run, or one per plateau.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(untagged)]
+pub enum Temperature {
+    /// Same temperature at every plateau.
+    Constant(f64),
+    /// One temperature per plateau, in order.
+    PerPlateau(Vec<f64>),
+}
+
+/// Crank drive.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Drive {
+    /// The crank follows the reference speed exactly; the motoring torque is the constraint torque.
+    Prescribed,
+    /// A PI speed controller applies a limited torque through an optional belt.
+    Pi {
+        /// Proportional gain, N m per rad/s of crank-speed error.
+        #[serde(default = "kp_default")]
+        kp: f64,
+        /// Integral gain, N m per rad of accumulated crank-angle error.
+        #[serde(default = "ki_default")]
+        ki: f64,
+        /// Motor torque limit, N m (at the motor).
+        #[serde(default = "limit_default")]
+        torque_limit_nm: f64,
+        /// Motor speed / crank speed.
+        #[serde(default = "one")]
+        belt_ratio: f64,
+        /// Motor rotor inertia, kg m^2.
+        #[serde(default)]
+        motor_inertia_kg_m2: f64,
+    },
+}
+
+// Default PI gains: the speed error decays at kp / (2 J) ~ 22 1/s on the CRF 250 R rig
+// (J ~ 0.0046 kg m^2) with damping ratio ~ 0.8, so a 1 s hold settles to ~1e-9 of its initial
+// error, while the proportional reaction to the once-per-revolution speed ripple stays under
+// the torque limit up to 9000 rpm (a saturating P-term would bias the mean speed).
+fn kp_default() -> f64 {
+    0.2
+}
+fn ki_default() -> f64 {
+    8.0
+}
+// [T table 9.2] electric motor torque limit.
+fn limit_default() -> f64 {
+    5.0
+}
+
+/// The test cycle.
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct CycleSpec {
+    /// Ramps and holds; absent means the thesis cycle.
+    pub segments: Option<Vec<Segment>>,
+}
+
+impl CycleSpec {
+    /// The segments to run.
+    pub fn segments(&self) -> Vec<Segment> {
+        self.segments.clone().unwrap_or_else(thesis_cycle)
+    }
+}
+
+/// Plateau measurement.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct Measurement {
+    /// Length of the averaging window at the end of each hold, s (thesis 10.4: 0.1 s); the
+    /// whole crank revolutions that fit in it are used.
+    #[serde(default = "window")]
+    pub window_s: f64,
+    /// Cut-off of the first-order low-pass filter on the motoring torque time series, Hz.
+    #[serde(default = "lowpass")]
+    pub lowpass_hz: f64,
+}
+
+fn window() -> f64 {
+    0.1
+}
+fn lowpass() -> f64 {
+    20.0
+}
+
+impl Default for Measurement {
+    fn default() -> Self {
+        Self {
+            window_s: window(),
+            lowpass_hz: lowpass(),
+        }
+    }
+}
+
+/// Numerical settings; the defaults hold for every speed (no per-speed step table).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct SolverSettings {
+    /// Crank-angle step, degrees.
+    #[serde(default = "step_deg")]
+    pub step_deg: f64,
+    /// Largest time step, s (governs the start of the run when the crank is slow).
+    #[serde(default = "max_step")]
+    pub max_step_s: f64,
+    /// Relative tolerance on joint normal loads in the friction/reaction iteration.
+    #[serde(default = "friction_tol")]
+    pub friction_tol: f64,
+    /// Iteration limit of the friction/reaction iteration.
+    #[serde(default = "friction_iter")]
+    pub friction_max_iter: u32,
+    /// Time integrator of a torque-driven (PI) crank; a prescribed crank is a quadrature at
+    /// `step_deg` whatever this says.
+    #[serde(default)]
+    pub integrator: Integrator,
+    /// Relative error allowed per unit time by the adaptive integrator.
+    #[serde(default = "rel_tol")]
+    pub rel_tol: f64,
+    /// Largest crank-angle step of the adaptive integrator, degrees.
+    #[serde(default = "max_step_deg")]
+    pub max_step_deg: f64,
+}
+
+/// How a torque-driven crank is integrated.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(rename_all = "kebab-case")]
+pub enum Integrator {
+    /// Dormand-Prince 5(4) with error control: the step follows the dynamics within `rel_tol`,
+    /// up to `max_step_deg`. Law sets with a stateful law use `rk4` instead: their state is
+    /// advanced once per step with the step's length, so it must not vary.
+    #[default]
+    Adaptive,
+    /// Classical RK4 at the fixed crank-angle step `step_deg`.
+    Rk4,
+}
+
+// 1 degree: halving it changes no plateau torque of the bundled study by more than 1e-5. 2 degrees
+// would do for smooth laws, but a calibrated Stribeck law with close thresholds switches within a
+// few degrees of stroke, and a fit then exploits the quadrature error (docs/solver.md).
+fn step_deg() -> f64 {
+    1.0
+}
+fn max_step() -> f64 {
+    1e-3
+}
+// 1e-7: on the bundled study (prescribed drive, thesis cycle) the plateau torques differ from
+// those at 1e-10 by at most 6e-7 relative (stribeck-duty; fedem-baseline 5e-8), far below the
+// 1-degree integration error (~8e-6); 1e-8 costs ~12% more law calls for 2e-8.
+fn friction_tol() -> f64 {
+    1e-7
+}
+fn friction_iter() -> u32 {
+    50
+}
+// 1e-6: on the thesis cycle with the fedem-baseline set the PI run's plateau torques are then
+// within 8e-6 of fixed-step RK4 at 0.25 degrees (RK4 at the 1-degree default: 4e-6) with 1/25 of
+// its steps; 1e-5 saves a third of the evaluations but leaves a bias of up to 2e-5.
+fn rel_tol() -> f64 {
+    1e-6
+}
+// 10 degrees: the torque has strong 2nd and 4th crank orders, so longer steps are rarely
+// accepted at 1e-6 anyway (20 degrees changed neither the step count nor the time), and the
+// streamed time series keeps at least 36 points per revolution.
+fn max_step_deg() -> f64 {
+    10.0
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            step_deg: step_deg(),
+            max_step_s: max_step(),
+            friction_tol: friction_tol(),
+            friction_max_iter: friction_iter(),
+            integrator: Integrator::default(),
+            rel_tol: rel_tol(),
+            max_step_deg: max_step_deg(),
+        }
+    }
+}

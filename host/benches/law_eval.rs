@@ -3,6 +3,8 @@
 //! Coulomb + viscous physics on every path, so the difference is the calling cost.
 //!
 //! Needs the release plugins: `cargo build --release && cargo bench -p tribo --bench law_eval`.
+// criterion_group! generates an undocumented entry function.
+#![allow(missing_docs)]
 
 use std::hint::black_box;
 use std::path::PathBuf;

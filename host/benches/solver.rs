@@ -2,6 +2,8 @@
 //! full thesis cycle (both drives), the steady-state comparison, the mass sweep and a fit.
 //!
 //! Needs the release plugins: `cargo build --release && cargo bench -p tribo --bench solver`.
+// criterion_group! generates an undocumented entry function.
+#![allow(missing_docs)]
 
 use std::hint::black_box;
 use std::path::PathBuf;

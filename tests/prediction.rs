@@ -6,23 +6,8 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 use common::*;
-
-/// `tribo ARGS --json` in `cwd`, parsed; panics with stderr if it fails.
-fn json_of(args: &[&str], cwd: &Path) -> serde_json::Value {
-    ensure_plugins_built();
-    let out = Command::new(tribo_exe())
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("TRIBO_PLUGIN_PATH")
-        .output()
-        .expect("tribo runs");
-    let (stdout, stderr) = text(&out);
-    assert!(out.status.success(), "{args:?}: {stderr}");
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stdout}"))
-}
 
 fn f64s(v: &serde_json::Value) -> Vec<f64> {
     v.as_array()
@@ -74,30 +59,7 @@ fn truth_lawset(mu: f64, clearance_m: f64, free: bool, extra: &str) -> String {
 
 /// The truth's steady-state torques at `SPEEDS` and oil temperature `temp_c`.
 fn truth_torques(dir: &Path, lawset: &Path, temp_c: f64) -> Vec<f64> {
-    let grid = dir.join(format!("grid-{temp_c}.csv"));
-    let mut text = String::from("speed_rpm,torque_nm,oil_temp_c\n");
-    for s in SPEEDS {
-        text.push_str(&format!("{s},1.0,{temp_c}\n"));
-    }
-    std::fs::write(&grid, text).expect("write");
-    let j = json_of(
-        &[
-            "compare",
-            "--steady",
-            "--no-cv",
-            "--lawset",
-            lawset.to_str().expect("utf-8"),
-            "--data",
-            grid.to_str().expect("utf-8"),
-            "--out",
-            "o-grid",
-            "--json",
-        ],
-        dir,
-    );
-    j["sets"][0]["run"]["plateaus"]
-        .as_array()
-        .expect("plateaus")
+    steady_plateaus(dir, lawset.to_str().expect("utf-8"), &SPEEDS, temp_c)
         .iter()
         .map(|p| p["motoring_torque_nm"].as_f64().expect("torque"))
         .collect()
@@ -146,7 +108,7 @@ fn fit_json(dir: &Path, lawset_text: &str, runs: &[String], extra: &[&str]) -> s
         args.push(r);
     }
     args.extend_from_slice(extra);
-    json_of(&args, dir)
+    json_in(&args, dir)
 }
 
 #[test]
@@ -333,7 +295,7 @@ fn band_of_a_one_parameter_linear_model_matches_closed_form_regression() {
             "name = \"one\"\n[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\nparams = { mu = 0.1 }\n",
         )
         .expect("write");
-        let hi = json_of(
+        let hi = json_in(
             &[
                 "compare", "--steady", "--no-cv", "--lawset", "one.toml", "--data", &runs[0],
                 "--out", "o1", "--json",
@@ -345,7 +307,7 @@ fn band_of_a_one_parameter_linear_model_matches_closed_form_regression() {
             "name = \"one\"\n[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\nparams = { mu = 0.05 }\n",
         )
         .expect("write");
-        let lo = json_of(
+        let lo = json_in(
             &[
                 "compare", "--steady", "--no-cv", "--lawset", "one.toml", "--data", &runs[0],
                 "--out", "o2", "--json",
@@ -396,7 +358,7 @@ fn compare_scores_validation_data_and_ranks_by_the_cross_validated_error() {
         truth_lawset(MU, CLEARANCE_M, true, "").replace("synthetic", "truth, free"),
     )
     .expect("write");
-    let j = json_of(
+    let j = json_in(
         &[
             "compare",
             "--steady",
@@ -453,33 +415,10 @@ fn compare_scores_validation_data_and_ranks_by_the_cross_validated_error() {
     assert!(rows.iter().any(|x| &x[3] == "truth, free"));
 }
 
-/// Piston torque and boundary time share of every joint, per speed, for `lawset` with the oil at
-/// `temp_c`.
+/// Motoring torque and boundary time share of every joint, per speed, for `lawset` with the
+/// oil at `temp_c`.
 fn plateaus_at(dir: &Path, lawset: &str, temp_c: f64) -> Vec<(f64, Vec<f64>)> {
-    let grid = dir.join(format!("grid-{lawset}-{temp_c}.csv"));
-    let mut text = String::from("speed_rpm,torque_nm,oil_temp_c\n");
-    for s in SPEEDS {
-        text.push_str(&format!("{s},1.0,{temp_c}\n"));
-    }
-    std::fs::write(&grid, text).expect("write");
-    let j = json_of(
-        &[
-            "compare",
-            "--steady",
-            "--no-cv",
-            "--lawset",
-            lawset,
-            "--data",
-            grid.to_str().expect("utf-8"),
-            "--out",
-            "o-t",
-            "--json",
-        ],
-        dir,
-    );
-    j["sets"][0]["run"]["plateaus"]
-        .as_array()
-        .expect("plateaus")
+    steady_plateaus(dir, lawset, &SPEEDS, temp_c)
         .iter()
         .map(|p| {
             let shares = p["joints"]

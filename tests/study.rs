@@ -9,19 +9,6 @@ use std::process::Command;
 
 use common::*;
 
-fn json_of(args: &[&str], cwd: &Path) -> serde_json::Value {
-    ensure_plugins_built();
-    let out = Command::new(tribo_exe())
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("TRIBO_PLUGIN_PATH")
-        .output()
-        .expect("tribo runs");
-    let (stdout, stderr) = text(&out);
-    assert!(out.status.success(), "{args:?}: {stderr}");
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stdout}"))
-}
-
 const TABLE_10_4: [f64; 7] = [1.01, 1.57, 1.58, 1.35, 1.27, 1.31, 1.50];
 const TABLE_10_5: [f64; 7] = [1.01, 1.57, 1.58, 1.35, 1.27, 1.31, 1.50];
 
@@ -118,7 +105,7 @@ fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
             "--json",
         ];
         args.extend_from_slice(extra);
-        json_of(&args, dir.path())
+        json_in(&args, dir.path())
     };
     let json = compare(&["--out", "o"]);
     let model: Vec<f64> = json["sets"][0]["run"]["plateaus"]
@@ -166,7 +153,7 @@ fn calibrated_regime_switching_law_stays_physical_and_compare_agrees() {
     let dir = tempfile::tempdir().expect("temp dir");
     let start = workspace().join("tests/fixtures/lawsets/stribeck-duty-start.toml");
     let fitted = dir.path().join("fitted.toml");
-    let fit = json_of(
+    let fit = json_in(
         &[
             "fit",
             "--lawset",
@@ -204,7 +191,7 @@ fn calibrated_regime_switching_law_stays_physical_and_compare_agrees() {
     let rmse = fit["rmse_nm"].as_f64().expect("rmse");
     assert!(rmse.is_finite() && rmse > 0.0);
     // The calibrated law set fed back to compare (full transient cycle) gives the same RMSE.
-    let cmp = json_of(
+    let cmp = json_in(
         &[
             "compare",
             "--lawset",
@@ -221,7 +208,7 @@ fn calibrated_regime_switching_law_stays_physical_and_compare_agrees() {
         "compare {rmse_cmp} vs fit {rmse}"
     );
     // And the bundled law set is this calibration: the same error.
-    let cmp = json_of(
+    let cmp = json_in(
         &[
             "compare",
             "--lawset",
@@ -242,30 +229,8 @@ fn calibrated_regime_switching_law_stays_physical_and_compare_agrees() {
 /// Steady compare of `lawset` with the seven speeds at one oil temperature: per speed, the
 /// motoring torque, the piston's friction torque and the viscosity.
 fn steady_at(lawset: &str, temp_c: f64, dir: &Path) -> Vec<(f64, f64, f64)> {
-    let data = dir.join(format!("sweep-{temp_c}.csv"));
-    let mut text = String::from("speed_rpm,torque_nm,oil_temp_c\n");
-    for rpm in (3..=9).map(|k| 1000 * k) {
-        text.push_str(&format!("{rpm},1.0,{temp_c}\n"));
-    }
-    std::fs::write(&data, text).expect("write data");
-    let out = format!("out-{lawset}-{temp_c}");
-    let cmp = json_of(
-        &[
-            "compare",
-            "--steady",
-            "--data",
-            data.to_str().expect("utf-8"),
-            "--lawset",
-            lawset,
-            "--out",
-            &out,
-            "--json",
-        ],
-        dir,
-    );
-    cmp["sets"][0]["run"]["plateaus"]
-        .as_array()
-        .expect("plateaus")
+    let speeds: Vec<f64> = (3..=9).map(|k| 1000.0 * k as f64).collect();
+    steady_plateaus(dir, lawset, &speeds, temp_c)
         .iter()
         .map(|p| {
             let piston = p["joints"]
@@ -325,7 +290,7 @@ fn rod_mass_response_of_coulomb_laws_matches_an_independent_computation() {
     std::fs::write(&lawset, text).expect("write");
     let (m, l) = (0.1748_f64, 0.105_f64);
     let inertia = format!("bodies.rod.inertia_kg_m2={}", 2.0 / 9.0 * m * l * l);
-    let json = json_of(
+    let json = json_in(
         &[
             "mass-response",
             "--steady",
@@ -369,7 +334,7 @@ fn rod_mass_response_of_coulomb_laws_matches_an_independent_computation() {
 #[test]
 fn mass_response_is_nonzero_for_load_dependent_laws_and_zero_for_the_damper() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let json = json_of(
+    let json = json_in(
         &[
             "mass-response",
             "--steady",
@@ -407,7 +372,7 @@ fn mass_response_is_nonzero_for_load_dependent_laws_and_zero_for_the_damper() {
         }
     }
     // The sweep writes its plot.
-    let _ = json_of(
+    let _ = json_in(
         &[
             "mass-response",
             "--steady",
@@ -436,11 +401,11 @@ fn steady_state_agrees_with_the_full_cycle_within_half_a_percent() {
         "--lawset",
         "physical-bearings",
     ];
-    let transient = json_of(
+    let transient = json_in(
         &[&["compare", "--out", "t", "--json"][..], &sets].concat(),
         dir.path(),
     );
-    let steady = json_of(
+    let steady = json_in(
         &[&["compare", "--steady", "--out", "s", "--json"][..], &sets].concat(),
         dir.path(),
     );

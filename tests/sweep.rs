@@ -20,13 +20,6 @@ fn tribo_in(args: &[&str], cwd: &Path) -> Output {
         .expect("tribo runs")
 }
 
-fn json_of(args: &[&str], cwd: &Path) -> serde_json::Value {
-    let out = tribo_in(args, cwd);
-    let (stdout, stderr) = text(&out);
-    assert!(out.status.success(), "{args:?}: {stderr}");
-    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stdout}"))
-}
-
 fn fixture(name: &str) -> String {
     workspace()
         .join("tests/fixtures/lawsets")
@@ -76,7 +69,7 @@ fn points(set: &serde_json::Value) -> Vec<(f64, f64, f64, f64)> {
 fn viscous_law_torque_scales_with_the_astm_d341_viscosity() {
     let dir = tempfile::tempdir().expect("temp dir");
     let temps = [40.0, 55.0, 80.0, 110.0];
-    let json = json_of(
+    let json = json_in(
         &[
             "sweep",
             "--lawset",
@@ -148,7 +141,7 @@ fn a_user_oil_given_by_set_replaces_the_bundled_one_and_its_name() {
     let (k, th1, th2) = (0.1153_f64, 1105.2_f64, 120.06_f64);
     let vogel =
         format!("oil.viscosity={{model=\"vogel\", k_cst={k}, theta1_c={th1}, theta2_c={th2}}}");
-    let json = json_of(
+    let json = json_in(
         &[
             "sweep",
             "--lawset",
@@ -174,7 +167,7 @@ fn a_user_oil_given_by_set_replaces_the_bundled_one_and_its_name() {
     let got = pts[0].2 / pts[1].2;
     assert!((got - want).abs() <= 1e-9 * want, "{got} vs Vogel {want}");
     // Naming it in the same breath keeps the name.
-    let json = json_of(
+    let json = json_in(
         &[
             "sweep",
             "--lawset",
@@ -199,7 +192,7 @@ fn a_user_oil_given_by_set_replaces_the_bundled_one_and_its_name() {
 #[test]
 fn temperature_blind_law_set_gives_the_same_torque_at_every_temperature() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let json = json_of(
+    let json = json_in(
         &[
             "sweep",
             "--lawset",
@@ -390,7 +383,7 @@ fn fedem_thesis_change_is_shown_only_beside_the_thesis_law_set() {
         !user.contains("FEDEM"),
         "a user's law set shows FEDEM:\n{user}"
     );
-    let json = json_of(&[&args[..], &["--json"]].concat(), dir.path());
+    let json = json_in(&[&args[..], &["--json"]].concat(), dir.path());
     let fedem_values = |set: &serde_json::Value| -> Vec<f64> {
         set["changes"]
             .as_array()
@@ -413,7 +406,7 @@ fn fedem_thesis_change_is_shown_only_beside_the_thesis_law_set() {
         .replace("mu = 0.08", "mu = 0.06");
     let copy_path = dir.path().join("fedem-baseline.toml");
     std::fs::write(&copy_path, copy).expect("write");
-    let json = json_of(
+    let json = json_in(
         &[
             "mass-response",
             "--steady",
@@ -437,7 +430,7 @@ fn an_oil_file_names_and_replaces_the_oil_and_its_mistakes_are_located() {
         "[oil]\nname = \"SAE 5W-30 car oil, typical\"\ngrade = \"5W-30\"\nsource = \"estimate: test\"\nviscosity = { model = \"two-point\", kv40_cst = 65.0, kv100_cst = 11.0 }\n",
     )
     .expect("write");
-    let json = json_of(
+    let json = json_in(
         &[
             "sweep",
             "--oil",

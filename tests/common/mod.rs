@@ -127,3 +127,58 @@ pub fn compile_c(sources: &[PathBuf], output: &Path, shared: bool) {
 pub fn c_fixture(name: &str) -> PathBuf {
     workspace().join("tests/fixtures/c").join(name)
 }
+
+/// `tribo ARGS` run in `cwd` (without TRIBO_PLUGIN_PATH), its standard output parsed as JSON;
+/// panics with the standard error if the command fails.
+pub fn json_in(args: &[&str], cwd: &Path) -> serde_json::Value {
+    ensure_plugins_built();
+    let out = Command::new(tribo_exe())
+        .args(args)
+        .current_dir(cwd)
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .output()
+        .expect("tribo runs");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stdout}"))
+}
+
+/// The plateaus (JSON) of `lawset` in a steady-state comparison at `speeds_rpm` with the oil at
+/// `temp_c` (scores skipped: only the runs matter), run in `dir`.
+pub fn steady_plateaus(
+    dir: &Path,
+    lawset: &str,
+    speeds_rpm: &[f64],
+    temp_c: f64,
+) -> Vec<serde_json::Value> {
+    let tag: String = lawset
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let grid = dir.join(format!("grid-{tag}-{temp_c}.csv"));
+    let mut text = String::from("speed_rpm,torque_nm,oil_temp_c\n");
+    for s in speeds_rpm {
+        text.push_str(&format!("{s},1.0,{temp_c}\n"));
+    }
+    std::fs::write(&grid, text).expect("write the speed grid");
+    let out = format!("out-{tag}-{temp_c}");
+    let j = json_in(
+        &[
+            "compare",
+            "--steady",
+            "--no-cv",
+            "--lawset",
+            lawset,
+            "--data",
+            grid.to_str().expect("utf-8"),
+            "--out",
+            &out,
+            "--json",
+        ],
+        dir,
+    );
+    j["sets"][0]["run"]["plateaus"]
+        .as_array()
+        .expect("plateaus")
+        .clone()
+}

@@ -236,6 +236,42 @@ pub struct SetResult {
     pub validation: Vec<Validation>,
 }
 
+/// How a study runs the rig at each speed. Serialized (and displayed) as `steady` or
+/// `transient`, the words the JSON has always used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RunMode {
+    /// The periodic steady state at each plateau speed, computed directly.
+    Steady,
+    /// The whole test cycle, ramps included, measured over each plateau's window.
+    Transient,
+}
+
+impl RunMode {
+    /// [`RunMode::Steady`] if `steady`, else [`RunMode::Transient`] (the `--steady` flag).
+    pub fn from_steady(steady: bool) -> Self {
+        if steady {
+            Self::Steady
+        } else {
+            Self::Transient
+        }
+    }
+
+    /// The word used in JSON, tables and plot titles.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Steady => "steady",
+            Self::Transient => "transient",
+        }
+    }
+}
+
+impl std::fmt::Display for RunMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// A side-by-side comparison.
 #[derive(Debug, Clone, Serialize)]
 pub struct Comparison {
@@ -245,8 +281,8 @@ pub struct Comparison {
     pub data_file: String,
     /// The measurements.
     pub data: Vec<DataRow>,
-    /// `steady` or `transient`.
-    pub mode: String,
+    /// Steady state at each speed, or the full test cycle (`"steady"` or `"transient"` in JSON).
+    pub mode: RunMode,
     /// What the ranking rests on, in words.
     pub ranked_by: String,
     /// Each law set, in the order given.
@@ -410,11 +446,7 @@ pub fn compare(
         rig: rig.file.name.clone(),
         data_file: data.file.display().to_string(),
         data: data.rows.clone(),
-        mode: if options.steady {
-            "steady".into()
-        } else {
-            "transient".into()
-        },
+        mode: RunMode::from_steady(options.steady),
         ranked_by: if options.no_cv {
             "in-sample RMSE (cross-validation skipped with --no-cv): rewards sets with many free parameters".into()
         } else {
@@ -729,8 +761,8 @@ pub struct Sweep {
     pub rig: String,
     /// The oil (name, grade, model, source).
     pub oil: OilInfo,
-    /// Always `steady`: each point is the periodic steady state at that speed.
-    pub mode: String,
+    /// Always [`RunMode::Steady`]: each point is the periodic steady state at that speed.
+    pub mode: RunMode,
     /// Oil temperatures, C, in the order given.
     pub temps_c: Vec<f64>,
     /// Dynamic viscosity at each temperature, Pa s.
@@ -900,9 +932,28 @@ pub fn sweep(
         rig: rig.file.name.clone(),
         viscosities_pa_s: temps_c.iter().map(|t| oil.dynamic_pa_s(*t)).collect(),
         oil,
-        mode: "steady".into(),
+        mode: RunMode::Steady,
         temps_c: temps_c.to_vec(),
         speeds_rpm: speeds_rpm.to_vec(),
         sets,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RunMode;
+
+    #[test]
+    fn run_mode_serializes_to_the_words_the_json_always_had() {
+        for (mode, word) in [
+            (RunMode::Steady, "steady"),
+            (RunMode::Transient, "transient"),
+        ] {
+            let json = serde_json::to_string(&mode).expect("serializes");
+            assert_eq!(json, format!("\"{word}\""));
+            assert_eq!(mode.to_string(), word);
+        }
+        assert_eq!(RunMode::from_steady(true), RunMode::Steady);
+        assert_eq!(RunMode::from_steady(false), RunMode::Transient);
+    }
 }

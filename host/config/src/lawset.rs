@@ -93,7 +93,27 @@ fn error(path: &Path, text: &str, field: &str, message: String) -> RigError {
 }
 
 impl LawSet {
-    /// Load a law set from a file, or a bundled one by name (`fedem-baseline`).
+    /// Load a law set from a file, or a bundled one by name (`fedem-baseline`), and check it:
+    /// joints that exist, free parameters with valid bounds. Errors carry file, line and column.
+    ///
+    /// ```
+    /// use std::path::Path;
+    /// use tribo_config::lawset::LawSet;
+    /// use tribo_config::rig::load_rig;
+    ///
+    /// let set = LawSet::load("stribeck-duty")?;
+    /// assert_eq!(set.name(), "stribeck-duty");
+    ///
+    /// // Applied to a rig, the set replaces the laws the rig lists on every joint.
+    /// let mut rig = load_rig(Path::new("crf250r-motored"), &[])?;
+    /// set.apply(&mut rig);
+    /// let piston: Vec<&str> = rig.file.joints.piston.laws.iter().map(|l| l.law.as_str()).collect();
+    /// assert_eq!(piston, ["stribeck-duty"]);
+    ///
+    /// // Neither a file nor a bundled name.
+    /// assert!(LawSet::load("no-such-set").is_err());
+    /// # Ok::<(), tribo_config::rig::RigError>(())
+    /// ```
     pub fn load(arg: &str) -> Result<Self, RigError> {
         let path = PathBuf::from(arg);
         let (path, text) = match std::fs::read_to_string(&path) {

@@ -311,6 +311,29 @@ pub fn errors(model: &[f64], measured: &[f64]) -> (Vec<f64>, f64, f64) {
 /// Run every law set on `rig` at the data's speeds and temperatures, in parallel, and score
 /// each out of sample. The order of the results is the order of `lawsets`, whatever the
 /// scheduling; `rank` orders them by cross-validated RMSE.
+///
+/// The laws come from plugins, so this example is compiled but not run here; the
+/// `compare_bundled` example of this crate runs it (`cargo run --release -p tribo-studies
+/// --example compare_bundled` after `cargo build --release`).
+///
+/// ```no_run
+/// use std::path::{Path, PathBuf};
+/// use tribo_config::{bundled, lawset::LawSet, rig::load_rig};
+/// use tribo_plugin_api::loader::discover;
+/// use tribo_studies::study::{compare, CompareOptions, DataRun};
+///
+/// let rig = load_rig(Path::new(bundled::DEFAULT_RIG), &[])?;
+/// let sets = [LawSet::load("fedem-baseline")?, LawSet::load("stribeck-duty")?];
+/// let data = DataRun::read(bundled::DEFAULT_DATA)?;
+/// // Law plugins from a directory, TRIBO_PLUGIN_PATH and the executable's directory.
+/// let registry = discover(&[PathBuf::from("target/release")])?;
+/// let options = CompareOptions { steady: true, ..CompareOptions::default() };
+/// let cmp = compare(&rig, &sets, &data, &registry, &options)?;
+/// for set in &cmp.sets {
+///     println!("{:<16} rank {} RMSE {:.4} N m", set.lawset, set.rank, set.rmse_nm);
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn compare(
     rig: &Rig,
     lawsets: &[LawSet],

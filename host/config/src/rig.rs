@@ -356,6 +356,46 @@ fn resolve_extends(from: &Path, name: &str) -> Option<Source> {
 /// Load a rig from `text` (named `path` in messages), resolve `extends`, apply `--set`
 /// overrides, and validate.
 pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, RigError> {
+    let (sources, tables) = read_extends_chain(path, text)?;
+    let single = tables.len() == 1;
+    let mut table = merge_chain(tables);
+    let overridden = apply_sets(&mut table, sets)?;
+    let file = if single && sets.is_empty() {
+        // The file exactly as written: toml's spans give precise locations.
+        serde_path_to_error::deserialize::<_, RigFile>(toml::Deserializer::new(text)).map_err(
+            |e| {
+                let field = e.path().to_string();
+                serde_error(path, text, e.inner(), &field)
+            },
+        )?
+    } else {
+        // Merged tables have no spans: the path serde was at names the field, which is then
+        // found in the file that sets it (or in --set); an unknown key is found by name.
+        serde_path_to_error::deserialize::<_, RigFile>(toml::Value::Table(table)).map_err(|e| {
+            let field = e.path().to_string();
+            let message = e.inner().message();
+            if message.starts_with("unknown field") || field.is_empty() || field == "." {
+                locate_key(&sources, message, &overridden)
+            } else {
+                field_error(&sources, &overridden, &field, message.to_string())
+            }
+        })?
+    };
+    let rig = Rig {
+        file,
+        sources,
+        overridden,
+    };
+    validate(&rig)?;
+    Ok(rig)
+}
+
+/// The rig's text and every file it `extends` (child first, at most 8 levels), each parsed
+/// into a table with its `extends` key removed.
+fn read_extends_chain(
+    path: &Path,
+    text: &str,
+) -> Result<(Vec<Source>, Vec<toml::Table>), RigError> {
     let mut sources = vec![Source {
         path: path.to_path_buf(),
         text: text.to_string(),
@@ -396,8 +436,13 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         tables.push(parse(&base)?);
         sources.push(base);
     }
-    let mut overridden = Vec::new();
-    let single = tables.len() == 1;
+    Ok((sources, tables))
+}
+
+/// The tables of an `extends` chain (child first) merged, the base first and each child over
+/// it. A child that replaces the oil's viscosity without naming the oil drops the base's name,
+/// grade and source.
+fn merge_chain(mut tables: Vec<toml::Table>) -> toml::Table {
     let mut table = tables.pop().unwrap_or_default();
     while let Some(child) = tables.pop() {
         let oil = child.get("oil").and_then(toml::Value::as_table);
@@ -407,6 +452,12 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         }
         merge(&mut table, child);
     }
+    table
+}
+
+/// Apply `--set KEY=VALUE` overrides in order and return the dotted paths they changed. Sets
+/// that replace the viscosity without naming the oil drop its name, grade and source first.
+fn apply_sets(table: &mut toml::Table, sets: &[String]) -> Result<Vec<String>, RigError> {
     let set_keys: Vec<&str> = sets
         .iter()
         .map(|s| s.split_once('=').map_or(s.as_str(), |(k, _)| k).trim())
@@ -418,39 +469,9 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         .iter()
         .any(|k| OIL_DESCRIPTION.iter().any(|d| *k == format!("oil.{d}")));
     if changes_viscosity && !names_oil {
-        forget_oil_description(&mut table);
+        forget_oil_description(table);
     }
-    for s in sets {
-        overridden.push(apply_set(&mut table, s)?);
-    }
-    let file = if single && sets.is_empty() {
-        // The file exactly as written: toml's spans give precise locations.
-        serde_path_to_error::deserialize::<_, RigFile>(toml::Deserializer::new(text)).map_err(
-            |e| {
-                let field = e.path().to_string();
-                serde_error(path, text, e.inner(), &field)
-            },
-        )?
-    } else {
-        // Merged tables have no spans: the path serde was at names the field, which is then
-        // found in the file that sets it (or in --set); an unknown key is found by name.
-        serde_path_to_error::deserialize::<_, RigFile>(toml::Value::Table(table)).map_err(|e| {
-            let field = e.path().to_string();
-            let message = e.inner().message();
-            if message.starts_with("unknown field") || field.is_empty() || field == "." {
-                locate_key(&sources, message, &overridden)
-            } else {
-                field_error(&sources, &overridden, &field, message.to_string())
-            }
-        })?
-    };
-    let rig = Rig {
-        file,
-        sources,
-        overridden,
-    };
-    validate(&rig)?;
-    Ok(rig)
+    sets.iter().map(|s| apply_set(table, s)).collect()
 }
 
 /// Load a rig from disk, or a bundled rig by name (`crf250r-motored` or `crf250r-motored.toml`)

@@ -463,3 +463,54 @@ fn results_are_byte_identical_serial_or_parallel_and_run_to_run() {
         }
     }
 }
+
+/// The `compare_bundled` example of `tribo-studies` runs the bundled comparison through the
+/// libraries alone (no CLI crate) and reports what `tribo compare --steady` reports.
+#[test]
+fn library_example_runs_the_bundled_comparison_and_agrees_with_the_cli() {
+    ensure_plugins_built();
+    let exe = build_example("tribo-studies", "compare_bundled");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = Command::new(&exe)
+        .arg(profile_dir())
+        .current_dir(dir.path())
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .output()
+        .expect("example runs");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stdout.contains("mode steady"), "{stdout}");
+
+    let out_dir = dir.path().join("cli");
+    let cli = json_of(
+        &[
+            "compare",
+            "--steady",
+            "--json",
+            "--quiet",
+            "--out",
+            &out_dir.to_string_lossy(),
+        ],
+        dir.path(),
+    );
+    let sets = cli["sets"].as_array().expect("sets");
+    assert_eq!(sets.len(), 3);
+    for s in sets {
+        let name = s["lawset"].as_str().expect("name");
+        let line = stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap_or_else(|| panic!("no line for {name} in:\n{stdout}"));
+        let fields: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(fields[1], s["rank"].to_string(), "{name}: rank");
+        let rmse = s["rmse_nm"].as_f64().expect("rmse");
+        assert_eq!(fields[2], format!("{rmse:.4}"), "{name}: RMSE");
+    }
+    // One row per measured speed: speed, measured torque, one model torque per law set.
+    let rows = stdout
+        .lines()
+        .filter(|l| l.split_whitespace().count() == 5)
+        .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
+        .count();
+    assert_eq!(rows, cli["data"].as_array().expect("data").len());
+}

@@ -1,23 +1,23 @@
 //! # tribo (host)
 //!
-//! The Tribo host: the command-line tool and the pieces behind it. Laws are never linked in;
-//! they are found and loaded through `tribo_plugin_api::loader`.
+//! The `tribo` command-line tool's library: everything between the studies and a terminal or a
+//! results directory. It adds no physics; programs that want to embed the solver or run a
+//! study use the layers below directly (`tribo_core`, `tribo_config`, `tribo_studies`).
 //!
-//! - [`laws`]: listing of discovered laws (`tribo laws`);
-//! - [`scaffold`]: generation of a new law crate (`tribo new-law`);
-//! - [`rig`]: rig files (TOML, `extends`), `--set` overrides and validation;
-//! - [`lawset`]: law sets (laws on joints, free parameters) usable with any rig;
-//! - [`bundled`]: the rigs, law sets and data compiled into the binary;
-//! - [`cycle`], [`oil`]: the test cycle's reference speed, oil viscosity;
-//! - [`erk`]: embedded Runge-Kutta pairs and step control for the torque-driven crank;
-//! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions);
-//! - [`progress`]: progress display for long runs (stderr, terminals only);
-//! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
-//! - [`fit`]: least-squares calibration of a law set's free parameters (one or several runs);
-//! - [`score`], [`uncertainty`]: out-of-sample scores (leave-one-out, AICc, BIC, validation
-//!   data) and the linearised parameter uncertainty with the 95% band of the torque;
-//! - [`study`]: law-set comparisons against measured data, mass response, temperature sweep;
-//! - [`sim`]: the run through the test cycle with laws on the joints, and plateau measurement.
+//! Its own modules:
+//!
+//! - [`report`]: tables for people, CSV tables (through the `csv` writer);
+//! - [`plots`]: SVG plots of comparisons, mass responses and sweeps, with the files beside them;
+//! - [`output`]: result files written atomically (temporary file, then rename);
+//! - [`progress`]: a progress display for long runs (stderr, terminals only);
+//! - [`laws`]: the listing of discovered laws (`tribo laws`);
+//! - [`scaffold`]: generation of a new law crate (`tribo new-law`).
+//!
+//! The layers are re-exported under the names the binary, tests and benches have always used:
+//! [`rig`], [`lawset`], [`bundled`] from `tribo_config`; [`model`], [`cycle`], [`oil`],
+//! [`mechanics`], [`erk`], [`observe`], [`sim`] from `tribo_core`; [`study`], [`fit`],
+//! [`score`], [`uncertainty`] from `tribo_studies`. Laws are never linked in; they are found and
+//! loaded through `tribo_plugin_api::loader`.
 
 pub mod laws;
 pub mod output;

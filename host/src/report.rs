@@ -72,47 +72,76 @@ pub fn to_text(r: &RunResult) -> String {
     out
 }
 
-/// `plateaus.csv` and `joints.csv` in `dir`.
+/// `plateaus.csv` (one row per plateau) and `joints.csv` (one row per plateau and joint) in
+/// `dir`, through the `csv` writer so a law name with a comma or quote stays one field. Numbers
+/// are in Rust's shortest round-trip form, as in the JSON.
 pub fn write_csv(r: &RunResult, dir: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
-    let mut p = String::from("set_speed_rpm,mean_speed_rpm,motoring_torque_nm,oil_temp_c,viscosity_pa_s,window_start_s,window_end_s,revolutions\n");
-    for x in &r.plateaus {
-        let _ = writeln!(
-            p,
-            "{},{},{},{},{},{},{},{}",
-            x.set_speed_rpm,
-            x.mean_speed_rpm,
-            x.motoring_torque_nm,
-            x.oil_temp_c,
-            x.viscosity_pa_s,
-            x.window_s[0],
-            x.window_s[1],
-            x.revolutions
-        );
-    }
+    let plateaus = r
+        .plateaus
+        .iter()
+        .map(|x| {
+            vec![
+                x.set_speed_rpm.to_string(),
+                x.mean_speed_rpm.to_string(),
+                x.motoring_torque_nm.to_string(),
+                x.oil_temp_c.to_string(),
+                x.viscosity_pa_s.to_string(),
+                x.window_s[0].to_string(),
+                x.window_s[1].to_string(),
+                x.revolutions.to_string(),
+            ]
+        })
+        .collect();
+    let p = csv_text(&PLATEAUS_CSV_HEADER, plateaus)?;
     crate::output::write_atomic(&dir.join("plateaus.csv"), p.as_bytes())?;
-    let mut j = String::from("set_speed_rpm,joint,law,friction_torque_nm,power_w,mean_normal_load_n,share_none,share_boundary,share_mixed,share_hydrodynamic\n");
+    let mut joints = Vec::new();
     for x in &r.plateaus {
         for l in &x.joints {
             let s = l.regime_share;
-            let _ = writeln!(
-                j,
-                "{},{},{},{},{},{},{},{},{},{}",
-                x.set_speed_rpm,
-                l.joint,
-                l.law,
-                l.friction_torque_nm,
-                l.power_w,
-                l.mean_normal_load_n,
-                s.none,
-                s.boundary,
-                s.mixed,
-                s.hydrodynamic
-            );
+            joints.push(vec![
+                x.set_speed_rpm.to_string(),
+                l.joint.clone(),
+                l.law.clone(),
+                l.friction_torque_nm.to_string(),
+                l.power_w.to_string(),
+                l.mean_normal_load_n.to_string(),
+                s.none.to_string(),
+                s.boundary.to_string(),
+                s.mixed.to_string(),
+                s.hydrodynamic.to_string(),
+            ]);
         }
     }
+    let j = csv_text(&JOINTS_CSV_HEADER, joints)?;
     crate::output::write_atomic(&dir.join("joints.csv"), j.as_bytes())
 }
+
+/// The columns of `plateaus.csv`.
+const PLATEAUS_CSV_HEADER: [&str; 8] = [
+    "set_speed_rpm",
+    "mean_speed_rpm",
+    "motoring_torque_nm",
+    "oil_temp_c",
+    "viscosity_pa_s",
+    "window_start_s",
+    "window_end_s",
+    "revolutions",
+];
+
+/// The columns of `joints.csv`.
+const JOINTS_CSV_HEADER: [&str; 10] = [
+    "set_speed_rpm",
+    "joint",
+    "law",
+    "friction_torque_nm",
+    "power_w",
+    "mean_normal_load_n",
+    "share_none",
+    "share_boundary",
+    "share_mixed",
+    "share_hydrodynamic",
+];
 
 /// `text` broken into lines of at most `width` characters at spaces, continuation lines
 /// starting with `indent`.
@@ -653,4 +682,86 @@ pub fn sweep_csv(s: &crate::study::Sweep) -> Result<String, csv::Error> {
         .into_inner()
         .map_err(|e| csv::Error::from(e.into_error()))?;
     Ok(String::from_utf8_lossy(&bytes).into_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::{EnergyBalance, LawResult, PlateauResult, RegimeShare};
+
+    fn result_with_law(law: &str) -> RunResult {
+        let joint = LawResult {
+            joint: "piston".into(),
+            law: law.into(),
+            friction_torque_nm: 0.25,
+            power_w: 78.5,
+            mean_normal_load_n: 120.0,
+            regime_share: RegimeShare {
+                none: 0.0,
+                boundary: 0.5,
+                mixed: 0.25,
+                hydrodynamic: 0.25,
+            },
+        };
+        RunResult {
+            rig: "test rig".into(),
+            drive: "prescribed".into(),
+            plateaus: vec![PlateauResult {
+                set_speed_rpm: 3000.0,
+                mean_speed_rpm: 2999.5,
+                motoring_torque_nm: 0.1 + 0.2,
+                oil_temp_c: 80.0,
+                viscosity_pa_s: 0.0248,
+                window_s: [2.4, 2.5],
+                revolutions: 5,
+                joints: vec![joint],
+            }],
+            energy_residual_j: 0.0,
+            energy: EnergyBalance {
+                motor_work_j: 1.0,
+                mechanical_energy_change_j: 0.0,
+                dissipated_j: 1.0,
+                residual_j: 0.0,
+                relative_residual: 0.0,
+            },
+            steps: 1,
+            max_friction_iterations: 1,
+            warnings: Vec::new(),
+            law_time: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn run_csv_files_keep_the_plain_format_for_ordinary_names() {
+        let dir = tempfile::tempdir().expect("temporary directory");
+        write_csv(&result_with_law("stribeck-duty"), dir.path()).expect("CSV written");
+        let plateaus = std::fs::read_to_string(dir.path().join("plateaus.csv")).expect("read");
+        assert_eq!(
+            plateaus,
+            "set_speed_rpm,mean_speed_rpm,motoring_torque_nm,oil_temp_c,viscosity_pa_s,window_start_s,window_end_s,revolutions\n\
+             3000,2999.5,0.30000000000000004,80,0.0248,2.4,2.5,5\n"
+        );
+        let joints = std::fs::read_to_string(dir.path().join("joints.csv")).expect("read");
+        assert_eq!(
+            joints,
+            "set_speed_rpm,joint,law,friction_torque_nm,power_w,mean_normal_load_n,share_none,share_boundary,share_mixed,share_hydrodynamic\n\
+             3000,piston,stribeck-duty,0.25,78.5,120,0,0.5,0.25,0.25\n"
+        );
+    }
+
+    #[test]
+    fn a_law_name_with_a_comma_or_quote_stays_one_csv_field() {
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let name = "odd,law \"v2\"";
+        write_csv(&result_with_law(name), dir.path()).expect("CSV written");
+        let mut reader = csv::Reader::from_path(dir.path().join("joints.csv")).expect("open");
+        let rows: Vec<csv::StringRecord> = reader
+            .records()
+            .collect::<Result<_, _>>()
+            .expect("valid CSV");
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].len(), JOINTS_CSV_HEADER.len());
+        assert_eq!(&rows[0][2], name);
+        assert_eq!(&rows[0][3], "0.25");
+    }
 }

@@ -45,19 +45,10 @@ pub fn profile_dir() -> PathBuf {
 pub fn ensure_plugins_built() {
     static BUILT: OnceLock<()> = OnceLock::new();
     BUILT.get_or_init(|| {
-        let profile = profile_dir();
         let mut cmd = Command::new(env!("CARGO"));
-        cmd.arg("build").current_dir(workspace());
-        match profile.file_name().and_then(|n| n.to_str()) {
-            Some("debug") => {}
-            Some("release") => {
-                cmd.arg("--release");
-            }
-            Some(other) => {
-                cmd.args(["--profile", other]);
-            }
-            None => {}
-        }
+        cmd.arg("build")
+            .current_dir(workspace())
+            .args(profile_args());
         // Every workspace member but the host: all law plugins and the fixtures.
         cmd.args(["--workspace", "--exclude", "tribo"]);
         let out = cmd.output().expect("cargo runs");
@@ -67,6 +58,36 @@ pub fn ensure_plugins_built() {
             String::from_utf8_lossy(&out.stderr)
         );
     });
+}
+
+/// The `cargo build` arguments selecting the profile the tests were built with.
+fn profile_args() -> Vec<String> {
+    match profile_dir().file_name().and_then(|n| n.to_str()) {
+        Some("debug") | None => Vec::new(),
+        Some("release") => vec!["--release".into()],
+        Some(other) => vec!["--profile".into(), other.into()],
+    }
+}
+
+/// Build example `name` of workspace package `package` in the tests' profile and return the
+/// path of its executable.
+pub fn build_example(package: &str, name: &str) -> PathBuf {
+    let out = Command::new(env!("CARGO"))
+        .args(["build", "-p", package, "--example", name])
+        .args(profile_args())
+        .current_dir(workspace())
+        .output()
+        .expect("cargo runs");
+    assert!(
+        out.status.success(),
+        "building example {name} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let exe = profile_dir()
+        .join("examples")
+        .join(format!("{name}{}", std::env::consts::EXE_SUFFIX));
+    assert!(exe.is_file(), "{} was not built", exe.display());
+    exe
 }
 
 /// Path of a built library with crate lib-name `lib` in the profile directory.

@@ -2,6 +2,7 @@
 //! case runs the `tribo` binary and asserts the exit code and the key words of the message
 //! (file, line, field, law, joint: whatever the user needs to fix it).
 
+mod atomic;
 #[path = "../common/mod.rs"]
 mod common;
 mod fuzz;

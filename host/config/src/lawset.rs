@@ -92,8 +92,31 @@ fn error(path: &Path, text: &str, field: &str, message: String) -> RigError {
     }
 }
 
+/// A parameter asked to be fitted: law entry index, parameter name, bounds from the file.
+type WantedParam = (usize, String, Option<[f64; 2]>);
+
 impl LawSet {
-    /// Load a law set from a file, or a bundled one by name (`fedem-baseline`).
+    /// Load a law set from a file, or a bundled one by name (`fedem-baseline`), and check it:
+    /// joints that exist, free parameters with valid bounds. Errors carry file, line and column.
+    ///
+    /// ```
+    /// use std::path::Path;
+    /// use tribo_config::lawset::LawSet;
+    /// use tribo_config::rig::load_rig;
+    ///
+    /// let set = LawSet::load("stribeck-duty")?;
+    /// assert_eq!(set.name(), "stribeck-duty");
+    ///
+    /// // Applied to a rig, the set replaces the laws the rig lists on every joint.
+    /// let mut rig = load_rig(Path::new("crf250r-motored"), &[])?;
+    /// set.apply(&mut rig);
+    /// let piston: Vec<&str> = rig.file.joints.piston.laws.iter().map(|l| l.law.as_str()).collect();
+    /// assert_eq!(piston, ["stribeck-duty"]);
+    ///
+    /// // Neither a file nor a bundled name.
+    /// assert!(LawSet::load("no-such-set").is_err());
+    /// # Ok::<(), tribo_config::rig::RigError>(())
+    /// ```
     pub fn load(arg: &str) -> Result<Self, RigError> {
         let path = PathBuf::from(arg);
         let (path, text) = match std::fs::read_to_string(&path) {
@@ -216,109 +239,109 @@ impl LawSet {
         registry: &LawRegistry,
         ids: Option<&[String]>,
     ) -> Result<Vec<FreeParam>, RigError> {
-        let mut wanted: Vec<(usize, String, Option<[f64; 2]>)> = Vec::new();
-        match ids {
-            None => {
-                for (i, e) in self.file.laws.iter().enumerate() {
-                    for (p, b) in &e.free {
-                        wanted.push((i, p.clone(), Some(*b)));
-                    }
-                }
-            }
-            Some(ids) => {
-                for id in ids {
-                    let parts: Vec<&str> = id.splitn(3, '.').collect();
-                    let [joint, law, param] = parts[..] else {
-                        return Err(error(
-                            &self.path,
-                            &self.text,
-                            "laws",
-                            format!("`{id}` is not JOINT.LAW.PARAM"),
-                        ));
-                    };
-                    let i = self
-                        .file
-                        .laws
-                        .iter()
-                        .position(|e| e.joint == joint && e.law == law)
-                        .ok_or_else(|| {
-                            error(
-                                &self.path,
-                                &self.text,
-                                "laws",
-                                format!(
-                                    "`{id}`: the law set has no law `{law}` on joint `{joint}`"
-                                ),
-                            )
-                        })?;
-                    wanted.push((
-                        i,
-                        param.to_string(),
-                        self.file.laws[i].free.get(param).copied(),
-                    ));
-                }
-            }
-        }
-        let mut out = Vec::new();
-        for (i, param, bounds) in wanted {
-            let e = &self.file.laws[i];
-            let id = format!("{}.{}.{}", e.joint, e.law, param);
-            let lib = registry.get(&e.law).map_err(|err| {
-                error(
-                    &self.path,
-                    &self.text,
-                    &format!("laws[{i}].law"),
-                    err.to_string(),
-                )
-            })?;
-            let spec = lib
-                .description()
-                .parameters
-                .iter()
-                .find(|p| p.name == param)
-                .ok_or_else(|| {
-                    error(
-                        &self.path,
-                        &self.text,
-                        &format!("laws[{i}].free"),
-                        format!("law `{}` has no parameter `{param}`", e.law),
-                    )
-                })?;
-            let default = match &spec.default {
-                ParamValue::Number(x) => *x,
-                _ => {
-                    return Err(error(
-                        &self.path,
-                        &self.text,
-                        &format!("laws[{i}].free"),
-                        format!("`{id}` is not a number and cannot be fitted"),
-                    ))
-                }
-            };
-            let value = e
-                .params
-                .get(&param)
-                .and_then(|v| v.as_float().or(v.as_integer().map(|x| x as f64)))
-                .unwrap_or(default);
-            let bounds = bounds.unwrap_or([spec.min, spec.max]);
-            out.push(FreeParam {
-                id,
-                entry: i,
-                param,
-                bounds,
-                value: value.clamp(bounds[0], bounds[1]),
-            });
-        }
+        let out = self
+            .wanted_params(ids)?
+            .into_iter()
+            .map(|(i, param, bounds)| self.free_param(registry, i, param, bounds))
+            .collect::<Result<Vec<_>, _>>()?;
         if out.is_empty() {
-            return Err(error(
-                &self.path,
-                &self.text,
+            return Err(self.error(
                 "laws",
                 "no free parameters: mark some with `free = { PARAM = [lo, hi] }` or pass --params"
                     .into(),
             ));
         }
         Ok(out)
+    }
+
+    /// An error about `field` of this law set, located in its text.
+    fn error(&self, field: &str, message: String) -> RigError {
+        error(&self.path, &self.text, field, message)
+    }
+
+    /// The parameters asked for, as (law entry, parameter, bounds from the file): those marked
+    /// `free` in the file, or `ids` (`joint.law.param`).
+    fn wanted_params(&self, ids: Option<&[String]>) -> Result<Vec<WantedParam>, RigError> {
+        let Some(ids) = ids else {
+            let mut wanted = Vec::new();
+            for (i, e) in self.file.laws.iter().enumerate() {
+                for (p, b) in &e.free {
+                    wanted.push((i, p.clone(), Some(*b)));
+                }
+            }
+            return Ok(wanted);
+        };
+        let mut wanted = Vec::new();
+        for id in ids {
+            let parts: Vec<&str> = id.splitn(3, '.').collect();
+            let [joint, law, param] = parts[..] else {
+                return Err(self.error("laws", format!("`{id}` is not JOINT.LAW.PARAM")));
+            };
+            let i = self
+                .file
+                .laws
+                .iter()
+                .position(|e| e.joint == joint && e.law == law)
+                .ok_or_else(|| {
+                    self.error(
+                        "laws",
+                        format!("`{id}`: the law set has no law `{law}` on joint `{joint}`"),
+                    )
+                })?;
+            wanted.push((
+                i,
+                param.to_string(),
+                self.file.laws[i].free.get(param).copied(),
+            ));
+        }
+        Ok(wanted)
+    }
+
+    /// Parameter `param` of law entry `i` as a free parameter: its declaration from the loaded
+    /// law (which must have it, as a number), bounds from the file or the declared range, the
+    /// start value from the file or the default, clamped into the bounds.
+    fn free_param(
+        &self,
+        registry: &LawRegistry,
+        i: usize,
+        param: String,
+        bounds: Option<[f64; 2]>,
+    ) -> Result<FreeParam, RigError> {
+        let e = &self.file.laws[i];
+        let id = format!("{}.{}.{}", e.joint, e.law, param);
+        let lib = registry
+            .get(&e.law)
+            .map_err(|err| self.error(&format!("laws[{i}].law"), err.to_string()))?;
+        let spec = lib
+            .description()
+            .parameters
+            .iter()
+            .find(|p| p.name == param)
+            .ok_or_else(|| {
+                self.error(
+                    &format!("laws[{i}].free"),
+                    format!("law `{}` has no parameter `{param}`", e.law),
+                )
+            })?;
+        let ParamValue::Number(default) = spec.default else {
+            return Err(self.error(
+                &format!("laws[{i}].free"),
+                format!("`{id}` is not a number and cannot be fitted"),
+            ));
+        };
+        let value = e
+            .params
+            .get(&param)
+            .and_then(|v| v.as_float().or(v.as_integer().map(|x| x as f64)))
+            .unwrap_or(default);
+        let bounds = bounds.unwrap_or([spec.min, spec.max]);
+        Ok(FreeParam {
+            id,
+            entry: i,
+            param,
+            bounds,
+            value: value.clamp(bounds[0], bounds[1]),
+        })
     }
 
     /// A copy with the free parameters set to `values`.

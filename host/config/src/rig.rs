@@ -100,6 +100,27 @@ impl Rig {
 
 /// A simulation of `rig` with its laws bound from `registry`. A law that cannot be bound is
 /// reported at the file, line and column that attach it.
+///
+/// ```
+/// use std::path::Path;
+/// use tribo_config::rig::{attach_laws, load_rig, simulation};
+/// use tribo_core::plugin_api::loader::LawRegistry;
+///
+/// // The frictionless reference rig needs no law: an empty registry will do. (A program would
+/// // use `tribo_plugin_api::loader::discover` to load the law plugins.)
+/// let mut rig = load_rig(Path::new("reference-frictionless"), &[])?;
+/// let registry = LawRegistry::new();
+/// let mut sim = simulation(&rig, &registry)?;
+/// let result = sim.run_steady()?;
+/// // No friction: the mean motoring torque of every plateau is zero.
+/// assert!(result.plateaus.iter().all(|p| p.motoring_torque_nm.abs() < 1e-6));
+///
+/// // A law the registry does not have is reported where it was attached.
+/// attach_laws(&mut rig, &["piston=coulomb".into()])?;
+/// let err = simulation(&rig, &registry).err().expect("no such law loaded");
+/// assert!(err.to_string().contains("joints.piston.laws"), "{err}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimError> {
     Simulation::new(rig.model(), registry).map_err(|e| match e {
         SimError::Setup {
@@ -335,6 +356,46 @@ fn resolve_extends(from: &Path, name: &str) -> Option<Source> {
 /// Load a rig from `text` (named `path` in messages), resolve `extends`, apply `--set`
 /// overrides, and validate.
 pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, RigError> {
+    let (sources, tables) = read_extends_chain(path, text)?;
+    let single = tables.len() == 1;
+    let mut table = merge_chain(tables);
+    let overridden = apply_sets(&mut table, sets)?;
+    let file = if single && sets.is_empty() {
+        // The file exactly as written: toml's spans give precise locations.
+        serde_path_to_error::deserialize::<_, RigFile>(toml::Deserializer::new(text)).map_err(
+            |e| {
+                let field = e.path().to_string();
+                serde_error(path, text, e.inner(), &field)
+            },
+        )?
+    } else {
+        // Merged tables have no spans: the path serde was at names the field, which is then
+        // found in the file that sets it (or in --set); an unknown key is found by name.
+        serde_path_to_error::deserialize::<_, RigFile>(toml::Value::Table(table)).map_err(|e| {
+            let field = e.path().to_string();
+            let message = e.inner().message();
+            if message.starts_with("unknown field") || field.is_empty() || field == "." {
+                locate_key(&sources, message, &overridden)
+            } else {
+                field_error(&sources, &overridden, &field, message.to_string())
+            }
+        })?
+    };
+    let rig = Rig {
+        file,
+        sources,
+        overridden,
+    };
+    validate(&rig)?;
+    Ok(rig)
+}
+
+/// The rig's text and every file it `extends` (child first, at most 8 levels), each parsed
+/// into a table with its `extends` key removed.
+fn read_extends_chain(
+    path: &Path,
+    text: &str,
+) -> Result<(Vec<Source>, Vec<toml::Table>), RigError> {
     let mut sources = vec![Source {
         path: path.to_path_buf(),
         text: text.to_string(),
@@ -375,8 +436,13 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         tables.push(parse(&base)?);
         sources.push(base);
     }
-    let mut overridden = Vec::new();
-    let single = tables.len() == 1;
+    Ok((sources, tables))
+}
+
+/// The tables of an `extends` chain (child first) merged, the base first and each child over
+/// it. A child that replaces the oil's viscosity without naming the oil drops the base's name,
+/// grade and source.
+fn merge_chain(mut tables: Vec<toml::Table>) -> toml::Table {
     let mut table = tables.pop().unwrap_or_default();
     while let Some(child) = tables.pop() {
         let oil = child.get("oil").and_then(toml::Value::as_table);
@@ -386,6 +452,12 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         }
         merge(&mut table, child);
     }
+    table
+}
+
+/// Apply `--set KEY=VALUE` overrides in order and return the dotted paths they changed. Sets
+/// that replace the viscosity without naming the oil drop its name, grade and source first.
+fn apply_sets(table: &mut toml::Table, sets: &[String]) -> Result<Vec<String>, RigError> {
     let set_keys: Vec<&str> = sets
         .iter()
         .map(|s| s.split_once('=').map_or(s.as_str(), |(k, _)| k).trim())
@@ -397,43 +469,33 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         .iter()
         .any(|k| OIL_DESCRIPTION.iter().any(|d| *k == format!("oil.{d}")));
     if changes_viscosity && !names_oil {
-        forget_oil_description(&mut table);
+        forget_oil_description(table);
     }
-    for s in sets {
-        overridden.push(apply_set(&mut table, s)?);
-    }
-    let file = if single && sets.is_empty() {
-        // The file exactly as written: toml's spans give precise locations.
-        serde_path_to_error::deserialize::<_, RigFile>(toml::Deserializer::new(text)).map_err(
-            |e| {
-                let field = e.path().to_string();
-                serde_error(path, text, e.inner(), &field)
-            },
-        )?
-    } else {
-        // Merged tables have no spans: the path serde was at names the field, which is then
-        // found in the file that sets it (or in --set); an unknown key is found by name.
-        serde_path_to_error::deserialize::<_, RigFile>(toml::Value::Table(table)).map_err(|e| {
-            let field = e.path().to_string();
-            let message = e.inner().message();
-            if message.starts_with("unknown field") || field.is_empty() || field == "." {
-                locate_key(&sources, message, &overridden)
-            } else {
-                field_error(&sources, &overridden, &field, message.to_string())
-            }
-        })?
-    };
-    let rig = Rig {
-        file,
-        sources,
-        overridden,
-    };
-    validate(&rig)?;
-    Ok(rig)
+    sets.iter().map(|s| apply_set(table, s)).collect()
 }
 
 /// Load a rig from disk, or a bundled rig by name (`crf250r-motored` or `crf250r-motored.toml`)
-/// when no such file exists.
+/// when no such file exists. `sets` are `--set KEY=VALUE` overrides; the result is validated,
+/// and an error names the file (or `--set`), line, column and field.
+///
+/// ```
+/// use std::path::Path;
+/// use tribo_config::rig::load_rig;
+///
+/// // The bundled CRF 250 R rig, with the rod made 40% lighter.
+/// let rig = load_rig(Path::new("crf250r-motored"), &["bodies.rod.mass_scale=0.6".into()])?;
+/// assert_eq!(rig.file.bodies.rod.mass_scale, 0.6);
+/// assert_eq!(rig.overridden, ["bodies.rod.mass_scale"]);
+///
+/// // A value out of range is refused, naming where it came from and the field.
+/// let err = load_rig(Path::new("crf250r-motored"), &["geometry.bore_m=-1".into()])
+///     .expect_err("a negative bore");
+/// assert_eq!(
+///     err.to_string(),
+///     "--set: geometry.bore_m: must be a positive number (m), got -1"
+/// );
+/// # Ok::<(), tribo_config::rig::RigError>(())
+/// ```
 pub fn load_rig(path: &Path, sets: &[String]) -> Result<Rig, RigError> {
     match std::fs::read_to_string(path) {
         Ok(text) => load_rig_text(path, &text, sets),
@@ -462,223 +524,313 @@ pub fn revalidate(rig: &Rig) -> Result<(), Box<RigError>> {
     validate(rig).map_err(Box::new)
 }
 
+/// Check a rig's values part by part; the first problem found is the error, located in the
+/// file (or `--set`) that gives the value.
 fn validate(rig: &Rig) -> Result<(), RigError> {
-    let f = &rig.file;
-    let positive = |field: &str, v: f64, unit: &str| {
+    let check = Check { rig };
+    check.geometry()?;
+    check.bodies()?;
+    check.joints()?;
+    check.load_shares()?;
+    check.oil()?;
+    let plateaus = check.cycle()?;
+    check.oil_temperatures(plateaus)?;
+    check.drive()?;
+    check.measurement()?;
+    check.solver()
+}
+
+/// The rig's validators, one per part of the file, run in the order of [`validate`] so the
+/// first problem reported is the same whatever the split.
+struct Check<'a> {
+    rig: &'a Rig,
+}
+
+impl Check<'_> {
+    /// `v` must be finite and above zero.
+    fn positive(&self, field: &str, v: f64, unit: &str) -> Result<(), RigError> {
         if v.is_finite() && v > 0.0 {
             Ok(())
         } else {
-            Err(rig.error(
+            Err(self.rig.error(
                 field,
                 format!("must be a positive number ({unit}), got {v}"),
             ))
         }
-    };
-    let non_negative = |field: &str, v: f64, unit: &str| {
+    }
+
+    /// `v` must be finite and not below zero.
+    fn non_negative(&self, field: &str, v: f64, unit: &str) -> Result<(), RigError> {
         if v.is_finite() && v >= 0.0 {
             Ok(())
         } else {
-            Err(rig.error(field, format!("must be zero or positive ({unit}), got {v}")))
-        }
-    };
-    positive("geometry.crank_radius_m", f.geometry.crank_radius_m, "m")?;
-    positive("geometry.bore_m", f.geometry.bore_m, "m")?;
-    let c = &f.bodies.crank;
-    positive("bodies.crank.inertia_kg_m2", c.inertia_kg_m2, "kg m^2")?;
-    positive("bodies.crank.mass_kg", c.mass_kg, "kg")?;
-    non_negative("bodies.crank.unbalance_mass_kg", c.unbalance_mass_kg, "kg")?;
-    non_negative("bodies.crank.unbalance_radius_m", c.unbalance_radius_m, "m")?;
-    positive("bodies.crank.mass_scale", c.mass_scale, "-")?;
-    positive("bodies.crank.inertia_scale", c.inertia_scale, "-")?;
-    let r = &f.bodies.rod;
-    positive("bodies.rod.mass_kg", r.mass_kg, "kg")?;
-    positive("bodies.rod.inertia_kg_m2", r.inertia_kg_m2, "kg m^2")?;
-    positive("bodies.rod.length_m", r.length_m, "m")?;
-    positive("bodies.rod.mass_scale", r.mass_scale, "-")?;
-    positive("bodies.rod.inertia_scale", r.inertia_scale, "-")?;
-    if r.length_m <= f.geometry.crank_radius_m {
-        return Err(rig.error(
-            "bodies.rod.length_m",
-            format!(
-                "the rod ({} m) must be longer than the crank radius ({} m), or the mechanism locks",
-                r.length_m, f.geometry.crank_radius_m
-            ),
-        ));
-    }
-    if !(r.com_from_big_end_m.is_finite()
-        && r.com_from_big_end_m >= 0.0
-        && r.com_from_big_end_m <= r.length_m)
-    {
-        return Err(rig.error(
-            "bodies.rod.com_from_big_end_m",
-            format!(
-                "must lie between the pin centres, [0, {}] m, got {}",
-                r.length_m, r.com_from_big_end_m
-            ),
-        ));
-    }
-    positive("bodies.piston.mass_kg", f.bodies.piston.mass_kg, "kg")?;
-    positive("bodies.piston.mass_scale", f.bodies.piston.mass_scale, "-")?;
-    for (name, j) in f.joints.named() {
-        positive(&format!("joints.{name}.radius_m"), j.radius_m, "m")?;
-        positive(&format!("joints.{name}.length_m"), j.length_m, "m")?;
-        for (i, l) in j.laws.iter().enumerate() {
-            if l.law.trim().is_empty() {
-                return Err(rig.error(&format!("joints.{name}.laws[{i}].law"), "law name is empty"));
-            }
+            Err(self
+                .rig
+                .error(field, format!("must be zero or positive ({unit}), got {v}")))
         }
     }
-    for (name, share) in [
-        ("main_a", f.joints.main_a.load_share),
-        ("main_b", f.joints.main_b.load_share),
-    ] {
-        if !(share.is_finite() && (0.0..=1.0).contains(&share)) {
-            return Err(rig.error(
-                &format!("joints.{name}.load_share"),
-                format!("must be in [0, 1], got {share}"),
-            ));
-        }
+
+    /// Crank radius and bore.
+    fn geometry(&self) -> Result<(), RigError> {
+        let g = &self.rig.file.geometry;
+        self.positive("geometry.crank_radius_m", g.crank_radius_m, "m")?;
+        self.positive("geometry.bore_m", g.bore_m, "m")
     }
-    let sum = f.joints.main_a.load_share + f.joints.main_b.load_share;
-    if (sum - 1.0).abs() > 1e-9 {
-        return Err(rig.error(
-            "joints.main_b.load_share",
-            format!("the two main-bearing load shares must add up to 1, they add up to {sum}"),
-        ));
-    }
-    positive("oil.density_kg_m3", f.oil.density_kg_m3, "kg/m^3")?;
-    match f.oil.viscosity {
-        ViscosityModel::Vogel {
-            k_cst,
-            theta1_c,
-            theta2_c,
-        } => {
-            positive("oil.viscosity.k_cst", k_cst, "cSt")?;
-            if !theta1_c.is_finite() || !theta2_c.is_finite() {
-                return Err(rig.error("oil.viscosity", "Vogel constants must be finite"));
-            }
-        }
-        ViscosityModel::TwoPoint {
-            kv40_cst,
-            kv100_cst,
-        } => {
-            positive("oil.viscosity.kv40_cst", kv40_cst, "cSt")?;
-            positive("oil.viscosity.kv100_cst", kv100_cst, "cSt")?;
-            if kv100_cst >= kv40_cst {
-                return Err(rig.error("oil.viscosity.kv100_cst", format!("must be below kv40_cst ({kv40_cst} cSt): oil thins as it warms, got {kv100_cst}")));
-            }
-        }
-    }
-    let segments = f.cycle.segments();
-    if segments.is_empty() {
-        return Err(rig.error("cycle.segments", "the test cycle is empty; give at least one ramp and one hold, or leave `segments` out for the thesis cycle"));
-    }
-    let mut holds = 0;
-    for (i, s) in segments.iter().enumerate() {
-        let (d, field) = match s {
-            Segment::Ramp { duration_s, to_rpm } => {
-                if !to_rpm.is_finite() || *to_rpm < 0.0 {
-                    return Err(rig.error(
-                        &format!("cycle.segments[{i}].to_rpm"),
-                        format!("must be zero or positive, got {to_rpm}"),
-                    ));
-                }
-                (*duration_s, "ramp")
-            }
-            Segment::Hold { duration_s } => {
-                holds += 1;
-                (*duration_s, "hold")
-            }
-        };
-        if !(d.is_finite() && d > 0.0) {
-            return Err(rig.error(
-                &format!("cycle.segments[{i}].duration_s"),
-                format!("{field} time must be positive, got {d} s"),
-            ));
-        }
-    }
-    if holds == 0 {
-        return Err(rig.error(
-            "cycle.segments",
-            "the test cycle has no hold, so nothing would be measured",
-        ));
-    }
-    let temps: Vec<f64> = match &f.oil.temperature_c {
-        Temperature::Constant(t) => vec![*t],
-        Temperature::PerPlateau(v) => {
-            if v.len() != holds {
-                return Err(rig.error(
-                    "oil.temperature_c",
-                    format!(
-                        "gives {} temperatures but the cycle has {holds} plateaus",
-                        v.len()
-                    ),
-                ));
-            }
-            v.clone()
-        }
-    };
-    for t in temps {
-        if !(t >= VALID_RANGE_C.0 && t <= VALID_RANGE_C.1) {
-            return Err(rig.error(
-                "oil.temperature_c",
+
+    /// Masses, inertias and scales of crank, rod and piston; a rod longer than the crank radius
+    /// with its centre of mass between the pins.
+    fn bodies(&self) -> Result<(), RigError> {
+        let f = &self.rig.file;
+        let c = &f.bodies.crank;
+        self.positive("bodies.crank.inertia_kg_m2", c.inertia_kg_m2, "kg m^2")?;
+        self.positive("bodies.crank.mass_kg", c.mass_kg, "kg")?;
+        self.non_negative("bodies.crank.unbalance_mass_kg", c.unbalance_mass_kg, "kg")?;
+        self.non_negative("bodies.crank.unbalance_radius_m", c.unbalance_radius_m, "m")?;
+        self.positive("bodies.crank.mass_scale", c.mass_scale, "-")?;
+        self.positive("bodies.crank.inertia_scale", c.inertia_scale, "-")?;
+        let r = &f.bodies.rod;
+        self.positive("bodies.rod.mass_kg", r.mass_kg, "kg")?;
+        self.positive("bodies.rod.inertia_kg_m2", r.inertia_kg_m2, "kg m^2")?;
+        self.positive("bodies.rod.length_m", r.length_m, "m")?;
+        self.positive("bodies.rod.mass_scale", r.mass_scale, "-")?;
+        self.positive("bodies.rod.inertia_scale", r.inertia_scale, "-")?;
+        if r.length_m <= f.geometry.crank_radius_m {
+            return Err(self.rig.error(
+                "bodies.rod.length_m",
                 format!(
-                    "{t} C is outside the viscosity model's range [{}, {}] C",
-                    VALID_RANGE_C.0, VALID_RANGE_C.1
+                    "the rod ({} m) must be longer than the crank radius ({} m), or the mechanism locks",
+                    r.length_m, f.geometry.crank_radius_m
                 ),
             ));
         }
-        let nu = f.oil.viscosity.kinematic_cst(t);
-        if !(nu.is_finite() && nu > 0.0) {
-            return Err(rig.error(
-                "oil.viscosity",
-                format!("gives a non-physical viscosity ({nu} cSt) at {t} C"),
+        if !(r.com_from_big_end_m.is_finite()
+            && r.com_from_big_end_m >= 0.0
+            && r.com_from_big_end_m <= r.length_m)
+        {
+            return Err(self.rig.error(
+                "bodies.rod.com_from_big_end_m",
+                format!(
+                    "must lie between the pin centres, [0, {}] m, got {}",
+                    r.length_m, r.com_from_big_end_m
+                ),
             ));
         }
+        let p = &f.bodies.piston;
+        self.positive("bodies.piston.mass_kg", p.mass_kg, "kg")?;
+        self.positive("bodies.piston.mass_scale", p.mass_scale, "-")
     }
-    if let Drive::Pi {
-        kp,
-        ki,
-        torque_limit_nm,
-        belt_ratio,
-        motor_inertia_kg_m2,
-    } = f.drive
-    {
-        non_negative("drive.kp", kp, "N m s/rad")?;
-        non_negative("drive.ki", ki, "N m/rad")?;
-        positive("drive.torque_limit_nm", torque_limit_nm, "N m")?;
-        positive("drive.belt_ratio", belt_ratio, "-")?;
-        non_negative("drive.motor_inertia_kg_m2", motor_inertia_kg_m2, "kg m^2")?;
+
+    /// Each joint's contact radius and length, and no empty law name.
+    fn joints(&self) -> Result<(), RigError> {
+        for (name, j) in self.rig.file.joints.named() {
+            self.positive(&format!("joints.{name}.radius_m"), j.radius_m, "m")?;
+            self.positive(&format!("joints.{name}.length_m"), j.length_m, "m")?;
+            for (i, l) in j.laws.iter().enumerate() {
+                if l.law.trim().is_empty() {
+                    let field = format!("joints.{name}.laws[{i}].law");
+                    return Err(self.rig.error(&field, "law name is empty"));
+                }
+            }
+        }
+        Ok(())
     }
-    positive("measurement.window_s", f.measurement.window_s, "s")?;
-    positive("measurement.lowpass_hz", f.measurement.lowpass_hz, "Hz")?;
-    positive("solver.step_deg", f.solver.step_deg, "degrees")?;
-    positive("solver.max_step_s", f.solver.max_step_s, "s")?;
-    positive("solver.friction_tol", f.solver.friction_tol, "-")?;
-    positive("solver.rel_tol", f.solver.rel_tol, "-")?;
-    positive("solver.max_step_deg", f.solver.max_step_deg, "degrees")?;
-    if f.solver.rel_tol > 1e-2 {
-        return Err(rig.error(
-            "solver.rel_tol",
-            format!(
-                "must be at most 1e-2 (a relative error per unit time), got {}",
-                f.solver.rel_tol
-            ),
-        ));
+
+    /// The main bearings' load shares: each in [0, 1], together 1.
+    fn load_shares(&self) -> Result<(), RigError> {
+        let j = &self.rig.file.joints;
+        for (name, share) in [
+            ("main_a", j.main_a.load_share),
+            ("main_b", j.main_b.load_share),
+        ] {
+            if !(share.is_finite() && (0.0..=1.0).contains(&share)) {
+                return Err(self.rig.error(
+                    &format!("joints.{name}.load_share"),
+                    format!("must be in [0, 1], got {share}"),
+                ));
+            }
+        }
+        let sum = j.main_a.load_share + j.main_b.load_share;
+        if (sum - 1.0).abs() > 1e-9 {
+            return Err(self.rig.error(
+                "joints.main_b.load_share",
+                format!("the two main-bearing load shares must add up to 1, they add up to {sum}"),
+            ));
+        }
+        Ok(())
     }
-    if f.solver.max_step_deg > 90.0 {
-        return Err(rig.error(
-            "solver.max_step_deg",
-            format!(
-                "must be at most 90 degrees (a step must resolve a stroke), got {}",
-                f.solver.max_step_deg
-            ),
-        ));
+
+    /// Oil density and the viscosity model's constants (temperatures: [`Self::oil_temperatures`],
+    /// once the number of plateaus is known).
+    fn oil(&self) -> Result<(), RigError> {
+        let oil = &self.rig.file.oil;
+        self.positive("oil.density_kg_m3", oil.density_kg_m3, "kg/m^3")?;
+        match oil.viscosity {
+            ViscosityModel::Vogel {
+                k_cst,
+                theta1_c,
+                theta2_c,
+            } => {
+                self.positive("oil.viscosity.k_cst", k_cst, "cSt")?;
+                if !theta1_c.is_finite() || !theta2_c.is_finite() {
+                    return Err(self
+                        .rig
+                        .error("oil.viscosity", "Vogel constants must be finite"));
+                }
+            }
+            ViscosityModel::TwoPoint {
+                kv40_cst,
+                kv100_cst,
+            } => {
+                self.positive("oil.viscosity.kv40_cst", kv40_cst, "cSt")?;
+                self.positive("oil.viscosity.kv100_cst", kv100_cst, "cSt")?;
+                if kv100_cst >= kv40_cst {
+                    return Err(self.rig.error("oil.viscosity.kv100_cst", format!("must be below kv40_cst ({kv40_cst} cSt): oil thins as it warms, got {kv100_cst}")));
+                }
+            }
+        }
+        Ok(())
     }
-    if f.solver.friction_max_iter == 0 {
-        return Err(rig.error("solver.friction_max_iter", "must be at least 1"));
+
+    /// The test cycle: not empty, non-negative target speeds, positive durations, at least one
+    /// hold. Returns the number of holds (plateaus).
+    fn cycle(&self) -> Result<usize, RigError> {
+        let segments = self.rig.file.cycle.segments();
+        if segments.is_empty() {
+            return Err(self.rig.error("cycle.segments", "the test cycle is empty; give at least one ramp and one hold, or leave `segments` out for the thesis cycle"));
+        }
+        let mut holds = 0;
+        for (i, s) in segments.iter().enumerate() {
+            let (d, field) = match s {
+                Segment::Ramp { duration_s, to_rpm } => {
+                    if !to_rpm.is_finite() || *to_rpm < 0.0 {
+                        return Err(self.rig.error(
+                            &format!("cycle.segments[{i}].to_rpm"),
+                            format!("must be zero or positive, got {to_rpm}"),
+                        ));
+                    }
+                    (*duration_s, "ramp")
+                }
+                Segment::Hold { duration_s } => {
+                    holds += 1;
+                    (*duration_s, "hold")
+                }
+            };
+            if !(d.is_finite() && d > 0.0) {
+                return Err(self.rig.error(
+                    &format!("cycle.segments[{i}].duration_s"),
+                    format!("{field} time must be positive, got {d} s"),
+                ));
+            }
+        }
+        if holds == 0 {
+            return Err(self.rig.error(
+                "cycle.segments",
+                "the test cycle has no hold, so nothing would be measured",
+            ));
+        }
+        Ok(holds)
     }
-    Ok(())
+
+    /// Oil temperatures: one, or one per plateau, each within the viscosity model's range and
+    /// giving a physical viscosity.
+    fn oil_temperatures(&self, plateaus: usize) -> Result<(), RigError> {
+        let oil = &self.rig.file.oil;
+        let temps: &[f64] = match &oil.temperature_c {
+            Temperature::Constant(t) => std::slice::from_ref(t),
+            Temperature::PerPlateau(v) => {
+                if v.len() != plateaus {
+                    return Err(self.rig.error(
+                        "oil.temperature_c",
+                        format!(
+                            "gives {} temperatures but the cycle has {plateaus} plateaus",
+                            v.len()
+                        ),
+                    ));
+                }
+                v
+            }
+        };
+        for &t in temps {
+            if !(t >= VALID_RANGE_C.0 && t <= VALID_RANGE_C.1) {
+                return Err(self.rig.error(
+                    "oil.temperature_c",
+                    format!(
+                        "{t} C is outside the viscosity model's range [{}, {}] C",
+                        VALID_RANGE_C.0, VALID_RANGE_C.1
+                    ),
+                ));
+            }
+            let nu = oil.viscosity.kinematic_cst(t);
+            if !(nu.is_finite() && nu > 0.0) {
+                return Err(self.rig.error(
+                    "oil.viscosity",
+                    format!("gives a non-physical viscosity ({nu} cSt) at {t} C"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The PI drive's gains, torque limit, belt ratio and motor inertia (a prescribed drive has
+    /// nothing to check).
+    fn drive(&self) -> Result<(), RigError> {
+        if let Drive::Pi {
+            kp,
+            ki,
+            torque_limit_nm,
+            belt_ratio,
+            motor_inertia_kg_m2,
+        } = self.rig.file.drive
+        {
+            self.non_negative("drive.kp", kp, "N m s/rad")?;
+            self.non_negative("drive.ki", ki, "N m/rad")?;
+            self.positive("drive.torque_limit_nm", torque_limit_nm, "N m")?;
+            self.positive("drive.belt_ratio", belt_ratio, "-")?;
+            self.non_negative("drive.motor_inertia_kg_m2", motor_inertia_kg_m2, "kg m^2")?;
+        }
+        Ok(())
+    }
+
+    /// The measurement window and low-pass frequency.
+    fn measurement(&self) -> Result<(), RigError> {
+        let m = &self.rig.file.measurement;
+        self.positive("measurement.window_s", m.window_s, "s")?;
+        self.positive("measurement.lowpass_hz", m.lowpass_hz, "Hz")
+    }
+
+    /// Step sizes, tolerances and the friction iteration's limit.
+    fn solver(&self) -> Result<(), RigError> {
+        let s = &self.rig.file.solver;
+        self.positive("solver.step_deg", s.step_deg, "degrees")?;
+        self.positive("solver.max_step_s", s.max_step_s, "s")?;
+        self.positive("solver.friction_tol", s.friction_tol, "-")?;
+        self.positive("solver.rel_tol", s.rel_tol, "-")?;
+        self.positive("solver.max_step_deg", s.max_step_deg, "degrees")?;
+        if s.rel_tol > 1e-2 {
+            return Err(self.rig.error(
+                "solver.rel_tol",
+                format!(
+                    "must be at most 1e-2 (a relative error per unit time), got {}",
+                    s.rel_tol
+                ),
+            ));
+        }
+        if s.max_step_deg > 90.0 {
+            return Err(self.rig.error(
+                "solver.max_step_deg",
+                format!(
+                    "must be at most 90 degrees (a step must resolve a stroke), got {}",
+                    s.max_step_deg
+                ),
+            ));
+        }
+        if s.friction_max_iter == 0 {
+            return Err(self
+                .rig
+                .error("solver.friction_max_iter", "must be at least 1"));
+        }
+        Ok(())
+    }
 }
 
 /// Parse one `--law JOINT=LAW[:PARAMS_TOML_FILE]` argument into the joint and the law.

@@ -501,7 +501,33 @@ pub fn bound_hit(x: f64, bounds: [f64; 2]) -> Option<String> {
 }
 
 /// Calibrate `free` parameters of `lawset` on `rig` to the points of `runs` (one parameter set
-/// for all of them, each point at its own oil temperature).
+/// for all of them, each point at its own oil temperature). Returns the report and the law set
+/// with the fitted values written in.
+///
+/// The laws come from plugins, so this example is compiled but not run here.
+///
+/// ```no_run
+/// use std::path::{Path, PathBuf};
+/// use tribo_config::{bundled, lawset::LawSet, rig::load_rig};
+/// use tribo_plugin_api::loader::discover;
+/// use tribo_studies::fit::{fit, FitOptions};
+/// use tribo_studies::study::DataRun;
+///
+/// let rig = load_rig(Path::new(bundled::DEFAULT_RIG), &[])?;
+/// let set = LawSet::load("stribeck-duty")?;
+/// let runs = [DataRun::read(bundled::DEFAULT_DATA)?];
+/// let registry = discover(&[PathBuf::from("target/release")])?;
+/// // The parameters the law set marks `free`, with their bounds and start values.
+/// let free = set.free_params(&registry, None)?;
+/// let options = FitOptions { cross_validate: false, ..FitOptions::default() };
+/// let (report, fitted) = fit(&rig, &set, &free, &runs, &registry, &options)?;
+/// for (name, value) in report.params.iter().zip(&report.values) {
+///     println!("{name} = {value}");
+/// }
+/// println!("RMSE {:.4} N m", report.rmse_nm);
+/// std::fs::write("fitted.toml", fitted.to_toml("calibrated")?)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn fit(
     rig: &Rig,
     lawset: &LawSet,

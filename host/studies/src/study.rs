@@ -236,6 +236,42 @@ pub struct SetResult {
     pub validation: Vec<Validation>,
 }
 
+/// How a study runs the rig at each speed. Serialized (and displayed) as `steady` or
+/// `transient`, the words the JSON has always used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RunMode {
+    /// The periodic steady state at each plateau speed, computed directly.
+    Steady,
+    /// The whole test cycle, ramps included, measured over each plateau's window.
+    Transient,
+}
+
+impl RunMode {
+    /// [`RunMode::Steady`] if `steady`, else [`RunMode::Transient`] (the `--steady` flag).
+    pub fn from_steady(steady: bool) -> Self {
+        if steady {
+            Self::Steady
+        } else {
+            Self::Transient
+        }
+    }
+
+    /// The word used in JSON, tables and plot titles.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Steady => "steady",
+            Self::Transient => "transient",
+        }
+    }
+}
+
+impl std::fmt::Display for RunMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// A side-by-side comparison.
 #[derive(Debug, Clone, Serialize)]
 pub struct Comparison {
@@ -245,8 +281,8 @@ pub struct Comparison {
     pub data_file: String,
     /// The measurements.
     pub data: Vec<DataRow>,
-    /// `steady` or `transient`.
-    pub mode: String,
+    /// Steady state at each speed, or the full test cycle (`"steady"` or `"transient"` in JSON).
+    pub mode: RunMode,
     /// What the ranking rests on, in words.
     pub ranked_by: String,
     /// Each law set, in the order given.
@@ -275,6 +311,29 @@ pub fn errors(model: &[f64], measured: &[f64]) -> (Vec<f64>, f64, f64) {
 /// Run every law set on `rig` at the data's speeds and temperatures, in parallel, and score
 /// each out of sample. The order of the results is the order of `lawsets`, whatever the
 /// scheduling; `rank` orders them by cross-validated RMSE.
+///
+/// The laws come from plugins, so this example is compiled but not run here; the
+/// `compare_bundled` example of this crate runs it (`cargo run --release -p tribo-studies
+/// --example compare_bundled` after `cargo build --release`).
+///
+/// ```no_run
+/// use std::path::{Path, PathBuf};
+/// use tribo_config::{bundled, lawset::LawSet, rig::load_rig};
+/// use tribo_plugin_api::loader::discover;
+/// use tribo_studies::study::{compare, CompareOptions, DataRun};
+///
+/// let rig = load_rig(Path::new(bundled::DEFAULT_RIG), &[])?;
+/// let sets = [LawSet::load("fedem-baseline")?, LawSet::load("stribeck-duty")?];
+/// let data = DataRun::read(bundled::DEFAULT_DATA)?;
+/// // Law plugins from a directory, TRIBO_PLUGIN_PATH and the executable's directory.
+/// let registry = discover(&[PathBuf::from("target/release")])?;
+/// let options = CompareOptions { steady: true, ..CompareOptions::default() };
+/// let cmp = compare(&rig, &sets, &data, &registry, &options)?;
+/// for set in &cmp.sets {
+///     println!("{:<16} rank {} RMSE {:.4} N m", set.lawset, set.rank, set.rmse_nm);
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn compare(
     rig: &Rig,
     lawsets: &[LawSet],
@@ -410,11 +469,7 @@ pub fn compare(
         rig: rig.file.name.clone(),
         data_file: data.file.display().to_string(),
         data: data.rows.clone(),
-        mode: if options.steady {
-            "steady".into()
-        } else {
-            "transient".into()
-        },
+        mode: RunMode::from_steady(options.steady),
         ranked_by: if options.no_cv {
             "in-sample RMSE (cross-validation skipped with --no-cv): rewards sets with many free parameters".into()
         } else {
@@ -729,8 +784,8 @@ pub struct Sweep {
     pub rig: String,
     /// The oil (name, grade, model, source).
     pub oil: OilInfo,
-    /// Always `steady`: each point is the periodic steady state at that speed.
-    pub mode: String,
+    /// Always [`RunMode::Steady`]: each point is the periodic steady state at that speed.
+    pub mode: RunMode,
     /// Oil temperatures, C, in the order given.
     pub temps_c: Vec<f64>,
     /// Dynamic viscosity at each temperature, Pa s.
@@ -900,9 +955,28 @@ pub fn sweep(
         rig: rig.file.name.clone(),
         viscosities_pa_s: temps_c.iter().map(|t| oil.dynamic_pa_s(*t)).collect(),
         oil,
-        mode: "steady".into(),
+        mode: RunMode::Steady,
         temps_c: temps_c.to_vec(),
         speeds_rpm: speeds_rpm.to_vec(),
         sets,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RunMode;
+
+    #[test]
+    fn run_mode_serializes_to_the_words_the_json_always_had() {
+        for (mode, word) in [
+            (RunMode::Steady, "steady"),
+            (RunMode::Transient, "transient"),
+        ] {
+            let json = serde_json::to_string(&mode).expect("serializes");
+            assert_eq!(json, format!("\"{word}\""));
+            assert_eq!(mode.to_string(), word);
+        }
+        assert_eq!(RunMode::from_steady(true), RunMode::Steady);
+        assert_eq!(RunMode::from_steady(false), RunMode::Transient);
+    }
 }

@@ -482,7 +482,7 @@ fn library_example_runs_the_bundled_comparison_and_agrees_with_the_cli() {
     assert!(stdout.contains("mode steady"), "{stdout}");
 
     let out_dir = dir.path().join("cli");
-    let cli = json_of(
+    let cli = json_in(
         &[
             "compare",
             "--steady",

@@ -35,7 +35,7 @@ fn run(sets: &[&str]) -> RunResult {
     let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("coulomb loads");
     tribo::rig::simulation(&rig, &registry)
         .expect("simulation builds")
-        .run(None)
+        .run()
         .expect("run succeeds")
 }
 
@@ -568,7 +568,7 @@ fn a_law_that_admits_no_consistent_load_fails_naming_the_joint_and_the_law() {
     let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("coulomb loads");
     let err = tribo::rig::simulation(&rig, &registry)
         .expect("simulation builds")
-        .run(None)
+        .run()
         .expect_err("no consistent load exists");
     let msg = err.to_string();
     match &err {

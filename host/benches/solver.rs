@@ -77,7 +77,7 @@ fn bench(c: &mut Criterion) {
         g.bench_function(name, |b| {
             b.iter(|| {
                 let mut sim = tribo::rig::simulation(&rig, &reg).expect("sim");
-                black_box(sim.run(None).expect("run"))
+                black_box(sim.run().expect("run"))
             })
         });
     }

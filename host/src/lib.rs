@@ -13,6 +13,7 @@
 //! - [`mechanics`]: planar rigid multibody model of the rig (positions to joint reactions);
 //! - [`progress`]: progress display for long runs (stderr, terminals only);
 //! - [`report`], [`output`]: tables, JSON and CSV; result files written atomically;
+//! - [`timeseries`]: the per-step CSV of `tribo run --timeseries`, an observer of the run;
 //! - [`fit`]: least-squares calibration of a law set's free parameters (one or several runs);
 //! - [`score`], [`uncertainty`]: out-of-sample scores (leave-one-out, AICc, BIC, validation
 //!   data) and the linearised parameter uncertainty with the 95% band of the torque;
@@ -25,6 +26,7 @@ pub mod plots;
 pub mod progress;
 pub mod report;
 pub mod scaffold;
+pub mod timeseries;
 
 // The layers below the CLI, under the names the binary, tests and benches use.
 pub use tribo_config::{bundled, lawset, rig};

@@ -620,3 +620,44 @@ fn iteration_limit_too_low_to_settle_names_every_unsettled_law() {
     // One sentence, not repeated by the error chain.
     assert_eq!(stderr.matches("did not converge").count(), 1, "{stderr}");
 }
+
+#[test]
+fn a_simulation_run_twice_with_a_stateful_law_gives_the_same_result() {
+    // LuGre keeps its bristle deflection as state; a second run on the same Simulation must
+    // start from zero state as the first did, not from where the first run ended.
+    let sets = with(&[
+        "joints.piston.laws=[{law=\"lugre\"}]",
+        PI_DRIVE,
+        "solver.step_deg=4.0",
+    ]);
+    let rig = load(&sets).expect("rig is valid");
+    let registry = load_paths(&[
+        built_library("tribo_law_coulomb"),
+        built_library("tribo_law_lugre"),
+    ])
+    .expect("laws load");
+    let mut sim = tribo::rig::simulation(&rig, &registry).expect("simulation builds");
+    let first = sim.run().expect("first run");
+    let second = sim.run().expect("second run");
+    let fresh = tribo::rig::simulation(&rig, &registry)
+        .expect("simulation builds")
+        .run()
+        .expect("fresh run");
+    for r in [&second, &fresh] {
+        assert_eq!(r.steps, first.steps);
+        for (a, b) in first.plateaus.iter().zip(&r.plateaus) {
+            assert_eq!(a.motoring_torque_nm, b.motoring_torque_nm);
+            for (la, lb) in a.joints.iter().zip(&b.joints) {
+                assert_eq!(la.friction_torque_nm, lb.friction_torque_nm, "{}", la.law);
+            }
+        }
+        assert_eq!(r.energy.residual_j, first.energy.residual_j);
+    }
+    // The law did run with state: its piston friction is not zero.
+    let piston = first.plateaus[0]
+        .joints
+        .iter()
+        .find(|l| l.law == "lugre")
+        .expect("lugre result");
+    assert!(piston.friction_torque_nm.abs() > 0.0);
+}

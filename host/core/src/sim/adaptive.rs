@@ -117,6 +117,7 @@ impl Stepper for Adaptive {
             if a.err <= 1.0 {
                 // A step cut short to land on `b` or a switch does not shrink the next one.
                 let next = self.control.next(h_try, a.err, rejected);
+                self.control.accepted(a.err);
                 let cut_short = switch_cut || h_try < h;
                 self.h_next = if cut_short { next.max(planned) } else { next };
                 self.previous_end = Some((t, self.fsal.0.switches));

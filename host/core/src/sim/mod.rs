@@ -36,7 +36,7 @@ use tribo_plugin_api::loader::LawRegistry;
 use crate::cycle::Cycle;
 use crate::erk::{Controller, DORMAND_PRINCE_54};
 use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
-use crate::model::{Drive, Integrator, RigFile, Temperature, JOINT_NAMES};
+use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
 pub use error::{Fault, SimError, Unsettled};
@@ -73,6 +73,8 @@ pub struct Simulation {
     integrator: Integrator,
     rel_tol: f64,
     max_step_rad: f64,
+    /// The adaptive integrator's step-size controller.
+    step_control: StepControl,
     /// Which of an evaluation's `switches` matter: those of joints that carry a law.
     switch_mask: [bool; SWITCHES],
     /// Whether any bound law keeps state (then steps are fixed and committed).
@@ -172,6 +174,7 @@ impl Simulation {
             integrator: f.solver.integrator,
             rel_tol: f.solver.rel_tol,
             max_step_rad: f.solver.max_step_deg.to_radians(),
+            step_control: f.solver.step_control,
             switch_mask,
             stateful,
             tol: f.solver.friction_tol,
@@ -236,7 +239,10 @@ impl Simulation {
             Method::Rk4 => self.transient(Rk4::default(), w, observer)?,
             Method::Adaptive => {
                 let n = self.layout().len();
-                let control = Controller::new(&DORMAND_PRINCE_54);
+                let control = match self.step_control {
+                    StepControl::Integral => Controller::new(&DORMAND_PRINCE_54),
+                    StepControl::Pi => Controller::pi(&DORMAND_PRINCE_54),
+                };
                 let stepper = Adaptive::new(&DORMAND_PRINCE_54, control, (e_start, l_start), n);
                 self.transient(stepper, w, observer)?
             }

@@ -211,6 +211,7 @@ impl Progress {
 
 impl Simulation {
     /// Normal loads per joint from the reactions.
+    #[inline]
     pub(super) fn normals(&self, re: &Reactions) -> [f64; 5] {
         let main = re.main_n.norm();
         [
@@ -224,6 +225,7 @@ impl Simulation {
 
     /// The reaction components each joint's laws see: main bearings (each its share), big end,
     /// small end (global x, y) and the slide (along and normal to its axis).
+    #[inline]
     pub(super) fn components(&self, re: &Reactions) -> [Vector2<f64>; 5] {
         [
             re.main_n * self.shares[0],

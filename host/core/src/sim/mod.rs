@@ -196,6 +196,7 @@ impl Simulation {
 
     /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
     /// and the ramp leading to it; after the last plateau, the last value.
+    #[inline]
     fn oil_at(&self, t: f64) -> (f64, f64) {
         let i = self
             .cycle
@@ -206,6 +207,7 @@ impl Simulation {
         (self.temps[i], self.viscosities[i])
     }
 
+    #[inline]
     fn layout(&self) -> RateLayout {
         RateLayout { n: self.n_laws }
     }

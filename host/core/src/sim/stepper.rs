@@ -148,6 +148,7 @@ impl Stepper for Rk4 {
 impl Simulation {
     /// The time the crank needs to turn `angle_rad` at speed `omega`, capped by
     /// `solver.max_step_s` (which also covers a crank at rest).
+    #[inline]
     pub(super) fn time_step(&self, angle_rad: f64, omega: f64) -> f64 {
         if omega > 0.0 {
             (angle_rad / omega).min(self.max_step_s)
@@ -157,6 +158,7 @@ impl Simulation {
     }
 
     /// The evaluation point of a prescribed crank at `t` with reference `(theta, omega, alpha)`.
+    #[inline]
     pub(super) fn prescribed_point(&self, t: f64, dt: f64, reference: CrankState) -> Point {
         let (theta, omega, alpha) = reference;
         Point {
@@ -172,6 +174,7 @@ impl Simulation {
 
     /// The evaluation point of the PI-driven crank at `t` in state `y`, and the controller
     /// integral's rate there.
+    #[inline]
     pub(super) fn driven_point(&self, t: f64, dt: f64, y: CrankState) -> (Point, f64) {
         let (torque, dz, margin) = self.pi_torque(t, y.1, y.2);
         let at = Point {
@@ -188,6 +191,7 @@ impl Simulation {
 
     /// The drive torque, the controller integral's rate and the margin to the torque limit
     /// (negative while saturated) for a PI drive.
+    #[inline]
     pub(super) fn pi_torque(&self, t: f64, omega: f64, z: f64) -> (f64, f64, f64) {
         match self.drive {
             Drive::Pi {

@@ -35,7 +35,7 @@ fn run(sets: &[&str]) -> RunResult {
     let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("coulomb loads");
     tribo::rig::simulation(&rig, &registry)
         .expect("simulation builds")
-        .run(None)
+        .run()
         .expect("run succeeds")
 }
 
@@ -568,7 +568,7 @@ fn a_law_that_admits_no_consistent_load_fails_naming_the_joint_and_the_law() {
     let registry = load_paths(&[built_library("tribo_law_coulomb")]).expect("coulomb loads");
     let err = tribo::rig::simulation(&rig, &registry)
         .expect("simulation builds")
-        .run(None)
+        .run()
         .expect_err("no consistent load exists");
     let msg = err.to_string();
     match &err {
@@ -619,4 +619,109 @@ fn iteration_limit_too_low_to_settle_names_every_unsettled_law() {
     );
     // One sentence, not repeated by the error chain.
     assert_eq!(stderr.matches("did not converge").count(), 1, "{stderr}");
+}
+
+#[test]
+fn a_simulation_run_twice_with_a_stateful_law_gives_the_same_result() {
+    // LuGre keeps its bristle deflection as state; a second run on the same Simulation must
+    // start from zero state as the first did, not from where the first run ended.
+    let sets = with(&[
+        "joints.piston.laws=[{law=\"lugre\"}]",
+        PI_DRIVE,
+        "solver.step_deg=4.0",
+    ]);
+    let rig = load(&sets).expect("rig is valid");
+    let registry = load_paths(&[
+        built_library("tribo_law_coulomb"),
+        built_library("tribo_law_lugre"),
+    ])
+    .expect("laws load");
+    let mut sim = tribo::rig::simulation(&rig, &registry).expect("simulation builds");
+    let first = sim.run().expect("first run");
+    let second = sim.run().expect("second run");
+    let fresh = tribo::rig::simulation(&rig, &registry)
+        .expect("simulation builds")
+        .run()
+        .expect("fresh run");
+    for r in [&second, &fresh] {
+        assert_eq!(r.steps, first.steps);
+        for (a, b) in first.plateaus.iter().zip(&r.plateaus) {
+            assert_eq!(a.motoring_torque_nm, b.motoring_torque_nm);
+            for (la, lb) in a.joints.iter().zip(&b.joints) {
+                assert_eq!(la.friction_torque_nm, lb.friction_torque_nm, "{}", la.law);
+            }
+        }
+        assert_eq!(r.energy.residual_j, first.energy.residual_j);
+    }
+    // The law did run with state: its piston friction is not zero.
+    let piston = first.plateaus[0]
+        .joints
+        .iter()
+        .find(|l| l.law == "lugre")
+        .expect("lugre result");
+    assert!(piston.friction_torque_nm.abs() > 0.0);
+}
+
+/// The bundled CRF 250 R rig with bundled law set `set`, PI drive, the adaptive integrator's
+/// step-size controller `control`, and with `small_end_mu` a `fedem-friction` law of that
+/// coefficient on the small end (which the bundled sets leave free).
+fn bundled_pi_run(set: &str, control: &str, small_end_mu: Option<f64>) -> RunResult {
+    let sets = vec![
+        PI_DRIVE.to_string(),
+        format!("solver.step_control=\"{control}\""),
+    ];
+    let mut rig = tribo::rig::load_rig(Path::new("crf250r-motored"), &sets).expect("bundled rig");
+    tribo::lawset::LawSet::load(set)
+        .expect("bundled law set")
+        .apply(&mut rig);
+    if let Some(mu) = small_end_mu {
+        let mut params = toml::Table::new();
+        params.insert("mu".into(), toml::Value::Float(mu));
+        rig.file.joints.small_end.laws.push(tribo::rig::LawRef {
+            law: "fedem-friction".into(),
+            params,
+        });
+    }
+    let registry = load_paths(&[profile_dir()]).expect("plugins load");
+    tribo::rig::simulation(&rig, &registry)
+        .expect("simulation builds")
+        .run()
+        .expect("run succeeds")
+}
+
+#[test]
+fn pi_step_control_agrees_with_integral_control_and_takes_fewer_attempts() {
+    // docs/solver.md: the adaptive run at the default rel_tol is within 1.2e-5 of fixed-step
+    // RK4 at 0.25 degrees at every plateau, and the tests hold it to 5e-5; two controllers at
+    // the same tolerance must then agree to that.
+    // The bundled sets, and the benchmark's: fedem-baseline with the big end's coefficient
+    // on the small end too.
+    for (set, small_end_mu) in [
+        ("fedem-baseline", None),
+        ("stribeck-duty", None),
+        ("physical-bearings", None),
+        ("fedem-baseline", Some(0.0025)),
+    ] {
+        let integral = bundled_pi_run(set, "integral", small_end_mu);
+        let pi = bundled_pi_run(set, "pi", small_end_mu);
+        let attempts = |r: &RunResult| r.steps + r.rejected_steps;
+        let d = max_rel_diff(&integral, &pi);
+        eprintln!(
+            "{set}: integral {} steps + {} rejected, PI {} + {}; plateau torques within {d:.1e}",
+            integral.steps, integral.rejected_steps, pi.steps, pi.rejected_steps
+        );
+        assert!(d < 5e-5, "{set}: plateau torques differ by {d:e}");
+        assert!(
+            pi.rejected_steps < integral.rejected_steps,
+            "{set}: PI rejected {} steps, integral {}",
+            pi.rejected_steps,
+            integral.rejected_steps
+        );
+        assert!(
+            attempts(&pi) < attempts(&integral),
+            "{set}: PI tried {} steps, integral {}",
+            attempts(&pi),
+            attempts(&integral)
+        );
+    }
 }

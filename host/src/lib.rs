@@ -9,6 +9,7 @@
 //! - [`report`]: tables for people, CSV tables (through the `csv` writer);
 //! - [`plots`]: SVG plots of comparisons, mass responses and sweeps, with the files beside them;
 //! - [`output`]: result files written atomically (temporary file, then rename);
+//! - [`timeseries`]: the per-step CSV of `tribo run --timeseries`, an observer of the run;
 //! - [`progress`]: a progress display for long runs (stderr, terminals only);
 //! - [`laws`]: the listing of discovered laws (`tribo laws`);
 //! - [`scaffold`]: generation of a new law crate (`tribo new-law`).
@@ -25,6 +26,7 @@ pub mod plots;
 pub mod progress;
 pub mod report;
 pub mod scaffold;
+pub mod timeseries;
 
 // The layers below the CLI, under the names the binary, tests and benches use.
 pub use tribo_config::{bundled, lawset, rig};

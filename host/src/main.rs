@@ -377,14 +377,17 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     let result = match &timeseries {
         _ if steady => sim.run_steady()?,
         Some(path) => {
-            let mut file = tribo::output::AtomicFile::create(path)
+            let file = tribo::output::AtomicFile::create(path)
                 .with_context(|| format!("creating {}", path.display()))?;
-            let r = sim.run(Some(&mut file))?;
-            file.commit()
+            let mut series = tribo::timeseries::TimeSeries::new(file);
+            let r = sim.run_with(&mut series)?;
+            series
+                .into_inner()
+                .commit()
                 .with_context(|| format!("writing {}", path.display()))?;
             r
         }
-        None => sim.run(None)?,
+        None => sim.run()?,
     };
     drop(progress);
     if let Some(dir) = &csv {

@@ -705,7 +705,7 @@ mod tests {
         };
         RunResult {
             rig: "test rig".into(),
-            drive: "prescribed".into(),
+            drive: tribo_core::sim::DriveKind::Prescribed,
             plateaus: vec![PlateauResult {
                 set_speed_rpm: 3000.0,
                 mean_speed_rpm: 2999.5,
@@ -725,6 +725,7 @@ mod tests {
                 relative_residual: 0.0,
             },
             steps: 1,
+            rejected_steps: 0,
             max_friction_iterations: 1,
             warnings: Vec::new(),
             law_time: Vec::new(),

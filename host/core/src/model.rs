@@ -386,6 +386,22 @@ pub struct SolverSettings {
     /// Largest crank-angle step of the adaptive integrator, degrees.
     #[serde(default = "max_step_deg")]
     pub max_step_deg: f64,
+    /// Step-size controller of the adaptive integrator.
+    #[serde(default)]
+    pub step_control: StepControl,
+}
+
+/// How the adaptive integrator chooses its next step from the error estimates.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(rename_all = "kebab-case")]
+pub enum StepControl {
+    /// Integral (elementary) control: the next step from this step's error alone.
+    Integral,
+    /// Proportional-integral control (Gustafsson): this step's error and the previous
+    /// accepted one's, which damps the step-size oscillation of the integral controller.
+    #[default]
+    Pi,
 }
 
 /// How a torque-driven crank is integrated.
@@ -443,6 +459,7 @@ impl Default for SolverSettings {
             integrator: Integrator::default(),
             rel_tol: rel_tol(),
             max_step_deg: max_step_deg(),
+            step_control: StepControl::default(),
         }
     }
 }

@@ -198,7 +198,7 @@ pub fn run_rig(rig: &Rig, registry: &LawRegistry, steady: bool) -> Result<RunRes
     if steady {
         sim.run_steady()
     } else {
-        sim.run(None)
+        sim.run()
     }
 }
 

@@ -1,0 +1,344 @@
+//! The error-controlled PI-drive stepper: the embedded Dormand-Prince 5(4) pair, its
+//! step-size controller, and the handling of switches (steps end on predicted sign changes of
+//! joint velocities, side thrust and drive margin; a failed step is retried up to a crossing).
+
+use super::error::SimError;
+use super::evaluate::{Eval, SWITCHES};
+use super::stepper::{CrankState, Step, Stepper, Work};
+use super::Simulation;
+use crate::erk::{Controller, Pair};
+use crate::mechanics::JointLoads;
+
+/// Most stages a pair may have (fixed-size stage arrays on the stack).
+const MAX_STAGES: usize = 8;
+
+/// The adaptive stepper's state between steps.
+pub(super) struct Adaptive {
+    pair: &'static Pair,
+    control: Controller,
+    /// The evaluation at the current step's start (the previous step's last stage) and its
+    /// loads: "first same as last".
+    fsal: (Eval, JointLoads),
+    /// The step's increment and error estimate of every accumulated quantity.
+    incr: Vec<f64>,
+    est: Vec<f64>,
+    /// The middle stages' evaluations (recycled).
+    stages: Vec<Eval>,
+    /// The next step the controller proposes (infinite before the first).
+    h_next: f64,
+    /// Time and switching functions at the previous step's start, to predict crossings.
+    previous_end: Option<(f64, [f64; SWITCHES])>,
+}
+
+/// One attempted step.
+struct Attempt {
+    /// Scaled error estimate (acceptable at <= 1).
+    err: f64,
+    end: Eval,
+    loads: JointLoads,
+    y: CrankState,
+    /// The first switch to change sign within the step, as a fraction of it.
+    crossing: Option<f64>,
+}
+
+impl Adaptive {
+    /// A stepper for `pair` with `control`, starting from the evaluation `first` (and its
+    /// loads) at the run's start, for `n` accumulated quantities.
+    pub(super) fn new(
+        pair: &'static Pair,
+        control: Controller,
+        first: (Eval, JointLoads),
+        n: usize,
+    ) -> Self {
+        Self {
+            pair,
+            control,
+            fsal: first,
+            incr: vec![0.0; n],
+            est: vec![0.0; n],
+            stages: Vec::with_capacity(pair.stages()),
+            h_next: f64::INFINITY,
+            previous_end: None,
+        }
+    }
+
+    /// The step to try first from `t` (state `y`): the controller's proposal within the
+    /// longest allowed step, cut short to end on a switch predicted (linearly from the last two
+    /// step ends) to change sign within it, so the kink falls between steps. Returns the step,
+    /// the planned (uncut) step and whether a switch cut it.
+    fn plan(&self, sim: &Simulation, t: f64, y: CrankState) -> (f64, f64, bool) {
+        let w = y.1.abs().max(sim.cycle.reference(t).1.abs());
+        let h_cap = sim.time_step(sim.max_step_rad, w);
+        // The first step: one `step_deg` of crank angle.
+        let planned = if self.h_next.is_finite() {
+            self.h_next.min(h_cap)
+        } else {
+            sim.time_step(sim.step_rad, w)
+        };
+        let mut h_switch = f64::INFINITY;
+        if let Some((tp, gp)) = &self.previous_end {
+            for (i, (&a, &g)) in gp.iter().zip(&self.fsal.0.switches).enumerate() {
+                if sim.switch_mask[i] && a * g > 0.0 && (g - a) * g < 0.0 && t > *tp {
+                    let dt = g * (t - *tp) / (a - g);
+                    if dt > 0.05 * planned && dt < planned {
+                        h_switch = h_switch.min(dt);
+                    }
+                }
+            }
+        }
+        (planned.min(h_switch), planned, h_switch.is_finite())
+    }
+}
+
+impl Stepper for Adaptive {
+    /// Steps are tried from the plan and shrunk until the estimated error meets
+    /// `solver.rel_tol`; a step near the interval's end `b` ends exactly on it.
+    fn step(&mut self, sim: &Simulation, w: &mut Work, _t1: f64, b: f64) -> Result<Step, SimError> {
+        let (t, y) = (w.t, w.y);
+        // Across a jump a step may err as much as a longest step of smooth running may.
+        let h_floor = sim.time_step(
+            sim.max_step_rad,
+            y.1.abs().max(sim.cycle.reference(t).1.abs()),
+        );
+        let (mut h, planned, switch_cut) = self.plan(sim, t, y);
+        let mut rejected = false;
+        loop {
+            let remaining = b - t;
+            // End on the breakpoint, without leaving a sliver step before it.
+            let h_try = if remaining <= 1.1 * h {
+                remaining
+            } else if remaining < 2.0 * h {
+                0.5 * remaining
+            } else {
+                h
+            };
+            let a = self.attempt(sim, w, t, h_try, h_floor)?;
+            w.max_it = w.max_it.max(a.end.iterations);
+            if a.err <= 1.0 {
+                // A step cut short to land on `b` or a switch does not shrink the next one.
+                let next = self.control.next(h_try, a.err, rejected);
+                self.control.accepted(a.err);
+                let cut_short = switch_cut || h_try < h;
+                self.h_next = if cut_short { next.max(planned) } else { next };
+                self.previous_end = Some((t, self.fsal.0.switches));
+                let t1 = if h_try == remaining { b } else { t + h_try };
+                w.acc.iter_mut().zip(&self.incr).for_each(|(a, d)| *a += d);
+                w.guess = a.loads;
+                return Ok(Step {
+                    t1,
+                    h: t1 - t,
+                    end: a.end,
+                    y: a.y,
+                });
+            }
+            w.pool.push(a.end.rates);
+            w.rejected += 1;
+            rejected = true;
+            h = self.control.next(h_try, a.err, true);
+            // A switch inside the failed step: retry up to it rather than by the error alone.
+            if let Some(f) = a.crossing {
+                if f > 0.02 && f < 0.95 {
+                    h = f * h_try;
+                }
+            }
+            if h <= 1e-12 * t.abs().max(1e-3) {
+                return Err(SimError::StepTooSmall {
+                    time_s: t,
+                    step_s: h,
+                    rel_tol: sim.rel_tol,
+                });
+            }
+        }
+    }
+
+    fn recycle(&mut self, end: Eval, _h: f64, w: &mut Work) {
+        let old = std::mem::replace(&mut self.fsal, (end, w.guess));
+        w.pool.push(old.0.rates);
+    }
+}
+
+impl Adaptive {
+    /// One attempted step of length `h` from `w`'s state at `t`, the start evaluation being
+    /// `self.fsal`. The step's increment of every accumulated quantity goes to `self.incr`.
+    ///
+    /// A step may err by `rel_tol` times the largest rate of the quantity over the step (at
+    /// least 1 for the crank state; for powers and for normal loads the largest of the group,
+    /// at least 1e-3 W or N; see `RateLayout::controlled`) times the step plus `h_floor`. Over
+    /// smooth stretches that bounds the error per unit time, so the integrals over a hold are
+    /// good to about `rel_tol`; across a jump of a rate (a law's near-discontinuity, the
+    /// drive's anti-windup switch) the step shrinks until its error is that of an `h_floor`
+    /// step instead of failing for ever.
+    fn attempt(
+        &mut self,
+        sim: &Simulation,
+        w: &mut Work,
+        t: f64,
+        h: f64,
+        h_floor: f64,
+    ) -> Result<Attempt, SimError> {
+        let s = self.pair.stages();
+        debug_assert!(s <= MAX_STAGES);
+        let (k, end, loads, y) = self.stages(sim, w, t, h)?;
+        let Self {
+            pair,
+            fsal,
+            stages,
+            incr,
+            est,
+            ..
+        } = self;
+        // Stage j's evaluation: the given first, the stored middle ones, the end.
+        let evals: [&Eval; MAX_STAGES] = std::array::from_fn(|j| match j {
+            0 => &fsal.0,
+            j if j < s - 1 => &stages[j - 1],
+            _ => &end,
+        });
+        let crank = crank_error(pair, &k[..s], h, sim.rel_tol * (h + h_floor));
+        let rates = sim.rate_error(pair, &evals[..s], h, h_floor, incr, est);
+        let crossing = first_crossing(sim, pair, &evals[..s]);
+        for e in stages.drain(..) {
+            w.pool.push(e.rates);
+        }
+        Ok(Attempt {
+            err: crank.max(rates),
+            end,
+            loads,
+            y,
+            crossing,
+        })
+    }
+
+    /// The stages of a step of length `h` from `t`: the crank state's rates `k` per stage (the
+    /// first from `self.fsal`), the middle stages' evaluations into `self.stages`, and the end
+    /// evaluation, its loads and the end state.
+    #[allow(clippy::type_complexity)]
+    fn stages(
+        &mut self,
+        sim: &Simulation,
+        w: &mut Work,
+        t: f64,
+        h: f64,
+    ) -> Result<([[f64; 3]; MAX_STAGES], Eval, JointLoads, CrankState), SimError> {
+        let (pair, y) = (self.pair, w.y);
+        let mut k = [[0.0_f64; 3]; MAX_STAGES];
+        let (_, dz, _) = sim.pi_torque(t, y.1, y.2);
+        k[0] = [y.1, self.fsal.0.alpha, dz];
+        // The friction iteration starts from the loads extrapolated (linearly in time) from the
+        // two latest stages: one or two iterations fewer than starting from the latest.
+        let mut loads = self.fsal.1;
+        let mut older: Option<(f64, JointLoads)> = None;
+        let mut t_last = t;
+        self.stages.clear();
+        let mut y1 = [y.0, y.1, y.2];
+        for st in 1..pair.stages() {
+            let mut ys = [y.0, y.1, y.2];
+            for (j, a) in pair.a[st].iter().enumerate() {
+                for c in 0..3 {
+                    ys[c] += h * a * k[j][c];
+                }
+            }
+            let ts = t + pair.c[st] * h;
+            let (at, dz) = sim.driven_point(ts, h, (ys[0], ys[1], ys[2]));
+            let guess = match older {
+                Some((t0, l0)) if t_last > t0 => {
+                    loads.extrapolated(&l0, (ts - t_last) / (t_last - t0))
+                }
+                _ => loads,
+            };
+            let buffer = w.buffer();
+            let (e, l) = sim.evaluate(&at, &guess, buffer)?;
+            k[st] = [ys[1], e.alpha, dz];
+            older = Some((t_last, loads));
+            t_last = ts;
+            loads = l;
+            self.stages.push(e);
+            y1 = ys;
+        }
+        let Some(end) = self.stages.pop() else {
+            unreachable!("an embedded pair has at least two stages")
+        };
+        Ok((k, end, loads, (y1[0], y1[1], y1[2])))
+    }
+}
+
+/// The crank state's scaled error (angle, speed, controller integral), each relative to the
+/// largest of its stage rates (at least 1) and to `tol_h`, the tolerance times the step plus
+/// the floor step.
+fn crank_error(pair: &Pair, k: &[[f64; 3]], h: f64, tol_h: f64) -> f64 {
+    let mut err = 0.0_f64;
+    for c in 0..3 {
+        let (est, peak) = k
+            .iter()
+            .zip(pair.e)
+            .fold((0.0, 1.0_f64), |(sum, peak), (kj, e)| {
+                (sum + e * kj[c], peak.max(kj[c].abs()))
+            });
+        err = err.max((h * est).abs() / (tol_h * peak));
+    }
+    err
+}
+
+/// The first switch to change sign, located by linear interpolation between the stages
+/// around it (as a fraction of the step).
+fn first_crossing(sim: &Simulation, pair: &Pair, evals: &[&Eval]) -> Option<f64> {
+    let mut crossing: Option<f64> = None;
+    for i in (0..SWITCHES).filter(|i| sim.switch_mask[*i]) {
+        for j in 1..evals.len() {
+            let (a, g) = (evals[j - 1].switches[i], evals[j].switches[i]);
+            if a * g < 0.0 && pair.c[j] > pair.c[j - 1] {
+                let f = pair.c[j - 1] + (pair.c[j] - pair.c[j - 1]) * a / (a - g);
+                crossing = Some(crossing.map_or(f, |c: f64| c.min(f)));
+                break;
+            }
+        }
+    }
+    crossing
+}
+
+impl Simulation {
+    /// The step's increments (propagated weights, into `incr`) and error estimates (error
+    /// weights, into `est`) of every accumulated quantity, and the largest scaled error of
+    /// the controlled groups. Stage by stage so the loops run over contiguous rates; only the
+    /// controlled groups need an error estimate.
+    fn rate_error(
+        &self,
+        pair: &Pair,
+        evals: &[&Eval],
+        h: f64,
+        h_floor: f64,
+        incr: &mut [f64],
+        est: &mut [f64],
+    ) -> f64 {
+        let controlled = self.layout().controlled();
+        incr.fill(0.0);
+        est.fill(0.0);
+        for (j, e) in evals.iter().enumerate() {
+            let r = &e.rates[..];
+            let (b, e) = (h * pair.b[j], h * pair.e[j]);
+            if b != 0.0 {
+                incr.iter_mut().zip(r.iter()).for_each(|(d, r)| *d += b * r);
+            }
+            if e != 0.0 {
+                for (range, _) in &controlled {
+                    est[range.clone()]
+                        .iter_mut()
+                        .zip(&r[range.clone()])
+                        .for_each(|(d, r)| *d += e * r);
+                }
+            }
+        }
+        // Each group shares one scale, the largest rate of the group over the step: a small
+        // quantity cannot be resolved below the evaluation's own noise, which the friction
+        // iteration's tolerance sets relative to the largest of its group.
+        let mut err = 0.0_f64;
+        for (range, factor) in controlled {
+            let peak = evals
+                .iter()
+                .flat_map(|e| e.rates[range.clone()].iter())
+                .fold(1e-3_f64, |m, r| m.max(r.abs()));
+            let worst = est[range].iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            err = err.max(worst / (factor * self.rel_tol * (h + h_floor) * peak));
+        }
+        err
+    }
+}

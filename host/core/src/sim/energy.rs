@@ -1,0 +1,34 @@
+//! Energy bookkeeping: the mechanism's mechanical energy, and the balance of motor work,
+//! energy change and dissipation a run reports (its residual checks the integration).
+
+use super::results::EnergyBalance;
+use super::Simulation;
+use crate::mechanics::JointLoads;
+
+impl Simulation {
+    /// Kinetic plus potential energy of the mechanism at crank angle `theta` and speed
+    /// `omega`, J.
+    pub(super) fn mechanical_energy(&self, theta: f64, omega: f64) -> f64 {
+        let (st, _) = self.mech.solve(theta, omega, 0.0, &JointLoads::default());
+        self.mech.kinetic_energy(&st.qd) + self.mech.potential_energy(&st.q)
+    }
+}
+
+impl EnergyBalance {
+    /// The balance of `motor_work` (J) against the mechanical energy's `change` and the
+    /// energy `dissipated` by the laws: what is left is the integration's residual.
+    pub fn from_terms(motor_work: f64, change: f64, dissipated: f64) -> Self {
+        let residual = motor_work - change - dissipated;
+        Self {
+            motor_work_j: motor_work,
+            mechanical_energy_change_j: change,
+            dissipated_j: dissipated,
+            residual_j: residual,
+            relative_residual: if motor_work.abs() > 0.0 {
+                residual.abs() / motor_work.abs()
+            } else {
+                residual.abs()
+            },
+        }
+    }
+}

@@ -1,0 +1,139 @@
+//! Why a run fails, in words that name the joint, law, time and what to change.
+
+use tribo_plugin_api::loader::LawError;
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// A law cannot be bound (a law name that no plugin provides, bad law parameters): `field`
+    /// is its dotted path in the model, `at` where the configuration layer found it
+    /// (`file:line:column`), if it knows.
+    #[error("{}{field}: {message}", at.as_deref().map(|a| format!("{a}: ")).unwrap_or_default())]
+    Setup {
+        /// Where the field was written, if known.
+        at: Option<String>,
+        /// Dotted path of the field, e.g. `joints.piston.laws[0].params`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A law failed while running.
+    #[error("joint `{joint}` at t = {time_s:.6} s (relative velocity {velocity}, normal load {load_n} N): {source}")]
+    Law {
+        /// Joint.
+        joint: String,
+        /// Simulation time, s.
+        time_s: f64,
+        /// Relative velocity at the failure.
+        velocity: f64,
+        /// Normal load at the failure, N.
+        load_n: f64,
+        /// The law's error.
+        source: Box<LawError>,
+    },
+    /// A law returned a force that is not a finite number.
+    #[error("joint `{}`, law `{}` ({}) returned a non-finite force ({}) at t = {:.6} s for inputs: velocity {}, normal load {} N", .0.joint, .0.law, .0.file, .0.force, .0.time_s, .0.velocity, .0.load_n)]
+    NonFinite(Box<Fault>),
+    /// A stateless law returned a force that pushes the motion (F*V > 0).
+    #[error("joint `{}`, law `{}` ({}) adds energy at t = {:.6} s: force {} has the sign of the relative velocity {} (normal load {} N); a friction or damping law must oppose the motion", .0.joint, .0.law, .0.file, .0.time_s, .0.force, .0.velocity, .0.load_n)]
+    AddsEnergy(Box<Fault>),
+    /// The friction/reaction iteration did not converge: which joints' loads did not settle,
+    /// with their laws, so the user knows which law to look at.
+    #[error("{}", no_convergence_text(*.time_s, *.iterations, *.change_n, *.tol, .unsettled))]
+    NoConvergence {
+        /// Time.
+        time_s: f64,
+        /// Iterations made.
+        iterations: u32,
+        /// Largest last change of a normal load, N.
+        change_n: f64,
+        /// Tolerance, relative to the largest normal load.
+        tol: f64,
+        /// The law-bearing joints whose loads did not settle.
+        unsettled: Vec<Unsettled>,
+    },
+    /// The adaptive integrator could not meet its tolerance with any usable step.
+    #[error("the adaptive integrator could not meet solver.rel_tol = {rel_tol:.1e} at t = {time_s:.6} s (step down to {step_s:.3e} s): a law is probably discontinuous there; loosen solver.rel_tol or use solver.integrator = \"rk4\"")]
+    StepTooSmall {
+        /// Time.
+        time_s: f64,
+        /// The last step tried, s.
+        step_s: f64,
+        /// The tolerance in force.
+        rel_tol: f64,
+    },
+    /// The step observer failed (the CLI's time-series writer, say): the run stops with its
+    /// error.
+    #[error("{0}")]
+    Observer(#[source] crate::observe::ObserverError),
+}
+
+/// Where, when and with which inputs a law returned an unusable force.
+#[derive(Debug, Clone)]
+pub struct Fault {
+    /// Joint.
+    pub joint: String,
+    /// Law.
+    pub law: String,
+    /// Library file.
+    pub file: String,
+    /// Simulation time, s.
+    pub time_s: f64,
+    /// The force (or torque) returned.
+    pub force: f64,
+    /// Relative velocity given to the law.
+    pub velocity: f64,
+    /// Normal load given to the law, N.
+    pub load_n: f64,
+}
+/// A joint whose normal load did not settle, with its laws (for the error message).
+#[derive(Debug, Clone)]
+pub struct Unsettled {
+    /// Joint.
+    pub joint: String,
+    /// Laws bound to it.
+    pub laws: Vec<String>,
+    /// Last change (or residual) of its normal load, N.
+    pub change_n: f64,
+}
+
+/// The message of [`SimError::NoConvergence`]: where, which joints and laws, what to do.
+fn no_convergence_text(
+    time_s: f64,
+    iterations: u32,
+    change_n: f64,
+    tol: f64,
+    unsettled: &[Unsettled],
+) -> String {
+    let head = format!(
+        "the friction/reaction iteration did not converge at t = {time_s:.6} s after {iterations} iterations"
+    );
+    if unsettled.is_empty() {
+        return format!(
+            "{head}, too few to see the normal loads settle: raise solver.friction_max_iter"
+        );
+    }
+    let one = |x: &Unsettled| {
+        let laws: Vec<String> = x.laws.iter().map(|l| format!("`{l}`")).collect();
+        let noun = if x.laws.len() == 1 { "law" } else { "laws" };
+        format!("`{}` ({noun} {})", x.joint, laws.join(", "))
+    };
+    let items: Vec<String> = unsettled.iter().map(one).collect();
+    let joints = match items.split_last() {
+        Some((last, [])) => format!("joint {last}"),
+        Some((last, rest)) => format!("joints {} and {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    let n_laws: usize = unsettled.iter().map(|x| x.laws.len()).sum();
+    let (whose, its) = if n_laws == 1 {
+        ("that law's", "its")
+    } else {
+        ("those laws'", "their")
+    };
+    format!(
+        "{head}: the normal load of {joints} did not settle (last change {change_n:.3e} N, \
+         tolerance {tol:.1e} of the largest load); check {whose} parameters at these loads ({its} load \
+         sensitivity may be too strong or discontinuous there) or raise \
+         solver.friction_max_iter"
+    )
+}

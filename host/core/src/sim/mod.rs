@@ -1,0 +1,380 @@
+//! The motored-rig simulation, composed of named stages:
+//!
+//! - `bind`: laws bound to joints ([`JointId`]), law calls with sampled timing, commits;
+//! - `evaluate` (with `newton`): model evaluation at one instant, the friction/reaction
+//!   iteration (`crank state -> reactions -> law inputs -> laws -> joint loads -> reactions
+//!   ...` until the normal loads settle);
+//! - `stepper` (with `adaptive`): one trait for a step method: Simpson quadrature of the
+//!   prescribed crank, the error-controlled Dormand-Prince 5(4) pair of the PI drive with its
+//!   step-size controller and switch handling, fixed-step RK4 (stateful laws or
+//!   `solver.integrator = "rk4"`);
+//! - `plateau`: whole-revolution windows and plateau measurement; `steady`: the steady state;
+//!   `energy`: the energy balance; `results`: what a run returns.
+//!
+//! The core does no I/O: per-step output (a time series, progress) goes to a
+//! [`StepObserver`](crate::observe::StepObserver).
+
+mod adaptive;
+mod bind;
+mod energy;
+mod error;
+mod evaluate;
+mod joint;
+mod newton;
+mod plateau;
+mod rates;
+mod results;
+mod steady;
+mod stepper;
+#[cfg(test)]
+mod tests;
+
+use std::f64::consts::TAU;
+
+use tribo_plugin_api::loader::LawRegistry;
+
+use crate::cycle::Cycle;
+use crate::erk::{Controller, DORMAND_PRINCE_54};
+use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
+use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
+use crate::observe::{NoObserver, StepObserver, StepSample};
+
+pub use error::{Fault, SimError, Unsettled};
+pub use joint::JointId;
+pub use results::{
+    DriveKind, EnergyBalance, LawResult, LawTime, PlateauResult, RegimeShare, RunResult,
+};
+
+use adaptive::Adaptive;
+use bind::BoundJoint;
+use evaluate::{SWITCHES, SWITCH_DRIVE, SWITCH_LATERAL};
+use plateau::Plateaus;
+use rates::RateLayout;
+use stepper::{Quadrature, Rk4, Stepper, Work};
+
+/// Standard gravity, m/s^2.
+pub const GRAVITY_M_S2: f64 = 9.80665;
+
+/// A ready-to-run simulation: mechanism, cycle, laws and drive.
+pub struct Simulation {
+    rig_name: String,
+    mech: Mechanism,
+    cycle: Cycle,
+    /// The five joints in `JointId::ALL` order, with their laws.
+    joints: Vec<BoundJoint>,
+    shares: [f64; 2],
+    drive: Drive,
+    temps: Vec<f64>,
+    viscosities: Vec<f64>,
+    window_s: f64,
+    lowpass_hz: f64,
+    step_rad: f64,
+    max_step_s: f64,
+    integrator: Integrator,
+    rel_tol: f64,
+    max_step_rad: f64,
+    /// The adaptive integrator's step-size controller.
+    step_control: StepControl,
+    /// Which of an evaluation's `switches` matter: those of joints that carry a law.
+    switch_mask: [bool; SWITCHES],
+    /// Whether any bound law keeps state (then steps are fixed and committed).
+    stateful: bool,
+    tol: f64,
+    max_iter: u32,
+    n_laws: usize,
+    progress: Option<crate::observe::Position>,
+}
+
+/// The mechanism of the model: its bodies reduced to the rig's geometry (the crank's
+/// unbalance folded into its mass, centre and inertia; the PI drive's motor inertia reflected
+/// through the belt).
+fn rig_geometry(f: &RigFile) -> RigGeometry {
+    let c = &f.bodies.crank;
+    let (mu, ru) = (c.unbalance_mass_kg * c.mass_scale, c.unbalance_radius_m);
+    let m_crank = c.mass_kg * c.mass_scale + mu;
+    let offset = if m_crank > 0.0 {
+        mu * ru / m_crank
+    } else {
+        0.0
+    };
+    let j_axis = c.inertia_kg_m2 * c.inertia_scale + mu * ru * ru;
+    let drive_inertia = match f.drive {
+        Drive::Pi {
+            belt_ratio,
+            motor_inertia_kg_m2,
+            ..
+        } => motor_inertia_kg_m2 * belt_ratio * belt_ratio,
+        Drive::Prescribed => 0.0,
+    };
+    let r = &f.bodies.rod;
+    RigGeometry {
+        crank_radius_m: f.geometry.crank_radius_m,
+        rod_length_m: r.length_m,
+        rod_com_from_big_end_m: r.com_from_big_end_m,
+        crank_inertia_kg_m2: j_axis - m_crank * offset * offset,
+        crank_mass_kg: m_crank,
+        crank_com_offset_m: offset,
+        crank_com_angle_rad: c.unbalance_angle_deg.to_radians(),
+        rod_mass_kg: r.mass_kg * r.mass_scale,
+        rod_inertia_kg_m2: r.inertia_kg_m2 * r.inertia_scale,
+        piston_mass_kg: f.bodies.piston.mass_kg * f.bodies.piston.mass_scale,
+        gravity_m_s2: if f.geometry.gravity {
+            GRAVITY_M_S2
+        } else {
+            0.0
+        },
+        drive_inertia_kg_m2: drive_inertia,
+    }
+}
+
+/// Which step method a transient run uses.
+enum Method {
+    /// Prescribed crank: Simpson quadrature of the exact reference motion.
+    Quadrature,
+    /// PI drive, stateless laws: error-controlled Dormand-Prince 5(4).
+    Adaptive,
+    /// PI drive with stateful laws, or `solver.integrator = "rk4"`: fixed-step RK4.
+    Rk4,
+}
+
+impl Simulation {
+    /// Bind the model's laws (from `registry`) and prepare the mechanism and cycle.
+    pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
+        let f = model;
+        let (joints, n_laws) = bind::bind_joints(f, registry)?;
+        let mut switch_mask = [false; SWITCHES];
+        for j in &joints {
+            switch_mask[j.id.index()] = !j.laws.is_empty();
+        }
+        switch_mask[SWITCH_LATERAL] = switch_mask[JointId::Piston.index()];
+        switch_mask[SWITCH_DRIVE] = matches!(f.drive, Drive::Pi { .. });
+        let stateful = joints.iter().any(BoundJoint::is_stateful);
+        let cycle = Cycle::new(&f.cycle.segments());
+        let temps: Vec<f64> = match &f.oil.temperature_c {
+            Temperature::Constant(t) => vec![*t; cycle.plateaus().len()],
+            Temperature::PerPlateau(v) => v.clone(),
+        };
+        let viscosities = temps
+            .iter()
+            .map(|t| f.oil.viscosity.kinematic_cst(*t) * 1e-6 * f.oil.density_kg_m3)
+            .collect();
+        Ok(Self {
+            rig_name: f.name.clone(),
+            mech: Mechanism::new(rig_geometry(f)),
+            cycle,
+            joints,
+            shares: [f.joints.main_a.load_share, f.joints.main_b.load_share],
+            drive: f.drive.clone(),
+            temps,
+            viscosities,
+            window_s: f.measurement.window_s,
+            lowpass_hz: f.measurement.lowpass_hz,
+            step_rad: f.solver.step_deg.to_radians(),
+            max_step_s: f.solver.max_step_s,
+            integrator: f.solver.integrator,
+            rel_tol: f.solver.rel_tol,
+            max_step_rad: f.solver.max_step_deg.to_radians(),
+            step_control: f.solver.step_control,
+            switch_mask,
+            stateful,
+            tol: f.solver.friction_tol,
+            max_iter: f.solver.friction_max_iter,
+            n_laws,
+            progress: None,
+        })
+    }
+
+    /// Report progress (permille of the simulated cycle) to `p`.
+    pub fn report_progress(&mut self, p: crate::observe::Position) {
+        self.progress = Some(p);
+    }
+
+    /// The mechanism (for tests and studies).
+    pub fn mechanism(&self) -> &Mechanism {
+        &self.mech
+    }
+
+    /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
+    /// and the ramp leading to it; after the last plateau, the last value.
+    #[inline]
+    fn oil_at(&self, t: f64) -> (f64, f64) {
+        let i = self
+            .cycle
+            .plateaus()
+            .iter()
+            .position(|p| t <= p.t_end)
+            .unwrap_or(self.temps.len().saturating_sub(1));
+        (self.temps[i], self.viscosities[i])
+    }
+
+    #[inline]
+    fn layout(&self) -> RateLayout {
+        RateLayout { n: self.n_laws }
+    }
+
+    /// Run the whole test cycle without per-step output.
+    pub fn run(&mut self) -> Result<RunResult, SimError> {
+        self.run_with(&mut NoObserver)
+    }
+
+    /// Run the whole test cycle, handing every accepted step to `observer` (a failing
+    /// observer stops the run with its error). Every law's state starts from zero, so a
+    /// simulation run twice gives the same result.
+    pub fn run_with(&mut self, observer: &mut dyn StepObserver) -> Result<RunResult, SimError> {
+        observer.start(&JOINT_NAMES).map_err(SimError::Observer)?;
+        bind::reset_states(&mut self.joints);
+        let method = match self.drive {
+            Drive::Prescribed => Method::Quadrature,
+            // A stateful law's state is advanced with the step's length, which must then not
+            // vary: the adaptive integrator is for stateless laws only.
+            Drive::Pi { .. } if self.integrator == Integrator::Adaptive && !self.stateful => {
+                Method::Adaptive
+            }
+            Drive::Pi { .. } => Method::Rk4,
+        };
+        let e0 = self.mechanical_energy(0.0, 0.0);
+        let mut w = Work::new(self.layout().len());
+        let (e_start, l_start) = self.step_eval(0.0, 0.0, (0.0, 0.0, 0.0), &w.guess, Vec::new())?;
+        w.last_rates = e_start.rates.clone();
+        let (w, steps, plateaus) = match method {
+            Method::Quadrature => self.transient(Quadrature, w, observer)?,
+            Method::Rk4 => self.transient(Rk4::default(), w, observer)?,
+            Method::Adaptive => {
+                let n = self.layout().len();
+                let control = match self.step_control {
+                    StepControl::Integral => Controller::new(&DORMAND_PRINCE_54),
+                    StepControl::Pi => Controller::pi(&DORMAND_PRINCE_54),
+                };
+                let stepper = Adaptive::new(&DORMAND_PRINCE_54, control, (e_start, l_start), n);
+                self.transient(stepper, w, observer)?
+            }
+        };
+        let change = self.mechanical_energy(w.y.0, w.y.1) - e0;
+        let dissipated: f64 = w.acc[self.layout().powers()].iter().sum();
+        let energy = EnergyBalance::from_terms(w.acc[RateLayout::MOTOR], change, dissipated);
+        let (results, warnings) = plateaus.results(self);
+        Ok(RunResult {
+            rig: self.rig_name.clone(),
+            drive: match self.drive {
+                Drive::Prescribed => DriveKind::Prescribed,
+                Drive::Pi { .. } => DriveKind::Pi,
+            },
+            plateaus: results,
+            energy_residual_j: energy.residual_j,
+            energy,
+            steps,
+            rejected_steps: w.rejected,
+            max_friction_iterations: w.max_it,
+            warnings,
+            law_time: bind::law_time(&self.joints),
+        })
+    }
+
+    /// The run's grid: segment ends, and for a prescribed crank the exact window starts, so
+    /// every window begins and ends on a step.
+    fn grid(&self) -> Vec<f64> {
+        let duration = self.cycle.duration();
+        let mut breaks: Vec<f64> = self.cycle.breakpoints();
+        if matches!(self.drive, Drive::Prescribed) {
+            for p in self.cycle.plateaus() {
+                let revs = self.window_revs(p.omega);
+                breaks.push(p.t_end - revs as f64 * TAU / p.omega);
+            }
+        }
+        breaks.retain(|b| *b > 0.0 && *b <= duration);
+        breaks.sort_by(f64::total_cmp);
+        breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+        breaks
+    }
+
+    /// The transient run with `stepper` over the grid: every accepted step is committed,
+    /// observed, filtered and recorded for the plateau windows. Returns the final work state,
+    /// the steps taken and the plateau records.
+    fn transient<S: Stepper>(
+        &mut self,
+        mut stepper: S,
+        mut w: Work,
+        observer: &mut dyn StepObserver,
+    ) -> Result<(Work, u64, Plateaus), SimError> {
+        let duration = self.cycle.duration();
+        let mut plateaus = Plateaus::new(self, self.layout().len());
+        let (mut filtered, mut steps) = (0.0, 0_u64);
+        for b in self.grid() {
+            let (_, w_end, _) = self.cycle.reference(b);
+            let w_max = w_end.max(self.cycle.reference(w.t).1).max(w.y.1);
+            let dt_target = self.time_step(self.step_rad, w_max);
+            let m = ((b - w.t) / dt_target).ceil().max(1.0) as u64;
+            let dt = (b - w.t) / m as f64;
+            stepper.begin_interval(self, &mut w, dt)?;
+            let mut i = 0_u64;
+            while w.t < b {
+                i += 1;
+                let t1 = if i == m { b } else { w.t + dt };
+                let step = stepper.step(self, &mut w, t1, b)?;
+                w.y = step.y;
+                self.commit(step.t1, step.h, w.y.0, &step.end, self.oil_at(step.t1))?;
+                w.last_rates.copy_from_slice(&step.end.rates);
+                steps += 1;
+                if steps % 4096 == 0 {
+                    let permille = (1000.0 * step.t1 / duration) as u64;
+                    if let Some(p) = &self.progress {
+                        p.set(permille);
+                    }
+                    observer.progress(permille);
+                }
+                // Low-pass filter of the motoring torque (first order, exact discretisation).
+                let a = (-TAU * self.lowpass_hz * step.h).exp();
+                filtered = a * filtered + (1.0 - a) * step.end.drive_torque;
+                observe(observer, &step, w.y, filtered)?;
+                let crank = (w.y.0, w.y.1);
+                let sat = step.end.saturated();
+                plateaus.record(
+                    self.window_s,
+                    step.t1,
+                    step.h,
+                    crank,
+                    sat,
+                    &w.acc,
+                    &w.last_rates,
+                );
+                stepper.recycle(step.end, step.h, &mut w);
+                w.t = step.t1;
+            }
+        }
+        Ok((w, steps, plateaus))
+    }
+}
+
+/// Hand the accepted `step` (crank state `y` at its end, filtered torque) to the observer.
+fn observe(
+    observer: &mut dyn StepObserver,
+    step: &stepper::Step,
+    y: stepper::CrankState,
+    filtered: f64,
+) -> Result<(), SimError> {
+    let sample = StepSample {
+        time_s: step.t1,
+        crank_angle_rad: y.0,
+        speed_rad_s: y.1,
+        motoring_torque_nm: step.end.drive_torque,
+        filtered_torque_nm: filtered,
+        normal_loads_n: &step.end.normals,
+    };
+    observer.step(&sample).map_err(SimError::Observer)
+}
+
+impl Work {
+    /// The start of a run: crank at rest at time 0, nothing accumulated, for `n` quantities.
+    fn new(n: usize) -> Self {
+        Self {
+            t: 0.0,
+            y: (0.0, 0.0, 0.0),
+            acc: vec![0.0; n],
+            last_rates: Vec::new(),
+            guess: JointLoads::default(),
+            pool: Vec::new(),
+            max_it: 0,
+            rejected: 0,
+        }
+    }
+}

@@ -1,4 +1,28 @@
 //! The test cycle: the reference crank speed as ramps and holds, and the plateaus measured.
+//!
+//! The reference motion is exact (piecewise quadratic crank angle), so a ramp's angle, speed and
+//! acceleration follow from kinematics alone:
+//!
+//! ```
+//! use tribo_core::cycle::{rpm_to_rad_s, thesis_cycle, Cycle, Segment};
+//!
+//! let cycle = Cycle::new(&[
+//!     Segment::Ramp { to_rpm: 3000.0, duration_s: 1.0 },
+//!     Segment::Hold { duration_s: 2.0 },
+//! ]);
+//! assert_eq!(cycle.duration(), 3.0);
+//! let p = cycle.plateaus()[0];
+//! assert_eq!((p.t_start, p.t_end), (1.0, 3.0));
+//! // Half-way up the ramp: half the speed, the ramp's acceleration, a quarter of the angle.
+//! let w = rpm_to_rad_s(3000.0);
+//! let (theta, omega, alpha) = cycle.reference(0.5);
+//! assert!((omega - 0.5 * w).abs() < 1e-12 && (alpha - w).abs() < 1e-12);
+//! assert!((theta - 0.125 * w).abs() < 1e-12);
+//! // The thesis's cycle: seven plateaus, 11.5 s.
+//! let thesis = Cycle::new(&thesis_cycle());
+//! assert_eq!(thesis.plateaus().len(), 7);
+//! assert!((thesis.duration() - 11.5).abs() < 1e-12);
+//! ```
 
 use tribo_plugin_api::serde::{Deserialize, Serialize};
 

@@ -49,6 +49,20 @@ impl ViscosityModel {
     }
 
     /// Kinematic viscosity in cSt (mm^2/s) at `t_c` degrees Celsius.
+    ///
+    /// The two-point model passes through its two points and thins monotonically between them:
+    ///
+    /// ```
+    /// use tribo_core::oil::ViscosityModel;
+    ///
+    /// let oil = ViscosityModel::TwoPoint { kv40_cst: 115.0, kv100_cst: 17.5 };
+    /// assert!((oil.kinematic_cst(40.0) - 115.0).abs() < 1e-9);
+    /// assert!((oil.kinematic_cst(100.0) - 17.5).abs() < 1e-9);
+    /// assert!(oil.kinematic_cst(80.0) < oil.kinematic_cst(60.0));
+    /// // Vogel: nu = k exp(theta1 / (T + theta2)); at 0 C that is k e^10 here.
+    /// let vogel = ViscosityModel::Vogel { k_cst: 0.1, theta1_c: 1000.0, theta2_c: 100.0 };
+    /// assert!((vogel.kinematic_cst(0.0) - 0.1 * 10f64.exp()).abs() < 1e-12);
+    /// ```
     pub fn kinematic_cst(&self, t_c: f64) -> f64 {
         match *self {
             Self::Vogel {

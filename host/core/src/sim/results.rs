@@ -143,6 +143,6 @@ pub struct LawTime {
     pub law: String,
     /// Evaluations.
     pub calls: u64,
-    /// Estimated seconds in the law (one call in 64 timed, the clock's own cost subtracted).
+    /// Estimated seconds in the law (one call in 256 timed, the clock's own cost subtracted).
     pub seconds: f64,
 }

@@ -12,7 +12,7 @@
 //!   `energy`: the energy balance; `results`: what a run returns.
 //!
 //! The core does no I/O: per-step output (a time series, progress) goes to a
-//! [`StepObserver`](crate::observe::StepObserver).
+//! [`StepObserver`].
 
 mod adaptive;
 mod bind;

@@ -161,88 +161,67 @@ pub fn uncertainty_within_bounds(
     u
 }
 
-/// The uncertainty of parameters `x` of `model`, whose residuals there are `residuals`.
-pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Uncertainty {
-    let (m, n) = (residuals.len(), x.len());
-    if n == 0 {
-        return Uncertainty::none(m);
-    }
-    let free = model.free();
-    let ids: Vec<&str> = free.iter().map(|f| f.id.as_str()).collect();
-    let dof = m.saturating_sub(n);
-    let rss: f64 = residuals.iter().map(|r| r * r).sum();
-    let residual_sd = (dof > 0).then(|| (rss / dof as f64).sqrt());
-    let t95 = (dof > 0)
-        .then(|| StudentsT::new(0.0, 1.0, dof as f64).ok())
-        .flatten()
-        .map(|t| t.inverse_cdf(0.975));
-    let mut statements = Vec::new();
-    let mut out = Uncertainty {
-        dof,
-        residual_sd_nm: residual_sd,
-        t95,
-        std_dev: vec![None; n],
-        interval95: vec![None; n],
-        correlation: None,
-        condition_number: None,
-        band_half_width_nm: None,
-        statements: Vec::new(),
-    };
-    if m <= n {
-        statements.push(format!(
-            "{n} free parameters for {m} data points: no residual degrees of freedom, so the fit can pass through every point and the data say nothing about the parameters' uncertainty; fix some parameters or add data"
-        ));
-    }
-    let Ok(base) = model.torques(x) else {
-        statements.push("the model does not run at the fitted values".into());
-        out.statements = statements;
-        return out;
-    };
-    let cols = jacobian(model, x, &base);
-    let mut failed = Vec::new();
-    // Relative sensitivities: d torque / d ln x (or per unit range near zero).
-    let scale: Vec<f64> = x
-        .iter()
-        .zip(free)
-        .map(|(v, f)| {
-            if v.abs() > 1e-3 * (f.bounds[1] - f.bounds[0]).abs() {
-                v.abs()
-            } else {
-                (f.bounds[1] - f.bounds[0]).abs()
-            }
-        })
-        .collect();
-    let mut j = DMatrix::zeros(m, n);
-    for (k, c) in cols.iter().enumerate() {
-        match c {
-            Some(c) => {
-                for i in 0..m {
-                    j[(i, k)] = c[i];
+/// The Jacobian in physical units, the relative scale of each parameter (its value, or its
+/// range near zero), and the ids of parameters whose neighbourhood does not run.
+struct Sensitivity {
+    j: DMatrix<f64>,
+    scale: Vec<f64>,
+    failed: Vec<String>,
+}
+
+impl Sensitivity {
+    fn at(model: &TorqueModel<'_>, x: &[f64], base: &[f64]) -> Self {
+        let free = model.free();
+        let (m, n) = (base.len(), x.len());
+        let scale = x
+            .iter()
+            .zip(free)
+            .map(|(v, f)| {
+                let range = (f.bounds[1] - f.bounds[0]).abs();
+                if v.abs() > 1e-3 * range {
+                    v.abs()
+                } else {
+                    range
                 }
+            })
+            .collect();
+        let mut j = DMatrix::zeros(m, n);
+        let mut failed = Vec::new();
+        for (k, c) in jacobian(model, x, base).iter().enumerate() {
+            match c {
+                Some(c) => j.column_mut(k).copy_from_slice(c),
+                None => failed.push(free[k].id.clone()),
             }
-            None => failed.push(ids[k]),
         }
+        Self { j, scale, failed }
     }
-    if !failed.is_empty() {
-        statements.push(format!(
-            "the model does not run next to the fitted values of {}: their sensitivities are unknown",
-            failed.join(", ")
-        ));
+
+    /// The Jacobian in relative parameter changes (d torque / d ln x).
+    fn scaled(&self) -> DMatrix<f64> {
+        let (m, n) = self.j.shape();
+        DMatrix::from_fn(m, n, |i, k| self.j[(i, k)] * self.scale[k])
     }
-    for k in 0..n {
-        let sens = (0..m)
-            .map(|i| (j[(i, k)] * scale[k]).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        if sens < 1e-6 {
-            statements.push(format!(
-                "{}: the torque does not respond to it here (sensitivity {sens:.1e} N m per relative change); its value is arbitrary",
-                ids[k]
-            ));
-        }
+
+    /// Statements for parameters the torque does not respond to.
+    fn insensitive(&self, ids: &[&str]) -> Vec<String> {
+        let js = self.scaled();
+        (0..js.ncols())
+            .filter_map(|k| {
+                let sens = js.column(k).norm();
+                (sens < 1e-6).then(|| format!(
+                    "{}: the torque does not respond to it here (sensitivity {sens:.1e} N m per relative change); its value is arbitrary",
+                    ids[k]
+                ))
+            })
+            .collect()
     }
-    let js = DMatrix::from_fn(m, n, |i, k| j[(i, k)] * scale[k]);
-    let svd = js.clone().svd(true, true);
+}
+
+/// Condition number of the scaled Jacobian, and the parameter combination along its weakest
+/// direction (what the data cannot see), as `+0.71 d ln a -0.70 d ln b`.
+fn conditioning(js: &DMatrix<f64>, ids: &[&str]) -> (f64, String) {
+    let (m, n) = js.shape();
+    let svd = js.clone().svd(false, true);
     let sv = &svd.singular_values;
     let smax = sv.iter().copied().fold(0.0_f64, f64::max);
     let smin = if m >= n {
@@ -250,58 +229,36 @@ pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Unc
     } else {
         0.0
     };
-    let cond = if smin > 0.0 {
-        smax / smin
-    } else {
-        f64::INFINITY
-    };
-    out.condition_number = cond.is_finite().then_some(cond);
-    if !failed.is_empty() || dof == 0 {
-        out.statements = statements;
-        return out;
-    }
-    if cond > SINGULAR_CONDITION {
-        // The weakest direction: the parameter combination the data cannot see.
-        let weakest = svd.v_t.as_ref().and_then(|vt| {
-            let k = (0..sv.len()).min_by(|a, b| sv[*a].total_cmp(&sv[*b]))?;
-            Some(vt.row(k).iter().copied().collect::<Vec<f64>>())
-        });
-        let combo = weakest
-            .map(|w| {
-                let mut terms: Vec<(f64, &str)> =
-                    w.iter().copied().zip(ids.iter().copied()).collect();
-                terms.sort_by(|a, b| b.0.abs().total_cmp(&a.0.abs()));
-                terms
-                    .iter()
-                    .filter(|(c, _)| c.abs() > 0.1)
-                    .map(|(c, id)| format!("{c:+.2} d ln {id}"))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            })
-            .unwrap_or_default();
-        statements.push(format!(
-            "J^T J is singular or nearly so (condition number {}): the data cannot tell the parameters apart along {combo}; no uncertainties or bands are given; fix one of these parameters or add data that separate them",
-            if cond.is_finite() { format!("{cond:.1e}") } else { "infinite".into() }
-        ));
-        out.statements = statements;
-        return out;
-    }
-    let s2 = rss / dof as f64;
-    let jtj = js.transpose() * &js;
-    let Some(inv) = jtj.try_inverse() else {
-        statements.push("J^T J could not be inverted: no uncertainties are given".into());
-        out.statements = statements;
-        return out;
-    };
-    // Covariance in physical units: S (s^2 (Js^T Js)^-1) S.
-    let cov = DMatrix::from_fn(n, n, |a, b| s2 * inv[(a, b)] * scale[a] * scale[b]);
-    let t = t95.unwrap_or(f64::NAN);
+    let cond = if smin > 0.0 { smax / smin } else { f64::INFINITY };
+    let weakest = svd.v_t.as_ref().and_then(|vt| {
+        let k = (0..sv.len()).min_by(|a, b| sv[*a].total_cmp(&sv[*b]))?;
+        Some(vt.row(k).iter().copied().collect::<Vec<f64>>())
+    });
+    let combo = weakest
+        .map(|w| {
+            let mut terms: Vec<(f64, &str)> = w.iter().copied().zip(ids.iter().copied()).collect();
+            terms.sort_by(|a, b| b.0.abs().total_cmp(&a.0.abs()));
+            terms
+                .iter()
+                .filter(|(c, _)| c.abs() > 0.1)
+                .map(|(c, id)| format!("{c:+.2} d ln {id}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .unwrap_or_default();
+    (cond, combo)
+}
+
+/// Standard deviations, 95% intervals, correlations and their statements from the covariance.
+fn from_covariance(out: &mut Uncertainty, cov: &DMatrix<f64>, x: &[f64], ids: &[&str]) {
+    let n = x.len();
+    let t = out.t95.unwrap_or(f64::NAN);
     let sd: Vec<f64> = (0..n).map(|k| cov[(k, k)].max(0.0).sqrt()).collect();
     for k in 0..n {
         out.std_dev[k] = Some(sd[k]);
         out.interval95[k] = Some([x[k] - t * sd[k], x[k] + t * sd[k]]);
         if sd[k] > 0.5 * x[k].abs() {
-            statements.push(format!(
+            out.statements.push(format!(
                 "{}: poorly determined, {:.4e} +- {:.2e} (1 sigma)",
                 ids[k], x[k], sd[k]
             ));
@@ -317,7 +274,7 @@ pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Unc
     for a in 0..n {
         for b in a + 1..n {
             if corr[a][b].abs() > 0.99 {
-                statements.push(format!(
+                out.statements.push(format!(
                     "{} and {} are {:.3} correlated: the data fix a combination of them, not each",
                     ids[a], ids[b], corr[a][b]
                 ));
@@ -325,7 +282,75 @@ pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Unc
         }
     }
     out.correlation = Some(corr);
+}
+
+/// The uncertainty of parameters `x` of `model`, whose residuals there are `residuals`.
+pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Uncertainty {
+    let (m, n) = (residuals.len(), x.len());
+    if n == 0 {
+        return Uncertainty::none(m);
+    }
+    let ids: Vec<&str> = model.free().iter().map(|f| f.id.as_str()).collect();
+    let dof = m.saturating_sub(n);
+    let rss: f64 = residuals.iter().map(|r| r * r).sum();
+    let mut out = Uncertainty {
+        dof,
+        residual_sd_nm: (dof > 0).then(|| (rss / dof as f64).sqrt()),
+        t95: (dof > 0)
+            .then(|| StudentsT::new(0.0, 1.0, dof as f64).ok())
+            .flatten()
+            .map(|t| t.inverse_cdf(0.975)),
+        std_dev: vec![None; n],
+        interval95: vec![None; n],
+        correlation: None,
+        condition_number: None,
+        band_half_width_nm: None,
+        statements: Vec::new(),
+    };
+    if m <= n {
+        out.statements.push(format!(
+            "{n} free parameters for {m} data points: no residual degrees of freedom, so the fit can pass through every point and the data say nothing about the parameters' uncertainty; fix some parameters or add data"
+        ));
+    }
+    let Ok(base) = model.torques(x) else {
+        out.statements
+            .push("the model does not run at the fitted values".into());
+        return out;
+    };
+    let sens = Sensitivity::at(model, x, &base);
+    if !sens.failed.is_empty() {
+        out.statements.push(format!(
+            "the model does not run next to the fitted values of {}: their sensitivities are unknown",
+            sens.failed.join(", ")
+        ));
+    }
+    out.statements.extend(sens.insensitive(&ids));
+    let js = sens.scaled();
+    let (cond, combo) = conditioning(&js, &ids);
+    out.condition_number = cond.is_finite().then_some(cond);
+    if !sens.failed.is_empty() || dof == 0 {
+        return out;
+    }
+    if cond > SINGULAR_CONDITION {
+        out.statements.push(format!(
+            "J^T J is singular or nearly so (condition number {}): the data cannot tell the parameters apart along {combo}; no uncertainties or bands are given; fix one of these parameters or add data that separate them",
+            if cond.is_finite() { format!("{cond:.1e}") } else { "infinite".into() }
+        ));
+        return out;
+    }
+    let Some(inv) = (js.transpose() * &js).try_inverse() else {
+        out.statements
+            .push("J^T J could not be inverted: no uncertainties are given".into());
+        return out;
+    };
+    // Covariance in physical units: S (s^2 (Js^T Js)^-1) S.
+    let s2 = rss / dof as f64;
+    let scale = &sens.scale;
+    let cov = DMatrix::from_fn(n, n, |a, b| s2 * inv[(a, b)] * scale[a] * scale[b]);
+    from_covariance(&mut out, &cov, x, &ids);
     // Delta method: var(T_i) = g_i^T C g_i with g_i the Jacobian row in physical units.
+    let t = out.t95.unwrap_or(f64::NAN);
+    let j = &sens.j;
     let band = (0..m)
         .map(|i| {
             let mut v = 0.0;
@@ -338,7 +363,6 @@ pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Unc
         })
         .collect();
     out.band_half_width_nm = Some(band);
-    out.statements = statements;
     out
 }
 

@@ -548,18 +548,7 @@ pub fn fit(
         return Err(data_error(format!("the start values do not run: {e}")));
     }
     let measured = model.measured();
-    let starts = start_points(free, options.starts.max(1));
-    let outcomes: Vec<(Vec<f64>, Calibration, Option<f64>)> = starts
-        .into_par_iter()
-        .map(|s| {
-            let c = calibrate(&model, &s);
-            let rmse = model
-                .torques(&c.values)
-                .ok()
-                .map(|t| errors(&t, &measured).1);
-            (s, c, rmse)
-        })
-        .collect();
+    let outcomes = run_starts(&model, free, options.starts.max(1), &measured);
     let best = outcomes
         .iter()
         .enumerate()
@@ -592,34 +581,11 @@ pub fn fit(
         .map(|v| score::validate(rig, &fitted, v, registry, true))
         .collect::<Result<Vec<_>, _>>()?;
 
-    let mut warnings = unc.statements.clone();
     let at_bound: Vec<Option<String>> = x
         .iter()
         .zip(free)
         .map(|(v, f)| bound_hit(*v, f.bounds))
         .collect();
-    for (f, b) in free.iter().zip(&at_bound) {
-        if let Some(side) = b {
-            warnings.push(format!(
-                "{}: ended on its {side} bound ({:?}); the data push it beyond the range you allowed, so the value is the bound, not an estimate",
-                f.id, f.bounds
-            ));
-        }
-    }
-    let (failed, first_failure) = model.failures();
-    if failed > 0 {
-        warnings.push(format!(
-            "{failed} of {} trial points did not run and were steered away from; the first: {}",
-            model.evaluations(),
-            first_failure.as_deref().unwrap_or("(no message)")
-        ));
-    }
-    if !cal.converged {
-        warnings.push(format!(
-            "the optimiser did not converge: {}",
-            cal.termination
-        ));
-    }
     let start_outcomes: Vec<StartOutcome> = outcomes
         .iter()
         .map(|(s, c, r)| StartOutcome {
@@ -629,36 +595,20 @@ pub fn fit(
             termination: c.termination.clone(),
         })
         .collect();
-    if start_outcomes.len() > 1 {
-        warnings.extend(start_spread(free, &start_outcomes, rmse_nm));
-    }
-    warnings.extend(scores.notes.iter().cloned());
-
-    let mut offset = 0;
-    let run_fits = runs
-        .iter()
-        .map(|r| {
-            let n = r.rows.len();
-            let range = offset..offset + n;
-            offset += n;
-            let res = residuals_nm[range.clone()].to_vec();
-            let rmse = (res.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt();
-            RunFit {
-                file: r.file.display().to_string(),
-                speeds_rpm: r.rows.iter().map(|d| d.speed_rpm).collect(),
-                oil_temp_c: r.rows.iter().map(|d| d.oil_temp_c).collect(),
-                measured_nm: measured[range.clone()].to_vec(),
-                model_nm: torques[range.clone()].to_vec(),
-                residuals_nm: res,
-                rmse_nm: rmse,
-                band_half_width_nm: unc
-                    .band_half_width_nm
-                    .as_ref()
-                    .map(|b| b[range.clone()].to_vec()),
-            }
-        })
-        .collect();
-
+    let (failed, first_failure) = model.failures();
+    let warnings = fit_warnings(FitFindings {
+        free,
+        uncertainty: &unc,
+        at_bound: &at_bound,
+        failed,
+        evaluations: model.evaluations(),
+        first_failure: first_failure.as_deref(),
+        calibration: cal,
+        starts: &start_outcomes,
+        rmse_nm,
+        scores: &scores,
+    });
+    let run_fits = run_fits(runs, &measured, &torques, &residuals_nm, &unc);
     Ok((
         FitResult {
             lawset: lawset.name().into(),
@@ -690,6 +640,106 @@ pub fn fit(
         },
         fitted,
     ))
+}
+
+/// Every start point calibrated (in parallel): start, outcome, RMSE reached (if it runs).
+fn run_starts(
+    model: &TorqueModel<'_>,
+    free: &[FreeParam],
+    n: usize,
+    measured: &[f64],
+) -> Vec<(Vec<f64>, Calibration, Option<f64>)> {
+    start_points(free, n)
+        .into_par_iter()
+        .map(|s| {
+            let c = calibrate(model, &s);
+            let rmse = model
+                .torques(&c.values)
+                .ok()
+                .map(|t| errors(&t, measured).1);
+            (s, c, rmse)
+        })
+        .collect()
+}
+
+/// What a calibration found that the user must be told.
+struct FitFindings<'f> {
+    free: &'f [FreeParam],
+    uncertainty: &'f Uncertainty,
+    at_bound: &'f [Option<String>],
+    failed: usize,
+    evaluations: usize,
+    first_failure: Option<&'f str>,
+    calibration: &'f Calibration,
+    starts: &'f [StartOutcome],
+    rmse_nm: f64,
+    scores: &'f Scores,
+}
+
+/// The warnings of a calibration: undetermined parameters, bounds reached, trial points that
+/// did not run, no convergence, the spread of the start points, what the scores cannot say.
+fn fit_warnings(f: FitFindings<'_>) -> Vec<String> {
+    let mut warnings = f.uncertainty.statements.clone();
+    for (p, b) in f.free.iter().zip(f.at_bound) {
+        if let Some(side) = b {
+            warnings.push(format!(
+                "{}: ended on its {side} bound ({:?}); the data push it beyond the range you allowed, so the value is the bound, not an estimate",
+                p.id, p.bounds
+            ));
+        }
+    }
+    if f.failed > 0 {
+        warnings.push(format!(
+            "{} of {} trial points did not run and were steered away from; the first: {}",
+            f.failed,
+            f.evaluations,
+            f.first_failure.unwrap_or("(no message)")
+        ));
+    }
+    if !f.calibration.converged {
+        warnings.push(format!(
+            "the optimiser did not converge: {}",
+            f.calibration.termination
+        ));
+    }
+    if f.starts.len() > 1 {
+        warnings.extend(start_spread(f.free, f.starts, f.rmse_nm));
+    }
+    warnings.extend(f.scores.notes.iter().cloned());
+    warnings
+}
+
+/// Each data run's points, residuals and band, cut from the concatenated vectors.
+fn run_fits(
+    runs: &[DataRun],
+    measured: &[f64],
+    torques: &[f64],
+    residuals: &[f64],
+    unc: &Uncertainty,
+) -> Vec<RunFit> {
+    let mut offset = 0;
+    runs.iter()
+        .map(|r| {
+            let n = r.rows.len();
+            let range = offset..offset + n;
+            offset += n;
+            let res = residuals[range.clone()].to_vec();
+            let rmse = (res.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt();
+            RunFit {
+                file: r.file.display().to_string(),
+                speeds_rpm: r.rows.iter().map(|d| d.speed_rpm).collect(),
+                oil_temp_c: r.rows.iter().map(|d| d.oil_temp_c).collect(),
+                measured_nm: measured[range.clone()].to_vec(),
+                model_nm: torques[range.clone()].to_vec(),
+                residuals_nm: res,
+                rmse_nm: rmse,
+                band_half_width_nm: unc
+                    .band_half_width_nm
+                    .as_ref()
+                    .map(|b| b[range.clone()].to_vec()),
+            }
+        })
+        .collect()
 }
 
 /// How far apart the start points ended: distinct minima with near-equal error mean the data

@@ -10,7 +10,7 @@ use tribo_plugin_api::loader::LawRegistry;
 use crate::fit::TorqueModel;
 use crate::score::{self, Scores, TemperatureResponse, Validation};
 use crate::uncertainty::{uncertainty_within_bounds, Uncertainty};
-use tribo_config::lawset::LawSet;
+use tribo_config::lawset::{FreeParam, LawSet};
 use tribo_config::rig::{Rig, RigError, Temperature};
 use tribo_core::cycle::Segment;
 use tribo_core::sim::{RunResult, SimError};
@@ -308,6 +308,104 @@ pub fn errors(model: &[f64], measured: &[f64]) -> (Vec<f64>, f64, f64) {
     (e, rmse, max)
 }
 
+/// One law set run against `data` and scored: in-sample errors, out-of-sample scores, its
+/// band, its temperature response and any validation data.
+fn score_set(
+    rig: &Rig,
+    ls: &LawSet,
+    free: &[FreeParam],
+    data: &DataRun,
+    registry: &LawRegistry,
+    options: &CompareOptions,
+    spread: f64,
+) -> Result<SetResult, StudyError> {
+    let measured: Vec<f64> = data.rows.iter().map(|r| r.torque_nm).collect();
+    let r = prepare(rig, ls, Some(&data.rows))?;
+    let run = run_rig(&r, registry, options.steady).map_err(|e| StudyError::Run {
+        lawset: ls.name().into(),
+        error: Box::new(e),
+    })?;
+    let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
+    let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
+    let tm = TorqueModel::new(rig, ls, free, vec![data.clone()], registry);
+    let x: Vec<f64> = free.iter().map(|f| f.value).collect();
+    let mut scores = score::scores_for_fit(&tm, &x, &errors_nm, !options.no_cv);
+    // The in-sample figure is the compare run's own (steady or full cycle).
+    scores.rmse_nm = rmse_nm;
+    let prior = ls.prior_fit_on(&data.file);
+    if let Some(prior) = prior {
+        score::apply_prior_fit(&mut scores, &errors_nm, prior);
+    }
+    let unc = if let Some(p) = prior {
+        // Tuned elsewhere: no covariance of those numbers exists here.
+        let mut u = Uncertainty::none(errors_nm.len());
+        u.band_half_width_nm = None;
+        u.statements.push(format!(
+            "no band: its {} tuned numbers have no covariance Tribo could estimate",
+            p.parameters
+        ));
+        u
+    } else if free.is_empty() {
+        Uncertainty::none(errors_nm.len())
+    } else {
+        let on_bound: Vec<bool> = free
+            .iter()
+            .map(|f| crate::fit::bound_hit(f.value, f.bounds).is_some())
+            .collect();
+        uncertainty_within_bounds(&tm, &x, &errors_nm, &on_bound)
+    };
+    let (band_lower_nm, band_upper_nm) = match &unc.band_half_width_nm {
+        Some(h) => (
+            Some(model.iter().zip(h).map(|(m, h)| m - h).collect()),
+            Some(model.iter().zip(h).map(|(m, h)| m + h).collect()),
+        ),
+        None => (None, None),
+    };
+    let widest = unc
+        .band_half_width_nm
+        .as_ref()
+        .map(|h| 2.0 * h.iter().copied().fold(0.0, f64::max));
+    let band_wider_than_data = !free.is_empty() && widest.is_none_or(|w| w > spread);
+    let validation = options
+        .validate
+        .iter()
+        .map(|v| score::validate(rig, ls, v, registry, options.steady))
+        .collect::<Result<Vec<_>, _>>()?;
+    let temperature_response = score::temperature_response(rig, ls, data, registry)?;
+    if temperature_response.max_rise_percent_per_10c > score::TEMPERATURE_RISE_FLAG_PERCENT {
+        let (i, _) = temperature_response
+            .percent_per_10c
+            .iter()
+            .enumerate()
+            .fold(
+                (0, f64::NEG_INFINITY),
+                |a, (i, v)| if *v > a.1 { (i, *v) } else { a },
+            );
+        scores.notes.push(format!(
+            "its torque rises {:.0}% per 10 C of oil warming at {:.0} rpm: full-film friction falls as oil thins and a mixed regime losing film rarely gives more than {:.0}%; check the law's regime transition before trusting this set away from the measured temperatures",
+            temperature_response.max_rise_percent_per_10c,
+            data.rows[i].speed_rpm,
+            score::TEMPERATURE_RISE_FLAG_PERCENT
+        ));
+    }
+    Ok(SetResult {
+        lawset: ls.name().into(),
+        file: ls.path.display().to_string(),
+        run,
+        errors_nm,
+        rmse_nm,
+        max_abs_error_nm,
+        rank: 0,
+        scores,
+        uncertainty: unc,
+        band_lower_nm,
+        band_upper_nm,
+        band_wider_than_data,
+        temperature_response,
+        validation,
+    })
+}
+
 /// Run every law set on `rig` at the data's speeds and temperatures, in parallel, and score
 /// each out of sample. The order of the results is the order of `lawsets`, whatever the
 /// scheduling; `rank` orders them by cross-validated RMSE.
@@ -359,91 +457,7 @@ pub fn compare(
     let mut sets = lawsets
         .par_iter()
         .zip(frees.par_iter())
-        .map(|(ls, free)| {
-            let r = prepare(rig, ls, Some(&data.rows))?;
-            let run = run_rig(&r, registry, options.steady).map_err(|e| StudyError::Run {
-                lawset: ls.name().into(),
-                error: Box::new(e),
-            })?;
-            let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
-            let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
-            let tm = TorqueModel::new(rig, ls, free, vec![data.clone()], registry);
-            let x: Vec<f64> = free.iter().map(|f| f.value).collect();
-            let mut scores = score::scores_for_fit(&tm, &x, &errors_nm, !options.no_cv);
-            // The in-sample figure is the compare run's own (steady or full cycle).
-            scores.rmse_nm = rmse_nm;
-            if let Some(prior) = ls.prior_fit_on(&data.file) {
-                score::apply_prior_fit(&mut scores, &errors_nm, prior);
-            }
-            let prior = ls.prior_fit_on(&data.file);
-            let unc = if let Some(p) = prior {
-                // Tuned elsewhere: no covariance of those numbers exists here.
-                let mut u = Uncertainty::none(errors_nm.len());
-                u.band_half_width_nm = None;
-                u.statements.push(format!(
-                    "no band: its {} tuned numbers have no covariance Tribo could estimate",
-                    p.parameters
-                ));
-                u
-            } else if free.is_empty() {
-                Uncertainty::none(errors_nm.len())
-            } else {
-                let on_bound: Vec<bool> = free
-                    .iter()
-                    .map(|f| crate::fit::bound_hit(f.value, f.bounds).is_some())
-                    .collect();
-                uncertainty_within_bounds(&tm, &x, &errors_nm, &on_bound)
-            };
-            let (band_lower_nm, band_upper_nm) = match &unc.band_half_width_nm {
-                Some(h) => (
-                    Some(model.iter().zip(h).map(|(m, h)| m - h).collect()),
-                    Some(model.iter().zip(h).map(|(m, h)| m + h).collect()),
-                ),
-                None => (None, None),
-            };
-            let widest = unc
-                .band_half_width_nm
-                .as_ref()
-                .map(|h| 2.0 * h.iter().copied().fold(0.0, f64::max));
-            let band_wider_than_data = !free.is_empty() && widest.is_none_or(|w| w > spread);
-            let validation = options
-                .validate
-                .iter()
-                .map(|v| score::validate(rig, ls, v, registry, options.steady))
-                .collect::<Result<Vec<_>, _>>()?;
-            let temperature_response = score::temperature_response(rig, ls, data, registry)?;
-            if temperature_response.max_rise_percent_per_10c
-                > score::TEMPERATURE_RISE_FLAG_PERCENT
-            {
-                let (i, _) = temperature_response
-                    .percent_per_10c
-                    .iter()
-                    .enumerate()
-                    .fold((0, f64::NEG_INFINITY), |a, (i, v)| if *v > a.1 { (i, *v) } else { a });
-                scores.notes.push(format!(
-                    "its torque rises {:.0}% per 10 C of oil warming at {:.0} rpm: full-film friction falls as oil thins and a mixed regime losing film rarely gives more than {:.0}%; check the law's regime transition before trusting this set away from the measured temperatures",
-                    temperature_response.max_rise_percent_per_10c,
-                    data.rows[i].speed_rpm,
-                    score::TEMPERATURE_RISE_FLAG_PERCENT
-                ));
-            }
-            Ok(SetResult {
-                lawset: ls.name().into(),
-                file: ls.path.display().to_string(),
-                run,
-                errors_nm,
-                rmse_nm,
-                max_abs_error_nm,
-                rank: 0,
-                scores,
-                uncertainty: unc,
-                band_lower_nm,
-                band_upper_nm,
-                band_wider_than_data,
-                temperature_response,
-                validation,
-            })
-        })
+        .map(|(ls, free)| score_set(rig, ls, free, data, registry, options, spread))
         .collect::<Result<Vec<_>, StudyError>>()?;
     // Cross-validated sets first, by their out-of-sample error; sets without one (tuned
     // elsewhere, or a fold failed) after them, by their in-sample error.

@@ -229,7 +229,11 @@ fn conditioning(js: &DMatrix<f64>, ids: &[&str]) -> (f64, String) {
     } else {
         0.0
     };
-    let cond = if smin > 0.0 { smax / smin } else { f64::INFINITY };
+    let cond = if smin > 0.0 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
     let weakest = svd.v_t.as_ref().and_then(|vt| {
         let k = (0..sv.len()).min_by(|a, b| sv[*a].total_cmp(&sv[*b]))?;
         Some(vt.row(k).iter().copied().collect::<Vec<f64>>())

@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 
 use common::*;
-use tribo::plugin_api::loader::{load_paths, Abi, LawError, LawLibrary};
+use tribo::plugin_api::loader::{load_paths, Abi, LawError, LawLibrary, MAX_STATE_SIZE};
 use tribo::plugin_api::{JointKind, LawInput, CONTRACT_VERSION};
 
 fn table(text: &str) -> toml::Table {
@@ -388,5 +388,98 @@ fn load_paths_finds_the_laws_in_the_build_directory() {
     assert!(
         e.contains("no law named `no-such-law`") && e.contains("coulomb"),
         "{e}"
+    );
+}
+
+/// Compile the C example law into `dir` and load it.
+fn c_coulomb_in(dir: &Path) -> LawLibrary {
+    let c_path = dir.join("libtribo_law_c_coulomb.so");
+    compile_c(
+        &[workspace().join("plugins/c-coulomb/c/c_coulomb.c")],
+        &c_path,
+        true,
+    );
+    LawLibrary::load(&c_path).expect("C law loads")
+}
+
+#[test]
+fn a_wrong_length_state_is_refused_before_the_law_is_called_for_both_abis() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let c = c_coulomb_in(dir.path());
+    let rust = LawLibrary::load(&built_library("tribo_law_coulomb")).expect("rust law loads");
+    let inp = input(JointKind::Revolute, 1.0, 100.0, 0.01);
+    for lib in [&c, &rust] {
+        let law = lib.create(&toml::Table::new()).expect("creates");
+        assert_eq!(law.state_size(), 0);
+        assert!(law.evaluate(&inp, &[]).is_ok());
+        assert!(law.commit(&inp, &mut []).is_ok());
+        let mut state = vec![7.0; 5];
+        for e in [
+            law.evaluate(&inp, &state).unwrap_err(),
+            law.commit(&inp, &mut state).unwrap_err(),
+        ] {
+            let msg = e.to_string();
+            assert!(
+                matches!(
+                    e,
+                    LawError::StateLength {
+                        expected: 0,
+                        given: 5,
+                        ..
+                    }
+                ),
+                "{msg}"
+            );
+            assert!(
+                msg.contains(lib.name())
+                    && msg.contains("5 values")
+                    && msg.contains("declares 0")
+                    && msg.contains(lib.path().to_str().expect("utf-8")),
+                "{msg}"
+            );
+        }
+        assert_eq!(state, vec![7.0; 5], "{}: the law must not run", lib.name());
+    }
+}
+
+#[test]
+fn a_c_law_returning_an_undefined_regime_is_refused_naming_the_law_and_value() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("libtribo_law_bad_regime.so");
+    compile_c(&[c_fixture("bad_regime.c")], &path, true);
+    let lib = LawLibrary::load(&path).expect("loads");
+    let law = lib.create(&toml::Table::new()).expect("creates");
+    let e = law
+        .evaluate(&input(JointKind::Prismatic, 1.0, 10.0, 0.0), &[])
+        .unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(e, LawError::UndefinedRegime { value: 42, .. }),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("fixture-bad-regime") && msg.contains("regime 42"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn a_c_law_declaring_a_huge_state_is_refused_not_allocated() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("libtribo_law_huge_state.so");
+    compile_c(&[c_fixture("huge_state.c")], &path, true);
+    let lib = LawLibrary::load(&path).expect("loads");
+    let e = lib.create(&toml::Table::new()).unwrap_err();
+    let msg = e.to_string();
+    let size = 1usize << 40;
+    assert!(
+        matches!(e, LawError::StateTooLarge { size: s, .. } if s == size),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("fixture-huge-state")
+            && msg.contains(&size.to_string())
+            && msg.contains(&MAX_STATE_SIZE.to_string()),
+        "{msg}"
     );
 }

@@ -483,3 +483,65 @@ fn a_c_law_declaring_a_huge_state_is_refused_not_allocated() {
         "{msg}"
     );
 }
+
+/// `tribo laws` (or `laws --json`) with its standard output going to `stdout`.
+fn laws_into(stdout: std::process::Stdio, json: bool) -> std::process::Child {
+    ensure_plugins_built();
+    let mut cmd = std::process::Command::new(tribo_exe());
+    cmd.arg("laws");
+    if json {
+        cmd.arg("--json");
+    }
+    cmd.env_remove("TRIBO_PLUGIN_PATH")
+        .stdout(stdout)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("tribo starts")
+}
+
+#[test]
+fn a_closed_stdout_pipe_ends_quietly_with_status_1_not_a_panic() {
+    for json in [false, true] {
+        // Read end closed before tribo starts: its first write gets EPIPE, deterministically.
+        let (reader, writer) = std::io::pipe().expect("pipe");
+        drop(reader);
+        let out = laws_into(writer.into(), json)
+            .wait_with_output()
+            .expect("tribo runs");
+        let (_, stderr) = text(&out);
+        assert_eq!(out.status.code(), Some(1), "json={json}: {stderr}");
+        assert!(stderr.is_empty(), "a broken pipe is not reported: {stderr}");
+
+        // The same with the child's own pipe, its read end dropped right after the spawn.
+        let mut child = laws_into(std::process::Stdio::piped(), json);
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("tribo runs");
+        let (_, stderr) = text(&out);
+        assert_ne!(out.status.code(), Some(101), "{stderr}");
+        assert!(
+            matches!(out.status.code(), Some(0 | 1)),
+            "{:?}: {stderr}",
+            out.status
+        );
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_stdout_is_an_error_message_not_a_panic() {
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .expect("/dev/full opens");
+    let out = laws_into(full.into(), false)
+        .wait_with_output()
+        .expect("tribo runs");
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("cannot write the results to standard output")
+            && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+}

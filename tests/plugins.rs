@@ -545,3 +545,41 @@ fn a_full_stdout_is_an_error_message_not_a_panic() {
         "{stderr}"
     );
 }
+
+#[test]
+fn tribo_run_refuses_a_huge_state_and_an_undefined_regime_with_exit_1() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    compile_c(
+        &[c_fixture("huge_state.c")],
+        &dir.path().join("libtribo_law_huge_state.so"),
+        true,
+    );
+    compile_c(
+        &[c_fixture("bad_regime.c")],
+        &dir.path().join("libtribo_law_bad_regime.so"),
+        true,
+    );
+    let huge = (1usize << 40).to_string();
+    for (law, needles) in [
+        (
+            "fixture-huge-state",
+            vec!["joints.piston.laws", "fixture-huge-state", huge.as_str()],
+        ),
+        (
+            "fixture-bad-regime",
+            vec!["piston", "fixture-bad-regime", "regime 42"],
+        ),
+    ] {
+        let attach = format!("piston={law}");
+        let out = run_tribo(
+            &["run", "crf250r-motored", "--law", &attach],
+            Some(dir.path()),
+        );
+        let (_, stderr) = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{law}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        for n in needles {
+            assert!(stderr.contains(n), "`{n}` missing from: {stderr}");
+        }
+    }
+}

@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 
 use common::*;
-use tribo::plugin_api::loader::{load_paths, Abi, LawError, LawLibrary};
+use tribo::plugin_api::loader::{load_paths, Abi, LawError, LawLibrary, MAX_STATE_SIZE};
 use tribo::plugin_api::{JointKind, LawInput, CONTRACT_VERSION};
 
 fn table(text: &str) -> toml::Table {
@@ -389,4 +389,197 @@ fn load_paths_finds_the_laws_in_the_build_directory() {
         e.contains("no law named `no-such-law`") && e.contains("coulomb"),
         "{e}"
     );
+}
+
+/// Compile the C example law into `dir` and load it.
+fn c_coulomb_in(dir: &Path) -> LawLibrary {
+    let c_path = dir.join("libtribo_law_c_coulomb.so");
+    compile_c(
+        &[workspace().join("plugins/c-coulomb/c/c_coulomb.c")],
+        &c_path,
+        true,
+    );
+    LawLibrary::load(&c_path).expect("C law loads")
+}
+
+#[test]
+fn a_wrong_length_state_is_refused_before_the_law_is_called_for_both_abis() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let c = c_coulomb_in(dir.path());
+    let rust = LawLibrary::load(&built_library("tribo_law_coulomb")).expect("rust law loads");
+    let inp = input(JointKind::Revolute, 1.0, 100.0, 0.01);
+    for lib in [&c, &rust] {
+        let law = lib.create(&toml::Table::new()).expect("creates");
+        assert_eq!(law.state_size(), 0);
+        assert!(law.evaluate(&inp, &[]).is_ok());
+        assert!(law.commit(&inp, &mut []).is_ok());
+        let mut state = vec![7.0; 5];
+        for e in [
+            law.evaluate(&inp, &state).unwrap_err(),
+            law.commit(&inp, &mut state).unwrap_err(),
+        ] {
+            let msg = e.to_string();
+            assert!(
+                matches!(
+                    e,
+                    LawError::StateLength {
+                        expected: 0,
+                        given: 5,
+                        ..
+                    }
+                ),
+                "{msg}"
+            );
+            assert!(
+                msg.contains(lib.name())
+                    && msg.contains("5 values")
+                    && msg.contains("declares 0")
+                    && msg.contains(lib.path().to_str().expect("utf-8")),
+                "{msg}"
+            );
+        }
+        assert_eq!(state, vec![7.0; 5], "{}: the law must not run", lib.name());
+    }
+}
+
+#[test]
+fn a_c_law_returning_an_undefined_regime_is_refused_naming_the_law_and_value() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("libtribo_law_bad_regime.so");
+    compile_c(&[c_fixture("bad_regime.c")], &path, true);
+    let lib = LawLibrary::load(&path).expect("loads");
+    let law = lib.create(&toml::Table::new()).expect("creates");
+    let e = law
+        .evaluate(&input(JointKind::Prismatic, 1.0, 10.0, 0.0), &[])
+        .unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(e, LawError::UndefinedRegime { value: 42, .. }),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("fixture-bad-regime") && msg.contains("regime 42"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn a_c_law_declaring_a_huge_state_is_refused_not_allocated() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("libtribo_law_huge_state.so");
+    compile_c(&[c_fixture("huge_state.c")], &path, true);
+    let lib = LawLibrary::load(&path).expect("loads");
+    let e = lib.create(&toml::Table::new()).unwrap_err();
+    let msg = e.to_string();
+    let size = 1usize << 40;
+    assert!(
+        matches!(e, LawError::StateTooLarge { size: s, .. } if s == size),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("fixture-huge-state")
+            && msg.contains(&size.to_string())
+            && msg.contains(&MAX_STATE_SIZE.to_string()),
+        "{msg}"
+    );
+}
+
+/// `tribo laws` (or `laws --json`) with its standard output going to `stdout`.
+fn laws_into(stdout: std::process::Stdio, json: bool) -> std::process::Child {
+    ensure_plugins_built();
+    let mut cmd = std::process::Command::new(tribo_exe());
+    cmd.arg("laws");
+    if json {
+        cmd.arg("--json");
+    }
+    cmd.env_remove("TRIBO_PLUGIN_PATH")
+        .stdout(stdout)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("tribo starts")
+}
+
+#[test]
+fn a_closed_stdout_pipe_ends_quietly_with_status_1_not_a_panic() {
+    for json in [false, true] {
+        // Read end closed before tribo starts: its first write gets EPIPE, deterministically.
+        let (reader, writer) = std::io::pipe().expect("pipe");
+        drop(reader);
+        let out = laws_into(writer.into(), json)
+            .wait_with_output()
+            .expect("tribo runs");
+        let (_, stderr) = text(&out);
+        assert_eq!(out.status.code(), Some(1), "json={json}: {stderr}");
+        assert!(stderr.is_empty(), "a broken pipe is not reported: {stderr}");
+
+        // The same with the child's own pipe, its read end dropped right after the spawn.
+        let mut child = laws_into(std::process::Stdio::piped(), json);
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("tribo runs");
+        let (_, stderr) = text(&out);
+        assert_ne!(out.status.code(), Some(101), "{stderr}");
+        assert!(
+            matches!(out.status.code(), Some(0 | 1)),
+            "{:?}: {stderr}",
+            out.status
+        );
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_stdout_is_an_error_message_not_a_panic() {
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .expect("/dev/full opens");
+    let out = laws_into(full.into(), false)
+        .wait_with_output()
+        .expect("tribo runs");
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("cannot write the results to standard output")
+            && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn tribo_run_refuses_a_huge_state_and_an_undefined_regime_with_exit_1() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    compile_c(
+        &[c_fixture("huge_state.c")],
+        &dir.path().join("libtribo_law_huge_state.so"),
+        true,
+    );
+    compile_c(
+        &[c_fixture("bad_regime.c")],
+        &dir.path().join("libtribo_law_bad_regime.so"),
+        true,
+    );
+    let huge = (1usize << 40).to_string();
+    for (law, needles) in [
+        (
+            "fixture-huge-state",
+            vec!["joints.piston.laws", "fixture-huge-state", huge.as_str()],
+        ),
+        (
+            "fixture-bad-regime",
+            vec!["piston", "fixture-bad-regime", "regime 42"],
+        ),
+    ] {
+        let attach = format!("piston={law}");
+        let out = run_tribo(
+            &["run", "crf250r-motored", "--law", &attach],
+            Some(dir.path()),
+        );
+        let (_, stderr) = text(&out);
+        assert_eq!(out.status.code(), Some(1), "{law}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        for n in needles {
+            assert!(stderr.contains(n), "`{n}` missing from: {stderr}");
+        }
+    }
 }

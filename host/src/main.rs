@@ -1,6 +1,7 @@
 //! The `tribo` command: a thin layer over the host library that parses arguments, runs one
 //! command and reports errors with their context.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -338,21 +339,24 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 
 /// `tribo laws`: the laws found, as a table or JSON.
 fn cmd_laws(g: &Globals, a: LawsArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
     let registry = g.registry()?;
     if a.json {
-        println!(
+        writeln!(
+            out_text,
             "{}",
             serde_json::to_string_pretty(&laws::to_json(&registry))?
-        );
+        )?;
     } else {
-        print!("{}", laws::to_text(&registry));
+        write!(out_text, "{}", laws::to_text(&registry))?;
     }
-    Ok(())
+    emit(&out_text)
 }
 
 /// `tribo run`: one rig through its cycle (or steady state), reported as a table or JSON, with
 /// optional CSV files and time series.
 fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
     let RunArgs {
         rig,
         laws: law_args,
@@ -395,17 +399,18 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
     }
     if json {
-        println!("{}", serde_json::to_string_pretty(&result)?);
+        writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
-        println!("oil: {}", rig.file.oil.describe());
-        print!("{}", tribo::report::to_text(&result));
+        writeln!(out_text, "oil: {}", rig.file.oil.describe())?;
+        write!(out_text, "{}", tribo::report::to_text(&result))?;
     }
-    Ok(())
+    emit(&out_text)
 }
 
 /// `tribo compare`: law sets side by side against measured data; table or JSON on stdout,
 /// CSV, JSON and plots in the output directory.
 fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
     let (rig, mut sets_loaded) = study_inputs(a.rig, &a.sets, a.lawsets)?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
@@ -426,20 +431,22 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     tribo::plots::write_comparison(&cmp, out)
         .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&cmp)?);
+        writeln!(out_text, "{}", serde_json::to_string_pretty(&cmp)?)?;
     } else {
-        print!("{}", tribo::report::comparison_text(&cmp));
-        println!(
+        write!(out_text, "{}", tribo::report::comparison_text(&cmp))?;
+        writeln!(
+            out_text,
             "\nwrote into {}: comparison.csv, scores.csv, validation.csv, comparison.json,\n  torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg",
             out.display()
-        );
+        )?;
     }
-    Ok(())
+    emit(&out_text)
 }
 
 /// `tribo mass-response`: the torque and friction change for a scaled body, per law set;
 /// mass_response.json (and a plot for a sweep of scales) in the output directory.
 fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
     let (rig, sets_loaded) = study_inputs(a.rig, &a.sets, a.lawsets)?;
     let scale_list = a.scales.clone().unwrap_or_else(|| vec![a.scale]);
     if let Some(bad) = scale_list.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
@@ -470,16 +477,17 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
         tribo::plots::write_mass_sweep(&result, &out.join("mass_sweep.svg"))?;
     }
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&result)?);
+        writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
-        print!("{}", tribo::report::mass_text(&result));
+        write!(out_text, "{}", tribo::report::mass_text(&result))?;
     }
-    Ok(())
+    emit(&out_text)
 }
 
 /// `tribo fit`: calibrate a law set's free parameters; the report or JSON on stdout, the
 /// calibrated law set written as TOML.
 fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
     let rig_path = a
         .rig
         .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
@@ -523,17 +531,22 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
     tribo::output::write_atomic(&out, text.as_bytes())
         .with_context(|| format!("writing {}", out.display()))?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&result)?);
+        writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
-        print!("{}", tribo::report::fit_text(&result));
-        println!("wrote the calibrated law set to {}", out.display());
+        write!(out_text, "{}", tribo::report::fit_text(&result))?;
+        writeln!(
+            out_text,
+            "wrote the calibrated law set to {}",
+            out.display()
+        )?;
     }
-    Ok(())
+    emit(&out_text)
 }
 
 /// `tribo sweep`: torque over oil temperature and speed per law set; tables or JSON on stdout,
 /// sweep.csv, sweep.json and plots in the output directory.
 fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
     // Inputs are checked before anything is loaded or run.
     let temps_c = tribo::study::parse_list("--temps", &a.temps)?;
     let speeds_rpm = tribo::study::parse_list("--speeds", &a.speeds)?;
@@ -559,33 +572,40 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
     let files = tribo::plots::write_sweep(&result, out)
         .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&result)?);
+        writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
-        print!("{}", tribo::report::sweep_text(&result));
-        println!("\nwrote {}/{}", out.display(), files.join(", "));
+        write!(out_text, "{}", tribo::report::sweep_text(&result))?;
+        writeln!(out_text, "\nwrote {}/{}", out.display(), files.join(", "))?;
     }
-    Ok(())
+    emit(&out_text)
 }
 
 /// `tribo new-law`: generate a law crate and say how to test and build it.
 fn cmd_new_law(a: NewLawArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
     let cwd = std::env::current_dir().context("reading the current directory")?;
     let s = scaffold::new_law(&a.name, a.dir.as_deref(), &cwd)?;
-    println!("created {} in {}", s.crate_name, s.dir.display());
-    println!("  test:  cargo test -p {}", s.crate_name);
-    println!("  build: cargo build --release -p {}", s.crate_name);
+    writeln!(out_text, "created {} in {}", s.crate_name, s.dir.display())?;
+    writeln!(out_text, "  test:  cargo test -p {}", s.crate_name)?;
+    writeln!(
+        out_text,
+        "  build: cargo build --release -p {}",
+        s.crate_name
+    )?;
     if s.workspace_member {
-        println!(
+        writeln!(
+            out_text,
             "  the library {} lands in target/release/, where tribo finds it",
             s.library_file
-        );
+        )?;
     } else {
-        println!(
+        writeln!(
+            out_text,
             "  then put {} in a directory on TRIBO_PLUGIN_PATH or pass --plugin",
             s.library_file
-        );
+        )?;
     }
-    Ok(())
+    emit(&out_text)
 }
 
 /// Data files (CSV) or bundled data names, read in order.
@@ -596,11 +616,39 @@ fn read_data_runs(names: &[String]) -> anyhow::Result<Vec<tribo::study::DataRun>
         .collect::<Result<Vec<_>, _>>()?)
 }
 
+/// Standard output could not be written (a closed pipe, a full disk). Kept apart from other
+/// I/O errors so `main` can end quietly on a reader that went away.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write the results to standard output: {0}")]
+struct StdoutError(#[source] std::io::Error);
+
+/// Write a command's results to standard output and flush them; failure is an error, never a
+/// panic (unlike `print!`).
+fn emit(text: &str) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+        .map_err(StdoutError)?;
+    Ok(())
+}
+
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of our output went away (`tribo laws | head -1`): nothing to tell it, and
+        // the results were not delivered, so exit 1 without a message (docs/reliability.md).
+        Err(e)
+            if e.downcast_ref::<StdoutError>()
+                .is_some_and(|s| s.0.kind() == std::io::ErrorKind::BrokenPipe) =>
+        {
+            ExitCode::FAILURE
+        }
         Err(e) => {
-            eprintln!("error: {e:#}");
+            use std::io::Write as _;
+            // Ignored: if standard error is gone too there is nowhere left to report to.
+            let _ = writeln!(std::io::stderr(), "error: {e:#}");
             ExitCode::FAILURE
         }
     }

@@ -22,7 +22,7 @@ use abi_stable::std_types::{RBox, RResult, RSlice, RSliceMut, RStr, RString, RVe
 use abi_stable::StableAbi;
 
 use crate::contract::{LawInput, LawOutput};
-use crate::describe::{LawDescription, ParamSpec, ParamValue};
+use crate::describe::{LawDescription, ParamValue};
 use crate::law::{create_from_table, describe, Law};
 
 /// One parameter of a law, in ABI-stable form. The default travels as TOML text.
@@ -210,7 +210,7 @@ pub(crate) fn from_r_description(d: &RLawDescription) -> Result<LawDescription, 
             3 => ParamValue::Choice(v.as_str().ok_or_else(bad)?.to_string()),
             k => return Err(format!("parameter `{}` has unknown kind {k}", p.name)),
         };
-        parameters.push(ParamSpec {
+        parameters.push(crate::describe::ParamSpec {
             name: p.name.to_string(),
             unit: p.unit.to_string(),
             doc: p.doc.to_string(),

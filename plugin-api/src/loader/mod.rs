@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use crate::contract::{LawInput, LawOutput};
+use crate::contract::{LawInput, LawOutput, Regime};
 use crate::describe::{check_params, values_to_table, LawDescription, ParamError, ParamValue};
 use crate::law::{create_from_table, describe, Law};
 
@@ -129,6 +129,45 @@ pub enum LawError {
         /// Panic message or error code.
         message: String,
     },
+    /// A state slice whose length differs from the instance's declared state size was passed
+    /// to `evaluate` or `commit`; the law is not called (a C law would read or write out of
+    /// bounds).
+    #[error("law `{law}` (library `{path}`): {stage} was given a state of {given} values, but the instance declares {expected}; the law was not called")]
+    StateLength {
+        /// Law name.
+        law: String,
+        /// File.
+        path: PathBuf,
+        /// `evaluate` or `commit`.
+        stage: &'static str,
+        /// Declared state size.
+        expected: usize,
+        /// Length of the slice passed.
+        given: usize,
+    },
+    /// The law declared a state size above [`MAX_STATE_SIZE`], or the host could not allocate
+    /// its state.
+    #[error("law `{law}` (library `{path}`) declares a state of {size} values; {reason}")]
+    StateTooLarge {
+        /// Law name.
+        law: String,
+        /// File.
+        path: PathBuf,
+        /// Declared state size.
+        size: usize,
+        /// Above the cap, or the allocation failure.
+        reason: String,
+    },
+    /// The law returned a regime value the contract does not define (0 to 3).
+    #[error("law `{law}` (library `{path}`) returned regime {value} from evaluate, which the contract does not define (0 none, 1 boundary, 2 mixed, 3 hydrodynamic)")]
+    UndefinedRegime {
+        /// Law name.
+        law: String,
+        /// File.
+        path: PathBuf,
+        /// The raw value returned.
+        value: u32,
+    },
     /// A directory of the plugin path could not be read.
     #[error("cannot read plugin directory `{path}`: {source}")]
     Io {
@@ -138,6 +177,11 @@ pub enum LawError {
         source: std::io::Error,
     },
 }
+
+/// The largest state a law instance may declare, in `f64` values (2^20, 8 MiB). A larger
+/// declaration is refused with [`LawError::StateTooLarge`] when the instance is created, so a
+/// plugin cannot make the host abort on an impossible allocation.
+pub const MAX_STATE_SIZE: usize = 1 << 20;
 
 /// A loaded law library: its description and the means to create instances.
 pub struct LawLibrary {
@@ -279,6 +323,14 @@ impl LawLibrary {
             InstBackend::C(inst) => inst.state_size(),
             InstBackend::InProcess(law) => law.state_size(),
         };
+        if state_size > MAX_STATE_SIZE {
+            return Err(LawError::StateTooLarge {
+                law: self.description.name.clone(),
+                path: self.path.clone(),
+                size: state_size,
+                reason: format!("the host allows at most {MAX_STATE_SIZE} (tribo_plugin_api::loader::MAX_STATE_SIZE)"),
+            });
+        }
         Ok(LawInstance {
             name: self.description.name.clone().into(),
             path: self.path.clone().into(),
@@ -364,11 +416,44 @@ impl LawInstance {
         self.state_size
     }
 
+    /// A zero-initialised state of [`LawInstance::state_size`] values. The allocation is
+    /// fallible: failure is [`LawError::StateTooLarge`], not an abort.
+    pub fn new_state(&self) -> Result<Vec<f64>, LawError> {
+        let mut state = Vec::new();
+        state
+            .try_reserve_exact(self.state_size)
+            .map_err(|e| LawError::StateTooLarge {
+                law: self.name.to_string(),
+                path: self.path.to_path_buf(),
+                size: self.state_size,
+                reason: format!("the host could not allocate it ({e})"),
+            })?;
+        state.resize(self.state_size, 0.0);
+        Ok(state)
+    }
+
     /// Evaluate the law. A panic inside a Rust law, or a non-zero status from a C law, comes
-    /// back as [`LawError::LawFailed`] naming the law; the host process survives.
+    /// back as [`LawError::LawFailed`] naming the law; the host process survives. A `state`
+    /// whose length is not [`LawInstance::state_size`] is [`LawError::StateLength`] (the law is
+    /// not called), and a regime outside the contract's values is
+    /// [`LawError::UndefinedRegime`], so every output returned has a defined
+    /// [`LawOutput::regime`].
     #[inline]
     pub fn evaluate(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, LawError> {
-        debug_assert_eq!(state.len(), self.state_size);
+        self.check_state("evaluate", state.len())?;
+        let out = self.evaluate_unchecked_regime(input, state)?;
+        if Regime::from_u32(out.regime).is_none() {
+            return Err(self.undefined_regime(out.regime));
+        }
+        Ok(out)
+    }
+
+    #[inline]
+    fn evaluate_unchecked_regime(
+        &self,
+        input: &LawInput,
+        state: &[f64],
+    ) -> Result<LawOutput, LawError> {
         match &self.backend {
             InstBackend::Rust(obj) => match obj.evaluate(input, state.into()) {
                 abi_stable::std_types::RResult::ROk(out) => Ok(out),
@@ -383,8 +468,10 @@ impl LawInstance {
         }
     }
 
-    /// Advance the host-owned `state` over an accepted step.
+    /// Advance the host-owned `state` over an accepted step. A `state` whose length is not
+    /// [`LawInstance::state_size`] is [`LawError::StateLength`] and the law is not called.
     pub fn commit(&self, input: &LawInput, state: &mut [f64]) -> Result<(), LawError> {
+        self.check_state("commit", state.len())?;
         match &self.backend {
             InstBackend::Rust(obj) => match obj.commit(input, state.into()) {
                 abi_stable::std_types::RResult::ROk(()) => Ok(()),
@@ -402,6 +489,35 @@ impl LawInstance {
         }
     }
 
+    #[inline]
+    fn check_state(&self, stage: &'static str, given: usize) -> Result<(), LawError> {
+        if given == self.state_size {
+            Ok(())
+        } else {
+            Err(self.wrong_state(stage, given))
+        }
+    }
+
+    #[cold]
+    fn wrong_state(&self, stage: &'static str, given: usize) -> LawError {
+        LawError::StateLength {
+            law: self.name.to_string(),
+            path: self.path.to_path_buf(),
+            stage,
+            expected: self.state_size,
+            given,
+        }
+    }
+
+    #[cold]
+    fn undefined_regime(&self, value: u32) -> LawError {
+        LawError::UndefinedRegime {
+            law: self.name.to_string(),
+            path: self.path.to_path_buf(),
+            value,
+        }
+    }
+
     #[cold]
     fn failed(&self, stage: &'static str, message: String) -> LawError {
         LawError::LawFailed {
@@ -410,5 +526,144 @@ impl LawInstance {
             stage,
             message,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contract::JointKind;
+    use crate::describe::ParamSpec;
+
+    /// Parameters of [`Stateful`].
+    #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+    #[serde(deny_unknown_fields, default)]
+    struct Params {
+        n: f64,
+        regime: f64,
+    }
+
+    impl Default for Params {
+        fn default() -> Self {
+            Self {
+                n: 3.0,
+                regime: 0.0,
+            }
+        }
+    }
+
+    /// A law with `n` state values that writes every one of them in commit, and reports the
+    /// raw regime it was given.
+    struct Stateful(Params);
+
+    impl Law for Stateful {
+        type Params = Params;
+        const NAME: &'static str = "test-stateful";
+        const VERSION: &'static str = "0.0.0";
+        const SUMMARY: &'static str = "test law";
+        fn parameters() -> Vec<ParamSpec> {
+            vec![
+                ParamSpec::number("n", "-", "state size", 0.0, 1e12),
+                ParamSpec::number("regime", "-", "raw regime", 0.0, 100.0),
+            ]
+        }
+        fn new(p: Params) -> Result<Self, ParamError> {
+            Ok(Self(p))
+        }
+        fn state_size(&self) -> usize {
+            self.0.n as usize
+        }
+        fn evaluate(&self, _: &LawInput, state: &[f64]) -> LawOutput {
+            let mut out = LawOutput::force(-state.iter().sum::<f64>());
+            out.regime = self.0.regime as u32;
+            out
+        }
+        fn commit(&self, _: &LawInput, state: &mut [f64]) {
+            // Indexes up to its declared size: a short slice would panic here.
+            let n = Law::state_size(self);
+            state[..n].iter_mut().for_each(|x| *x += 1.0);
+        }
+    }
+
+    fn create(params: &str) -> LawInstance {
+        let lib = LawLibrary::in_process::<Stateful>().expect("describes itself");
+        lib.create(&params.parse().expect("TOML")).expect("creates")
+    }
+
+    #[test]
+    fn a_wrong_length_state_is_an_error_naming_law_and_lengths() {
+        let law = create("n = 3");
+        let input = LawInput::at_rest(JointKind::Revolute);
+        let mut state = law.new_state().expect("allocates");
+        assert_eq!(state, vec![0.0; 3]);
+        law.commit(&input, &mut state)
+            .expect("right length commits");
+        assert_eq!(law.evaluate(&input, &state).expect("evaluates").force, -3.0);
+        for len in [0, 2, 4] {
+            let mut short = vec![0.0; len];
+            for e in [
+                law.evaluate(&input, &short).unwrap_err(),
+                law.commit(&input, &mut short).unwrap_err(),
+            ] {
+                let msg = e.to_string();
+                assert!(
+                    matches!(e, LawError::StateLength { expected: 3, given, .. } if given == len),
+                    "{msg}"
+                );
+                assert!(
+                    msg.contains("test-stateful")
+                        && msg.contains(&format!("{len} values"))
+                        && msg.contains("declares 3"),
+                    "{msg}"
+                );
+            }
+            // The law was not called: nothing was written.
+            assert!(short.iter().all(|&x| x == 0.0));
+        }
+    }
+
+    #[test]
+    fn undefined_regimes_are_refused_and_defined_ones_pass() {
+        let input = LawInput::at_rest(JointKind::Prismatic);
+        for raw in 0..=3 {
+            let law = create(&format!("n = 0\nregime = {raw}"));
+            let out = law.evaluate(&input, &[]).expect("defined regime");
+            assert_eq!(out.regime().map(|r| r as u32), Some(raw));
+        }
+        for raw in [4, 42] {
+            let law = create(&format!("n = 0\nregime = {raw}"));
+            let e = law.evaluate(&input, &[]).unwrap_err();
+            let msg = e.to_string();
+            assert!(
+                matches!(e, LawError::UndefinedRegime { value, .. } if value == raw),
+                "{msg}"
+            );
+            assert!(
+                msg.contains("test-stateful") && msg.contains(&format!("regime {raw}")),
+                "{msg}"
+            );
+        }
+    }
+
+    #[test]
+    fn state_sizes_above_the_cap_are_refused_at_create() {
+        let lib = LawLibrary::in_process::<Stateful>().expect("describes itself");
+        let at_cap = lib
+            .create(&format!("n = {MAX_STATE_SIZE}").parse().expect("TOML"))
+            .expect("the cap itself is allowed");
+        assert_eq!(at_cap.new_state().expect("allocates").len(), MAX_STATE_SIZE);
+        let huge = MAX_STATE_SIZE + 1;
+        let e = lib
+            .create(&format!("n = {huge}").parse().expect("TOML"))
+            .unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            matches!(e, LawError::StateTooLarge { size, .. } if size == huge),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("test-stateful") && msg.contains(&huge.to_string()),
+            "{msg}"
+        );
     }
 }

@@ -164,7 +164,9 @@ pub(super) fn bind_joints(
             let instance = lib
                 .create(&l.params)
                 .map_err(|e| setup(format!("{field}.params"), &e))?;
-            let state = vec![0.0; instance.state_size()];
+            let state = instance
+                .new_state()
+                .map_err(|e| setup(format!("{field}.law"), &e))?;
             laws.push(BoundLaw {
                 name: l.law.clone(),
                 instance,

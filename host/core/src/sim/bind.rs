@@ -216,7 +216,7 @@ pub(super) fn law_failed(joint: JointId, input: &LawInput, e: LawError) -> SimEr
         time_s: input.time_s,
         velocity: input.relative_velocity,
         load_n: input.normal_load_n,
-        source: Box::new(e),
+        error: Box::new(e),
     }
 }
 

@@ -18,7 +18,9 @@ pub enum SimError {
         message: String,
     },
     /// A law failed while running.
-    #[error("joint `{joint}` at t = {time_s:.6} s (relative velocity {velocity}, normal load {load_n} N): {source}")]
+    // The law's error is part of this message, not a separate cause: a cause would be printed
+    // a second time by the CLI's error chain.
+    #[error("joint `{joint}` at t = {time_s:.6} s (relative velocity {velocity}, normal load {load_n} N): {error}")]
     Law {
         /// Joint.
         joint: String,
@@ -29,7 +31,7 @@ pub enum SimError {
         /// Normal load at the failure, N.
         load_n: f64,
         /// The law's error.
-        source: Box<LawError>,
+        error: Box<LawError>,
     },
     /// A law returned a force that is not a finite number.
     #[error("joint `{}`, law `{}` ({}) returned a non-finite force ({}) at t = {:.6} s for inputs: velocity {}, normal load {} N", .0.joint, .0.law, .0.file, .0.force, .0.time_s, .0.velocity, .0.load_n)]

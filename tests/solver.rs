@@ -260,7 +260,7 @@ fn bad_rig_values_are_rejected_naming_the_field() {
     expect_rig_error(
         &["solver.max_step_deg=120"],
         "solver.max_step_deg",
-        &["at most 90"],
+        &["[0.1, 90] degrees", "120"],
     );
     // A value serde refuses is reported at its field, not at the value's text.
     expect_rig_error(

@@ -103,16 +103,31 @@ fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, pos: SeriesLabelPosition) -> Pl
     Ok(())
 }
 
+/// The largest magnitude an axis reaches. Values beyond it (a law or a data file gone wild)
+/// are clipped to it when choosing the range, so the axis, its ticks and labels stay finite and
+/// are computed in bounded time.
+pub const AXIS_LIMIT: f64 = 1e9;
+
+/// An axis range covering the finite `values` (clipped to [`AXIS_LIMIT`]), widened by `pad`
+/// times the span on each side. Non-finite values are skipped; no finite value gives `0..1`.
+/// The result is always finite with `lo < hi`.
 fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
+        .map(|v| v.clamp(-AXIS_LIMIT, AXIS_LIMIT))
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(v), b.max(v))
         });
     if !lo.is_finite() {
         return (0.0, 1.0);
     }
-    let span = (hi - lo).max(1e-6);
+    // A span that resolves at least 1e-6 of the values' magnitude (1e-6 absolute near zero).
+    let span = (hi - lo).max(1e-6 * lo.abs().max(hi.abs()).max(1.0));
+    let pad = if pad.is_finite() {
+        pad.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     (lo - pad * span, hi + pad * span)
 }
 
@@ -504,4 +519,49 @@ pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> std::io::Result<Vec<S
         write_atomic(&dir.join(name), text.as_bytes())?;
     }
     Ok(files.into_iter().map(|(n, _)| n).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_ranges_are_finite_whatever_the_values() {
+        let cases: [&[f64]; 6] = [
+            &[1e308, -1e308],
+            &[f64::MAX, f64::MIN, f64::NAN],
+            &[f64::INFINITY, f64::NEG_INFINITY],
+            &[],
+            &[3.0, 3.0],
+            &[1e300, 1e300],
+        ];
+        for values in cases {
+            let (lo, hi) = range(values.iter().copied(), 0.15);
+            assert!(
+                lo.is_finite() && hi.is_finite() && lo < hi,
+                "{values:?}: {lo}..{hi}"
+            );
+            assert!(hi - lo <= 2.0 * AXIS_LIMIT * 1.31, "{values:?}: {lo}..{hi}");
+        }
+        // Ordinary values keep their padded range.
+        let (lo, hi) = range([1.0, 3.0].into_iter(), 0.5);
+        assert_eq!((lo, hi), (0.0, 4.0));
+    }
+
+    #[test]
+    fn a_chart_of_absurd_values_is_drawn_quickly() {
+        let start = std::time::Instant::now();
+        let (x0, x1) = range([1e308, -1e308, 3000.0].into_iter(), 0.05);
+        let (y0, y1) = range([1e308, -1e308, f64::NAN].into_iter(), 0.15);
+        let text = svg(|s| {
+            let root = SVGBackend::with_string(s, (900, 560)).into_drawing_area();
+            let mut chart = frame(&root, "absurd", x0..x1, y0..y1, "x", "y")?;
+            chart.draw_series(LineSeries::new([(1e308, -1e308), (x0, y1)], BLACK))?;
+            root.present()?;
+            Ok(())
+        })
+        .expect("drawn");
+        assert!(text.contains("<svg"));
+        assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
+    }
 }

@@ -7,6 +7,7 @@ mod atomic;
 mod common;
 mod fuzz;
 mod interrupt;
+mod limits;
 
 use std::path::Path;
 use std::process::Command;
@@ -202,6 +203,76 @@ fn cases() -> Vec<Case> {
             },
             code: 1,
             words: &["d.csv:3", "torque_nm", "`one point five` is not a number"],
+        },
+        Case {
+            name: "law set: a name that would leave the output directory",
+            setup: |d| {
+                let ls = write(
+                    d,
+                    "ls.toml",
+                    "name = \"x/../../../pwned\"\n[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\n",
+                );
+                args(&[
+                    "compare",
+                    "--steady",
+                    "--lawset",
+                    &ls,
+                    "--out",
+                    &d.join("o").to_string_lossy(),
+                ])
+            },
+            code: 1,
+            words: &[
+                "ls.toml:1:8",
+                "x/../../../pwned",
+                "contains `/`",
+                "ASCII letters, digits, `-`, `_` and `.`",
+                "1 to 64",
+            ],
+        },
+        Case {
+            name: "law set: two sets with one name in one compare",
+            setup: |d| {
+                let text = "name = \"same\"\n[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\n";
+                let a = write(d, "a.toml", text);
+                let b = write(d, "b.toml", text);
+                args(&[
+                    "compare",
+                    "--steady",
+                    "--lawset",
+                    &a,
+                    "--lawset",
+                    &b,
+                    "--out",
+                    &d.join("o").to_string_lossy(),
+                ])
+            },
+            code: 1,
+            words: &[
+                "two law sets are named `same`",
+                "a.toml",
+                "b.toml",
+                "rename one",
+            ],
+        },
+        Case {
+            name: "law set: two sets with one name in one sweep",
+            setup: |_| {
+                args(&[
+                    "sweep",
+                    "--lawset",
+                    "stribeck-duty",
+                    "--lawset",
+                    "stribeck-duty",
+                    "--out",
+                    "o",
+                ])
+            },
+            code: 1,
+            words: &[
+                "two law sets are named `stribeck-duty`",
+                "<bundled>/stribeck-duty.toml",
+            ],
         },
         // ---- plugins ----
         Case {

@@ -92,6 +92,40 @@ fn error(path: &Path, text: &str, field: &str, message: String) -> RigError {
     }
 }
 
+/// The longest law-set name allowed.
+pub const MAX_NAME_LEN: usize = 64;
+
+/// Check a law-set name: 1 to [`MAX_NAME_LEN`] characters of ASCII letters, digits, `-`, `_`
+/// and `.`, not starting with `.`. Names become file names (plots, fitted sets), so nothing
+/// else (no path separators, no `..`, no commas or spaces) is allowed. On error, says what is
+/// wrong.
+///
+/// ```
+/// use tribo_config::lawset::check_name;
+/// assert!(check_name("stribeck-duty_2.1").is_ok());
+/// assert!(check_name("x/../../pwned").is_err());
+/// assert!(check_name(".hidden").is_err());
+/// assert!(check_name("").is_err());
+/// ```
+pub fn check_name(name: &str) -> Result<(), String> {
+    if name.is_empty() {
+        return Err("is empty".into());
+    }
+    if name.len() > MAX_NAME_LEN {
+        return Err(format!("is {} characters long", name.len()));
+    }
+    if name.starts_with('.') {
+        return Err("starts with `.`".into());
+    }
+    if let Some(c) = name
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.')))
+    {
+        return Err(format!("contains `{}`", c.escape_default()));
+    }
+    Ok(())
+}
+
 /// A parameter asked to be fitted: law entry index, parameter name, bounds from the file.
 type WantedParam = (usize, String, Option<[f64; 2]>);
 
@@ -152,6 +186,17 @@ impl LawSet {
                 message: e.message().to_string(),
             }
         })?;
+        if let Err(why) = check_name(&file.name) {
+            return Err(error(
+                path,
+                text,
+                "name",
+                format!(
+                    "law-set name `{}` {why}; a name is used as a file name, so it must be 1 to {MAX_NAME_LEN} characters of ASCII letters, digits, `-`, `_` and `.`, not starting with `.`",
+                    file.name.escape_default()
+                ),
+            ));
+        }
         let set = Self {
             file,
             path: path.to_path_buf(),

@@ -524,6 +524,25 @@ pub fn revalidate(rig: &Rig) -> Result<(), Box<RigError>> {
     validate(rig).map_err(Box::new)
 }
 
+/// A number as a person reads it in a message: `1e308` and `1e-9` rather than hundreds of
+/// digits, ordinary numbers as they are.
+pub fn readable(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-3..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// The highest speed a test cycle may reach, rpm.
+pub const MAX_SPEED_RPM: f64 = 30_000.0;
+/// The longest test cycle, s.
+pub const MAX_CYCLE_S: f64 = 3600.0;
+/// The allowed range of `solver.step_deg`, degrees.
+pub const STEP_DEG_RANGE: (f64, f64) = (0.01, 10.0);
+/// The allowed range of `solver.max_step_deg`, degrees.
+pub const MAX_STEP_DEG_RANGE: (f64, f64) = (0.1, 90.0);
+
 /// Check a rig's values part by part; the first problem found is the error, located in the
 /// file (or `--set`) that gives the value.
 fn validate(rig: &Rig) -> Result<(), RigError> {
@@ -567,6 +586,28 @@ impl Check<'_> {
             Err(self
                 .rig
                 .error(field, format!("must be zero or positive ({unit}), got {v}")))
+        }
+    }
+
+    /// `v` must be finite and within `[lo, hi]` (`why` says what the limits protect).
+    fn within(
+        &self,
+        field: &str,
+        v: f64,
+        (lo, hi): (f64, f64),
+        unit: &str,
+        why: &str,
+    ) -> Result<(), RigError> {
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(())
+        } else {
+            Err(self.rig.error(
+                field,
+                format!(
+                    "must be in [{lo}, {hi}] {unit} ({why}), got {}",
+                    readable(v)
+                ),
+            ))
         }
     }
 
@@ -698,20 +739,37 @@ impl Check<'_> {
         if segments.is_empty() {
             return Err(self.rig.error("cycle.segments", "the test cycle is empty; give at least one ramp and one hold, or leave `segments` out for the thesis cycle"));
         }
+        let window_s = self.rig.file.measurement.window_s;
         let mut holds = 0;
+        let mut speed_rpm = 0.0;
+        let mut total_s = 0.0;
         for (i, s) in segments.iter().enumerate() {
             let (d, field) = match s {
                 Segment::Ramp { duration_s, to_rpm } => {
-                    if !to_rpm.is_finite() || *to_rpm < 0.0 {
+                    if !(to_rpm.is_finite() && (0.0..=MAX_SPEED_RPM).contains(to_rpm)) {
                         return Err(self.rig.error(
                             &format!("cycle.segments[{i}].to_rpm"),
-                            format!("must be zero or positive, got {to_rpm}"),
+                            format!(
+                                "must be in [0, {MAX_SPEED_RPM}] rpm, got {}",
+                                readable(*to_rpm)
+                            ),
                         ));
                     }
+                    speed_rpm = *to_rpm;
                     (*duration_s, "ramp")
                 }
                 Segment::Hold { duration_s } => {
                     holds += 1;
+                    // The window is checked in `measurement`; a bad one is reported there.
+                    let min_rpm = 60.0 / window_s;
+                    if window_s.is_finite() && window_s > 0.0 && speed_rpm < min_rpm {
+                        return Err(self.rig.error(
+                            &format!("cycle.segments[{i}]"),
+                            format!(
+                                "a hold at {speed_rpm} rpm turns less than one whole revolution in the {window_s} s measurement window (measurement.window_s); a plateau needs at least 60 / window_s = {min_rpm} rpm"
+                            ),
+                        ));
+                    }
                     (*duration_s, "hold")
                 }
             };
@@ -719,6 +777,15 @@ impl Check<'_> {
                 return Err(self.rig.error(
                     &format!("cycle.segments[{i}].duration_s"),
                     format!("{field} time must be positive, got {d} s"),
+                ));
+            }
+            total_s += d;
+            if total_s > MAX_CYCLE_S {
+                return Err(self.rig.error(
+                    &format!("cycle.segments[{i}].duration_s"),
+                    format!(
+                        "the test cycle lasts {total_s} s up to this segment; it must last at most {MAX_CYCLE_S} s"
+                    ),
                 ));
             }
         }
@@ -801,26 +868,29 @@ impl Check<'_> {
     /// Step sizes, tolerances and the friction iteration's limit.
     fn solver(&self) -> Result<(), RigError> {
         let s = &self.rig.file.solver;
-        self.positive("solver.step_deg", s.step_deg, "degrees")?;
+        self.within(
+            "solver.step_deg",
+            s.step_deg,
+            STEP_DEG_RANGE,
+            "degrees",
+            "smaller steps take days, larger ones miss a stroke's friction",
+        )?;
         self.positive("solver.max_step_s", s.max_step_s, "s")?;
         self.positive("solver.friction_tol", s.friction_tol, "-")?;
         self.positive("solver.rel_tol", s.rel_tol, "-")?;
-        self.positive("solver.max_step_deg", s.max_step_deg, "degrees")?;
+        self.within(
+            "solver.max_step_deg",
+            s.max_step_deg,
+            MAX_STEP_DEG_RANGE,
+            "degrees",
+            "a step must resolve a stroke",
+        )?;
         if s.rel_tol > 1e-2 {
             return Err(self.rig.error(
                 "solver.rel_tol",
                 format!(
                     "must be at most 1e-2 (a relative error per unit time), got {}",
                     s.rel_tol
-                ),
-            ));
-        }
-        if s.max_step_deg > 90.0 {
-            return Err(self.rig.error(
-                "solver.max_step_deg",
-                format!(
-                    "must be at most 90 degrees (a step must resolve a stroke), got {}",
-                    s.max_step_deg
                 ),
             ));
         }

@@ -11,7 +11,7 @@ use crate::fit::TorqueModel;
 use crate::score::{self, Scores, TemperatureResponse, Validation};
 use crate::uncertainty::{uncertainty_within_bounds, Uncertainty};
 use tribo_config::lawset::{FreeParam, LawSet};
-use tribo_config::rig::{Rig, RigError, Temperature};
+use tribo_config::rig::{readable, Rig, RigError, Temperature};
 use tribo_core::cycle::Segment;
 use tribo_core::sim::{RunResult, SimError};
 
@@ -34,6 +34,17 @@ pub enum StudyError {
     /// A sweep's temperatures or speeds are unusable.
     #[error(transparent)]
     Input(#[from] SweepInputError),
+    /// Two law sets of one study share a name (their results and plots would overwrite each
+    /// other).
+    #[error("two law sets are named `{name}` ({} and {}); every law set in one run needs its own name, as it names the result rows and plot files: rename one (its `name = ...` line)", first.display(), second.display())]
+    DuplicateLawSet {
+        /// The shared name.
+        name: String,
+        /// The first file with it.
+        first: PathBuf,
+        /// The second file with it.
+        second: PathBuf,
+    },
     /// A data file problem.
     #[error("{file}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Data {
@@ -44,6 +55,21 @@ pub enum StudyError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// Refuse two law sets with one name in one study: their result rows and plot files would
+/// overwrite each other.
+pub fn check_unique_names(lawsets: &[LawSet]) -> Result<(), StudyError> {
+    for (j, b) in lawsets.iter().enumerate() {
+        if let Some(a) = lawsets[..j].iter().find(|a| a.name() == b.name()) {
+            return Err(StudyError::DuplicateLawSet {
+                name: b.name().to_string(),
+                first: a.path.clone(),
+                second: b.path.clone(),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// One measured point.
@@ -99,6 +125,44 @@ pub fn read_data(arg: &str) -> Result<(PathBuf, Vec<DataRow>), StudyError> {
     parse_data(&path, &text).map(|r| (path, r))
 }
 
+/// The largest measured torque accepted, N m: a motored engine's friction torque is tens of
+/// N m at most, so a larger value is a unit or export error.
+pub const MAX_DATA_TORQUE_NM: f64 = 1e4;
+/// The highest measured speed accepted, rpm (no engine the rig models turns faster).
+pub const MAX_DATA_SPEED_RPM: f64 = 30_000.0;
+/// The lowest measured speed accepted, rpm: at least one revolution per second, or a plateau's
+/// measurement window holds no whole revolution (the rig's window sets the final limit).
+pub const MIN_DATA_SPEED_RPM: f64 = 60.0;
+
+/// Check one data row's values against the physical limits; `cols` are the 0-based columns of
+/// speed, torque and oil temperature. On error, says which column, what limit and why.
+fn check_row(row: &DataRow, cols: (usize, usize, usize)) -> Result<(), String> {
+    let (cs, ct, co) = cols;
+    if !(MIN_DATA_SPEED_RPM..=MAX_DATA_SPEED_RPM).contains(&row.speed_rpm) {
+        return Err(format!(
+            "column `speed_rpm` (column {}): {} rpm is outside [{MIN_DATA_SPEED_RPM}, {MAX_DATA_SPEED_RPM}] rpm; a plateau needs at least one revolution per second to be measured, and no engine modelled turns faster than {MAX_DATA_SPEED_RPM} rpm",
+            cs + 1,
+            readable(row.speed_rpm)
+        ));
+    }
+    if row.torque_nm.abs() > MAX_DATA_TORQUE_NM {
+        return Err(format!(
+            "column `torque_nm` (column {}): {} N m is beyond +-{MAX_DATA_TORQUE_NM} N m; a motored engine's friction torque is tens of N m at most, so check the units and the export",
+            ct + 1,
+            readable(row.torque_nm)
+        ));
+    }
+    let (t_lo, t_hi) = tribo_core::oil::VALID_RANGE_C;
+    if !(t_lo..=t_hi).contains(&row.oil_temp_c) {
+        return Err(format!(
+            "column `oil_temp_c` (column {}): {} C is outside the oil viscosity model's valid range [{t_lo}, {t_hi}] C",
+            co + 1,
+            readable(row.oil_temp_c)
+        ));
+    }
+    Ok(())
+}
+
 /// Parse data text (see [`read_data`]).
 pub fn parse_data(path: &Path, text: &str) -> Result<Vec<DataRow>, StudyError> {
     let err = |line: Option<u64>, message: String| StudyError::Data {
@@ -144,12 +208,7 @@ pub fn parse_data(path: &Path, text: &str) -> Result<Vec<DataRow>, StudyError> {
             torque_nm: num(ct, "torque_nm")?,
             oil_temp_c: num(co, "oil_temp_c")?,
         };
-        if row.speed_rpm <= 0.0 {
-            return Err(err(
-                line,
-                format!("speed_rpm must be positive, got {}", row.speed_rpm),
-            ));
-        }
+        check_row(&row, (cs, ct, co)).map_err(|m| err(line, m))?;
         rows.push(row);
     }
     if rows.is_empty() {
@@ -187,7 +246,12 @@ pub fn prepare(rig: &Rig, lawset: &LawSet, data: Option<&[DataRow]>) -> Result<R
             Temperature::PerPlateau(rows.iter().map(|x| x.oil_temp_c).collect());
         r.overridden.push("cycle".into());
         r.overridden.push("oil.temperature_c".into());
-        tribo_config::rig::revalidate(&r)?;
+        tribo_config::rig::revalidate(&r).map_err(|mut e| {
+            e.message.push_str(
+                " (this run's cycle and oil temperatures are built from the data file's rows)",
+            );
+            e
+        })?;
     }
     Ok(r)
 }
@@ -439,6 +503,7 @@ pub fn compare(
     registry: &LawRegistry,
     options: &CompareOptions,
 ) -> Result<Comparison, StudyError> {
+    check_unique_names(lawsets)?;
     let measured: Vec<f64> = data.rows.iter().map(|r| r.torque_nm).collect();
     let spread = measured.iter().copied().fold(f64::NEG_INFINITY, f64::max)
         - measured.iter().copied().fold(f64::INFINITY, f64::min);
@@ -587,6 +652,7 @@ pub fn mass_response(
     steady: bool,
     fedem: Option<&[(f64, f64)]>,
 ) -> Result<Vec<MassResponse>, StudyError> {
+    check_unique_names(lawsets)?;
     let jobs: Vec<(usize, Option<f64>)> = (0..lawsets.len())
         .flat_map(|i| std::iter::once((i, None)).chain(scales.iter().map(move |s| (i, Some(*s)))))
         .collect();
@@ -909,6 +975,7 @@ pub fn sweep(
     registry: &LawRegistry,
     progress: Option<&tribo_core::observe::Position>,
 ) -> Result<Sweep, StudyError> {
+    check_unique_names(lawsets)?;
     check_sweep_inputs(temps_c, speeds_rpm)?;
     let jobs: Vec<(usize, f64)> = (0..lawsets.len())
         .flat_map(|i| temps_c.iter().map(move |t| (i, *t)))

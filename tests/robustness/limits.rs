@@ -136,8 +136,11 @@ fn absurd_speeds_steps_and_torques_fail_fast_with_the_allowed_range() {
         if code != Some(1) {
             problems.push(format!("exit code {code:?}, expected 1"));
         }
-        if elapsed > Duration::from_secs(1) {
-            problems.push(format!("took {elapsed:?}, expected under a second"));
+        // Refused before anything runs: milliseconds on a quiet machine (the issue's "under a
+        // second"). The bound here is loose on purpose, so a loaded CI machine cannot make it
+        // flaky; what it catches is the old behaviour, a hang or a run at an absurd input.
+        if elapsed > Duration::from_secs(5) {
+            problems.push(format!("took {elapsed:?}, expected to be refused before any run"));
         }
         for w in &words {
             if !all.contains(w) {

@@ -140,7 +140,9 @@ fn absurd_speeds_steps_and_torques_fail_fast_with_the_allowed_range() {
         // second"). The bound here is loose on purpose, so a loaded CI machine cannot make it
         // flaky; what it catches is the old behaviour, a hang or a run at an absurd input.
         if elapsed > Duration::from_secs(5) {
-            problems.push(format!("took {elapsed:?}, expected to be refused before any run"));
+            problems.push(format!(
+                "took {elapsed:?}, expected to be refused before any run"
+            ));
         }
         for w in &words {
             if !all.contains(w) {

@@ -17,26 +17,22 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
     ensure_plugins_built();
     let dir = tempfile::tempdir().expect("temp dir");
     // The README's main job, from a directory that is not the checkout (bundled rig and data).
-    let out = Command::new(tribo_exe())
-        .args(["compare", "--out", "results"])
-        .current_dir(dir.path())
-        .env_remove("TRIBO_PLUGIN_PATH")
-        .output()
-        .expect("runs");
+    let out = tribo_in(&["compare", "--out", "results"], dir.path());
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stderr}");
-    for word in [
-        "measured",
-        "fedem-baseline",
-        "stribeck-duty",
-        "RMSE",
-        "max |error|",
-        "LOO RMSE",
-        "ranked by leave-one-out cross-validated RMSE",
-        "per-joint contributions",
-    ] {
-        assert!(stdout.contains(word), "`{word}` missing:\n{stdout}");
-    }
+    assert_mentions(
+        &stdout,
+        &[
+            "measured",
+            "fedem-baseline",
+            "stribeck-duty",
+            "RMSE",
+            "max |error|",
+            "LOO RMSE",
+            "ranked by leave-one-out cross-validated RMSE",
+            "per-joint contributions",
+        ],
+    );
     let results = dir.path().join("results");
     for f in [
         "comparison.csv",

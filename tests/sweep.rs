@@ -5,20 +5,8 @@
 mod common;
 
 use std::f64::consts::PI;
-use std::path::Path;
-use std::process::{Command, Output};
 
 use common::*;
-
-fn tribo_in(args: &[&str], cwd: &Path) -> Output {
-    ensure_plugins_built();
-    Command::new(tribo_exe())
-        .args(args)
-        .current_dir(cwd)
-        .env_remove("TRIBO_PLUGIN_PATH")
-        .output()
-        .expect("tribo runs")
-}
 
 fn fixture(name: &str) -> String {
     workspace()
@@ -228,16 +216,17 @@ fn csv_has_a_row_per_point_and_parses_back_to_the_json_and_the_plots_are_labelle
     let out = tribo_in(&["sweep", "--out", "res"], dir.path());
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stderr}");
-    for word in [
-        "oil: typical SAE 10W-50",
-        "Walther/ASTM D341",
-        "viscosity (mPa s)",
-        "law set fedem-baseline",
-        "law set stribeck-duty",
-        "110 C",
-    ] {
-        assert!(stdout.contains(word), "`{word}` missing:\n{stdout}");
-    }
+    assert_mentions(
+        &stdout,
+        &[
+            "oil: typical SAE 10W-50",
+            "Walther/ASTM D341",
+            "viscosity (mPa s)",
+            "law set fedem-baseline",
+            "law set stribeck-duty",
+            "110 C",
+        ],
+    );
     let res = dir.path().join("res");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(res.join("sweep.json")).expect("json"))

@@ -149,19 +149,31 @@ pub fn c_fixture(name: &str) -> PathBuf {
     workspace().join("tests/fixtures/c").join(name)
 }
 
-/// `tribo ARGS` run in `cwd` (without TRIBO_PLUGIN_PATH), its standard output parsed as JSON;
-/// panics with the standard error if the command fails.
-pub fn json_in(args: &[&str], cwd: &Path) -> serde_json::Value {
+/// `tribo ARGS` run in `cwd`, without TRIBO_PLUGIN_PATH.
+pub fn tribo_in(args: &[&str], cwd: &Path) -> Output {
     ensure_plugins_built();
-    let out = Command::new(tribo_exe())
+    Command::new(tribo_exe())
         .args(args)
         .current_dir(cwd)
         .env_remove("TRIBO_PLUGIN_PATH")
         .output()
-        .expect("tribo runs");
+        .expect("tribo runs")
+}
+
+/// `tribo ARGS` run in `cwd` (without TRIBO_PLUGIN_PATH), its standard output parsed as JSON;
+/// panics with the standard error if the command fails.
+pub fn json_in(args: &[&str], cwd: &Path) -> serde_json::Value {
+    let out = tribo_in(args, cwd);
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{args:?}: {stderr}");
     serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{e}: {stdout}"))
+}
+
+/// Panics naming the first of `words` that `text` does not contain.
+pub fn assert_mentions(text: &str, words: &[&str]) {
+    for word in words {
+        assert!(text.contains(word), "`{word}` missing:\n{text}");
+    }
 }
 
 /// The plateaus (JSON) of `lawset` in a steady-state comparison at `speeds_rpm` with the oil at

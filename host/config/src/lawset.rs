@@ -82,14 +82,7 @@ pub struct FreeParam {
 }
 
 fn error(path: &Path, text: &str, field: &str, message: String) -> RigError {
-    let at = crate::rig::locate(text, field).map(|s| line_col(text, s.start));
-    RigError {
-        file: path.to_path_buf(),
-        line: at.map(|a| a.0),
-        column: at.map(|a| a.1),
-        field: field.into(),
-        message,
-    }
+    RigError::at(path, text, field, message)
 }
 
 /// The longest law-set name allowed.

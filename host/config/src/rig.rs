@@ -26,6 +26,21 @@ pub struct RigError {
     pub message: String,
 }
 
+impl RigError {
+    /// An error about `field` of the TOML `text` read from `path`, located at the field's line
+    /// and column when it can be found there.
+    pub fn at(path: &Path, text: &str, field: &str, message: String) -> Self {
+        let at = locate(text, field).map(|s| line_col(text, s.start));
+        Self {
+            file: path.to_path_buf(),
+            line: at.map(|a| a.0),
+            column: at.map(|a| a.1),
+            field: field.into(),
+            message,
+        }
+    }
+}
+
 fn location(file: &Path, line: Option<usize>, col: Option<usize>) -> String {
     match (line, col) {
         (Some(l), Some(c)) => format!("{}:{l}:{c}", file.display()),
@@ -970,16 +985,7 @@ pub const OIL_FILE_KEYS: [&str; 5] = ["name", "grade", "source", "viscosity", "d
 /// file is checked here, so its mistakes are reported at its own line and column: unknown keys,
 /// and a viscosity model that does not parse.
 pub fn oil_file_sets(path: &Path) -> Result<Vec<String>, RigError> {
-    let err = |text: &str, field: &str, message: String| {
-        let at = locate(text, field).map(|s| line_col(text, s.start));
-        RigError {
-            file: path.to_path_buf(),
-            line: at.map(|a| a.0),
-            column: at.map(|a| a.1),
-            field: field.into(),
-            message,
-        }
-    };
+    let err = |text: &str, field: &str, message: String| RigError::at(path, text, field, message);
     let text = std::fs::read_to_string(path).map_err(|e| RigError {
         file: path.to_path_buf(),
         line: None,

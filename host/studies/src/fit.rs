@@ -401,33 +401,8 @@ pub struct Calibration {
     pub converged: bool,
 }
 
-/// When the optimiser stops.
-#[derive(Debug, Clone, Copy)]
-pub struct Tolerances {
-    /// Relative reduction of the sum of squares below which it has converged.
-    pub ftol: f64,
-    /// Relative change of the variables below which it has converged.
-    pub xtol: f64,
-    /// Evaluation budget, in multiples of (parameters + 1).
-    pub patience: usize,
-}
-
-impl Tolerances {
-    /// A calibration's own tolerances.
-    pub const FIT: Self = Self {
-        ftol: 1e-7,
-        xtol: 1e-7,
-        patience: 30,
-    };
-}
-
 /// Run Levenberg-Marquardt on `model` from `start` (physical values within the bounds).
 pub fn calibrate(model: &TorqueModel<'_>, start: &[f64]) -> Calibration {
-    calibrate_with(model, start, Tolerances::FIT)
-}
-
-/// As [`calibrate`], with explicit tolerances.
-pub fn calibrate_with(model: &TorqueModel<'_>, start: &[f64], tol: Tolerances) -> Calibration {
     let maps: Vec<Map> = model.free.iter().map(|f| Map::new(f.bounds)).collect();
     let measured = model.measured();
     let u0 = DVector::from_iterator(
@@ -442,9 +417,9 @@ pub fn calibrate_with(model: &TorqueModel<'_>, start: &[f64], tol: Tolerances) -
         last: Mutex::new(None),
     };
     let (done, report) = LevenbergMarquardt::new()
-        .with_ftol(tol.ftol)
-        .with_xtol(tol.xtol)
-        .with_patience(tol.patience)
+        .with_ftol(1e-7)
+        .with_xtol(1e-7)
+        .with_patience(30)
         .minimize(problem);
     Calibration {
         values: done.x_of(&done.u),

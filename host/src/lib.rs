@@ -20,6 +20,7 @@
 //! [`score`], [`uncertainty`] from `tribo_studies`. Laws are never linked in; they are found and
 //! loaded through `tribo_plugin_api::loader`.
 
+pub mod isolate;
 pub mod laws;
 pub mod output;
 pub mod plots;

@@ -7,6 +7,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
+use serde::{Deserialize, Serialize};
+use tribo::isolate::{self, guard, WorkerFailure};
 use tribo::progress::Progress;
 use tribo::{laws, scaffold};
 use tribo_plugin_api::loader::{discover, LawRegistry};
@@ -47,6 +49,50 @@ enum Command {
     Sweep(SweepArgs),
     /// Generate a new law plugin crate with a documented law, parameters and unit tests.
     NewLaw(NewLawArgs),
+    /// Internal: run one job of a study in this process on behalf of a parent `tribo`.
+    #[command(name = "__worker", hide = true)]
+    Worker(WorkerArgs),
+}
+
+/// The arguments of the hidden worker subcommand.
+#[derive(Args)]
+struct WorkerArgs {
+    /// The job file the parent wrote.
+    job: PathBuf,
+    /// Where to write the reply.
+    reply: PathBuf,
+}
+
+/// How a study command treats its law plugins: one worker process per law set (the default),
+/// with limits, or everything in this process.
+#[derive(Args, Clone, Serialize, Deserialize)]
+struct IsolationArgs {
+    /// Run every law set in this process instead of one worker process per law set: a little
+    /// faster to start, but one crashing or hanging law then ends the whole study.
+    #[arg(long)]
+    in_process: bool,
+    /// Wall-time limit of each law set's worker process, s (0: none).
+    #[arg(long, default_value_t = 1800.0, value_name = "S")]
+    time_limit_s: f64,
+    /// Resident-memory limit of each law set's worker process, MiB (0: none).
+    #[arg(long, default_value_t = 4096, value_name = "MIB")]
+    memory_limit_mb: u64,
+}
+
+impl IsolationArgs {
+    /// The limits, checked.
+    fn limits(&self) -> anyhow::Result<isolate::Limits> {
+        if !(self.time_limit_s.is_finite() && self.time_limit_s >= 0.0) {
+            anyhow::bail!(
+                "--time-limit-s: expected a number of seconds >= 0 (0: no limit), got {}",
+                self.time_limit_s
+            );
+        }
+        Ok(isolate::Limits {
+            time_s: self.time_limit_s,
+            memory_mb: self.memory_limit_mb,
+        })
+    }
 }
 
 /// The arguments of `tribo laws`.
@@ -91,7 +137,7 @@ struct RunArgs {
 }
 
 /// The arguments of `tribo compare`.
-#[derive(Args)]
+#[derive(Args, Clone, Serialize, Deserialize)]
 struct CompareArgs {
     /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
     rig: Option<PathBuf>,
@@ -124,10 +170,13 @@ struct CompareArgs {
     /// Print JSON instead of the table.
     #[arg(long)]
     json: bool,
+    /// Worker processes and their limits.
+    #[command(flatten)]
+    isolation: IsolationArgs,
 }
 
 /// The arguments of `tribo mass-response`.
-#[derive(Args)]
+#[derive(Args, Clone, Serialize, Deserialize)]
 struct MassResponseArgs {
     /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
     rig: Option<PathBuf>,
@@ -156,10 +205,13 @@ struct MassResponseArgs {
     /// Print JSON instead of the table.
     #[arg(long)]
     json: bool,
+    /// Worker processes and their limits.
+    #[command(flatten)]
+    isolation: IsolationArgs,
 }
 
 /// The arguments of `tribo fit`.
-#[derive(Args)]
+#[derive(Args, Clone, Serialize, Deserialize)]
 struct FitArgs {
     /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
     rig: Option<PathBuf>,
@@ -193,10 +245,13 @@ struct FitArgs {
     /// Print JSON instead of the report.
     #[arg(long)]
     json: bool,
+    /// Worker processes and their limits.
+    #[command(flatten)]
+    isolation: IsolationArgs,
 }
 
 /// The arguments of `tribo sweep`.
-#[derive(Args)]
+#[derive(Args, Clone, Serialize, Deserialize)]
 struct SweepArgs {
     /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
     rig: Option<PathBuf>,
@@ -237,6 +292,9 @@ struct SweepArgs {
     /// Print JSON instead of the tables.
     #[arg(long)]
     json: bool,
+    /// Worker processes and their limits.
+    #[command(flatten)]
+    isolation: IsolationArgs,
 }
 
 /// The arguments of `tribo new-law`.
@@ -250,7 +308,7 @@ struct NewLawArgs {
 }
 
 /// The body a mass study scales, as the command line spells it.
-#[derive(Clone, Copy, clap::ValueEnum)]
+#[derive(Clone, Copy, clap::ValueEnum, Serialize, Deserialize)]
 enum BodyArg {
     /// The connecting rod (mass and inertia).
     Rod,
@@ -334,6 +392,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(a) => cmd_fit(&g, a),
         Command::Sweep(a) => cmd_sweep(&g, a),
         Command::NewLaw(a) => cmd_new_law(a),
+        Command::Worker(a) => cmd_worker(&g, a),
     }
 }
 
@@ -407,25 +466,199 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     emit(&out_text)
 }
 
-/// `tribo compare`: law sets side by side against measured data; table or JSON on stdout,
-/// CSV, JSON and plots in the output directory.
-fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
-    let mut out_text = String::new();
-    let (rig, mut sets_loaded) = study_inputs(a.rig, &a.sets, a.lawsets)?;
+/// The law-set names (bundled names or files) a study command runs: those given, or the
+/// bundled defaults.
+fn lawset_specs(given: &[String]) -> Vec<String> {
+    if given.is_empty() {
+        tribo::bundled::DEFAULT_LAWSETS
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        given.to_vec()
+    }
+}
+
+/// What a worker process is asked to do: check every law set's laws and parameters, or run one
+/// study command for one law set.
+#[derive(Serialize, Deserialize)]
+enum WorkerJob {
+    /// Load the plugins and bind every set's laws (names, parameters), running nothing.
+    Check(Vec<SetSource>),
+    /// `compare` for one law set.
+    Compare(CompareArgs),
+    /// `mass-response` for one law set.
+    MassResponse(MassResponseArgs),
+    /// `sweep` for one law set.
+    Sweep(SweepArgs),
+    /// `fit`.
+    Fit(FitArgs),
+}
+
+/// What a worker process hands back.
+#[derive(Serialize, Deserialize)]
+enum WorkerOutput {
+    /// Every law set binds.
+    Checked,
+    /// A one-set comparison.
+    Compare(tribo::study::Comparison),
+    /// A one-set mass response.
+    MassResponse(Vec<tribo::study::MassResponse>),
+    /// A one-set sweep.
+    Sweep(tribo::study::Sweep),
+    /// The fit's report and the calibrated law set as TOML.
+    Fit(tribo::fit::FitResult, String),
+}
+
+/// Where one law set of a study comes from, for the check job.
+#[derive(Clone, Serialize, Deserialize)]
+struct SetSource {
+    /// Rig file or bundled name.
+    rig: Option<PathBuf>,
+    /// `--set` overrides (with `--oil` already turned into them).
+    sets: Vec<String>,
+    /// The law set (bundled name or file).
+    lawset: String,
+    /// `--law` attachments added to it.
+    laws: Vec<String>,
+}
+
+/// Check every law set against the plugins before any run: each law exists, its parameters
+/// have the right names, types and ranges, and its joint exists. Only the laws' descriptions are
+/// read; no instance is created, so a law that misbehaves when created or run fails its own
+/// set later, not the whole study.
+fn check_sources(sources: &[SetSource], registry: &LawRegistry) -> anyhow::Result<()> {
+    for s in sources {
+        let (rig, sets_loaded) = study_inputs(s.rig.clone(), &s.sets, vec![s.lawset.clone()])?;
+        for mut ls in sets_loaded {
+            ls.add_law_args(&s.laws)?;
+            let prepared = tribo::study::prepare(&rig, &ls, None)?;
+            for (joint, j) in prepared.model().joints.named() {
+                for (i, l) in j.laws.iter().enumerate() {
+                    let field = format!("joints.{joint}.laws[{i}]");
+                    let lib = registry
+                        .get(&l.law)
+                        .map_err(|e| prepared.error(&format!("{field}.law"), e.to_string()))?;
+                    tribo_plugin_api::describe::check_params(lib.description(), &l.params)
+                        .map_err(|e| prepared.error(&format!("{field}.params"), e.to_string()))?;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Globals {
+    /// Check every law set in one worker process (so even loading a plugin never happens in
+    /// this one), then run `jobs`, one worker process each; the results in the order of `jobs`.
+    fn run_isolated(
+        &self,
+        sources: Vec<SetSource>,
+        jobs: Vec<WorkerJob>,
+        limits: isolate::Limits,
+    ) -> anyhow::Result<Vec<Result<WorkerOutput, WorkerFailure>>> {
+        let check = isolate::run_all::<_, WorkerOutput>(
+            &[WorkerJob::Check(sources)],
+            &self.plugins,
+            limits,
+        )?;
+        for r in check {
+            r.context("checking the law sets before running them")?;
+        }
+        Ok(isolate::run_all(&jobs, &self.plugins, limits)?)
+    }
+}
+
+/// The failures of an isolated study as one error: after the other sets' results were written
+/// into `out`, or, with `None`, when no set gave results and nothing was written.
+fn failures_error(
+    failed: &[tribo::study::FailedSet],
+    total: usize,
+    out: Option<&std::path::Path>,
+) -> anyhow::Result<()> {
+    if failed.is_empty() {
+        return Ok(());
+    }
+    let mut text = match out {
+        Some(out) => format!(
+            "{} of {total} law sets failed; the results of the others were written into {}:",
+            failed.len(),
+            out.display()
+        ),
+        None => format!("all {total} law sets failed; nothing was written:"),
+    };
+    for f in failed {
+        let _ = write!(text, "\n  law set `{}`: {}", f.lawset, f.message);
+    }
+    Err(anyhow::anyhow!(text))
+}
+
+/// A law set that gave no results, with the worker's reason (a study error's own "law set `x`:"
+/// prefix dropped, since the report names the set).
+fn failed_set(ls: &tribo::lawset::LawSet, e: WorkerFailure) -> tribo::study::FailedSet {
+    let prefix = format!("law set `{}`: ", ls.name());
+    let message = e.to_string();
+    tribo::study::FailedSet {
+        lawset: ls.name().to_string(),
+        message: message
+            .strip_prefix(&prefix)
+            .map_or(message.clone(), str::to_string),
+    }
+}
+
+/// `compare` for the law sets of `a`, in this process.
+fn compare_study(
+    a: &CompareArgs,
+    registry: &LawRegistry,
+) -> anyhow::Result<tribo::study::Comparison> {
+    let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &a.sets, a.lawsets.clone())?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
     let data =
         tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
-    let validate = read_data_runs(&a.validate)?;
-    let registry = g.registry()?;
-    let progress = Progress::start("comparing law sets", None, g.quiet);
     let options = tribo::study::CompareOptions {
         steady: a.steady,
         no_cv: a.no_cv,
-        validate,
+        validate: read_data_runs(&a.validate)?,
     };
-    let cmp = tribo::study::compare(&rig, &sets_loaded, &data, &registry, &options)?;
+    Ok(tribo::study::compare(
+        &rig,
+        &sets_loaded,
+        &data,
+        registry,
+        &options,
+    )?)
+}
+
+/// `tribo compare`: law sets side by side against measured data; table or JSON on stdout,
+/// CSV, JSON and plots in the output directory.
+fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
+    // Every input is read and checked before anything runs.
+    let specs = lawset_specs(&a.lawsets);
+    let (_, mut sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
+    for ls in &mut sets_loaded {
+        ls.add_law_args(&a.laws)?;
+    }
+    tribo::study::check_unique_names(&sets_loaded)?;
+    tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+    read_data_runs(&a.validate)?;
+    let progress = Progress::start("comparing law sets", None, g.quiet);
+    let sources: Vec<SetSource> = specs.iter().map(|l| a.source(l)).collect();
+    let cmp = if a.isolation.in_process {
+        guard::watch(a.isolation.limits()?);
+        let registry = g.registry()?;
+        check_sources(&sources, &registry)?;
+        compare_study(&a, &registry)?
+    } else {
+        let jobs = specs
+            .iter()
+            .map(|l| WorkerJob::Compare(CompareArgs { lawsets: vec![l.clone()], ..a.clone() }))
+            .collect();
+        let results = g.run_isolated(sources, jobs, a.isolation.limits()?)?;
+        merge_comparisons(&sets_loaded, results, a.no_cv)?
+    };
     drop(progress);
     let out = &a.out;
     tribo::plots::write_comparison(&cmp, out)
@@ -440,32 +673,124 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
             out.display()
         )?;
     }
-    emit(&out_text)
+    emit(&out_text)?;
+    failures_error(&cmp.failed, specs.len(), Some(out))
+}
+
+impl CompareArgs {
+    /// Where law set `lawset` of this comparison comes from.
+    fn source(&self, lawset: &str) -> SetSource {
+        SetSource {
+            rig: self.rig.clone(),
+            sets: self.sets.clone(),
+            lawset: lawset.to_string(),
+            laws: self.laws.clone(),
+        }
+    }
+}
+
+/// One comparison from the one-set comparisons of the workers: the sets in the order given,
+/// ranked together, and the failed ones listed. An error if none gave results.
+fn merge_comparisons(
+    lawsets: &[tribo::lawset::LawSet],
+    results: Vec<Result<WorkerOutput, WorkerFailure>>,
+    no_cv: bool,
+) -> anyhow::Result<tribo::study::Comparison> {
+    let mut merged: Option<tribo::study::Comparison> = None;
+    let mut sets = Vec::new();
+    let mut failed = Vec::new();
+    for (ls, r) in lawsets.iter().zip(results) {
+        match r {
+            Ok(WorkerOutput::Compare(mut c)) => {
+                sets.append(&mut c.sets);
+                merged.get_or_insert(c);
+            }
+            Ok(_) => anyhow::bail!("a worker answered a comparison with something else"),
+            Err(e) => failed.push(failed_set(ls, e)),
+        }
+    }
+    let Some(mut cmp) = merged else {
+        failures_error(&failed, lawsets.len(), None)?;
+        anyhow::bail!("no law set to compare");
+    };
+    tribo::study::rank_sets(&mut sets, no_cv);
+    cmp.sets = sets;
+    cmp.failed = failed;
+    Ok(cmp)
+}
+
+/// `mass-response` for the law sets of `a`, in this process.
+fn mass_study(
+    a: &MassResponseArgs,
+    registry: &LawRegistry,
+) -> anyhow::Result<Vec<tribo::study::MassResponse>> {
+    let (rig, sets_loaded) = study_inputs(a.rig.clone(), &a.sets, a.lawsets.clone())?;
+    let scale_list = a.scales.clone().unwrap_or_else(|| vec![a.scale]);
+    let fedem = tribo::study::fedem_rod_change();
+    let body = tribo::study::ScaledBody::from(a.body);
+    let fedem = (body == tribo::study::ScaledBody::Rod).then_some(fedem.as_slice());
+    Ok(tribo::study::mass_response(
+        &rig,
+        &sets_loaded,
+        body,
+        &scale_list,
+        registry,
+        a.steady,
+        fedem,
+    )?)
 }
 
 /// `tribo mass-response`: the torque and friction change for a scaled body, per law set;
 /// mass_response.json (and a plot for a sweep of scales) in the output directory.
 fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
-    let (rig, sets_loaded) = study_inputs(a.rig, &a.sets, a.lawsets)?;
+    let specs = lawset_specs(&a.lawsets);
+    let (_, sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
+    tribo::study::check_unique_names(&sets_loaded)?;
     let scale_list = a.scales.clone().unwrap_or_else(|| vec![a.scale]);
     if let Some(bad) = scale_list.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
         anyhow::bail!("--scale/--scales: every scale factor must be positive, got {bad}");
     }
-    let registry = g.registry()?;
-    let fedem = tribo::study::fedem_rod_change();
-    let body = tribo::study::ScaledBody::from(a.body);
-    let fedem = (body == tribo::study::ScaledBody::Rod).then_some(fedem.as_slice());
     let progress = Progress::start("mass response", None, g.quiet);
-    let result = tribo::study::mass_response(
-        &rig,
-        &sets_loaded,
-        body,
-        &scale_list,
-        &registry,
-        a.steady,
-        fedem,
-    )?;
+    let sources: Vec<SetSource> = specs
+        .iter()
+        .map(|l| SetSource {
+            rig: a.rig.clone(),
+            sets: a.sets.clone(),
+            lawset: l.clone(),
+            laws: Vec::new(),
+        })
+        .collect();
+    let (result, failed) = if a.isolation.in_process {
+        guard::watch(a.isolation.limits()?);
+        let registry = g.registry()?;
+        check_sources(&sources, &registry)?;
+        (mass_study(&a, &registry)?, Vec::new())
+    } else {
+        let jobs = specs
+            .iter()
+            .map(|l| {
+                WorkerJob::MassResponse(MassResponseArgs {
+                    lawsets: vec![l.clone()],
+                    ..a.clone()
+                })
+            })
+            .collect();
+        let mut result = Vec::new();
+        let mut failed = Vec::new();
+        let results = g.run_isolated(sources, jobs, a.isolation.limits()?)?;
+        for (ls, r) in sets_loaded.iter().zip(results) {
+            match r {
+                Ok(WorkerOutput::MassResponse(mut m)) => result.append(&mut m),
+                Ok(_) => anyhow::bail!("a worker answered a mass response with something else"),
+                Err(e) => failed.push(failed_set(ls, e)),
+            }
+        }
+        if result.is_empty() {
+            failures_error(&failed, specs.len(), None)?;
+        }
+        (result, failed)
+    };
     drop(progress);
     let out = &a.out;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
@@ -481,38 +806,30 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     } else {
         write!(out_text, "{}", tribo::report::mass_text(&result))?;
     }
-    emit(&out_text)
+    emit(&out_text)?;
+    failures_error(&failed, specs.len(), Some(out))
 }
 
-/// `tribo fit`: calibrate a law set's free parameters; the report or JSON on stdout, the
-/// calibrated law set written as TOML.
-fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
-    let mut out_text = String::new();
+/// `fit` in this process: the report and the calibrated law set as TOML.
+fn fit_study(
+    a: &FitArgs,
+    registry: &LawRegistry,
+) -> anyhow::Result<(tribo::fit::FitResult, String)> {
     let rig_path = a
         .rig
+        .clone()
         .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
     let rig = tribo::rig::load_rig(&rig_path, &a.sets)?;
     let ls = tribo::lawset::LawSet::load(&a.lawset)?;
-    let data = if a.data.is_empty() {
-        vec![tribo::bundled::DEFAULT_DATA.to_string()]
-    } else {
-        a.data
-    };
-    let runs = read_data_runs(&data)?;
+    let runs = read_data_runs(&fit_data(a))?;
     let validate = read_data_runs(&a.validate)?;
-    let registry = g.registry()?;
-    let free = ls.free_params(&registry, a.params.as_deref())?;
-    let progress = Progress::start("fitting", None, g.quiet);
+    let free = ls.free_params(registry, a.params.as_deref())?;
     let options = tribo::fit::FitOptions {
         starts: a.starts as usize,
         cross_validate: !a.no_cv,
         validate,
     };
-    let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &runs, &registry, &options)?;
-    drop(progress);
-    let out = a
-        .out
-        .unwrap_or_else(|| PathBuf::from(format!("{}-fitted.toml", ls.name())));
+    let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &runs, registry, &options)?;
     let header = format!(
         "Calibrated by `tribo fit` on rig {} against {} points in {} run(s): RMSE {:.4} N m in sample, {} N m leave-one-out.\nParameters fitted: {}",
         rig.file.name,
@@ -528,6 +845,54 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
     let text = fitted
         .to_toml(&header)
         .context("serialising the calibrated law set")?;
+    Ok((result, text))
+}
+
+/// The data a fit uses: those given, or the thesis's table.
+fn fit_data(a: &FitArgs) -> Vec<String> {
+    if a.data.is_empty() {
+        vec![tribo::bundled::DEFAULT_DATA.to_string()]
+    } else {
+        a.data.clone()
+    }
+}
+
+/// `tribo fit`: calibrate a law set's free parameters; the report or JSON on stdout, the
+/// calibrated law set written as TOML.
+fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
+    let mut out_text = String::new();
+    // Every input is read and checked before anything runs.
+    let rig_path = a
+        .rig
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
+    tribo::rig::load_rig(&rig_path, &a.sets)?;
+    let ls = tribo::lawset::LawSet::load(&a.lawset)?;
+    read_data_runs(&fit_data(&a))?;
+    read_data_runs(&a.validate)?;
+    let progress = Progress::start("fitting", None, g.quiet);
+    let (result, text) = if a.isolation.in_process {
+        guard::watch(a.isolation.limits()?);
+        fit_study(&a, &g.registry()?)?
+    } else {
+        let limits = a.isolation.limits()?;
+        let r = isolate::run_all::<_, WorkerOutput>(
+            &[WorkerJob::Fit(a.clone())],
+            &g.plugins,
+            limits,
+        )?;
+        match r.into_iter().next() {
+            Some(Ok(WorkerOutput::Fit(result, text))) => (result, text),
+            Some(Err(WorkerFailure::Study(message))) => anyhow::bail!("{message}"),
+            Some(Err(e)) => anyhow::bail!("law set `{}`: {e}", ls.name()),
+            _ => anyhow::bail!("the fit's worker process gave no answer"),
+        }
+    };
+    drop(progress);
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{}-fitted.toml", ls.name())));
     tribo::output::write_atomic(&out, text.as_bytes())
         .with_context(|| format!("writing {}", out.display()))?;
     if a.json {
@@ -543,6 +908,29 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
     emit(&out_text)
 }
 
+/// `sweep` for the law sets of `a`, in this process (`--oil` already in `sets`).
+fn sweep_study(
+    a: &SweepArgs,
+    sets: &[String],
+    registry: &LawRegistry,
+    progress: Option<&tribo::progress::Position>,
+) -> anyhow::Result<tribo::study::Sweep> {
+    let temps_c = tribo::study::parse_list("--temps", &a.temps)?;
+    let speeds_rpm = tribo::study::parse_list("--speeds", &a.speeds)?;
+    let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), sets, a.lawsets.clone())?;
+    for ls in &mut sets_loaded {
+        ls.add_law_args(&a.laws)?;
+    }
+    Ok(tribo::study::sweep(
+        &rig,
+        &sets_loaded,
+        &temps_c,
+        &speeds_rpm,
+        registry,
+        progress,
+    )?)
+}
+
 /// `tribo sweep`: torque over oil temperature and speed per law set; tables or JSON on stdout,
 /// sweep.csv, sweep.json and plots in the output directory.
 fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
@@ -551,23 +939,49 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
     let temps_c = tribo::study::parse_list("--temps", &a.temps)?;
     let speeds_rpm = tribo::study::parse_list("--speeds", &a.speeds)?;
     tribo::study::check_sweep_inputs(&temps_c, &speeds_rpm)?;
-    let sets = with_oil_file(a.oil.as_deref(), a.sets)?;
-    let (rig, mut sets_loaded) = study_inputs(a.rig, &sets, a.lawsets)?;
+    let sets = with_oil_file(a.oil.as_deref(), a.sets.clone())?;
+    let specs = lawset_specs(&a.lawsets);
+    let (_, mut sets_loaded) = study_inputs(a.rig.clone(), &sets, specs.clone())?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
-    let registry = g.registry()?;
+    tribo::study::check_unique_names(&sets_loaded)?;
     let total = (sets_loaded.len() * temps_c.len()) as u64;
-    let progress = Progress::start("temperature sweep", Some(total), g.quiet);
-    let result = tribo::study::sweep(
-        &rig,
-        &sets_loaded,
-        &temps_c,
-        &speeds_rpm,
-        &registry,
-        Some(&progress.position()),
-    )?;
-    drop(progress);
+    let sources: Vec<SetSource> = specs
+        .iter()
+        .map(|l| SetSource {
+            rig: a.rig.clone(),
+            sets: sets.clone(),
+            lawset: l.clone(),
+            laws: a.laws.clone(),
+        })
+        .collect();
+    let result = if a.isolation.in_process {
+        guard::watch(a.isolation.limits()?);
+        let registry = g.registry()?;
+        check_sources(&sources, &registry)?;
+        let progress = Progress::start("temperature sweep", Some(total), g.quiet);
+        let r = sweep_study(&a, &sets, &registry, Some(&progress.position()))?;
+        drop(progress);
+        r
+    } else {
+        let progress = Progress::start("temperature sweep", None, g.quiet);
+        // The worker gets the --oil file already turned into --set overrides.
+        let jobs = specs
+            .iter()
+            .map(|l| {
+                WorkerJob::Sweep(SweepArgs {
+                    lawsets: vec![l.clone()],
+                    sets: sets.clone(),
+                    oil: None,
+                    ..a.clone()
+                })
+            })
+            .collect();
+        let results = g.run_isolated(sources, jobs, a.isolation.limits()?)?;
+        drop(progress);
+        merge_sweeps(&sets_loaded, results)?
+    };
     let out = &a.out;
     let files = tribo::plots::write_sweep(&result, out)
         .with_context(|| format!("writing results into {}", out.display()))?;
@@ -577,8 +991,72 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
         write!(out_text, "{}", tribo::report::sweep_text(&result))?;
         writeln!(out_text, "\nwrote {}/{}", out.display(), files.join(", "))?;
     }
-    emit(&out_text)
+    emit(&out_text)?;
+    failures_error(&result.failed, specs.len(), Some(out))
 }
+
+/// One sweep from the one-set sweeps of the workers, failed sets listed.
+fn merge_sweeps(
+    lawsets: &[tribo::lawset::LawSet],
+    results: Vec<Result<WorkerOutput, WorkerFailure>>,
+) -> anyhow::Result<tribo::study::Sweep> {
+    let mut merged: Option<tribo::study::Sweep> = None;
+    let mut sets = Vec::new();
+    let mut failed = Vec::new();
+    for (ls, r) in lawsets.iter().zip(results) {
+        match r {
+            Ok(WorkerOutput::Sweep(mut w)) => {
+                sets.append(&mut w.sets);
+                merged.get_or_insert(w);
+            }
+            Ok(_) => anyhow::bail!("a worker answered a sweep with something else"),
+            Err(e) => failed.push(failed_set(ls, e)),
+        }
+    }
+    let Some(mut sweep) = merged else {
+        failures_error(&failed, lawsets.len(), None)?;
+        anyhow::bail!("no law set to sweep");
+    };
+    sweep.sets = sets;
+    sweep.failed = failed;
+    Ok(sweep)
+}
+
+/// The hidden worker subcommand: run the job, write the reply; exit status 1 when the study
+/// failed (the reply holds its message).
+fn cmd_worker(g: &Globals, a: WorkerArgs) -> anyhow::Result<()> {
+    let ok = isolate::serve(&a.job, &a.reply, |job: WorkerJob| -> anyhow::Result<WorkerOutput> {
+        let registry = g.registry()?;
+        Ok(match job {
+            WorkerJob::Check(sources) => {
+                check_sources(&sources, &registry)?;
+                WorkerOutput::Checked
+            }
+            WorkerJob::Compare(args) => WorkerOutput::Compare(compare_study(&args, &registry)?),
+            WorkerJob::MassResponse(args) => {
+                WorkerOutput::MassResponse(mass_study(&args, &registry)?)
+            }
+            WorkerJob::Sweep(args) => {
+                let sets = args.sets.clone();
+                WorkerOutput::Sweep(sweep_study(&args, &sets, &registry, None)?)
+            }
+            WorkerJob::Fit(args) => {
+                let (result, text) = fit_study(&args, &registry)?;
+                WorkerOutput::Fit(result, text)
+            }
+        })
+    })?;
+    if ok {
+        Ok(())
+    } else {
+        Err(QuietFailure.into())
+    }
+}
+
+/// A failure already reported elsewhere (a worker's reply): exit status 1, no message.
+#[derive(Debug, thiserror::Error)]
+#[error("failed")]
+struct QuietFailure;
 
 /// `tribo new-law`: generate a law crate and say how to test and build it.
 fn cmd_new_law(a: NewLawArgs) -> anyhow::Result<()> {
@@ -622,10 +1100,22 @@ fn read_data_runs(names: &[String]) -> anyhow::Result<Vec<tribo::study::DataRun>
 #[error("cannot write the results to standard output: {0}")]
 struct StdoutError(#[source] std::io::Error);
 
+/// Where results go: the real standard output, taken at start-up (standard output itself then
+/// points at standard error, so text a law prints cannot mix with the results).
+static RESULTS_OUT: std::sync::OnceLock<std::sync::Mutex<std::fs::File>> =
+    std::sync::OnceLock::new();
+
 /// Write a command's results to standard output and flush them; failure is an error, never a
 /// panic (unlike `print!`).
 fn emit(text: &str) -> anyhow::Result<()> {
     use std::io::Write as _;
+    if let Some(out) = RESULTS_OUT.get() {
+        let mut out = out.lock().unwrap_or_else(|p| p.into_inner());
+        out.write_all(text.as_bytes())
+            .and_then(|()| out.flush())
+            .map_err(StdoutError)?;
+        return Ok(());
+    }
     let mut stdout = std::io::stdout().lock();
     stdout
         .write_all(text.as_bytes())
@@ -635,8 +1125,17 @@ fn emit(text: &str) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    let cli = Cli::parse();
+    // From here on an exit() that tribo did not ask for is a law's, and fails the run.
+    guard::install();
+    if let Some(out) = guard::take_stdout() {
+        let _ = RESULTS_OUT.set(std::sync::Mutex::new(out));
+    }
+    let result = run(cli);
+    guard::allow_exit();
+    match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<QuietFailure>().is_some() => ExitCode::FAILURE,
         // The reader of our output went away (`tribo laws | head -1`): nothing to tell it, and
         // the results were not delivered, so exit 1 without a message (docs/reliability.md).
         Err(e)

@@ -16,7 +16,7 @@ use std::sync::Mutex;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::score::{self, Scores, Validation};
@@ -48,7 +48,7 @@ impl Default for FitOptions {
 }
 
 /// One measured run's points against the calibrated model.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunFit {
     /// The data file.
     pub file: String,
@@ -70,7 +70,7 @@ pub struct RunFit {
 }
 
 /// The outcome of one start point.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct StartOutcome {
     /// Start values.
     pub start: Vec<f64>,
@@ -83,7 +83,7 @@ pub struct StartOutcome {
 }
 
 /// The outcome of a calibration.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FitResult {
     /// Law set fitted.
     pub lawset: String,

@@ -18,7 +18,7 @@
 use std::path::Path;
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::fit::{calibrate, TorqueModel};
@@ -27,7 +27,7 @@ use tribo_config::lawset::LawSet;
 use tribo_config::rig::Rig;
 
 /// Out-of-sample and information-criterion scores of one law set on one data set.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Scores {
     /// Data points.
     pub points: usize,
@@ -53,7 +53,7 @@ pub struct Scores {
 }
 
 /// A law set scored on data never used in fitting.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Validation {
     /// The data file.
     pub file: String,
@@ -242,7 +242,7 @@ pub fn apply_prior_fit(
 /// Lubrication physics gives a fall in full film (viscous shear scales with viscosity to a
 /// power between 0.5 and 1) and at most a modest rise where a mixed regime loses film, so a
 /// steep rise flags a law (or a calibration) to look at before trusting its verdict.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct TemperatureResponse {
     /// Change of torque per +10 C at each data point, percent.
     pub percent_per_10c: Vec<f64>,

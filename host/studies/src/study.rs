@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::fit::TorqueModel;
@@ -73,7 +73,7 @@ pub fn check_unique_names(lawsets: &[LawSet]) -> Result<(), StudyError> {
 }
 
 /// One measured point.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct DataRow {
     /// Engine speed, rpm.
     pub speed_rpm: f64,
@@ -84,7 +84,7 @@ pub struct DataRow {
 }
 
 /// One measured run: a data file's points (distinct speeds, each at its own oil temperature).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct DataRun {
     /// The data file (or `<bundled>/NAME`).
     pub file: PathBuf,
@@ -267,7 +267,7 @@ pub fn run_rig(rig: &Rig, registry: &LawRegistry, steady: bool) -> Result<RunRes
 }
 
 /// One law set's results against the data.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SetResult {
     /// Law-set name.
     pub lawset: String,
@@ -302,7 +302,7 @@ pub struct SetResult {
 
 /// How a study runs the rig at each speed. Serialized (and displayed) as `steady` or
 /// `transient`, the words the JSON has always used.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum RunMode {
     /// The periodic steady state at each plateau speed, computed directly.
@@ -337,7 +337,7 @@ impl std::fmt::Display for RunMode {
 }
 
 /// A side-by-side comparison.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Comparison {
     /// Rig name.
     pub rig: String,
@@ -351,6 +351,10 @@ pub struct Comparison {
     pub ranked_by: String,
     /// Each law set, in the order given.
     pub sets: Vec<SetResult>,
+    /// Law sets that gave no results (only when sets run in separate processes; in one
+    /// process the first failure ends the study).
+    #[serde(default)]
+    pub failed: Vec<FailedSet>,
 }
 
 /// How `compare` scores the law sets.
@@ -524,10 +528,33 @@ pub fn compare(
         .zip(frees.par_iter())
         .map(|(ls, free)| score_set(rig, ls, free, data, registry, options, spread))
         .collect::<Result<Vec<_>, StudyError>>()?;
-    // Cross-validated sets first, by their out-of-sample error; sets without one (tuned
-    // elsewhere, or a fold failed) after them, by their in-sample error.
+    rank_sets(&mut sets, options.no_cv);
+    Ok(Comparison {
+        rig: rig.file.name.clone(),
+        data_file: data.file.display().to_string(),
+        data: data.rows.clone(),
+        mode: RunMode::from_steady(options.steady),
+        ranked_by: ranked_by(options.no_cv).into(),
+        sets,
+        failed: Vec::new(),
+    })
+}
+
+/// What the ranking of a comparison rests on, in words.
+pub fn ranked_by(no_cv: bool) -> &'static str {
+    if no_cv {
+        "in-sample RMSE (cross-validation skipped with --no-cv): rewards sets with many free parameters"
+    } else {
+        "leave-one-out cross-validated RMSE: each point predicted by the set refitted without it (a set without free parameters: its in-sample RMSE; sets tuned to these data elsewhere have no out-of-sample figure and rank last)"
+    }
+}
+
+/// Give each set its `rank`: cross-validated sets first, by their out-of-sample error; sets
+/// without one (tuned elsewhere, or a fold failed) after them, by their in-sample error. With
+/// `no_cv`, all by in-sample error. Used again when sets run in separate processes are merged.
+pub fn rank_sets(sets: &mut [SetResult], no_cv: bool) {
     let key = |s: &SetResult| {
-        if options.no_cv {
+        if no_cv {
             (0, s.rmse_nm)
         } else {
             match s.scores.cv_rmse_nm {
@@ -544,22 +571,20 @@ pub fn compare(
     for (place, i) in order.into_iter().enumerate() {
         sets[i].rank = place + 1;
     }
-    Ok(Comparison {
-        rig: rig.file.name.clone(),
-        data_file: data.file.display().to_string(),
-        data: data.rows.clone(),
-        mode: RunMode::from_steady(options.steady),
-        ranked_by: if options.no_cv {
-            "in-sample RMSE (cross-validation skipped with --no-cv): rewards sets with many free parameters".into()
-        } else {
-            "leave-one-out cross-validated RMSE: each point predicted by the set refitted without it (a set without free parameters: its in-sample RMSE; sets tuned to these data elsewhere have no out-of-sample figure and rank last)".into()
-        },
-        sets,
-    })
+}
+
+/// A law set that gave no results (its worker process crashed, hung, ran out of memory, or its
+/// run failed), reported beside the sets that did.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct FailedSet {
+    /// Law-set name.
+    pub lawset: String,
+    /// Why, in words (names the law, its library and the signal or limit).
+    pub message: String,
 }
 
 /// Which body a mass study scales.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ScaledBody {
     /// The connecting rod (mass and inertia).
@@ -591,7 +616,7 @@ pub fn scaled(rig: &Rig, body: ScaledBody, scale: f64) -> Result<Rig, Box<RigErr
 }
 
 /// One joint's and law's response to the scaling at one speed.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct JointChange {
     /// Joint.
     pub joint: String,
@@ -608,7 +633,7 @@ pub struct JointChange {
 }
 
 /// The response at one speed and scale.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SpeedChange {
     /// Speed, rpm.
     pub speed_rpm: f64,
@@ -629,7 +654,7 @@ pub struct SpeedChange {
 }
 
 /// One law set's mass response.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct MassResponse {
     /// Law set.
     pub lawset: String,
@@ -773,7 +798,7 @@ pub fn fedem_rod_change() -> Vec<(f64, f64)> {
 
 /// What the oil of a sweep is: the rig's descriptive fields and its viscosity model, so the
 /// JSON says which curve produced the viscosities.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct OilInfo {
     /// Name, if the rig gives one.
     pub name: Option<String>,
@@ -811,7 +836,7 @@ impl OilInfo {
 }
 
 /// Friction torque of one joint (all its laws summed) at one sweep point.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct JointTorque {
     /// Joint name.
     pub joint: String,
@@ -820,7 +845,7 @@ pub struct JointTorque {
 }
 
 /// One (speed, temperature) point of a law set's sweep.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SweepPoint {
     /// Engine speed, rpm.
     pub speed_rpm: f64,
@@ -835,7 +860,7 @@ pub struct SweepPoint {
 }
 
 /// One law set's sweep: points ordered by temperature, then speed (the input order).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SweepSet {
     /// Law-set name.
     pub lawset: String,
@@ -858,7 +883,7 @@ impl SweepSet {
 }
 
 /// A temperature and speed sweep of several law sets (steady state at every point).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Sweep {
     /// Rig name.
     pub rig: String,
@@ -874,6 +899,9 @@ pub struct Sweep {
     pub speeds_rpm: Vec<f64>,
     /// Each law set.
     pub sets: Vec<SweepSet>,
+    /// Law sets that gave no results (only when sets run in separate processes).
+    #[serde(default)]
+    pub failed: Vec<FailedSet>,
 }
 
 /// Why a sweep's temperatures or speeds are unusable; names the command-line option.
@@ -1040,6 +1068,7 @@ pub fn sweep(
         temps_c: temps_c.to_vec(),
         speeds_rpm: speeds_rpm.to_vec(),
         sets,
+        failed: Vec::new(),
     })
 }
 

@@ -9,13 +9,13 @@
 //! of freedom) the report says so instead of printing numbers.
 
 use nalgebra::DMatrix;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use statrs::distribution::{ContinuousCDF, StudentsT};
 
 use crate::fit::TorqueModel;
 
 /// The linearised uncertainty of a parameter set on its data.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Uncertainty {
     /// Residual degrees of freedom: points minus free parameters.
     pub dof: usize,

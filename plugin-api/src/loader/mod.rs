@@ -3,6 +3,7 @@
 
 mod c_abi;
 mod discover;
+pub mod inflight;
 mod rust;
 
 use std::fmt;
@@ -189,6 +190,8 @@ pub struct LawLibrary {
     path: PathBuf,
     abi: Abi,
     backend: LibBackend,
+    /// Names this law in crash and hang reports ([`inflight`]).
+    code: inflight::CodeId,
 }
 
 enum LibBackend {
@@ -211,9 +214,18 @@ impl LawLibrary {
     /// Load the library at `path`, through whichever ABI it exports. The contract version
     /// symbol is checked before any other symbol is touched.
     pub fn load(path: &Path) -> Result<Self, LawError> {
+        let loading = inflight::register(format!("library `{}` (while loading it)", path.display()));
+        let _running = inflight::enter(loading);
         // SAFETY: loading a shared library runs its initialisers; a Tribo plugin is trusted
         // native code by design (the user chose to put it on the plugin path).
-        let lib = unsafe { libloading::Library::new(path) }.map_err(|e| LawError::NotALibrary {
+        // A bare file name would make the dynamic loader search the system's library path
+        // instead of the current directory the user meant.
+        let open_path = if path.parent().is_some_and(|p| p.as_os_str().is_empty()) {
+            Path::new(".").join(path)
+        } else {
+            path.to_path_buf()
+        };
+        let lib = unsafe { libloading::Library::new(&open_path) }.map_err(|e| LawError::NotALibrary {
             path: path.to_path_buf(),
             reason: e.to_string(),
         })?;
@@ -234,9 +246,10 @@ impl LawLibrary {
         }
         if rust::exports_rust_module(&lib) {
             drop(lib);
-            let lib = rust::RustLib::load(path)?;
+            let lib = rust::RustLib::load(&open_path)?;
             let description = lib.describe(path)?;
             Ok(Self {
+                code: law_code(&description.name, path),
                 description,
                 path: path.to_path_buf(),
                 abi: Abi::Rust,
@@ -246,6 +259,7 @@ impl LawLibrary {
             let lib = c_abi::CLib::load(path, lib)?;
             let description = lib.describe(path)?;
             Ok(Self {
+                code: law_code(&description.name, path),
                 description,
                 path: path.to_path_buf(),
                 abi: Abi::C,
@@ -259,9 +273,11 @@ impl LawLibrary {
         fn create<L: Law>(table: &toml::Table) -> Result<Box<dyn DynLaw>, ParamError> {
             Ok(Box::new(create_from_table::<L>(table)?))
         }
+        let path = PathBuf::from(format!("<in-process {}>", L::NAME));
         Ok(Self {
+            code: law_code(L::NAME, &path),
             description: describe::<L>()?,
-            path: PathBuf::from(format!("<in-process {}>", L::NAME)),
+            path,
             abi: Abi::InProcess,
             backend: LibBackend::InProcess(create::<L>),
         })
@@ -291,6 +307,7 @@ impl LawLibrary {
     /// types and ranges are checked against the description for every ABI.
     pub fn create(&self, params: &toml::Table) -> Result<LawInstance, LawError> {
         let values = check_params(&self.description, params).map_err(|e| self.param_error(e))?;
+        let _running = inflight::enter(self.code);
         let backend = match &self.backend {
             LibBackend::Rust(lib) => {
                 let text = toml::to_string(&values_to_table(&values)).map_err(|e| {
@@ -336,6 +353,7 @@ impl LawLibrary {
             path: self.path.clone().into(),
             state_size,
             backend,
+            code: self.code,
         })
     }
 
@@ -354,6 +372,11 @@ impl LawLibrary {
             message,
         }
     }
+}
+
+/// The crash-report name of law `name` from `path`.
+fn law_code(name: &str, path: &Path) -> inflight::CodeId {
+    inflight::register(format!("law `{name}` ({})", path.display()))
 }
 
 /// Object-safe view of an in-process [`Law`].
@@ -388,6 +411,8 @@ pub struct LawInstance {
     path: Arc<Path>,
     state_size: usize,
     backend: InstBackend,
+    /// Names this law in crash and hang reports ([`inflight`]).
+    code: inflight::CodeId,
 }
 
 impl fmt::Debug for LawInstance {
@@ -454,6 +479,7 @@ impl LawInstance {
         input: &LawInput,
         state: &[f64],
     ) -> Result<LawOutput, LawError> {
+        let _running = inflight::enter(self.code);
         match &self.backend {
             InstBackend::Rust(obj) => match obj.evaluate(input, state.into()) {
                 abi_stable::std_types::RResult::ROk(out) => Ok(out),
@@ -472,6 +498,7 @@ impl LawInstance {
     /// [`LawInstance::state_size`] is [`LawError::StateLength`] and the law is not called.
     pub fn commit(&self, input: &LawInput, state: &mut [f64]) -> Result<(), LawError> {
         self.check_state("commit", state.len())?;
+        let _running = inflight::enter(self.code);
         match &self.backend {
             InstBackend::Rust(obj) => match obj.commit(input, state.into()) {
                 abi_stable::std_types::RResult::ROk(()) => Ok(()),

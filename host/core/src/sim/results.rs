@@ -2,10 +2,10 @@
 
 use std::fmt;
 
-use tribo_plugin_api::serde::Serialize;
+use tribo_plugin_api::serde::{Deserialize, Serialize};
 
 /// How a run drove the crank: the `drive` of [`RunResult`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(crate = "tribo_plugin_api::serde", rename_all = "lowercase")]
 pub enum DriveKind {
     /// The crank followed the cycle's reference motion exactly.
@@ -34,7 +34,7 @@ impl fmt::Display for DriveKind {
 }
 
 /// Per-law result for one plateau.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(crate = "tribo_plugin_api::serde")]
 pub struct LawResult {
     /// Joint name.
@@ -52,7 +52,7 @@ pub struct LawResult {
 }
 
 /// Time shares of the lubrication regimes (they add up to 1).
-#[derive(Debug, Clone, Copy, Serialize, Default)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, Default)]
 #[serde(crate = "tribo_plugin_api::serde")]
 pub struct RegimeShare {
     /// The law reported no regime.
@@ -66,7 +66,7 @@ pub struct RegimeShare {
 }
 
 /// One measured plateau.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(crate = "tribo_plugin_api::serde")]
 pub struct PlateauResult {
     /// Reference speed, rpm.
@@ -88,7 +88,7 @@ pub struct PlateauResult {
 }
 
 /// Energy bookkeeping over the whole run.
-#[derive(Debug, Clone, Copy, Serialize)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 #[serde(crate = "tribo_plugin_api::serde")]
 pub struct EnergyBalance {
     /// Work of the drive torque on the crank, J.
@@ -104,7 +104,7 @@ pub struct EnergyBalance {
 }
 
 /// Everything a run produces.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(crate = "tribo_plugin_api::serde")]
 pub struct RunResult {
     /// Rig name.
@@ -134,7 +134,7 @@ pub struct RunResult {
 }
 
 /// Time a law took over a run.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(crate = "tribo_plugin_api::serde")]
 pub struct LawTime {
     /// Joint.

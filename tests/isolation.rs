@@ -1,0 +1,212 @@
+//! Law isolation: a law plugin that segfaults, aborts, hangs, leaks 100 MB per call, calls
+//! `exit(0)`, prints to standard output, returns 1e300 or declares a 2^40-double state. With
+//! worker processes (the default) each fails only its own law set, with a message naming the
+//! law, its library and the signal or limit, while the other sets' results are written and
+//! agree with an in-process run. Without them (`--in-process`) tribo never exits 0 after such a
+//! law, and a law printing to standard output cannot corrupt `--json`.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+
+/// The hostile fixture's modes: (mode, what the failure message must name).
+const HOSTILE: [(u32, &[&str]); 7] = [
+    (1, &["signal 11", "SIGSEGV"]),
+    (2, &["signal 6", "SIGABRT"]),
+    (3, &["time limit of 3 s"]),
+    (4, &["MiB of memory", "limit of 512 MiB"]),
+    (5, &["exit()"]),
+    (7, &["1e300"]),
+    (8, &["1099511627776", "1048576"]),
+];
+
+/// Build the hostile law into `dir` and write one law set per mode (`hostile-N.toml`).
+fn hostile_setup(dir: &Path) {
+    compile_c(
+        &[c_fixture("hostile.c")],
+        &dir.join("libtribo_law_fixture_hostile.so"),
+        true,
+    );
+    for mode in 0..=8 {
+        std::fs::write(
+            dir.join(format!("hostile-{mode}.toml")),
+            format!(
+                "name = \"hostile-{mode}\"\ndescription = \"the hostile fixture law in mode {mode}\"\n\n[[laws]]\njoint = \"piston\"\nlaw = \"fixture-hostile\"\nparams = {{ mode = {mode} }}\n"
+            ),
+        )
+        .expect("write law set");
+    }
+}
+
+/// `tribo --plugin LIB compare --steady --no-cv ARGS` in `dir`.
+fn compare(dir: &Path, args: &[&str]) -> std::process::Output {
+    let mut all = vec![
+        "--plugin",
+        "libtribo_law_fixture_hostile.so",
+        "compare",
+        "--steady",
+        "--no-cv",
+    ];
+    all.extend_from_slice(args);
+    tribo_in(&all, dir)
+}
+
+#[test]
+fn each_hostile_law_fails_only_its_own_law_set_and_the_others_results_are_written() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    hostile_setup(d);
+    let mut args = vec!["--lawset", "fedem-baseline"];
+    let files: Vec<String> = (0..=8).map(|m| format!("hostile-{m}.toml")).collect();
+    for f in &files {
+        args.extend(["--lawset", f.as_str()]);
+    }
+    args.extend([
+        "--time-limit-s",
+        "3",
+        "--memory-limit-mb",
+        "512",
+        "--out",
+        "out",
+        "--json",
+    ]);
+    let out = compare(d, &args);
+    let (stdout, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    // Standard output is the JSON alone, although hostile-6 printed on every call.
+    let json: serde_json::Value = serde_json::from_str(&stdout)
+        .unwrap_or_else(|e| panic!("stdout is not JSON ({e}):\n{stdout}"));
+    assert!(!stdout.contains("hostile law says hello"));
+    let ran: Vec<&str> = json["sets"]
+        .as_array()
+        .expect("sets")
+        .iter()
+        .map(|s| s["lawset"].as_str().expect("name"))
+        .collect();
+    assert_eq!(ran, ["fedem-baseline", "hostile-0", "hostile-6"], "{stderr}");
+    let failed = json["failed"].as_array().expect("failed");
+    assert_eq!(failed.len(), HOSTILE.len(), "{stderr}");
+    for (mode, words) in HOSTILE {
+        let name = format!("hostile-{mode}");
+        let f = failed
+            .iter()
+            .find(|f| f["lawset"] == name.as_str())
+            .unwrap_or_else(|| panic!("{name} not among the failed: {failed:?}"));
+        let message = f["message"].as_str().expect("message");
+        let mut expected = vec!["fixture-hostile", "libtribo_law_fixture_hostile.so"];
+        expected.extend_from_slice(words);
+        assert_mentions(message, &expected);
+        // The same reason reaches the user on standard error, once per set.
+        assert_eq!(stderr.matches(&format!("law set `{name}`")).count(), 1, "{stderr}");
+    }
+    // The results on disk are the surviving sets', and fedem-baseline's numbers are those of
+    // a run without the hostile sets, in process.
+    let written: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(d.join("out/comparison.json")).expect("comparison.json"),
+    )
+    .expect("JSON");
+    assert_eq!(written["sets"], json["sets"]);
+    let alone = json_in(
+        &[
+            "compare",
+            "--steady",
+            "--no-cv",
+            "--in-process",
+            "--lawset",
+            "fedem-baseline",
+            "--out",
+            "alone",
+            "--json",
+        ],
+        d,
+    );
+    assert_eq!(alone["sets"][0]["run"], json["sets"][0]["run"]);
+    assert_eq!(alone["sets"][0]["errors_nm"], json["sets"][0]["errors_nm"]);
+}
+
+#[test]
+fn without_isolation_a_hostile_law_never_lets_tribo_exit_0() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    hostile_setup(d);
+    for (mode, words) in HOSTILE {
+        let file = format!("hostile-{mode}.toml");
+        let out = compare(
+            d,
+            &[
+                "--in-process",
+                "--lawset",
+                &file,
+                "--time-limit-s",
+                "3",
+                "--memory-limit-mb",
+                "512",
+                "--out",
+                "o",
+            ],
+        );
+        let (_, stderr) = text(&out);
+        assert_ne!(out.status.code(), Some(0), "mode {mode}: {stderr}");
+        assert!(!d.join("o").exists(), "mode {mode} wrote results");
+        // The crash, limit or exit is explained; a crash still ends the process with its
+        // signal, after the handler named the law and the signal.
+        let mut expected = vec!["fixture-hostile"];
+        if mode == 1 || mode == 2 {
+            expected.push(words[1]);
+        } else {
+            expected.extend_from_slice(words);
+        }
+        assert_mentions(&stderr, &expected);
+    }
+    // A law printing on every call: its text goes to standard error, the JSON stays whole.
+    let out = compare(
+        d,
+        &["--in-process", "--lawset", "hostile-6.toml", "--out", "o6", "--json"],
+    );
+    let (stdout, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("hostile law says hello"));
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("stdout is JSON alone");
+    assert_eq!(json["sets"][0]["lawset"], "hostile-6");
+}
+
+#[test]
+fn isolated_and_in_process_studies_give_identical_results() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let both = |args: &[&str]| {
+        let mut a: Vec<&str> = args.to_vec();
+        a.extend(["--out", "iso", "--json"]);
+        let iso = json_in(&a, d);
+        let mut b: Vec<&str> = args.to_vec();
+        b.extend(["--out", "inp", "--json", "--in-process"]);
+        let inp = json_in(&b, d);
+        assert_eq!(iso, inp, "{args:?}");
+    };
+    both(&["compare", "--steady", "--no-cv"]);
+    both(&["mass-response", "--steady"]);
+    both(&["sweep", "--temps", "60,90", "--speeds", "3000,9000"]);
+    // fit writes its law set to --out: a file, not a directory.
+    let fit = |extra: &str, out: &str| {
+        let mut a = vec![
+            "fit",
+            "--lawset",
+            "mixed-film",
+            "--no-cv",
+            "--out",
+            out,
+            "--json",
+        ];
+        if !extra.is_empty() {
+            a.push(extra);
+        }
+        json_in(&a, d)
+    };
+    assert_eq!(fit("", "a.toml"), fit("--in-process", "b.toml"));
+    assert_eq!(
+        std::fs::read_to_string(d.join("a.toml")).expect("a"),
+        std::fs::read_to_string(d.join("b.toml")).expect("b")
+    );
+}

@@ -85,7 +85,11 @@ fn each_hostile_law_fails_only_its_own_law_set_and_the_others_results_are_writte
         .iter()
         .map(|s| s["lawset"].as_str().expect("name"))
         .collect();
-    assert_eq!(ran, ["fedem-baseline", "hostile-0", "hostile-6"], "{stderr}");
+    assert_eq!(
+        ran,
+        ["fedem-baseline", "hostile-0", "hostile-6"],
+        "{stderr}"
+    );
     let failed = json["failed"].as_array().expect("failed");
     assert_eq!(failed.len(), HOSTILE.len(), "{stderr}");
     for (mode, words) in HOSTILE {
@@ -99,7 +103,11 @@ fn each_hostile_law_fails_only_its_own_law_set_and_the_others_results_are_writte
         expected.extend_from_slice(words);
         assert_mentions(message, &expected);
         // The same reason reaches the user on standard error, once per set.
-        assert_eq!(stderr.matches(&format!("law set `{name}`")).count(), 1, "{stderr}");
+        assert_eq!(
+            stderr.matches(&format!("law set `{name}`")).count(),
+            1,
+            "{stderr}"
+        );
     }
     // The results on disk are the surviving sets', and fedem-baseline's numbers are those of
     // a run without the hostile sets, in process.
@@ -163,7 +171,14 @@ fn without_isolation_a_hostile_law_never_lets_tribo_exit_0() {
     // A law printing on every call: its text goes to standard error, the JSON stays whole.
     let out = compare(
         d,
-        &["--in-process", "--lawset", "hostile-6.toml", "--out", "o6", "--json"],
+        &[
+            "--in-process",
+            "--lawset",
+            "hostile-6.toml",
+            "--out",
+            "o6",
+            "--json",
+        ],
     );
     let (stdout, stderr) = text(&out);
     assert_eq!(out.status.code(), Some(0), "{stderr}");

@@ -83,7 +83,10 @@ pub enum WorkerFailure {
         last_words: Option<String>,
     },
     /// A law called `exit()` inside the worker.
-    #[error("a law ended the worker process by calling exit(){}; its results were lost", running_text(running))]
+    #[error(
+        "a law ended the worker process by calling exit(){}; its results were lost",
+        running_text(running)
+    )]
     PluginExit {
         /// The plugin code running then.
         running: Vec<String>,
@@ -107,7 +110,10 @@ pub enum WorkerFailure {
         running: Vec<String>,
     },
     /// Ended without a reply and without a reason.
-    #[error("the worker process ended with status {code} without results{}", last_words_text(last_words))]
+    #[error(
+        "the worker process ended with status {code} without results{}",
+        last_words_text(last_words)
+    )]
     NoReply {
         /// Exit status.
         code: i32,
@@ -167,7 +173,8 @@ where
         .unwrap_or(1)
         .min(tasks.len().max(1));
     let next = AtomicUsize::new(0);
-    let mut results: Vec<Option<Result<T, WorkerFailure>>> = (0..tasks.len()).map(|_| None).collect();
+    let mut results: Vec<Option<Result<T, WorkerFailure>>> =
+        (0..tasks.len()).map(|_| None).collect();
     let (tx, rx) = mpsc::channel();
     std::thread::scope(|s| {
         for _ in 0..parallel {
@@ -190,7 +197,9 @@ where
     });
     Ok(results
         .into_iter()
-        .map(|r| r.unwrap_or_else(|| Err(WorkerFailure::Io("a worker thread stopped early".into()))))
+        .map(|r| {
+            r.unwrap_or_else(|| Err(WorkerFailure::Io("a worker thread stopped early".into())))
+        })
         .collect())
 }
 
@@ -220,7 +229,9 @@ fn run_one<J: Serialize, T: DeserializeOwned>(
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped());
-    let mut child = cmd.spawn().map_err(|e| io("starting a worker process", &e))?;
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| io("starting a worker process", &e))?;
     let pid = child.id();
     let mut stderr = child.stderr.take();
     let reader = std::thread::spawn(move || {

@@ -501,13 +501,13 @@ enum WorkerOutput {
     /// Every law set binds.
     Checked,
     /// A one-set comparison.
-    Compare(tribo::study::Comparison),
+    Compare(Box<tribo::study::Comparison>),
     /// A one-set mass response.
     MassResponse(Vec<tribo::study::MassResponse>),
     /// A one-set sweep.
     Sweep(tribo::study::Sweep),
     /// The fit's report and the calibrated law set as TOML.
-    Fit(tribo::fit::FitResult, String),
+    Fit(Box<tribo::fit::FitResult>, String),
 }
 
 /// Where one law set of a study comes from, for the check job.
@@ -654,7 +654,12 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     } else {
         let jobs = specs
             .iter()
-            .map(|l| WorkerJob::Compare(CompareArgs { lawsets: vec![l.clone()], ..a.clone() }))
+            .map(|l| {
+                WorkerJob::Compare(CompareArgs {
+                    lawsets: vec![l.clone()],
+                    ..a.clone()
+                })
+            })
             .collect();
         let results = g.run_isolated(sources, jobs, a.isolation.limits()?)?;
         merge_comparisons(&sets_loaded, results, a.no_cv)?
@@ -703,7 +708,7 @@ fn merge_comparisons(
         match r {
             Ok(WorkerOutput::Compare(mut c)) => {
                 sets.append(&mut c.sets);
-                merged.get_or_insert(c);
+                merged.get_or_insert(*c);
             }
             Ok(_) => anyhow::bail!("a worker answered a comparison with something else"),
             Err(e) => failed.push(failed_set(ls, e)),
@@ -876,13 +881,10 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
         fit_study(&a, &g.registry()?)?
     } else {
         let limits = a.isolation.limits()?;
-        let r = isolate::run_all::<_, WorkerOutput>(
-            &[WorkerJob::Fit(a.clone())],
-            &g.plugins,
-            limits,
-        )?;
+        let r =
+            isolate::run_all::<_, WorkerOutput>(&[WorkerJob::Fit(a.clone())], &g.plugins, limits)?;
         match r.into_iter().next() {
-            Some(Ok(WorkerOutput::Fit(result, text))) => (result, text),
+            Some(Ok(WorkerOutput::Fit(result, text))) => (*result, text),
             Some(Err(WorkerFailure::Study(message))) => anyhow::bail!("{message}"),
             Some(Err(e)) => anyhow::bail!("law set `{}`: {e}", ls.name()),
             _ => anyhow::bail!("the fit's worker process gave no answer"),
@@ -1025,27 +1027,33 @@ fn merge_sweeps(
 /// The hidden worker subcommand: run the job, write the reply; exit status 1 when the study
 /// failed (the reply holds its message).
 fn cmd_worker(g: &Globals, a: WorkerArgs) -> anyhow::Result<()> {
-    let ok = isolate::serve(&a.job, &a.reply, |job: WorkerJob| -> anyhow::Result<WorkerOutput> {
-        let registry = g.registry()?;
-        Ok(match job {
-            WorkerJob::Check(sources) => {
-                check_sources(&sources, &registry)?;
-                WorkerOutput::Checked
-            }
-            WorkerJob::Compare(args) => WorkerOutput::Compare(compare_study(&args, &registry)?),
-            WorkerJob::MassResponse(args) => {
-                WorkerOutput::MassResponse(mass_study(&args, &registry)?)
-            }
-            WorkerJob::Sweep(args) => {
-                let sets = args.sets.clone();
-                WorkerOutput::Sweep(sweep_study(&args, &sets, &registry, None)?)
-            }
-            WorkerJob::Fit(args) => {
-                let (result, text) = fit_study(&args, &registry)?;
-                WorkerOutput::Fit(result, text)
-            }
-        })
-    })?;
+    let ok = isolate::serve(
+        &a.job,
+        &a.reply,
+        |job: WorkerJob| -> anyhow::Result<WorkerOutput> {
+            let registry = g.registry()?;
+            Ok(match job {
+                WorkerJob::Check(sources) => {
+                    check_sources(&sources, &registry)?;
+                    WorkerOutput::Checked
+                }
+                WorkerJob::Compare(args) => {
+                    WorkerOutput::Compare(Box::new(compare_study(&args, &registry)?))
+                }
+                WorkerJob::MassResponse(args) => {
+                    WorkerOutput::MassResponse(mass_study(&args, &registry)?)
+                }
+                WorkerJob::Sweep(args) => {
+                    let sets = args.sets.clone();
+                    WorkerOutput::Sweep(sweep_study(&args, &sets, &registry, None)?)
+                }
+                WorkerJob::Fit(args) => {
+                    let (result, text) = fit_study(&args, &registry)?;
+                    WorkerOutput::Fit(Box::new(result), text)
+                }
+            })
+        },
+    )?;
     if ok {
         Ok(())
     } else {

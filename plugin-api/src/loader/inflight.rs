@@ -107,7 +107,9 @@ mod tests {
             }
             assert!(running().iter().any(|t| t == "law `a` (a.so)"));
         }
-        assert!(!running().iter().any(|t| t.contains("(a.so)") || t.contains("(b.so)")));
+        assert!(!running()
+            .iter()
+            .any(|t| t.contains("(a.so)") || t.contains("(b.so)")));
     }
 
     #[test]

@@ -214,7 +214,8 @@ impl LawLibrary {
     /// Load the library at `path`, through whichever ABI it exports. The contract version
     /// symbol is checked before any other symbol is touched.
     pub fn load(path: &Path) -> Result<Self, LawError> {
-        let loading = inflight::register(format!("library `{}` (while loading it)", path.display()));
+        let loading =
+            inflight::register(format!("library `{}` (while loading it)", path.display()));
         let _running = inflight::enter(loading);
         // SAFETY: loading a shared library runs its initialisers; a Tribo plugin is trusted
         // native code by design (the user chose to put it on the plugin path).
@@ -225,10 +226,11 @@ impl LawLibrary {
         } else {
             path.to_path_buf()
         };
-        let lib = unsafe { libloading::Library::new(&open_path) }.map_err(|e| LawError::NotALibrary {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
+        let lib =
+            unsafe { libloading::Library::new(&open_path) }.map_err(|e| LawError::NotALibrary {
+                path: path.to_path_buf(),
+                reason: e.to_string(),
+            })?;
         let version = {
             // SAFETY: the contract defines this symbol as `uint32_t (void)`.
             let sym = unsafe { lib.get::<extern "C" fn() -> u32>(b"tribo_law_contract_version\0") }

@@ -505,7 +505,7 @@ enum WorkerOutput {
     /// A one-set mass response.
     MassResponse(Vec<tribo::study::MassResponse>),
     /// A one-set sweep.
-    Sweep(tribo::study::Sweep),
+    Sweep(Box<tribo::study::Sweep>),
     /// The fit's report and the calibrated law set as TOML.
     Fit(Box<tribo::fit::FitResult>, String),
 }
@@ -1009,7 +1009,7 @@ fn merge_sweeps(
         match r {
             Ok(WorkerOutput::Sweep(mut w)) => {
                 sets.append(&mut w.sets);
-                merged.get_or_insert(w);
+                merged.get_or_insert(*w);
             }
             Ok(_) => anyhow::bail!("a worker answered a sweep with something else"),
             Err(e) => failed.push(failed_set(ls, e)),
@@ -1045,7 +1045,7 @@ fn cmd_worker(g: &Globals, a: WorkerArgs) -> anyhow::Result<()> {
                 }
                 WorkerJob::Sweep(args) => {
                     let sets = args.sets.clone();
-                    WorkerOutput::Sweep(sweep_study(&args, &sets, &registry, None)?)
+                    WorkerOutput::Sweep(Box::new(sweep_study(&args, &sets, &registry, None)?))
                 }
                 WorkerJob::Fit(args) => {
                     let (result, text) = fit_study(&args, &registry)?;

@@ -1,15 +1,55 @@
-//! `tribo laws`: what plugins were found, as a table for people and JSON for programs.
+//! `tribo laws`: what plugins were found, as a table for people and JSON for programs, and the
+//! warnings about the plugin search path every command prints.
 
-use std::fmt::Write as _;
+use std::fmt::{Display, Write as _};
+use std::io::Write as _;
 
 use serde_json::{json, Value};
-use tribo_plugin_api::loader::{LawLibrary, LawRegistry};
+use tribo_plugin_api::loader::{LawLibrary, LawListing, LawRegistry};
 use tribo_plugin_api::{ParamValue, CONTRACT_VERSION};
 
-/// JSON listing: contract version and every law with its parameters.
-pub fn to_json(registry: &LawRegistry) -> Value {
-    let laws: Vec<Value> = registry.libraries().iter().map(law_json).collect();
-    json!({ "contract_version": CONTRACT_VERSION, "laws": laws })
+/// The warnings of a listing and its registry, one line each without the `warning: ` prefix:
+/// plugin directories and files others can write, then plugin files that could not be opened.
+pub fn warnings(registry: &LawRegistry, listing: &LawListing<'_>) -> Vec<String> {
+    let mut out: Vec<String> = registry.warnings().iter().map(|w| w.to_string()).collect();
+    out.extend(broken_warnings(listing));
+    out
+}
+
+/// One warning per plugin file found on the search path that could not be opened (the error
+/// names the file and the reason).
+pub fn broken_warnings(listing: &LawListing<'_>) -> Vec<String> {
+    listing
+        .broken
+        .iter()
+        .map(|(_, e)| format!("skipped a plugin file that cannot be used: {e}"))
+        .collect()
+}
+
+/// Print each of `lines` on standard error as `warning: LINE`. A standard error that cannot be
+/// written is ignored: the warnings are advice, the results still go to standard output.
+pub fn print_warnings<T: Display>(lines: &[T]) {
+    let mut err = std::io::stderr().lock();
+    for line in lines {
+        let _ = writeln!(err, "warning: {line}");
+    }
+}
+
+/// JSON listing: contract version, every law with its parameters, the plugin files that could
+/// not be opened (`broken`: file and error) and every warning as printed (`warnings`).
+pub fn to_json(registry: &LawRegistry, listing: &LawListing<'_>) -> Value {
+    let laws: Vec<Value> = listing.laws.iter().map(|l| law_json(l)).collect();
+    let broken: Vec<Value> = listing
+        .broken
+        .iter()
+        .map(|(file, e)| json!({ "file": file.display().to_string(), "error": e.to_string() }))
+        .collect();
+    json!({
+        "contract_version": CONTRACT_VERSION,
+        "laws": laws,
+        "broken": broken,
+        "warnings": warnings(registry, listing),
+    })
 }
 
 fn law_json(lib: &LawLibrary) -> Value {
@@ -38,14 +78,14 @@ fn law_json(lib: &LawLibrary) -> Value {
     })
 }
 
-/// Human-readable listing.
-pub fn to_text(registry: &LawRegistry) -> String {
+/// Human-readable listing of the laws (the warnings go to standard error).
+pub fn to_text(listing: &LawListing<'_>) -> String {
     let mut out = String::new();
-    if registry.libraries().is_empty() {
+    if listing.laws.is_empty() {
         out.push_str("no laws found (searched --plugin paths, TRIBO_PLUGIN_PATH and the tribo executable's directory)\n");
         return out;
     }
-    for lib in registry.libraries() {
+    for lib in &listing.laws {
         let d = lib.description();
         let _ = writeln!(
             out,

@@ -372,9 +372,13 @@ struct Globals {
 }
 
 impl Globals {
-    /// Every law plugin found (`--plugin`, `TRIBO_PLUGIN_PATH`, the executable's directory).
+    /// Every law plugin found (`--plugin`, `TRIBO_PLUGIN_PATH`, the executable's directory);
+    /// only `--plugin` files are opened now, the others when a law is asked for. Plugin
+    /// directories and files others can write are warned about on standard error.
     fn registry(&self) -> anyhow::Result<LawRegistry> {
-        discover(&self.plugins).context("loading law plugins")
+        let registry = discover(&self.plugins).context("loading law plugins")?;
+        laws::print_warnings(registry.warnings());
+        Ok(registry)
     }
 }
 
@@ -400,14 +404,17 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 fn cmd_laws(g: &Globals, a: LawsArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     let registry = g.registry()?;
+    // Every library is opened here; one that cannot be is a warning, not a failure.
+    let listing = registry.open_all().context("loading law plugins")?;
+    laws::print_warnings(&laws::broken_warnings(&listing));
     if a.json {
         writeln!(
             out_text,
             "{}",
-            serde_json::to_string_pretty(&laws::to_json(&registry))?
+            serde_json::to_string_pretty(&laws::to_json(&registry, &listing))?
         )?;
     } else {
-        write!(out_text, "{}", laws::to_text(&registry))?;
+        write!(out_text, "{}", laws::to_text(&listing))?;
     }
     emit(&out_text)
 }

@@ -16,7 +16,10 @@ use crate::contract::{LawInput, LawOutput, Regime};
 use crate::describe::{check_params, values_to_table, LawDescription, ParamError, ParamValue};
 use crate::law::{create_from_table, describe, Law};
 
-pub use discover::{discover, load_paths, plugin_file_name, LawRegistry, PLUGIN_PATH_ENV};
+pub use discover::{
+    discover, load_paths, plugin_file_name, LawListing, LawRegistry, WritableWarning,
+    PLUGIN_PATH_ENV,
+};
 
 /// Which ABI a library was loaded through.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -103,12 +106,14 @@ pub enum LawError {
         second: PathBuf,
     },
     /// No library provides the requested law.
-    #[error("no law named `{name}` was found; available: {available}. Plugins are searched in --plugin paths, {env} and the directory of the tribo executable", env = PLUGIN_PATH_ENV)]
+    #[error("no law named `{name}` was found; available: {available}. Plugins are searched in --plugin paths, {env} and the directory of the tribo executable{}", broken_text(.broken), env = PLUGIN_PATH_ENV)]
     UnknownLaw {
         /// Requested name.
         name: String,
         /// Comma-separated known names.
         available: String,
+        /// Why each plugin file that could not be opened failed (one of them may be the law).
+        broken: Vec<String>,
     },
     /// A parameter was rejected.
     #[error("{source} (library `{path}`)")]
@@ -177,6 +182,21 @@ pub enum LawError {
         /// OS error.
         source: std::io::Error,
     },
+}
+
+/// The tail of [`LawError::UnknownLaw`]'s message naming the files that could not be opened.
+fn broken_text(broken: &[String]) -> String {
+    match broken.len() {
+        0 => String::new(),
+        1 => format!(
+            ". One plugin file could not be opened, perhaps the law you meant: {}",
+            broken[0]
+        ),
+        n => format!(
+            ". {n} plugin files could not be opened, perhaps one is the law you meant: {}",
+            broken.join("; ")
+        ),
+    }
 }
 
 /// The largest state a law instance may declare, in `f64` values (2^20, 8 MiB). A larger

@@ -468,14 +468,8 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     )?;
     drop(progress);
     let out = &a.out;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    tribo::output::write_atomic(
-        &out.join("mass_response.json"),
-        serde_json::to_string_pretty(&result)?.as_bytes(),
-    )?;
-    if a.scales.is_some() {
-        tribo::plots::write_mass_sweep(&result, &out.join("mass_sweep.svg"))?;
-    }
+    tribo::plots::write_mass_response(&result, out, a.scales.is_some())
+        .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {

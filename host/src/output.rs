@@ -26,8 +26,9 @@ use tempfile::NamedTempFile;
 pub const MARKER: &str = ".tribo-results";
 
 /// Test hook: milliseconds to sleep after each file rendered into a result directory's
-/// temporary directory and once more before the swap, so a test can kill a run inside its
-/// write phase (`tests/robustness/commit.rs`). Unset in normal use.
+/// temporary directory, once more before the swap and once after it (before the old set is
+/// removed), so a test can kill a run at any point of its write phase
+/// (`tests/robustness/commit.rs`). Unset in normal use.
 pub const PAUSE_ENV: &str = "TRIBO_TEST_WRITE_PAUSE_MS";
 
 /// How long a run waits for another run that is writing into the same result directory
@@ -77,7 +78,7 @@ pub enum OutputError {
         names: String,
     },
     /// The target has no final name (`.`, `..`, `/`).
-    #[error("{target} does not end in a name (`.`, `..` or a root): give the result's path by name, e.g. results/run1")]
+    #[error("{target} does not name a file or directory (it is `.`, ends in `..` or is a root): give the result's path by name, e.g. results/run1")]
     NoName {
         /// The target as the user gave it.
         target: String,
@@ -134,24 +135,22 @@ pub enum OutputError {
         value: String,
     },
     /// A result could not be rendered (a plot or table failed).
-    #[error("rendering {what}: {source}")]
+    #[error("rendering {what}: {error}")]
     Render {
         /// The file being rendered.
         what: String,
-        /// The renderer's error.
-        #[source]
-        source: std::io::Error,
+        /// The renderer's error (in the message, so not also a `source`).
+        error: std::io::Error,
     },
     /// A file-system operation failed.
-    #[error("{action} {path}: {source}")]
+    #[error("{action} {path}: {error}")]
     Io {
         /// What was being done ("creating", "writing", ...).
         action: &'static str,
         /// The file or directory concerned.
         path: PathBuf,
-        /// The operating system's error.
-        #[source]
-        source: std::io::Error,
+        /// The operating system's error (in the message, so not also a `source`).
+        error: std::io::Error,
     },
 }
 
@@ -160,10 +159,10 @@ fn io_err<'a>(
     action: &'static str,
     path: &'a Path,
 ) -> impl FnOnce(std::io::Error) -> OutputError + 'a {
-    move |source| OutputError::Io {
+    move |error| OutputError::Io {
         action,
         path: path.to_path_buf(),
-        source,
+        error,
     }
 }
 
@@ -671,7 +670,7 @@ impl ResultDir {
         let path = self.temp.path().join(MARKER);
         let body = toml::to_string(&self.manifest).map_err(|e| OutputError::Render {
             what: MARKER.into(),
-            source: std::io::Error::other(e),
+            error: std::io::Error::other(e),
         })?;
         // The temporary directory is this run's own, so the file is simply (re)written.
         let mut f = File::create(&path).map_err(io_err("creating", &path))?;
@@ -724,7 +723,7 @@ impl ResultDir {
         // put something there since `create`.
         let existing = inspect(&self.out, &self.target)?;
         let parent = parent_of(&self.out).to_path_buf();
-        swap(self.temp, &self.out, &self.target, existing)?;
+        swap(self.temp, &self.out, &self.target, existing, self.pause)?;
         sync_dir(&parent);
         Ok(())
     }
@@ -737,6 +736,7 @@ fn swap(
     out: &Path,
     target: &str,
     existing: Existing,
+    pause: Duration,
 ) -> Result<(), OutputError> {
     use rustix::fs::{renameat_with, RenameFlags, CWD};
     let exchange = || {
@@ -772,6 +772,7 @@ fn swap(
                     what: "it was replaced by something tribo did not write".into(),
                 });
             }
+            std::thread::sleep(pause);
             // Removing the old set: if that fails or is interrupted the new set is still whole,
             // and the next run removes the leftover (marked or empty, under the temporary name).
             let _ = remove_set(temp.path());
@@ -790,6 +791,7 @@ fn swap(
     out: &Path,
     _target: &str,
     existing: Existing,
+    _pause: Duration,
 ) -> Result<(), OutputError> {
     if existing == Existing::Replaceable {
         let parent = parent_of(out);

@@ -67,9 +67,9 @@ pub fn write_comparison(c: &Comparison, dir: &Path) -> Result<(), OutputError> {
 
 /// A rendered file's text, or the error naming the file.
 fn rendered<T>(what: &str, r: std::io::Result<T>) -> Result<T, OutputError> {
-    r.map_err(|source| OutputError::Render {
+    r.map_err(|error| OutputError::Render {
         what: what.to_string(),
-        source,
+        error,
     })
 }
 

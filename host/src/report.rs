@@ -121,10 +121,10 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputE
 }
 
 /// A table that could not be rendered, naming the file.
-fn render(what: &str, source: std::io::Error) -> crate::output::OutputError {
+fn render(what: &str, error: std::io::Error) -> crate::output::OutputError {
     crate::output::OutputError::Render {
         what: what.to_string(),
-        source,
+        error,
     }
 }
 

@@ -561,6 +561,13 @@ impl DirLock {
     }
 }
 
+/// Sleep for the test hook's pause, if any (none in normal use).
+fn hook_pause(pause: Duration) {
+    if !pause.is_zero() {
+        std::thread::sleep(pause);
+    }
+}
+
 /// The pause of the [`PAUSE_ENV`] test hook (zero when unset).
 fn pause_from_env() -> Result<Duration, OutputError> {
     match std::env::var(PAUSE_ENV) {
@@ -706,7 +713,7 @@ impl ResultDir {
             .and_then(|()| f.sync_all())
             .map_err(io_err("writing", &path))?;
         self.manifest.files.push(name.to_string());
-        std::thread::sleep(self.pause);
+        hook_pause(self.pause);
         Ok(())
     }
 
@@ -718,7 +725,7 @@ impl ResultDir {
     pub fn commit(self) -> Result<(), OutputError> {
         self.write_marker()?;
         sync_dir(self.temp.path());
-        std::thread::sleep(self.pause);
+        hook_pause(self.pause);
         // Checked again: a program other than tribo (which would wait for the lock) may have
         // put something there since `create`.
         let existing = inspect(&self.out, &self.target)?;
@@ -772,7 +779,7 @@ fn swap(
                     what: "it was replaced by something tribo did not write".into(),
                 });
             }
-            std::thread::sleep(pause);
+            hook_pause(pause);
             // Removing the old set: if that fails or is interrupted the new set is still whole,
             // and the next run removes the leftover (marked or empty, under the temporary name).
             let _ = remove_set(temp.path());

@@ -225,3 +225,33 @@ fn isolated_and_in_process_studies_give_identical_results() {
         std::fs::read_to_string(d.join("b.toml")).expect("b")
     );
 }
+
+#[test]
+fn an_unusable_out_is_refused_before_any_law_runs() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    hostile_setup(d);
+    std::fs::write(d.join("notes.txt"), "mine").expect("write");
+    // A law that would hang: had the run started, the message would be the time limit's.
+    for out in ["/dev/null", "notes.txt"] {
+        let r = compare(
+            d,
+            &[
+                "--lawset",
+                "hostile-3.toml",
+                "--time-limit-s",
+                "60",
+                "--out",
+                out,
+            ],
+        );
+        let (_, stderr) = text(&r);
+        assert_eq!(r.status.code(), Some(1), "{stderr}");
+        assert_mentions(&stderr, &["--out", out]);
+        assert!(!stderr.contains("time limit"), "{stderr}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(d.join("notes.txt")).expect("read"),
+        "mine"
+    );
+}

@@ -8,7 +8,8 @@
 //!
 //! - [`report`]: tables for people, CSV tables (through the `csv` writer);
 //! - [`plots`]: SVG plots of comparisons, mass responses and sweeps, with the files beside them;
-//! - [`output`]: result files written atomically (temporary file, then rename);
+//! - [`output`]: results written atomically: a result directory swapped in whole, a single
+//!   file renamed into place;
 //! - [`timeseries`]: the per-step CSV of `tribo run --timeseries`, an observer of the run;
 //! - [`progress`]: a progress display for long runs (stderr, terminals only);
 //! - [`laws`]: the listing of discovered laws (`tribo laws`);

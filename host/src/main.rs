@@ -442,6 +442,9 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     tribo::rig::attach_laws(&mut rig, &law_args)?;
     let registry = g.registry()?;
     let mut sim = tribo::rig::simulation(&rig, &registry)?;
+    if let Some(dir) = &csv {
+        tribo::output::check_result_dir(dir, "--csv")?;
+    }
     let progress = Progress::start("simulating the test cycle", Some(1000), g.quiet);
     sim.report_progress(progress.position());
     let result = match &timeseries {
@@ -651,6 +654,7 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     tribo::study::check_unique_names(&sets_loaded)?;
     tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
     read_data_runs(&a.validate)?;
+    tribo::output::check_result_dir(&a.out, "--out")?;
     let progress = Progress::start("comparing law sets", None, g.quiet);
     let sources: Vec<SetSource> = specs.iter().map(|l| a.source(l)).collect();
     let cmp = if a.isolation.in_process {
@@ -763,6 +767,7 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     if let Some(bad) = scale_list.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
         anyhow::bail!("--scale/--scales: every scale factor must be positive, got {bad}");
     }
+    tribo::output::check_result_dir(&a.out, "--out")?;
     let progress = Progress::start("mass response", None, g.quiet);
     let sources: Vec<SetSource> = specs
         .iter()
@@ -805,14 +810,8 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     };
     drop(progress);
     let out = &a.out;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    tribo::output::write_atomic(
-        &out.join("mass_response.json"),
-        serde_json::to_string_pretty(&result)?.as_bytes(),
-    )?;
-    if a.scales.is_some() {
-        tribo::plots::write_mass_sweep(&result, &out.join("mass_sweep.svg"))?;
-    }
+    tribo::plots::write_mass_response(&result, out, a.scales.is_some())
+        .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
@@ -882,6 +881,11 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
     let ls = tribo::lawset::LawSet::load(&a.lawset)?;
     read_data_runs(&fit_data(&a))?;
     read_data_runs(&a.validate)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{}-fitted.toml", ls.name())));
+    tribo::output::check_result_file(&out)?;
     let progress = Progress::start("fitting", None, g.quiet);
     let (result, text) = if a.isolation.in_process {
         guard::watch(a.isolation.limits()?);
@@ -898,10 +902,6 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
         }
     };
     drop(progress);
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("{}-fitted.toml", ls.name())));
     tribo::output::write_atomic(&out, text.as_bytes())
         .with_context(|| format!("writing {}", out.display()))?;
     if a.json {
@@ -955,6 +955,7 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
         ls.add_law_args(&a.laws)?;
     }
     tribo::study::check_unique_names(&sets_loaded)?;
+    tribo::output::check_result_dir(&a.out, "--out")?;
     let total = (sets_loaded.len() * temps_c.len()) as u64;
     let sources: Vec<SetSource> = specs
         .iter()

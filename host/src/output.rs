@@ -1,19 +1,249 @@
-//! Writing result files so a failed or interrupted run never leaves a half-written file under
-//! the final name: write to a temporary file in the same directory (a fresh random name,
-//! created exclusively, through `tempfile`), then rename it over the final name. On every error
-//! path the temporary file is removed; only a process killed outright can leave one behind, as
-//! a dot-file named after the result (`.comparison.json.XXXXXX.tmp`).
+//! Writing results so that a failed, interrupted or concurrent run never leaves a mix of old and
+//! new results (`docs/reliability.md`, "Results are never half-written").
+//!
+//! - A single result file ([`AtomicFile`], [`write_atomic`]) is written to a temporary file in
+//!   the same directory (a fresh random name, created exclusively, through `tempfile`) and
+//!   renamed over the final name. The target must be a new name or a regular file: a symbolic
+//!   link, a directory or a device is refused, never followed or replaced.
+//! - A result directory ([`ResultDir`]: `compare`, `sweep`, `mass-response --out`, `run --csv`)
+//!   is rendered whole into a fresh temporary directory beside it and swapped in with one
+//!   atomic exchange, under an advisory lock, so the directory is always the whole old set or
+//!   the whole new set, and files of an earlier set that the new one lacks go with the swap.
+//!   tribo only ever replaces a directory it wrote (marked by [`MARKER`]) or an empty one.
+//!
+//! On every error path the temporary file or directory is removed; only a process killed
+//! outright can leave one behind (a dot-file beside the result), and the next run into the same
+//! result directory removes it.
 
-use std::io::{BufWriter, Write};
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use tempfile::NamedTempFile;
 
+/// The file that marks a directory as a tribo result set and lists its files (TOML).
+pub const MARKER: &str = ".tribo-results";
+
+/// Test hook: milliseconds to sleep after each file rendered into a result directory's
+/// temporary directory, once more before the swap and once after it (before the old set is
+/// removed), so a test can kill a run at any point of its write phase
+/// (`tests/robustness/commit.rs`). Unset in normal use.
+pub const PAUSE_ENV: &str = "TRIBO_TEST_WRITE_PAUSE_MS";
+
+/// How long a run waits for another run that is writing into the same result directory
+/// before it gives up (the write phase itself takes milliseconds).
+pub const LOCK_WAIT: Duration = Duration::from_secs(60);
+
+/// The suffix of a result directory's temporary directory: `.NAME.XXXXXX.tribo-tmp` beside it.
+const TEMP_SUFFIX: &str = ".tribo-tmp";
+
+/// The number of random characters in a temporary directory's name.
+const TEMP_RANDOM: usize = 6;
+
+/// The largest marker file read (a real one is a few hundred bytes).
+const MARKER_MAX_BYTES: u64 = 1 << 20;
+
+/// Why results could not be written. Every message names the path and what was expected.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The target is a symbolic link; results are never written through one.
+    #[error("{target} is a symbolic link; tribo does not follow links when it writes results: give the real path")]
+    Symlink {
+        /// The target as the user gave it (with its option, e.g. `--out DIR`).
+        target: String,
+    },
+    /// A result directory's target exists but is not a directory.
+    #[error("{target} is {found}, not a directory; a result directory must be a new name, an empty directory or one tribo wrote")]
+    NotADirectory {
+        /// The target as the user gave it.
+        target: String,
+        /// What is there instead ("a regular file", "a character device", ...).
+        found: &'static str,
+    },
+    /// A result file's target exists but is not a regular file.
+    #[error("{target} is {found}, not a regular file; tribo writes a result file only to a new name or over a regular file")]
+    NotARegularFile {
+        /// The target as the user gave it.
+        target: String,
+        /// What is there instead.
+        found: &'static str,
+    },
+    /// The target directory holds files tribo did not write: it is never swapped away.
+    #[error("{target} exists and holds files tribo did not write ({names}); choose a new directory or empty it")]
+    Foreign {
+        /// The target as the user gave it.
+        target: String,
+        /// The first few files that are not part of a tribo result set.
+        names: String,
+    },
+    /// The target has no final name (`.`, `..`, `/`).
+    #[error("{target} does not name a file or directory (it is `.`, ends in `..` or is a root): give the result's path by name, e.g. results/run1")]
+    NoName {
+        /// The target as the user gave it.
+        target: String,
+    },
+    /// The directory a result file goes into does not exist (it is not created for a file).
+    #[error("cannot write {target}: the directory {parent} does not exist")]
+    MissingParent {
+        /// The target as the user gave it.
+        target: String,
+        /// Its directory.
+        parent: PathBuf,
+    },
+    /// A file name inside a result set that is not a plain name (a bug in the caller).
+    #[error(
+        "`{name}` is not a plain file name for a result (no `/`, not `.` or `..`, no leading `.`)"
+    )]
+    BadFileName {
+        /// The name given.
+        name: String,
+    },
+    /// Another run holds the result directory's lock for longer than [`LOCK_WAIT`].
+    #[error("another tribo run is still writing into {target} (it holds the lock {lock}); gave up after {waited_s} s")]
+    Busy {
+        /// The target as the user gave it.
+        target: String,
+        /// The lock file.
+        lock: PathBuf,
+        /// How long this run waited.
+        waited_s: u64,
+    },
+    /// The lock file beside the result directory is not a regular file.
+    #[error("the lock file {lock} is {found}; tribo needs a regular file there (remove it and run again)")]
+    LockFile {
+        /// The lock file.
+        lock: PathBuf,
+        /// What is there instead.
+        found: &'static str,
+    },
+    /// The result directory changed while the new set was being written (another program put
+    /// something there); nothing was replaced.
+    #[error(
+        "{target} changed while tribo was writing the new results ({what}); nothing was replaced"
+    )]
+    Changed {
+        /// The target as the user gave it.
+        target: String,
+        /// What changed.
+        what: String,
+    },
+    /// The test hook [`PAUSE_ENV`] holds something other than a whole number.
+    #[error("{PAUSE_ENV}=`{value}` is not a whole number of milliseconds")]
+    PauseHook {
+        /// The variable's value.
+        value: String,
+    },
+    /// A result could not be rendered (a plot or table failed).
+    #[error("rendering {what}: {error}")]
+    Render {
+        /// The file being rendered.
+        what: String,
+        /// The renderer's error (in the message, so not also a `source`).
+        error: std::io::Error,
+    },
+    /// A file-system operation failed.
+    #[error("{action} {path}: {error}")]
+    Io {
+        /// What was being done ("creating", "writing", ...).
+        action: &'static str,
+        /// The file or directory concerned.
+        path: PathBuf,
+        /// The operating system's error (in the message, so not also a `source`).
+        error: std::io::Error,
+    },
+}
+
+/// An `OutputError::Io` for `action` on `path`.
+fn io_err<'a>(
+    action: &'static str,
+    path: &'a Path,
+) -> impl FnOnce(std::io::Error) -> OutputError + 'a {
+    move |error| OutputError::Io {
+        action,
+        path: path.to_path_buf(),
+        error,
+    }
+}
+
+/// The target as messages show it: `--out DIR`, or the bare path when no option is known.
+fn show(flag: &str, path: &Path) -> String {
+    if flag.is_empty() {
+        path.display().to_string()
+    } else {
+        format!("{flag} {}", path.display())
+    }
+}
+
+/// What a file type is, in words, for messages.
+fn kind(t: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_fifo() {
+            return "a named pipe (FIFO)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_symlink() {
+        "a symbolic link"
+    } else if t.is_dir() {
+        "a directory"
+    } else if t.is_file() {
+        "a regular file"
+    } else {
+        "a special file"
+    }
+}
+
+/// The directory `path` lives in (`.` for a bare name).
+fn parent_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Make what was renamed or created in `dir` durable. Best effort: some file systems refuse
+/// to sync a directory, and the rename itself is already atomic.
+fn sync_dir(dir: &Path) {
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+/// Check that a single result file may be written at `path`: a new name or a regular file,
+/// never a symbolic link (not followed), a directory or a device.
+fn check_file_target(path: &Path) -> Result<(), OutputError> {
+    let target = show("", path);
+    if path.file_name().is_none() {
+        return Err(OutputError::NoName { target });
+    }
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(io_err("inspecting", path)(e)),
+        Ok(m) if m.file_type().is_symlink() => Err(OutputError::Symlink { target }),
+        Ok(m) if m.is_file() => Ok(()),
+        Ok(m) => Err(OutputError::NotARegularFile {
+            target,
+            found: kind(m.file_type()),
+        }),
+    }
+}
+
 /// Write `bytes` to `path` atomically (temporary file + rename). On error `path` is left as it
-/// was and no temporary file remains.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+/// was and no temporary file remains; a target that is not a regular file is refused.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     let mut f = AtomicFile::create(path)?;
-    f.write_all(bytes)?;
+    f.write_all(bytes).map_err(io_err("writing", path))?;
     f.commit()
 }
 
@@ -27,13 +257,43 @@ pub struct AtomicFile {
     path: PathBuf,
 }
 
+/// Check before a long computation that `out` can take a result set (given as `flag`, e.g.
+/// `--out`): the same refusals as [`ResultDir::create`] (a link, file, device, or a directory
+/// of files tribo did not write), without creating anything. The check is repeated at write.
+pub fn check_result_dir(out: &Path, flag: &str) -> Result<(), OutputError> {
+    let target = show(flag, out);
+    if out.file_name().is_none() {
+        return Err(OutputError::NoName { target });
+    }
+    inspect(out, &target).map(|_| ())
+}
+
+/// Check before a long computation that `path` can take a single result file (a new name or a
+/// regular file in an existing directory), without creating anything.
+pub fn check_result_file(path: &Path) -> Result<(), OutputError> {
+    check_file_target(path)?;
+    let dir = parent_of(path);
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(m) => Err(OutputError::NotADirectory {
+            target: show("", dir),
+            found: kind(m.file_type()),
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(OutputError::MissingParent {
+            target: show("", path),
+            parent: dir.to_path_buf(),
+        }),
+        Err(e) => Err(io_err("inspecting", dir)(e)),
+    }
+}
+
 impl AtomicFile {
-    /// Start writing `path`: a temporary file is created in its directory, which must exist.
-    pub fn create(path: &Path) -> std::io::Result<Self> {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
+    /// Start writing `path`: its directory must exist (it is not created), and `path` must be a
+    /// new name or a regular file (a link, directory, device or pipe is refused). A temporary
+    /// file with a random name is created exclusively beside it.
+    pub fn create(path: &Path) -> Result<Self, OutputError> {
+        check_result_file(path)?;
+        let dir = parent_of(path);
         let name = path
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -48,7 +308,9 @@ impl AtomicFile {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o666));
         }
-        let file = builder.tempfile_in(dir)?;
+        let file = builder
+            .tempfile_in(dir)
+            .map_err(io_err("creating a temporary file in", dir))?;
         Ok(Self {
             file: BufWriter::new(file),
             path: path.to_path_buf(),
@@ -56,11 +318,21 @@ impl AtomicFile {
     }
 
     /// Flush, sync and rename into place (atomic on one file system). On error the temporary
-    /// file is removed and `path` keeps its previous content.
-    pub fn commit(self) -> std::io::Result<()> {
-        let file = self.file.into_inner().map_err(|e| e.into_error())?;
-        file.as_file().sync_all()?;
-        file.persist(&self.path).map_err(|e| e.error)?;
+    /// file is removed and `path` keeps its previous content. The target is checked again just
+    /// before the rename, so one that became a link or device meanwhile is not replaced.
+    pub fn commit(self) -> Result<(), OutputError> {
+        let path = self.path;
+        let file = self
+            .file
+            .into_inner()
+            .map_err(|e| io_err("writing", &path)(e.into_error()))?;
+        file.as_file()
+            .sync_all()
+            .map_err(io_err("syncing", file.path()))?;
+        check_file_target(&path)?;
+        file.persist(&path)
+            .map_err(|e| io_err("renaming the result into", &path)(e.error))?;
+        sync_dir(parent_of(&path));
         Ok(())
     }
 }
@@ -72,6 +344,503 @@ impl Write for AtomicFile {
     fn flush(&mut self) -> std::io::Result<()> {
         self.file.flush()
     }
+}
+
+/// The content of [`MARKER`]: which command wrote the set and its files. Deterministic (no
+/// time, no paths), so a result set is byte-identical from run to run.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Manifest {
+    /// The subcommand that wrote the set (`compare`, `sweep`, ...).
+    command: String,
+    /// The files of the set, in the order written (the marker itself not included).
+    files: Vec<String>,
+}
+
+/// The first line of [`MARKER`]: says what the file is to whoever opens the directory.
+const MARKER_HEADER: &str = "# Written by tribo: this directory is one result set, replaced as a whole by the next\n# tribo run into it. tribo refuses to replace it if it holds files not listed below.\n";
+
+/// The manifest of the tribo result set in `dir`, if `dir` holds a readable marker.
+fn read_manifest(dir: &Path) -> Option<Manifest> {
+    let path = dir.join(MARKER);
+    let meta = std::fs::symlink_metadata(&path).ok()?;
+    if !meta.is_file() {
+        return None;
+    }
+    let mut text = String::new();
+    File::open(&path)
+        .ok()?
+        .take(MARKER_MAX_BYTES)
+        .read_to_string(&mut text)
+        .ok()?;
+    toml::from_str(&text).ok()
+}
+
+/// Whether the existing directory `dir` may be replaced: it is empty, or a tribo result set
+/// holding only the files its marker lists. Anything else is refused naming a few strangers.
+fn check_replaceable(dir: &Path, target: &str) -> Result<(), OutputError> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map_err(io_err("reading", dir))?
+        .map(|e| {
+            e.map(|e| e.file_name().to_string_lossy().into_owned())
+                .map_err(io_err("reading", dir))
+        })
+        .collect::<Result<_, _>>()?;
+    if names.is_empty() {
+        return Ok(());
+    }
+    names.sort();
+    let listed = read_manifest(dir).map(|m| m.files);
+    let strangers: Vec<&String> = match &listed {
+        Some(files) => names
+            .iter()
+            .filter(|n| n.as_str() != MARKER && !files.contains(n))
+            .collect(),
+        None => names.iter().collect(),
+    };
+    if strangers.is_empty() {
+        return Ok(());
+    }
+    const SHOWN: usize = 5;
+    let mut shown: Vec<String> = strangers
+        .iter()
+        .take(SHOWN)
+        .map(|s| s.to_string())
+        .collect();
+    if strangers.len() > SHOWN {
+        shown.push(format!("... {} in all", strangers.len()));
+    }
+    Err(OutputError::Foreign {
+        target: target.to_string(),
+        names: shown.join(", "),
+    })
+}
+
+/// What is at a result directory's path before it is replaced.
+#[derive(Debug, PartialEq, Eq)]
+enum Existing {
+    /// Nothing: the new set is renamed into place.
+    Absent,
+    /// An empty directory or a tribo result set: swapped with the new set.
+    Replaceable,
+}
+
+/// Inspect `out` without following a link: absent, or a directory that may be replaced.
+fn inspect(out: &Path, target: &str) -> Result<Existing, OutputError> {
+    match std::fs::symlink_metadata(out) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Existing::Absent),
+        Err(e) => Err(io_err("inspecting", out)(e)),
+        Ok(m) if m.file_type().is_symlink() => Err(OutputError::Symlink {
+            target: target.to_string(),
+        }),
+        Ok(m) if !m.is_dir() => Err(OutputError::NotADirectory {
+            target: target.to_string(),
+            found: kind(m.file_type()),
+        }),
+        Ok(_) => {
+            check_replaceable(out, target)?;
+            Ok(Existing::Replaceable)
+        }
+    }
+}
+
+/// Whether `file` is the name of one of `name`'s temporary directories:
+/// `.NAME.XXXXXX.tribo-tmp` with exactly six random letters or digits (so `.a.b.XXXXXX...`,
+/// belonging to `a.b`, is not taken for one of `a`'s).
+fn is_temp_name(file: &str, name: &str) -> bool {
+    file.strip_prefix('.')
+        .and_then(|f| f.strip_prefix(name))
+        .and_then(|f| f.strip_prefix('.'))
+        .and_then(|f| f.strip_suffix(TEMP_SUFFIX))
+        .is_some_and(|r| r.len() == TEMP_RANDOM && r.bytes().all(|b| b.is_ascii_alphanumeric()))
+}
+
+/// Remove temporary directories left beside `out` by runs that were killed. Called with the
+/// lock held, so none of them belongs to a live run. Only real directories (never a link) that
+/// carry the marker are removed whole; an empty one is removed; anything else is left alone.
+/// Failures are ignored: a leftover harms nothing and the next run tries again.
+fn remove_stale_temps(parent: &Path, name: &str) {
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(file) = file.to_str() else { continue };
+        if !is_temp_name(file, name) {
+            continue;
+        }
+        let path = parent.join(file);
+        let Ok(meta) = std::fs::symlink_metadata(&path) else {
+            continue;
+        };
+        if !meta.is_dir() {
+            continue;
+        }
+        if read_manifest(&path).is_some() {
+            let _ = remove_set(&path);
+        } else {
+            // Succeeds only if empty (killed before the marker was written).
+            let _ = std::fs::remove_dir(&path);
+        }
+    }
+}
+
+/// Remove the result set `dir` (a real directory holding a marker) so that an interruption at
+/// any point leaves something [`remove_stale_temps`] recognises: the files first, then the
+/// marker, then the empty directory. Never follows a link (a link inside is removed as a link;
+/// std's `remove_dir_all` does not follow links either).
+fn remove_set(dir: &Path) -> std::io::Result<()> {
+    for entry in std::fs::read_dir(dir)? {
+        let entry = entry?;
+        if entry.file_name() == MARKER {
+            continue;
+        }
+        let path = entry.path();
+        if std::fs::symlink_metadata(&path)?.is_dir() {
+            std::fs::remove_dir_all(&path)?;
+        } else {
+            std::fs::remove_file(&path)?;
+        }
+    }
+    match std::fs::remove_file(dir.join(MARKER)) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+        _ => {}
+    }
+    std::fs::remove_dir(dir)
+}
+
+/// The advisory lock beside a result directory (`.NAME.lock` in its parent, never inside it,
+/// since the directory itself is swapped). Held from before rendering until the swap is done;
+/// released when dropped (or when the process dies). The lock file itself stays.
+struct DirLock {
+    /// The open lock file (the lock lives as long as it is open).
+    #[cfg(unix)]
+    _file: File,
+}
+
+impl DirLock {
+    /// Take the lock `lock`, waiting up to `wait` for another run to release it.
+    #[cfg(unix)]
+    fn acquire(lock: &Path, target: &str, wait: Duration) -> Result<Self, OutputError> {
+        use rustix::fs::{flock, FlockOperation};
+        use std::os::unix::fs::OpenOptionsExt;
+        // Never through a link (O_NOFOLLOW), never blocking on a FIFO planted there
+        // (O_NONBLOCK), then refused unless it is a regular file.
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .mode(0o666)
+            .custom_flags(
+                (rustix::fs::OFlags::NOFOLLOW | rustix::fs::OFlags::NONBLOCK).bits() as i32,
+            )
+            .open(lock)
+            .map_err(|e| match std::fs::symlink_metadata(lock) {
+                Ok(m) if !m.is_file() => OutputError::LockFile {
+                    lock: lock.to_path_buf(),
+                    found: kind(m.file_type()),
+                },
+                _ => io_err("opening the lock file", lock)(e),
+            })?;
+        let meta = file.metadata().map_err(io_err("inspecting", lock))?;
+        if !meta.is_file() {
+            return Err(OutputError::LockFile {
+                lock: lock.to_path_buf(),
+                found: kind(meta.file_type()),
+            });
+        }
+        let start = Instant::now();
+        loop {
+            match flock(&file, FlockOperation::NonBlockingLockExclusive) {
+                Ok(()) => return Ok(Self { _file: file }),
+                Err(e) if e == rustix::io::Errno::WOULDBLOCK || e == rustix::io::Errno::INTR => {
+                    if start.elapsed() >= wait {
+                        return Err(OutputError::Busy {
+                            target: target.to_string(),
+                            lock: lock.to_path_buf(),
+                            waited_s: start.elapsed().as_secs(),
+                        });
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                Err(e) => return Err(io_err("locking", lock)(e.into())),
+            }
+        }
+    }
+
+    /// No advisory lock off Unix (documented in `docs/reliability.md`).
+    #[cfg(not(unix))]
+    fn acquire(_lock: &Path, _target: &str, _wait: Duration) -> Result<Self, OutputError> {
+        Ok(Self {})
+    }
+}
+
+/// Sleep for the test hook's pause, if any (none in normal use).
+fn hook_pause(pause: Duration) {
+    if !pause.is_zero() {
+        std::thread::sleep(pause);
+    }
+}
+
+/// The pause of the [`PAUSE_ENV`] test hook (zero when unset).
+fn pause_from_env() -> Result<Duration, OutputError> {
+    match std::env::var(PAUSE_ENV) {
+        Err(_) => Ok(Duration::ZERO),
+        Ok(v) => v
+            .trim()
+            .parse::<u64>()
+            .map(Duration::from_millis)
+            .map_err(|_| OutputError::PauseHook { value: v }),
+    }
+}
+
+/// A result directory written as a whole: files go into a fresh temporary directory beside the
+/// target (random name, created exclusively), and [`ResultDir::commit`] swaps it in with one
+/// atomic exchange. Until then the target is untouched; dropped without commit, or on any
+/// error, the temporary directory is removed. An advisory lock serialises runs into one target.
+pub struct ResultDir {
+    /// The temporary directory the set is rendered into (removed when dropped unless kept).
+    /// Declared before the lock so it is removed before the lock is released.
+    temp: tempfile::TempDir,
+    /// The final path.
+    out: PathBuf,
+    /// The target as messages show it (`--out DIR`).
+    target: String,
+    /// The manifest written into the marker at commit.
+    manifest: Manifest,
+    /// The test hook's pause after each file and before the swap.
+    pause: Duration,
+    /// The advisory lock on `out`.
+    _lock: DirLock,
+}
+
+impl ResultDir {
+    /// Start a result set for `out`, written by `command` (recorded in the marker) and given by
+    /// the user as `flag` (for messages, e.g. `--out`). `out` must be a new name, an empty
+    /// directory or a directory tribo wrote; a link, file or device is refused. Its parent is
+    /// created if missing. Waits up to [`LOCK_WAIT`] for another run writing into `out`.
+    pub fn create(out: &Path, command: &str, flag: &str) -> Result<Self, OutputError> {
+        Self::create_with(out, command, flag, LOCK_WAIT)
+    }
+
+    /// [`ResultDir::create`] with another wait for the lock.
+    fn create_with(
+        out: &Path,
+        command: &str,
+        flag: &str,
+        wait: Duration,
+    ) -> Result<Self, OutputError> {
+        let target = show(flag, out);
+        let pause = pause_from_env()?;
+        let Some(name) = out.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+            return Err(OutputError::NoName { target });
+        };
+        let parent = parent_of(out);
+        // Refused before anything is created (not even the lock file, which would otherwise
+        // land beside a device such as /dev/null).
+        inspect(out, &target)?;
+        std::fs::create_dir_all(parent).map_err(io_err("creating", parent))?;
+        let lock = DirLock::acquire(&parent.join(format!(".{name}.lock")), &target, wait)?;
+        // Checked under the lock, so no other tribo run changes it until the swap.
+        inspect(out, &target)?;
+        remove_stale_temps(parent, &name);
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder
+            .prefix(&prefix)
+            .suffix(TEMP_SUFFIX)
+            .rand_bytes(TEMP_RANDOM);
+        // The directory gets the permissions `create_dir` would give (0777 less the umask).
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            builder.permissions(std::fs::Permissions::from_mode(0o777));
+        }
+        let temp = builder
+            .tempdir_in(parent)
+            .map_err(io_err("creating a temporary directory in", parent))?;
+        let dir = Self {
+            temp,
+            out: out.to_path_buf(),
+            target,
+            manifest: Manifest {
+                command: command.to_string(),
+                files: Vec::new(),
+            },
+            pause,
+            _lock: lock,
+        };
+        // Marked from the start, so a run killed midway leaves a directory the next run
+        // recognises as its own leftover.
+        dir.write_marker()?;
+        Ok(dir)
+    }
+
+    /// The final path of the result set.
+    pub fn path(&self) -> &Path {
+        &self.out
+    }
+
+    /// The names of the files written so far, in order.
+    pub fn files(&self) -> &[String] {
+        &self.manifest.files
+    }
+
+    /// Write the marker (the manifest so far) into the temporary directory, replacing any.
+    fn write_marker(&self) -> Result<(), OutputError> {
+        let path = self.temp.path().join(MARKER);
+        let body = toml::to_string(&self.manifest).map_err(|e| OutputError::Render {
+            what: MARKER.into(),
+            error: std::io::Error::other(e),
+        })?;
+        // The temporary directory is this run's own, so the file is simply (re)written.
+        let mut f = File::create(&path).map_err(io_err("creating", &path))?;
+        f.write_all(MARKER_HEADER.as_bytes())
+            .and_then(|()| f.write_all(body.as_bytes()))
+            .and_then(|()| f.sync_all())
+            .map_err(io_err("writing", &path))
+    }
+
+    /// Add the file `name` (a plain name: no `/`, not hidden) with `bytes` to the set. Written
+    /// into the temporary directory only, created exclusively and synced.
+    pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), OutputError> {
+        let plain = !name.is_empty()
+            && !name.starts_with('.')
+            && !name.contains('/')
+            && !name.contains('\\')
+            && !name.contains('\0');
+        if !plain {
+            return Err(OutputError::BadFileName {
+                name: name.to_string(),
+            });
+        }
+        let path = self.temp.path().join(name);
+        let mut options = OpenOptions::new();
+        options.write(true).create_new(true);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt;
+            options.mode(0o666);
+        }
+        let mut f = options.open(&path).map_err(io_err("creating", &path))?;
+        f.write_all(bytes)
+            .and_then(|()| f.sync_all())
+            .map_err(io_err("writing", &path))?;
+        self.manifest.files.push(name.to_string());
+        hook_pause(self.pause);
+        Ok(())
+    }
+
+    /// Replace the target with the new set in one step. If the target did not exist the set is
+    /// renamed into place (refusing to replace anything created meanwhile); otherwise the two
+    /// are exchanged atomically (Linux `renameat2(RENAME_EXCHANGE)`) and the old set, now under
+    /// the temporary name, is removed. On error the target is as it was and the temporary
+    /// directory is removed.
+    pub fn commit(self) -> Result<(), OutputError> {
+        self.write_marker()?;
+        sync_dir(self.temp.path());
+        hook_pause(self.pause);
+        // Checked again: a program other than tribo (which would wait for the lock) may have
+        // put something there since `create`.
+        let existing = inspect(&self.out, &self.target)?;
+        let parent = parent_of(&self.out).to_path_buf();
+        swap(self.temp, &self.out, &self.target, existing, self.pause)?;
+        sync_dir(&parent);
+        Ok(())
+    }
+}
+
+/// Put the set in `temp` at `out`. See [`ResultDir::commit`].
+#[cfg(any(target_os = "linux", target_os = "android"))]
+fn swap(
+    temp: tempfile::TempDir,
+    out: &Path,
+    target: &str,
+    existing: Existing,
+    pause: Duration,
+) -> Result<(), OutputError> {
+    use rustix::fs::{renameat_with, RenameFlags, CWD};
+    let exchange = || {
+        renameat_with(CWD, temp.path(), CWD, out, RenameFlags::EXCHANGE)
+            .map_err(|e| io_err("swapping the new results into", out)(e.into()))
+    };
+    match existing {
+        Existing::Absent => {
+            match renameat_with(CWD, temp.path(), CWD, out, RenameFlags::NOREPLACE) {
+                Ok(()) => {
+                    // The set now lives at `out`: the temporary name is gone, nothing to remove.
+                    let _ = temp.keep();
+                    Ok(())
+                }
+                Err(e) if e == rustix::io::Errno::EXIST => Err(OutputError::Changed {
+                    target: target.to_string(),
+                    what: "it was created by another program".into(),
+                }),
+                Err(e) => Err(io_err("renaming the new results into", out)(e.into())),
+            }
+        }
+        Existing::Replaceable => {
+            exchange()?;
+            // The old set is now under the temporary name. Whatever was swapped out must be
+            // what `inspect` approved (a link or a stranger's directory put there in the
+            // meantime is swapped back, untouched).
+            let old_ok = std::fs::symlink_metadata(temp.path()).is_ok_and(|m| m.is_dir())
+                && check_replaceable(temp.path(), target).is_ok();
+            if !old_ok {
+                exchange()?;
+                return Err(OutputError::Changed {
+                    target: target.to_string(),
+                    what: "it was replaced by something tribo did not write".into(),
+                });
+            }
+            hook_pause(pause);
+            // Removing the old set: if that fails or is interrupted the new set is still whole,
+            // and the next run removes the leftover (marked or empty, under the temporary name).
+            let _ = remove_set(temp.path());
+            drop(temp);
+            Ok(())
+        }
+    }
+}
+
+/// Put the set in `temp` at `out` without an atomic exchange (systems without
+/// `renameat2`): the old set is renamed aside, then the new one into place. A kill between the
+/// two renames leaves no `out` and the old set under a temporary name (`docs/reliability.md`).
+#[cfg(not(any(target_os = "linux", target_os = "android")))]
+fn swap(
+    temp: tempfile::TempDir,
+    out: &Path,
+    _target: &str,
+    existing: Existing,
+    _pause: Duration,
+) -> Result<(), OutputError> {
+    if existing == Existing::Replaceable {
+        let parent = parent_of(out);
+        let name = out
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        // A fresh name for the old set: created exclusively, then freed for the rename.
+        let aside = tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(TEMP_SUFFIX)
+            .rand_bytes(TEMP_RANDOM)
+            .tempdir_in(parent)
+            .map_err(io_err("creating a temporary directory in", parent))?
+            .keep();
+        std::fs::remove_dir(&aside).map_err(io_err("removing", &aside))?;
+        std::fs::rename(out, &aside).map_err(io_err("moving the old results aside from", out))?;
+        if let Err(e) = std::fs::rename(temp.path(), out) {
+            let _ = std::fs::rename(&aside, out);
+            return Err(io_err("renaming the new results into", out)(e));
+        }
+        let _ = temp.keep();
+        let _ = std::fs::remove_dir_all(&aside);
+        return Ok(());
+    }
+    std::fs::rename(temp.path(), out).map_err(io_err("renaming the new results into", out))?;
+    let _ = temp.keep();
+    Ok(())
 }
 
 #[cfg(test)]
@@ -131,7 +900,7 @@ mod tests {
 
     #[test]
     fn a_failed_rename_leaves_the_target_intact_and_no_temporary_file() {
-        // The final name is a non-empty directory: the rename fails after the data is written.
+        // The final name is a non-empty directory: refused, nothing written.
         let dir = tempfile::tempdir().expect("temporary directory");
         let path = dir.path().join("results");
         std::fs::create_dir(&path).expect("mkdir");
@@ -149,7 +918,9 @@ mod tests {
     fn a_missing_directory_is_an_error_not_a_panic() {
         let dir = tempfile::tempdir().expect("temporary directory");
         let path = dir.path().join("no-such-dir").join("out.csv");
-        assert!(write_atomic(&path, b"x").is_err());
+        let err = write_atomic(&path, b"x").expect_err("no directory");
+        assert!(matches!(err, OutputError::MissingParent { .. }), "{err}");
+        assert!(err.to_string().contains("no-such-dir"), "{err}");
         assert!(names(dir.path()).is_empty());
     }
 
@@ -158,5 +929,308 @@ mod tests {
         let f = AtomicFile::create(Path::new("relative-name.txt")).expect("create in .");
         drop(f);
         assert!(!Path::new("relative-name.txt").exists());
+    }
+
+    #[test]
+    fn a_directory_target_is_refused_before_anything_is_written() {
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let err = AtomicFile::create(dir.path()).err().expect("a directory");
+        assert!(
+            err.to_string()
+                .contains("is a directory, not a regular file"),
+            "{err}"
+        );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symlinked_file_target_is_refused_and_its_target_untouched() {
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let victim = dir.path().join("victim.txt");
+        std::fs::write(&victim, "precious").expect("write");
+        let link = dir.path().join("result.toml");
+        std::os::unix::fs::symlink(&victim, &link).expect("symlink");
+        let err = write_atomic(&link, b"overwritten").expect_err("a link");
+        assert!(matches!(err, OutputError::Symlink { .. }), "{err}");
+        assert!(err.to_string().contains("symbolic link"), "{err}");
+        assert_eq!(std::fs::read_to_string(&victim).expect("read"), "precious");
+        assert!(std::fs::symlink_metadata(&link)
+            .expect("link")
+            .file_type()
+            .is_symlink());
+        assert_eq!(names(dir.path()), ["result.toml", "victim.txt"]);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn devices_and_pipes_are_refused_as_file_targets() {
+        use std::os::unix::fs::FileTypeExt;
+        let err = write_atomic(Path::new("/dev/null"), b"x").expect_err("a device");
+        assert!(
+            err.to_string().contains("/dev/null is a character device"),
+            "{err}"
+        );
+        let meta = std::fs::symlink_metadata("/dev/null").expect("/dev/null");
+        assert!(meta.file_type().is_char_device());
+
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let fifo = dir.path().join("fifo");
+        rustix::fs::mknodat(
+            rustix::fs::CWD,
+            &fifo,
+            rustix::fs::FileType::Fifo,
+            rustix::fs::Mode::from_raw_mode(0o600),
+            0,
+        )
+        .expect("mkfifo");
+        let err = write_atomic(&fifo, b"x").expect_err("a pipe");
+        assert!(err.to_string().contains("named pipe"), "{err}");
+        assert_eq!(names(dir.path()), ["fifo"]);
+    }
+
+    /// A result set with `files` (name, content) committed to `out` by a fresh `ResultDir`.
+    fn commit_set(out: &Path, files: &[(&str, &str)]) -> Result<(), OutputError> {
+        let mut r = ResultDir::create(out, "test", "--out")?;
+        for (name, text) in files {
+            r.write(name, text.as_bytes())?;
+        }
+        r.commit()
+    }
+
+    /// Every file in `dir` but the marker, with its content.
+    fn contents(dir: &Path) -> Vec<(String, String)> {
+        names(dir)
+            .into_iter()
+            .filter(|n| n != MARKER)
+            .map(|n| {
+                let text = std::fs::read_to_string(dir.join(&n)).expect("read");
+                (n, text)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_new_set_replaces_the_old_one_whole_and_stale_files_go() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let out = parent.path().join("res");
+        commit_set(&out, &[("a.csv", "1"), ("plot_x.svg", "x")]).expect("first set");
+        assert_eq!(names(&out), [MARKER, "a.csv", "plot_x.svg"]);
+        commit_set(&out, &[("a.csv", "2"), ("plot_y.svg", "y")]).expect("second set");
+        assert_eq!(
+            contents(&out),
+            [
+                ("a.csv".into(), "2".into()),
+                ("plot_y.svg".into(), "y".into())
+            ]
+        );
+        let manifest = read_manifest(&out).expect("marker");
+        assert_eq!(manifest.files, ["a.csv", "plot_y.svg"]);
+        assert_eq!(manifest.command, "test");
+        // Beside it only the lock file: no temporary directory, no old set.
+        assert_eq!(names(parent.path()), [".res.lock", "res"]);
+    }
+
+    #[test]
+    fn an_empty_existing_directory_and_a_missing_parent_are_fine() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let empty = parent.path().join("empty");
+        std::fs::create_dir(&empty).expect("mkdir");
+        commit_set(&empty, &[("a.csv", "1")]).expect("into an empty directory");
+        assert_eq!(contents(&empty), [("a.csv".into(), "1".into())]);
+        let deep = parent.path().join("x").join("y").join("res");
+        commit_set(&deep, &[("a.csv", "1")]).expect("parents created");
+        assert_eq!(contents(&deep), [("a.csv".into(), "1".into())]);
+    }
+
+    #[test]
+    fn a_directory_with_files_tribo_did_not_write_is_refused_untouched() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let out = parent.path().join("home");
+        std::fs::create_dir(&out).expect("mkdir");
+        std::fs::write(out.join("thesis.tex"), "years of work").expect("write");
+        let err = commit_set(&out, &[("a.csv", "1")]).expect_err("not ours");
+        let msg = err.to_string();
+        assert!(
+            msg.contains("--out") && msg.contains("holds files tribo did not write"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("thesis.tex") && msg.contains("choose a new directory"),
+            "{msg}"
+        );
+        assert_eq!(names(&out), ["thesis.tex"]);
+        assert_eq!(
+            std::fs::read_to_string(out.join("thesis.tex")).expect("read"),
+            "years of work"
+        );
+        // Refused before anything was created beside it.
+        assert_eq!(names(parent.path()), ["home"]);
+
+        // A tribo set to which a file was added by hand is refused too (the file would go).
+        let set = parent.path().join("set");
+        commit_set(&set, &[("a.csv", "1")]).expect("first set");
+        std::fs::write(set.join("notes.txt"), "mine").expect("write");
+        let err = commit_set(&set, &[("a.csv", "2")]).expect_err("a stranger inside");
+        assert!(err.to_string().contains("notes.txt"), "{err}");
+        assert_eq!(
+            std::fs::read_to_string(set.join("a.csv")).expect("read"),
+            "1"
+        );
+    }
+
+    #[test]
+    fn dot_and_root_are_refused_as_result_directories() {
+        for p in [".", "..", "/", "a/.."] {
+            let err = ResultDir::create(Path::new(p), "test", "--out")
+                .err()
+                .expect("no name");
+            assert!(matches!(err, OutputError::NoName { .. }), "{p}: {err}");
+        }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_link_a_file_or_a_device_as_result_directory_is_refused() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let real = parent.path().join("real");
+        commit_set(&real, &[("a.csv", "1")]).expect("a real set");
+        let link = parent.path().join("link");
+        std::os::unix::fs::symlink(&real, &link).expect("symlink");
+        let err = commit_set(&link, &[("a.csv", "2")]).expect_err("a link");
+        assert!(matches!(err, OutputError::Symlink { .. }), "{err}");
+        assert_eq!(contents(&real), [("a.csv".into(), "1".into())]);
+        assert!(std::fs::symlink_metadata(&link)
+            .expect("link")
+            .file_type()
+            .is_symlink());
+
+        let file = parent.path().join("file");
+        std::fs::write(&file, "data").expect("write");
+        let err = commit_set(&file, &[("a.csv", "2")]).expect_err("a file");
+        assert!(
+            err.to_string()
+                .contains("is a regular file, not a directory"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read_to_string(&file).expect("read"), "data");
+
+        let err = commit_set(Path::new("/dev/null"), &[("a.csv", "2")]).expect_err("a device");
+        assert!(err.to_string().contains("character device"), "{err}");
+        // Refused before anything was created beside it, not even the lock file.
+        assert!(std::fs::symlink_metadata("/dev/.null.lock").is_err());
+        assert_eq!(names(parent.path()), [".real.lock", "file", "link", "real"]);
+    }
+
+    #[test]
+    fn dropped_without_commit_the_old_set_stays_and_no_temporary_remains() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let out = parent.path().join("res");
+        commit_set(&out, &[("a.csv", "1")]).expect("first set");
+        {
+            let mut r = ResultDir::create(&out, "test", "--out").expect("create");
+            r.write("a.csv", b"2").expect("write");
+            r.write("b.csv", b"2").expect("write");
+            assert_eq!(names(parent.path()).len(), 3, "lock, set and temporary");
+        }
+        assert_eq!(contents(&out), [("a.csv".into(), "1".into())]);
+        assert_eq!(names(parent.path()), [".res.lock", "res"]);
+    }
+
+    #[test]
+    fn a_commit_that_finds_the_directory_changed_replaces_nothing_and_cleans_up() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let out = parent.path().join("res");
+        commit_set(&out, &[("a.csv", "1")]).expect("first set");
+        let mut r = ResultDir::create(&out, "test", "--out").expect("create");
+        r.write("a.csv", b"2").expect("write");
+        // Another program (not tribo: it takes no lock) adds a file meanwhile.
+        std::fs::write(out.join("late.txt"), "late").expect("write");
+        let err = r.commit().expect_err("changed");
+        assert!(err.to_string().contains("late.txt"), "{err}");
+        assert_eq!(names(&out), [MARKER, "a.csv", "late.txt"]);
+        assert_eq!(
+            std::fs::read_to_string(out.join("a.csv")).expect("read"),
+            "1"
+        );
+        assert_eq!(names(parent.path()), [".res.lock", "res"]);
+    }
+
+    #[test]
+    fn file_names_inside_a_set_must_be_plain() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let out = parent.path().join("res");
+        let mut r = ResultDir::create(&out, "test", "--out").expect("create");
+        for bad in ["", "../x", "a/b", ".hidden", MARKER, ".."] {
+            let err = r.write(bad, b"x").expect_err(bad);
+            assert!(
+                matches!(err, OutputError::BadFileName { .. }),
+                "{bad}: {err}"
+            );
+        }
+        drop(r);
+        assert!(!out.exists());
+        assert!(!parent.path().join("x").exists());
+    }
+
+    #[test]
+    fn a_second_writer_waits_for_the_lock_and_gives_up_clearly() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let out = parent.path().join("res");
+        let held = ResultDir::create(&out, "test", "--out").expect("first writer");
+        let start = Instant::now();
+        let err = ResultDir::create_with(&out, "test", "--out", Duration::from_millis(300))
+            .err()
+            .expect("the lock is held");
+        assert!(start.elapsed() >= Duration::from_millis(300));
+        assert!(matches!(err, OutputError::Busy { .. }), "{err}");
+        assert!(err.to_string().contains(".res.lock"), "{err}");
+        // Released by the first writer, the lock is taken at once.
+        drop(held);
+        let second = ResultDir::create_with(&out, "test", "--out", Duration::ZERO);
+        assert!(second.is_ok());
+    }
+
+    #[test]
+    fn leftovers_of_killed_runs_are_removed_and_nothing_else() {
+        let parent = tempfile::tempdir().expect("temporary directory");
+        let p = parent.path();
+        // A killed run's half-written set (marked) and one killed before its marker (empty).
+        let marked = p.join(".res.Ab12Cd.tribo-tmp");
+        std::fs::create_dir(&marked).expect("mkdir");
+        std::fs::write(marked.join(MARKER), "command = \"x\"\nfiles = []\n").expect("write");
+        std::fs::write(marked.join("a.csv"), "half").expect("write");
+        let empty = p.join(".res.ZZ99zz.tribo-tmp");
+        std::fs::create_dir(&empty).expect("mkdir");
+        // Not leftovers: another result's temporary (`res.b`), an unmarked non-empty directory
+        // and a link matching the pattern, pointing at a directory that must survive.
+        let other = p.join(".res.b.Ab12Cd.tribo-tmp");
+        std::fs::create_dir(&other).expect("mkdir");
+        std::fs::write(other.join(MARKER), "command = \"x\"\nfiles = []\n").expect("write");
+        let unmarked = p.join(".res.Qq11Qq.tribo-tmp");
+        std::fs::create_dir(&unmarked).expect("mkdir");
+        std::fs::write(unmarked.join("keep.txt"), "keep").expect("write");
+        let victim = p.join("victim");
+        std::fs::create_dir(&victim).expect("mkdir");
+        std::fs::write(victim.join(MARKER), "command = \"x\"\nfiles = []\n").expect("write");
+        std::fs::write(victim.join("precious.txt"), "precious").expect("write");
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(&victim, p.join(".res.Link00.tribo-tmp")).expect("symlink");
+
+        commit_set(&p.join("res"), &[("a.csv", "1")]).expect("a run");
+        assert!(!marked.exists() && !empty.exists());
+        assert!(other.exists() && unmarked.join("keep.txt").exists());
+        assert_eq!(names(&victim), [MARKER, "precious.txt"]);
+        #[cfg(unix)]
+        assert!(std::fs::symlink_metadata(p.join(".res.Link00.tribo-tmp")).is_ok());
+    }
+
+    #[test]
+    fn temporary_names_are_recognised_exactly() {
+        assert!(is_temp_name(".res.Ab12Cd.tribo-tmp", "res"));
+        assert!(!is_temp_name(".res.b.Ab12Cd.tribo-tmp", "res"));
+        assert!(!is_temp_name(".res.Ab12C.tribo-tmp", "res"));
+        assert!(!is_temp_name(".res.Ab-2Cd.tribo-tmp", "res"));
+        assert!(!is_temp_name("res.Ab12Cd.tribo-tmp", "res"));
+        assert!(!is_temp_name(".res.lock", "res"));
     }
 }

@@ -5,7 +5,7 @@ use std::path::Path;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use crate::output::write_atomic;
+use crate::output::{OutputError, ResultDir};
 use crate::study::Comparison;
 
 type PlotResult = Result<(), Box<dyn std::error::Error>>;
@@ -27,31 +27,50 @@ fn io(e: impl std::fmt::Display) -> std::io::Error {
     std::io::Error::other(e.to_string())
 }
 
-/// Write `comparison.csv`, `comparison.json` and the SVG plots into `dir`. Every file is
-/// written under a temporary name and renamed, so a failed run leaves earlier results intact.
-pub fn write_comparison(c: &Comparison, dir: &Path) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
-    let json = serde_json::to_string_pretty(c).map_err(io)?;
-    let csv = crate::report::comparison_csv(c)?;
-    let scores = crate::report::scores_csv(c)?;
-    let validation = crate::report::validation_csv(c)?;
-    let mut svgs = vec![(
-        "torque_vs_speed.svg".to_string(),
-        svg(|s| torque_plot(c, s))?,
-    )];
+/// Write the result set of a comparison into `dir` (`compare --out`): `comparison.csv`,
+/// `scores.csv`, `validation.csv`, the SVG plots and `comparison.json`. The set is rendered
+/// into a temporary directory and swapped in whole ([`ResultDir`]), so `dir` is always the old
+/// set or the new one, and plots of law sets no longer compared disappear with the old set.
+pub fn write_comparison(c: &Comparison, dir: &Path) -> Result<(), OutputError> {
+    let mut out = ResultDir::create(dir, "compare", "--out")?;
+    out.write(
+        "comparison.csv",
+        rendered("comparison.csv", crate::report::comparison_csv(c))?.as_bytes(),
+    )?;
+    out.write(
+        "scores.csv",
+        rendered("scores.csv", crate::report::scores_csv(c))?.as_bytes(),
+    )?;
+    out.write(
+        "validation.csv",
+        rendered("validation.csv", crate::report::validation_csv(c))?.as_bytes(),
+    )?;
+    let name = "torque_vs_speed.svg";
+    out.write(name, rendered(name, svg(|s| torque_plot(c, s)))?.as_bytes())?;
     for set in &c.sets {
         let name = format!("contributions_{}.svg", set.lawset);
-        svgs.push((name, svg(|s| contributions_plot(set, s))?));
+        let text = rendered(&name, svg(|s| contributions_plot(set, s)))?;
+        out.write(&name, text.as_bytes())?;
     }
-    svgs.push(("piston_regimes.svg".into(), svg(|s| regimes_plot(c, s))?));
-    // Render everything first; only then replace files.
-    write_atomic(&dir.join("comparison.csv"), csv.as_bytes())?;
-    write_atomic(&dir.join("scores.csv"), scores.as_bytes())?;
-    write_atomic(&dir.join("validation.csv"), validation.as_bytes())?;
-    for (name, text) in &svgs {
-        write_atomic(&dir.join(name), text.as_bytes())?;
-    }
-    write_atomic(&dir.join("comparison.json"), json.as_bytes())
+    let name = "piston_regimes.svg";
+    out.write(
+        name,
+        rendered(name, svg(|s| regimes_plot(c, s)))?.as_bytes(),
+    )?;
+    let json = rendered(
+        "comparison.json",
+        serde_json::to_string_pretty(c).map_err(io),
+    )?;
+    out.write("comparison.json", json.as_bytes())?;
+    out.commit()
+}
+
+/// A rendered file's text, or the error naming the file.
+fn rendered<T>(what: &str, r: std::io::Result<T>) -> Result<T, OutputError> {
+    r.map_err(|error| OutputError::Render {
+        what: what.to_string(),
+        error,
+    })
 }
 
 fn svg(draw: impl FnOnce(&mut String) -> PlotResult) -> std::io::Result<String> {
@@ -320,9 +339,33 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
     Ok(())
 }
 
-/// Torque change against scale factor, one line per law set and speed.
-pub fn write_mass_sweep(r: &[crate::study::MassResponse], path: &Path) -> std::io::Result<()> {
-    let text = svg(|out| {
+/// Write the result set of a mass study into `dir` (`mass-response --out`):
+/// `mass_response.json`, and with `sweep_plot` (a sweep of scales) `mass_sweep.svg`, the torque
+/// change against scale factor. Swapped in whole like [`write_comparison`]. Returns the names
+/// of the files written.
+pub fn write_mass_response(
+    r: &[crate::study::MassResponse],
+    dir: &Path,
+    sweep_plot: bool,
+) -> Result<Vec<String>, OutputError> {
+    let mut out = ResultDir::create(dir, "mass-response", "--out")?;
+    let json = rendered(
+        "mass_response.json",
+        serde_json::to_string_pretty(r).map_err(io),
+    )?;
+    out.write("mass_response.json", json.as_bytes())?;
+    if sweep_plot {
+        let name = "mass_sweep.svg";
+        out.write(name, rendered(name, mass_sweep_svg(r))?.as_bytes())?;
+    }
+    let files = out.files().to_vec();
+    out.commit()?;
+    Ok(files)
+}
+
+/// Torque change against scale factor, one line per law set and speed (SVG text).
+fn mass_sweep_svg(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
+    svg(|out| {
         let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
         let all = r.iter().flat_map(|s| s.changes.iter());
         let (x0, x1) = range(all.clone().map(|c| c.scale), 0.03);
@@ -365,8 +408,7 @@ pub fn write_mass_sweep(r: &[crate::study::MassResponse], path: &Path) -> std::i
         legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         root.present()?;
         Ok(())
-    })?;
-    write_atomic(path, text.as_bytes())
+    })
 }
 
 /// How a legend entry is drawn: a line (series) or a filled box (stacked band).
@@ -502,23 +544,23 @@ fn sweep_plot(
     Ok(())
 }
 
-/// Write `sweep.csv`, `sweep.json` and `sweep_<lawset>.svg` per law set into `dir`. Everything
-/// is rendered first and each file is written under a temporary name and renamed, so a failure
-/// leaves earlier results intact. Returns the names of the files written.
-pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> std::io::Result<Vec<String>> {
-    std::fs::create_dir_all(dir)?;
-    let json = serde_json::to_string_pretty(s).map_err(io)?;
-    let csv = crate::report::sweep_csv(s).map_err(io)?;
-    let mut files = vec![("sweep.csv".to_string(), csv)];
+/// Write the result set of a sweep into `dir` (`sweep --out`): `sweep.csv`,
+/// `sweep_<lawset>.svg` per law set and `sweep.json`, swapped in whole like
+/// [`write_comparison`]. Returns the names of the files written.
+pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> Result<Vec<String>, OutputError> {
+    let mut out = ResultDir::create(dir, "sweep", "--out")?;
+    let csv = rendered("sweep.csv", crate::report::sweep_csv(s).map_err(io))?;
+    out.write("sweep.csv", csv.as_bytes())?;
     for set in &s.sets {
         let name = format!("sweep_{}.svg", file_stem(&set.lawset));
-        files.push((name, svg(|out| sweep_plot(s, set, out))?));
+        let text = rendered(&name, svg(|o| sweep_plot(s, set, o)))?;
+        out.write(&name, text.as_bytes())?;
     }
-    files.push(("sweep.json".into(), json));
-    for (name, text) in &files {
-        write_atomic(&dir.join(name), text.as_bytes())?;
-    }
-    Ok(files.into_iter().map(|(n, _)| n).collect())
+    let json = rendered("sweep.json", serde_json::to_string_pretty(s).map_err(io))?;
+    out.write("sweep.json", json.as_bytes())?;
+    let files = out.files().to_vec();
+    out.commit()?;
+    Ok(files)
 }
 
 #[cfg(test)]

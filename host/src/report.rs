@@ -73,10 +73,11 @@ pub fn to_text(r: &RunResult) -> String {
 }
 
 /// `plateaus.csv` (one row per plateau) and `joints.csv` (one row per plateau and joint) in
-/// `dir`, through the `csv` writer so a law name with a comma or quote stays one field. Numbers
-/// are in Rust's shortest round-trip form, as in the JSON.
-pub fn write_csv(r: &RunResult, dir: &Path) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
+/// `dir` (`run --csv`), through the `csv` writer so a law name with a comma or quote stays one
+/// field. Numbers are in Rust's shortest round-trip form, as in the JSON. The two files are
+/// swapped in together ([`crate::output::ResultDir`]): `dir` never holds one old and one new.
+pub fn write_csv(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputError> {
+    let mut out = crate::output::ResultDir::create(dir, "run", "--csv")?;
     let plateaus = r
         .plateaus
         .iter()
@@ -93,8 +94,9 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> std::io::Result<()> {
             ]
         })
         .collect();
-    let p = csv_text(&PLATEAUS_CSV_HEADER, plateaus)?;
-    crate::output::write_atomic(&dir.join("plateaus.csv"), p.as_bytes())?;
+    let p = csv_text(&PLATEAUS_CSV_HEADER, plateaus)
+        .map_err(|source| render("plateaus.csv", source))?;
+    out.write("plateaus.csv", p.as_bytes())?;
     let mut joints = Vec::new();
     for x in &r.plateaus {
         for l in &x.joints {
@@ -113,8 +115,17 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> std::io::Result<()> {
             ]);
         }
     }
-    let j = csv_text(&JOINTS_CSV_HEADER, joints)?;
-    crate::output::write_atomic(&dir.join("joints.csv"), j.as_bytes())
+    let j = csv_text(&JOINTS_CSV_HEADER, joints).map_err(|source| render("joints.csv", source))?;
+    out.write("joints.csv", j.as_bytes())?;
+    out.commit()
+}
+
+/// A table that could not be rendered, naming the file.
+fn render(what: &str, error: std::io::Error) -> crate::output::OutputError {
+    crate::output::OutputError::Render {
+        what: what.to_string(),
+        error,
+    }
 }
 
 /// The columns of `plateaus.csv`.

@@ -1,6 +1,6 @@
-//! Result files are written under a temporary name and renamed into place: a run that fails
-//! midway, or a result that cannot be renamed into place, leaves the previous file as it was and
-//! no temporary file behind.
+//! Result files are written under a temporary name and renamed into place, result directories
+//! are swapped in whole: a run that fails midway, or a result that cannot be put in place,
+//! leaves the previous results as they were and no temporary file behind.
 
 use std::path::Path;
 use std::process::Command;
@@ -45,11 +45,13 @@ fn a_run_failing_midway_leaves_the_previous_time_series_and_no_temporary_file() 
 }
 
 #[test]
-fn a_result_that_cannot_be_renamed_into_place_leaves_no_temporary_file() {
+fn a_csv_directory_holding_other_files_is_refused_untouched_and_no_temporary_file_remains() {
+    // Before result sets were committed whole, `plateaus.csv` was renamed into place and then
+    // `joints.csv` (here a non-empty directory) failed: half a new set beside an old one. Now
+    // a directory holding files tribo did not write is refused before anything is written.
     ensure_plugins_built();
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("csv");
-    // joints.csv is a non-empty directory: writing its data succeeds, the rename cannot.
     let blocker = out.join("joints.csv");
     std::fs::create_dir_all(&blocker).expect("mkdir");
     std::fs::write(blocker.join("kept.txt"), "kept").expect("write");
@@ -64,9 +66,69 @@ fn a_result_that_cannot_be_renamed_into_place_leaves_no_temporary_file() {
     let (_, stderr) = text(&run);
     assert_eq!(run.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("writing CSV into"), "{stderr}");
-    assert_eq!(names(&out), ["joints.csv", "plateaus.csv"]);
+    assert!(
+        stderr.contains("holds files tribo did not write (joints.csv)"),
+        "{stderr}"
+    );
+    assert_eq!(names(&out), ["joints.csv"]);
+    assert_eq!(
+        names(dir.path()),
+        ["csv"],
+        "no temporary or lock file beside it"
+    );
     assert_eq!(
         std::fs::read_to_string(blocker.join("kept.txt")).expect("kept"),
         "kept"
     );
+}
+
+#[test]
+fn run_csv_replaces_both_tables_together() {
+    // A second `run --csv` into the same directory replaces the pair whole: both tables of
+    // every run are of that run's plateau speed.
+    ensure_plugins_built();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("csv");
+    for speed in [3000.0, 4000.0] {
+        let cycle = format!(
+            "cycle.segments=[{{kind=\"ramp\", to_rpm={speed}, duration_s=0.3}}, {{kind=\"hold\", duration_s=0.3}}]"
+        );
+        let run = Command::new(tribo_exe())
+            .args([
+                "run",
+                "reference-frictionless",
+                "--quiet",
+                "--lawset",
+                "fedem-baseline",
+            ])
+            .args(["--set", &cycle, "--csv"])
+            .arg(&out)
+            .env_remove("TRIBO_PLUGIN_PATH")
+            .output()
+            .expect("tribo runs");
+        assert!(run.status.success(), "{}", text(&run).1);
+        for table in ["plateaus.csv", "joints.csv"] {
+            let t = std::fs::read_to_string(out.join(table)).expect("table");
+            let speeds: Vec<f64> = t
+                .lines()
+                .skip(1)
+                .map(|l| {
+                    l.split(',')
+                        .next()
+                        .and_then(|v| v.parse().ok())
+                        .expect("speed")
+                })
+                .collect();
+            assert!(!speeds.is_empty(), "{table}: {t}");
+            assert!(
+                speeds.iter().all(|s| (s - speed).abs() < 1e-6),
+                "{table} after the {speed} rpm run: {speeds:?}"
+            );
+        }
+    }
+    assert_eq!(
+        names(&out),
+        [".tribo-results", "joints.csv", "plateaus.csv"]
+    );
+    assert_eq!(names(dir.path()), [".csv.lock", "csv"]);
 }

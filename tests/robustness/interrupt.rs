@@ -1,5 +1,6 @@
 //! A compare killed midway (SIGINT, SIGKILL) leaves the previous results untouched and no
-//! partial file under their names: results are written to temporary files and renamed.
+//! partial file under their names: a result set is rendered into a temporary directory and
+//! swapped in whole (kills inside the write phase itself: `commit.rs`).
 
 use std::process::Command;
 use std::time::Duration;

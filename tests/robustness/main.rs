@@ -3,6 +3,7 @@
 //! (file, line, field, law, joint: whatever the user needs to fix it).
 
 mod atomic;
+mod commit;
 #[path = "../common/mod.rs"]
 mod common;
 mod fuzz;

@@ -271,6 +271,12 @@ mod unsafe_unix {
     }
 
     pub(super) fn limit_resources(memory_mb: u64) {
+        // A worker dies with its parent: a killed `tribo` leaves no study running on.
+        #[cfg(target_os = "linux")]
+        // SAFETY: prctl(PR_SET_PDEATHSIG) takes a signal number; failure leaves it off.
+        unsafe {
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
+        }
         // SAFETY: setrlimit with valid structures; failure only leaves the limit off.
         unsafe {
             let none = libc::rlimit {

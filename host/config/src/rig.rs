@@ -169,7 +169,11 @@ impl Rig {
                 (
                     file.path.clone(),
                     at(file, &paths),
-                    format!("laws[{entry}] (joint {joint}, law {law})"),
+                    if law.is_empty() {
+                        format!("laws[{entry}] (joint {joint})")
+                    } else {
+                        format!("laws[{entry}] (joint {joint}, law {law})")
+                    },
                 )
             }
             LawOrigin::Arg {

@@ -271,8 +271,14 @@ pub fn parse_data(path: &Path, text: &str) -> Result<Vec<DataRow>, StudyError> {
         return Err(err(None, "no data rows".into()));
     }
     rows.sort_by(|a, b| a.speed_rpm.total_cmp(&b.speed_rpm));
-    if rows.windows(2).any(|w| w[0].speed_rpm == w[1].speed_rpm) {
-        return Err(err(None, "two rows have the same speed".into()));
+    if let Some(w) = rows.windows(2).find(|w| w[0].speed_rpm == w[1].speed_rpm) {
+        return Err(err(
+            None,
+            format!(
+                "two rows have the same speed ({} rpm); give each speed once",
+                readable(w[0].speed_rpm)
+            ),
+        ));
     }
     Ok(rows)
 }

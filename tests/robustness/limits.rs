@@ -76,6 +76,11 @@ fn absurd_speeds_steps_and_torques_fail_fast_with_the_allowed_range() {
             vec!["t.csv:2", "torque_nm", "1e308", "10000 N m", "tens of N m"],
         ),
         (
+            "data: a torque of 1e400 (a number, but not a double)",
+            compare(data(d, "t400.csv", "3000,1e400,80\n")),
+            vec!["t400.csv:2", "torque_nm", "`1e400` is not a finite number"],
+        ),
+        (
             "data: oil at 400 C",
             compare(data(d, "oil.csv", "3000,1.0,400\n")),
             vec!["oil.csv:2", "oil_temp_c", "400", "[-20, 160] C"],

@@ -246,18 +246,16 @@ pub fn parse_data(path: &Path, text: &str) -> Result<Vec<DataRow>, StudyError> {
         let line = rec.position().map(|p| p.line());
         let num = |i: usize, name: &str| -> Result<f64, StudyError> {
             let cell = rec.get(i).unwrap_or("");
-            cell.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| {
-                    err(
-                        line,
-                        format!(
-                            "column `{name}` (column {}): `{cell}` is not a number",
-                            i + 1
-                        ),
-                    )
-                })
+            let what = match cell.parse::<f64>() {
+                Ok(x) if x.is_finite() => return Ok(x),
+                // `1e400`, `inf`, `NaN`: numbers, but none a measurement can be.
+                Ok(_) => "is not a finite number",
+                Err(_) => "is not a number",
+            };
+            Err(err(
+                line,
+                format!("column `{name}` (column {}): `{cell}` {what}", i + 1),
+            ))
         };
         let row = DataRow {
             speed_rpm: num(cs, "speed_rpm")?,

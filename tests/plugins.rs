@@ -571,7 +571,11 @@ fn tribo_run_refuses_a_huge_state_and_an_undefined_regime_with_exit_1() {
     for (law, needles) in [
         (
             "fixture-huge-state",
-            vec!["joints.piston.laws", "fixture-huge-state", huge.as_str()],
+            vec![
+                "--law: piston=fixture-huge-state",
+                "fixture-huge-state",
+                huge.as_str(),
+            ],
         ),
         (
             "fixture-bad-regime",

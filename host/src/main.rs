@@ -1111,10 +1111,11 @@ fn read_data_runs(names: &[String]) -> anyhow::Result<Vec<tribo::study::DataRun>
 }
 
 /// Standard output could not be written (a closed pipe, a full disk). Kept apart from other
-/// I/O errors so `main` can end quietly on a reader that went away.
+/// I/O errors so `main` can end quietly on a reader that went away. The I/O error is part of
+/// the message and not also its source, which the error chain would print a second time.
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write the results to standard output: {0}")]
-struct StdoutError(#[source] std::io::Error);
+struct StdoutError(std::io::Error);
 
 /// Where results go: the real standard output, taken at start-up (standard output itself then
 /// points at standard error, so text a law prints cannot mix with the results).

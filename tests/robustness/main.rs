@@ -124,11 +124,25 @@ fn cases() -> Vec<Case> {
                 args(&["run", "crf250r-motored", "--lawset", &ls])
             },
             code: 1,
+            // At the law-set file's line and column and entry, not at a rig path.
             words: &[
-                "polyline-damper",
-                "speeds_rad_s",
+                "ls.toml:5:27",
+                "laws[0] (joint main_a, law polyline-damper)",
+                "parameter `speeds_rad_s`",
                 "strictly increasing",
-                "joints.main_a.laws[0].params",
+            ],
+        },
+        Case {
+            name: "law set: a misspelled parameter, at its file:line:column and entry",
+            setup: |d| {
+                let ls = write(d, "ls.toml", "name = \"x\"\n[[laws]]\njoint = \"main_a\"\nlaw = \"coulomb\"\n[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\n[laws.params]\nmu = 0.1\nmuu = 0.1\n");
+                args(&["run", "crf250r-motored", "--lawset", &ls])
+            },
+            code: 1,
+            words: &[
+                "ls.toml:10:7",
+                "laws[1] (joint piston, law coulomb): parameter `muu`: unknown parameter",
+                "expected one of: mu,",
             ],
         },
         Case {
@@ -167,7 +181,20 @@ fn cases() -> Vec<Case> {
                 ])
             },
             code: 1,
-            words: &["`mu`", "12", "[0, 10]", "joints.piston.laws[0].params"],
+            // At the parameter file's line and column, with the `--law` argument.
+            words: &[
+                "p.toml:1:6",
+                "--law piston=coulomb:",
+                "law `coulomb`, parameter `mu`",
+                "12",
+                "[0, 10]",
+            ],
+        },
+        Case {
+            name: "law: unknown law given by --law",
+            setup: |_| args(&["run", "crf250r-motored", "--law", "piston=nope"]),
+            code: 1,
+            words: &["--law: piston=nope: no law named `nope`"],
         },
         Case {
             name: "data: missing column",
@@ -347,7 +374,7 @@ fn cases() -> Vec<Case> {
                 "fixture-panic",
                 "create",
                 "panic in create",
-                "joints.piston.laws[0].params",
+                "p.toml: --law piston=fixture-panic:",
             ],
         },
         Case {
@@ -396,6 +423,34 @@ fn cases() -> Vec<Case> {
             setup: |d| misbehaving(d, 2),
             code: 1,
             words: &["fixture-misbehaving", "non-finite force (inf)"],
+        },
+        Case {
+            name: "plugin: a C law returning a force of 1e300",
+            setup: |d| {
+                let lib = d.join("libhugeforce.so");
+                compile_c(&[c_fixture("huge_force.c")], &lib, true);
+                let rig = workspace().join("rigs/reference-frictionless.toml");
+                args(&[
+                    "--plugin",
+                    &lib.to_string_lossy(),
+                    "run",
+                    &rig.to_string_lossy(),
+                    "--law",
+                    "piston=fixture-huge-force",
+                    "--set",
+                    SHORT,
+                    "--quiet",
+                ])
+            },
+            code: 1,
+            words: &[
+                "joint `piston`",
+                "law `fixture-huge-force`",
+                "libhugeforce.so",
+                "returned a force of 1e300 N at t = ",
+                "more than 1e6 times the largest joint reaction",
+                "so at most",
+            ],
         },
         Case {
             name: "plugin: stateless law adds energy",
@@ -484,6 +539,29 @@ fn cases() -> Vec<Case> {
     ]
 }
 
+/// What is wrong with a failure's standard error `stderr` for the arguments `args`: not one
+/// `error:` line; a part of the message (between `: `) said twice ("X: X"); `--set` blamed
+/// when no `--set` was given.
+fn message_problems(stderr: &str, args: &[String]) -> Vec<String> {
+    let mut problems = Vec::new();
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    if errors.len() != 1 {
+        problems.push(format!("{} `error:` lines, expected one", errors.len()));
+    }
+    for line in errors {
+        let parts: Vec<&str> = line.split(": ").map(str::trim).collect();
+        for (i, p) in parts.iter().enumerate() {
+            if p.len() >= 12 && parts[i + 1..].contains(p) {
+                problems.push(format!("`{p}` said twice"));
+            }
+        }
+        if line.contains("--set") && !args.iter().any(|a| a == "--set") {
+            problems.push("blames `--set`, which was not given".into());
+        }
+    }
+    problems
+}
+
 #[test]
 fn every_failure_ends_with_a_message_that_says_what_to_fix() {
     ensure_plugins_built();
@@ -515,6 +593,9 @@ fn every_failure_ends_with_a_message_that_says_what_to_fix() {
                 problems.push(format!("missing `{w}`"));
             }
         }
+        if case.code == 1 {
+            problems.extend(message_problems(&stderr, &a));
+        }
         if !problems.is_empty() {
             failures.push(format!(
                 "{}: {}\n--- stderr:\n{}",
@@ -530,4 +611,79 @@ fn every_failure_ends_with_a_message_that_says_what_to_fix() {
         failures.len(),
         failures.join("\n")
     );
+}
+
+#[test]
+fn a_full_standard_output_is_reported_once() {
+    // The I/O error was printed twice ("...: No space left on device: No space left on
+    // device"): once in the message and once as its cause.
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .expect("/dev/full opens");
+    let out = Command::new(tribo_exe())
+        .arg("laws")
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .stdout(full)
+        .output()
+        .expect("tribo runs");
+    let (_, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(
+        stderr.matches("No space left on device").count(),
+        1,
+        "{stderr}"
+    );
+    assert!(message_problems(&stderr, &[]).is_empty(), "{stderr}");
+}
+
+#[test]
+fn a_law_returning_1e300_fails_its_compare_naming_the_law_and_writes_nothing() {
+    // Issue 15: such a law exited 0 with an RMSE of null.
+    ensure_plugins_built();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let lib = d.join("libhugeforce.so");
+    compile_c(&[c_fixture("huge_force.c")], &lib, true);
+    let ls = write(
+        d,
+        "huge.toml",
+        "name = \"huge\"\n[[laws]]\njoint = \"big_end\"\nlaw = \"fixture-huge-force\"\n",
+    );
+    let out = tribo_in(
+        &[
+            "--plugin",
+            &lib.to_string_lossy(),
+            "compare",
+            "--steady",
+            "--no-cv",
+            "--lawset",
+            "fedem-baseline",
+            "--lawset",
+            &ls,
+            "--out",
+            "o",
+            "--quiet",
+        ],
+        d,
+    );
+    let (stdout, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stdout}{stderr}");
+    assert_mentions(
+        &stderr,
+        &[
+            "law set `huge`",
+            "joint `big_end`",
+            "law `fixture-huge-force`",
+            "libhugeforce.so",
+            "a torque of 1e300 N m",
+            "more than 1e6 times the largest joint reaction",
+        ],
+    );
+    assert!(message_problems(&stderr, &[]).is_empty(), "{stderr}");
+    assert!(stdout.is_empty(), "{stdout}");
+    let written: Vec<_> = std::fs::read_dir(d.join("o"))
+        .map(|r| r.flatten().map(|e| e.file_name()).collect())
+        .unwrap_or_default();
+    assert!(written.is_empty(), "results written: {written:?}");
 }

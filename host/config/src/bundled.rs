@@ -105,3 +105,8 @@ pub fn lawset_names() -> Vec<&'static str> {
         .map(|(n, _)| n.trim_end_matches(".toml"))
         .collect()
 }
+
+/// Names of the bundled data files, for messages.
+pub fn data_names() -> Vec<&'static str> {
+    DATA.iter().map(|(n, _)| *n).collect()
+}

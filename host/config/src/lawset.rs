@@ -3,12 +3,16 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::loader::LawRegistry;
 use tribo_plugin_api::ParamValue;
 
-use crate::rig::{line_col, LawRef, Rig, RigError, JOINT_NAMES};
+use crate::files::read_text;
+use crate::rig::{
+    file_error, line_col, LawArg, LawOrigin, LawRef, Rig, RigError, Source, JOINT_NAMES,
+};
 
 /// A law-set file as written.
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -63,7 +67,11 @@ pub struct LawSet {
     pub file: LawSetFile,
     /// Where it came from.
     pub path: PathBuf,
-    text: String,
+    /// The file's path and text, for locating errors.
+    source: Arc<Source>,
+    /// Where each entry of `file.laws` came from when not from the file: the `--law`
+    /// arguments added by [`LawSet::add_law_args`] (`None`: an entry of the file).
+    arg_origins: Vec<Option<LawOrigin>>,
 }
 
 /// A calibration parameter: `JOINT.LAW.PARAM`.
@@ -146,10 +154,14 @@ impl LawSet {
     /// ```
     pub fn load(arg: &str) -> Result<Self, RigError> {
         let path = PathBuf::from(arg);
-        let (path, text) = match std::fs::read_to_string(&path) {
+        let (path, text) = match read_text(&path) {
             Ok(t) => (path, t),
+            Err(e) if !e.is_not_found() => return Err(file_error(&path, "law-set file", &e)),
             Err(e) => match crate::bundled::lawset(arg) {
-                Some(t) => (PathBuf::from(format!("<bundled>/{}.toml", arg.trim_end_matches(".toml"))), t.to_string()),
+                Some(t) => (
+                    PathBuf::from(format!("<bundled>/{}.toml", arg.trim_end_matches(".toml"))),
+                    t.to_string(),
+                ),
                 None => {
                     return Err(RigError {
                         file: path,
@@ -157,7 +169,7 @@ impl LawSet {
                         column: None,
                         field: "(file)".into(),
                         message: format!(
-                            "cannot read the law set ({e}), and no bundled law set has that name; bundled: {}",
+                            "{e}, and no bundled law set has that name; bundled: {}",
                             crate::bundled::lawset_names().join(", ")
                         ),
                     })
@@ -193,7 +205,11 @@ impl LawSet {
         let set = Self {
             file,
             path: path.to_path_buf(),
-            text: text.to_string(),
+            source: Arc::new(Source {
+                path: path.to_path_buf(),
+                text: text.to_string(),
+            }),
+            arg_origins: Vec::new(),
         };
         for (i, e) in set.file.laws.iter().enumerate() {
             if !JOINT_NAMES.contains(&e.joint.as_str()) {
@@ -225,7 +241,9 @@ impl LawSet {
     /// Add `--law JOINT=LAW[:PARAMS.toml]` arguments to the set (a user's law beside the set's).
     pub fn add_law_args(&mut self, args: &[String]) -> Result<(), RigError> {
         for arg in args {
-            let (joint, law) = crate::rig::parse_law_arg(arg)?;
+            let LawArg { joint, law, origin } = crate::rig::parse_law_arg(arg)?;
+            self.arg_origins.resize(self.file.laws.len(), None);
+            self.arg_origins.push(Some(origin));
             self.file.laws.push(LawEntry {
                 joint,
                 law: law.law,
@@ -251,22 +269,34 @@ impl LawSet {
         &self.file.name
     }
 
-    /// Replace every law of `rig` with this set's laws.
+    /// Replace every law of `rig` with this set's laws. Each law remembers its entry (or
+    /// `--law` argument), so an error about it is reported there ([`Rig::error`]).
     pub fn apply(&self, rig: &mut Rig) {
         for name in JOINT_NAMES {
             if let Some(j) = rig.file.joints.get_mut(name) {
                 j.laws.clear();
             }
         }
-        for e in &self.file.laws {
+        rig.law_origins.clear();
+        for (i, e) in self.file.laws.iter().enumerate() {
             if let Some(j) = rig.file.joints.get_mut(&e.joint) {
+                let origin = self
+                    .arg_origins
+                    .get(i)
+                    .cloned()
+                    .flatten()
+                    .unwrap_or_else(|| LawOrigin::LawSet {
+                        file: self.source.clone(),
+                        entry: i,
+                    });
+                rig.law_origins
+                    .insert((e.joint.clone(), j.laws.len()), origin);
                 j.laws.push(LawRef {
                     law: e.law.clone(),
                     params: e.params.clone(),
                 });
             }
         }
-        rig.overridden.push("joints".into());
     }
 
     /// Free parameters: those marked in the file, or `ids` (`joint.law.param`) with bounds from
@@ -294,7 +324,7 @@ impl LawSet {
 
     /// An error about `field` of this law set, located in its text.
     fn error(&self, field: &str, message: String) -> RigError {
-        error(&self.path, &self.text, field, message)
+        error(&self.source.path, &self.source.text, field, message)
     }
 
     /// The parameters asked for, as (law entry, parameter, bounds from the file): those marked

@@ -1,12 +1,16 @@
 //! Rig files: the TOML description of a motored rig, its overrides (`--set`), and validation
 //! with errors that name the file, line, column and field.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use tribo_core::cycle::Segment;
 use tribo_core::oil::{ViscosityModel, VALID_RANGE_C};
 use tribo_core::sim::{SimError, Simulation};
 use tribo_plugin_api::loader::LawRegistry;
+
+use crate::files::{read_text, ReadError};
 
 pub use tribo_core::model::*;
 
@@ -85,6 +89,26 @@ pub struct Source {
     pub text: String,
 }
 
+/// Where a law on a joint was attached when not by the rig file itself, so that an error about
+/// it (an unknown law, a misspelled or out-of-range parameter) is reported there.
+#[derive(Debug, Clone)]
+pub enum LawOrigin {
+    /// Entry `entry` (0-based) of the `[[laws]]` of a law-set file.
+    LawSet {
+        /// The law-set file and its text.
+        file: Arc<Source>,
+        /// Index of the entry in the file's `laws`.
+        entry: usize,
+    },
+    /// A `--law JOINT=LAW[:PARAMS.toml]` argument, with its parameter file if it names one.
+    Arg {
+        /// The argument as given.
+        arg: String,
+        /// The parameter file and its text.
+        params: Option<Arc<Source>>,
+    },
+}
+
 /// A rig loaded and checked: the merged content plus where it came from.
 #[derive(Debug, Clone)]
 pub struct Rig {
@@ -94,6 +118,9 @@ pub struct Rig {
     pub sources: Vec<Source>,
     /// Dotted paths changed by `--set` or `--law`.
     pub overridden: Vec<String>,
+    /// The laws attached by a law set or `--law`, by (joint, index in the joint's laws);
+    /// every other law is the rig file's own.
+    pub law_origins: BTreeMap<(String, usize), LawOrigin>,
 }
 
 impl Rig {
@@ -102,9 +129,69 @@ impl Rig {
         &self.sources[0].path
     }
 
-    /// An error about `field`, located in the file that sets it (or attributed to `--set`).
+    /// An error about `field`, located in the file that sets it (or attributed to `--set`); a
+    /// field of a law attached by a law set or `--law` is located there.
     pub fn error(&self, field: &str, message: impl Into<String>) -> RigError {
-        field_error(&self.sources, &self.overridden, field, message.into())
+        let message = message.into();
+        match self.law_error(field, None, &message) {
+            Some(e) => e,
+            None => field_error(&self.sources, &self.overridden, field, message),
+        }
+    }
+
+    /// An error about `field` of a law (`joints.J.laws[k]...`) with parameter `param`, if the
+    /// law was attached by a law set or `--law`: at the law-set entry (`FILE:line:column`,
+    /// field `laws[i] (joint J, law L)`), or at the parameter file of the `--law` argument
+    /// (field `--law ARG`), or at `--law` itself. `None` for the rig file's own laws.
+    fn law_error(&self, field: &str, param: Option<&str>, message: &str) -> Option<RigError> {
+        let (joint, k, rest) = law_field(field)?;
+        let origin = self.law_origins.get(&(joint.to_string(), k))?;
+        let law = self
+            .file
+            .joints
+            .named()
+            .into_iter()
+            .find(|(name, _)| *name == joint)
+            .and_then(|(_, j)| j.laws.get(k))
+            .map_or("", |l| l.law.as_str());
+        let at = |src: &Source, paths: &[String]| {
+            paths
+                .iter()
+                .find_map(|p| locate(&src.text, p))
+                .map(|span| line_col(&src.text, span.start))
+        };
+        let (file, at, field) = match origin {
+            LawOrigin::LawSet { file, entry } => {
+                let path = format!("laws[{entry}]{rest}");
+                let mut paths: Vec<String> =
+                    param.map(|p| format!("{path}.{p}")).into_iter().collect();
+                paths.extend([path, format!("laws[{entry}].law")]);
+                (
+                    file.path.clone(),
+                    at(file, &paths),
+                    if law.is_empty() {
+                        format!("laws[{entry}] (joint {joint})")
+                    } else {
+                        format!("laws[{entry}] (joint {joint}, law {law})")
+                    },
+                )
+            }
+            LawOrigin::Arg {
+                arg,
+                params: Some(src),
+            } => {
+                let paths: Vec<String> = param.map(str::to_string).into_iter().collect();
+                (src.path.clone(), at(src, &paths), format!("--law {arg}"))
+            }
+            LawOrigin::Arg { arg, params: None } => (PathBuf::from("--law"), None, arg.clone()),
+        };
+        Some(RigError {
+            file,
+            line: at.map(|a| a.0),
+            column: at.map(|a| a.1),
+            field,
+            message: message.to_string(),
+        })
     }
 
     /// The plain model the solver core consumes.
@@ -130,10 +217,11 @@ impl Rig {
 /// // No friction: the mean motoring torque of every plateau is zero.
 /// assert!(result.plateaus.iter().all(|p| p.motoring_torque_nm.abs() < 1e-6));
 ///
-/// // A law the registry does not have is reported where it was attached.
+/// // A law the registry does not have is reported where it was attached: here the `--law`
+/// // argument (a law set's would be at its file, line and column).
 /// attach_laws(&mut rig, &["piston=coulomb".into()])?;
 /// let err = simulation(&rig, &registry).err().expect("no such law loaded");
-/// assert!(err.to_string().contains("joints.piston.laws"), "{err}");
+/// assert!(err.to_string().starts_with("--law: piston=coulomb: no law named `coulomb`"), "{err}");
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimError> {
@@ -141,17 +229,44 @@ pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimEr
         SimError::Setup {
             at: None,
             field,
+            law,
+            param,
             message,
         } => {
-            let located = rig.error(&field, message);
+            if let Some(located) = rig.law_error(&field, param.as_deref(), &message) {
+                // A law-set entry names its law in the field; a `--law` argument does too.
+                let from_lawset = located.field.starts_with("laws[");
+                return SimError::Setup {
+                    at: Some(location(&located.file, located.line, located.column)),
+                    field: located.field,
+                    law: law.filter(|_| !from_lawset),
+                    param,
+                    message,
+                };
+            }
+            // The rig file's own law: at the parameter if the file gives it, else the field.
+            let located = param
+                .as_deref()
+                .map(|p| rig.error(&format!("{field}.{p}"), String::new()))
+                .filter(|e| e.line.is_some())
+                .unwrap_or_else(|| rig.error(&field, String::new()));
             SimError::Setup {
                 at: Some(location(&located.file, located.line, located.column)),
-                field: located.field,
-                message: located.message,
+                field,
+                law,
+                param,
+                message,
             }
         }
         other => other,
     })
+}
+
+/// `joints.J.laws[k]REST` split into the joint, the index and the rest (`.params`, `.law`).
+fn law_field(field: &str) -> Option<(&str, usize, &str)> {
+    let (joint, rest) = field.strip_prefix("joints.")?.split_once(".laws[")?;
+    let (k, rest) = rest.split_once(']')?;
+    Some((joint, k.parse().ok()?, rest))
 }
 
 fn field_error(
@@ -210,11 +325,22 @@ fn apply_set(table: &mut toml::Table, assignment: &str) -> Result<String, RigErr
         )
     })?;
     let key = key.trim();
-    let value: toml::Value = format!("v = {value}")
+    let parsed = format!("v = {value}")
         .parse::<toml::Table>()
         .ok()
-        .and_then(|mut t| t.remove("v"))
-        .unwrap_or_else(|| toml::Value::String(value.trim().to_string()));
+        .and_then(|mut t| t.remove("v"));
+    // A number too large for a double (`1e400`) is not valid TOML; it is a number out of
+    // range, not a string.
+    if parsed.is_none() && value.trim().parse::<f64>().is_ok_and(|x| !x.is_finite()) {
+        return Err(err(
+            key,
+            format!(
+                "{} is not a finite number (the largest is about 1.8e308)",
+                value.trim()
+            ),
+        ));
+    }
+    let value = parsed.unwrap_or_else(|| toml::Value::String(value.trim().to_string()));
     let parts: Vec<&str> = key.split('.').collect();
     let (last, parents) = parts
         .split_last()
@@ -355,17 +481,21 @@ fn forget_oil_description(table: &mut toml::Table) {
 }
 
 /// Find the text of a rig named by `extends` in `from`: next to it on disk, else bundled.
-fn resolve_extends(from: &Path, name: &str) -> Option<Source> {
+/// `Ok(None)` if neither exists; a file that exists but cannot be read (a directory, a device,
+/// too large) is an error, not a reason to look among the bundled rigs.
+fn resolve_extends(from: &Path, name: &str) -> Result<Option<Source>, (PathBuf, ReadError)> {
     if let Some(dir) = from.parent() {
         let path = dir.join(name);
-        if let Ok(text) = std::fs::read_to_string(&path) {
-            return Some(Source { path, text });
+        match read_text(&path) {
+            Ok(text) => return Ok(Some(Source { path, text })),
+            Err(e) if e.is_not_found() => {}
+            Err(e) => return Err((path, e)),
         }
     }
-    crate::bundled::rig(name).map(|text| Source {
+    Ok(crate::bundled::rig(name).map(|text| Source {
         path: PathBuf::from(format!("<bundled>/{name}")),
         text: text.to_string(),
-    })
+    }))
 }
 
 /// Load a rig from `text` (named `path` in messages), resolve `extends`, apply `--set`
@@ -400,6 +530,7 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         file,
         sources,
         overridden,
+        law_origins: BTreeMap::new(),
     };
     validate(&rig)?;
     Ok(rig)
@@ -437,17 +568,26 @@ fn read_extends_chain(
                 "more than 8 levels of `extends`: is there a cycle?".into(),
             ));
         }
-        let base = resolve_extends(&from, name).ok_or_else(|| {
-            field_error(
-                &sources,
-                &[],
-                "extends",
-                format!(
-                    "cannot find `{name}` next to `{}` or among the bundled rigs",
-                    from.display()
-                ),
-            )
-        })?;
+        let base = resolve_extends(&from, name)
+            .map_err(|(path, e)| {
+                field_error(
+                    &sources,
+                    &[],
+                    "extends",
+                    format!("the rig to extend, `{}`, {e}", path.display()),
+                )
+            })?
+            .ok_or_else(|| {
+                field_error(
+                    &sources,
+                    &[],
+                    "extends",
+                    format!(
+                        "cannot find `{name}` next to `{}` or among the bundled rigs",
+                        from.display()
+                    ),
+                )
+            })?;
         tables.push(parse(&base)?);
         sources.push(base);
     }
@@ -512,14 +652,19 @@ fn apply_sets(table: &mut toml::Table, sets: &[String]) -> Result<Vec<String>, R
 /// # Ok::<(), tribo_config::rig::RigError>(())
 /// ```
 pub fn load_rig(path: &Path, sets: &[String]) -> Result<Rig, RigError> {
-    match std::fs::read_to_string(path) {
+    match read_text(path) {
         Ok(text) => load_rig_text(path, &text, sets),
+        Err(e) if !e.is_not_found() => Err(file_error(path, "rig file", &e)),
         Err(e) => {
             let name = path.to_string_lossy();
             match crate::bundled::rig(&name) {
                 Some(text) => {
                     let file = crate::bundled::file_name(&name);
-                    let file = if file.ends_with(".toml") { file } else { format!("{file}.toml") };
+                    let file = if file.ends_with(".toml") {
+                        file
+                    } else {
+                        format!("{file}.toml")
+                    };
                     load_rig_text(&PathBuf::from(format!("<bundled>/{file}")), text, sets)
                 }
                 None => Err(RigError {
@@ -527,10 +672,24 @@ pub fn load_rig(path: &Path, sets: &[String]) -> Result<Rig, RigError> {
                     line: None,
                     column: None,
                     field: "(file)".into(),
-                    message: format!("cannot read the rig file ({e}), and no bundled rig has that name; bundled: {}", crate::bundled::rig_names().join(", ")),
+                    message: format!(
+                        "{e}, and no bundled rig has that name; bundled: {}",
+                        crate::bundled::rig_names().join(", ")
+                    ),
                 }),
             }
         }
+    }
+}
+
+/// An error about the file at `path` as a whole: the `what` (e.g. `rig file`) cannot be read.
+pub fn file_error(path: &Path, what: &str, e: &ReadError) -> RigError {
+    RigError {
+        file: path.to_path_buf(),
+        line: None,
+        column: None,
+        field: "(file)".into(),
+        message: format!("the {what} {e}"),
     }
 }
 
@@ -539,15 +698,7 @@ pub fn revalidate(rig: &Rig) -> Result<(), Box<RigError>> {
     validate(rig).map_err(Box::new)
 }
 
-/// A number as a person reads it in a message: `1e308` and `1e-9` rather than hundreds of
-/// digits, ordinary numbers as they are.
-pub fn readable(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && !(1e-3..1e6).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
-}
+pub use tribo_core::sim::readable;
 
 /// The highest speed a test cycle may reach, rpm.
 pub const MAX_SPEED_RPM: f64 = 30_000.0;
@@ -557,6 +708,24 @@ pub const MAX_CYCLE_S: f64 = 3600.0;
 pub const STEP_DEG_RANGE: (f64, f64) = (0.01, 10.0);
 /// The allowed range of `solver.max_step_deg`, degrees.
 pub const MAX_STEP_DEG_RANGE: (f64, f64) = (0.1, 90.0);
+/// The heaviest body (and crank unbalance mass) a rig may have, kg: an engine's crankshaft is a
+/// few kg, a large single cylinder's tens; ten tonnes admits any test rig, while `1e308` would
+/// overflow the inertia forces into infinities.
+pub const MAX_MASS_KG: f64 = 1e4;
+/// The largest moment of inertia (bodies, drive motor), kg m^2.
+pub const MAX_INERTIA_KG_M2: f64 = 1e4;
+/// The longest length (crank radius, bore, rod, unbalance radius, joint contact radius and
+/// length), m.
+pub const MAX_LENGTH_M: f64 = 10.0;
+/// The largest mass or inertia scale factor (the lighter-rod study scales by about 0.6).
+pub const MAX_SCALE: f64 = 1e3;
+/// The densest oil accepted, kg/m^3 (engine oils are about 850).
+pub const MAX_DENSITY_KG_M3: f64 = 2e4;
+/// The most viscous oil accepted at any of the rig's temperatures, cSt (a cold 10W-50 is a
+/// few thousand).
+pub const MAX_VISCOSITY_CST: f64 = 1e6;
+/// Why the sizes of a rig are bounded, in an error message.
+const SIZE_WHY: &str = "far beyond any engine, and large enough to overflow the model";
 
 /// Check a rig's values part by part; the first problem found is the error, located in the
 /// file (or `--set`) that gives the value.
@@ -604,6 +773,40 @@ impl Check<'_> {
         }
     }
 
+    /// `v` must be finite, above zero and at most `max` (a physical size; beyond it the model's
+    /// forces overflow).
+    fn size(&self, field: &str, v: f64, max: f64, unit: &str) -> Result<(), RigError> {
+        self.positive(field, v, unit)?;
+        self.at_most(field, v, max, unit)
+    }
+
+    /// `v` must be finite, not below zero and at most `max`.
+    fn size_or_zero(&self, field: &str, v: f64, max: f64, unit: &str) -> Result<(), RigError> {
+        self.non_negative(field, v, unit)?;
+        self.at_most(field, v, max, unit)
+    }
+
+    /// `v` (finite) must be at most `max`.
+    fn at_most(&self, field: &str, v: f64, max: f64, unit: &str) -> Result<(), RigError> {
+        if v <= max {
+            Ok(())
+        } else {
+            Err(self.rig.error(
+                field,
+                format!(
+                    "must be at most {}{} ({SIZE_WHY}), got {}",
+                    readable(max),
+                    if unit == "-" {
+                        String::new()
+                    } else {
+                        format!(" {unit}")
+                    },
+                    readable(v)
+                ),
+            ))
+        }
+    }
+
     /// `v` must be finite and within `[lo, hi]` (`why` says what the limits protect).
     fn within(
         &self,
@@ -629,8 +832,13 @@ impl Check<'_> {
     /// Crank radius and bore.
     fn geometry(&self) -> Result<(), RigError> {
         let g = &self.rig.file.geometry;
-        self.positive("geometry.crank_radius_m", g.crank_radius_m, "m")?;
-        self.positive("geometry.bore_m", g.bore_m, "m")
+        self.size(
+            "geometry.crank_radius_m",
+            g.crank_radius_m,
+            MAX_LENGTH_M,
+            "m",
+        )?;
+        self.size("geometry.bore_m", g.bore_m, MAX_LENGTH_M, "m")
     }
 
     /// Masses, inertias and scales of crank, rod and piston; a rod longer than the crank radius
@@ -638,18 +846,34 @@ impl Check<'_> {
     fn bodies(&self) -> Result<(), RigError> {
         let f = &self.rig.file;
         let c = &f.bodies.crank;
-        self.positive("bodies.crank.inertia_kg_m2", c.inertia_kg_m2, "kg m^2")?;
-        self.positive("bodies.crank.mass_kg", c.mass_kg, "kg")?;
-        self.non_negative("bodies.crank.unbalance_mass_kg", c.unbalance_mass_kg, "kg")?;
-        self.non_negative("bodies.crank.unbalance_radius_m", c.unbalance_radius_m, "m")?;
-        self.positive("bodies.crank.mass_scale", c.mass_scale, "-")?;
-        self.positive("bodies.crank.inertia_scale", c.inertia_scale, "-")?;
+        let (m, j, l) = (MAX_MASS_KG, MAX_INERTIA_KG_M2, MAX_LENGTH_M);
+        self.size("bodies.crank.inertia_kg_m2", c.inertia_kg_m2, j, "kg m^2")?;
+        self.size("bodies.crank.mass_kg", c.mass_kg, m, "kg")?;
+        self.size_or_zero(
+            "bodies.crank.unbalance_mass_kg",
+            c.unbalance_mass_kg,
+            m,
+            "kg",
+        )?;
+        self.size_or_zero(
+            "bodies.crank.unbalance_radius_m",
+            c.unbalance_radius_m,
+            l,
+            "m",
+        )?;
+        self.size("bodies.crank.mass_scale", c.mass_scale, MAX_SCALE, "-")?;
+        self.size(
+            "bodies.crank.inertia_scale",
+            c.inertia_scale,
+            MAX_SCALE,
+            "-",
+        )?;
         let r = &f.bodies.rod;
-        self.positive("bodies.rod.mass_kg", r.mass_kg, "kg")?;
-        self.positive("bodies.rod.inertia_kg_m2", r.inertia_kg_m2, "kg m^2")?;
-        self.positive("bodies.rod.length_m", r.length_m, "m")?;
-        self.positive("bodies.rod.mass_scale", r.mass_scale, "-")?;
-        self.positive("bodies.rod.inertia_scale", r.inertia_scale, "-")?;
+        self.size("bodies.rod.mass_kg", r.mass_kg, m, "kg")?;
+        self.size("bodies.rod.inertia_kg_m2", r.inertia_kg_m2, j, "kg m^2")?;
+        self.size("bodies.rod.length_m", r.length_m, l, "m")?;
+        self.size("bodies.rod.mass_scale", r.mass_scale, MAX_SCALE, "-")?;
+        self.size("bodies.rod.inertia_scale", r.inertia_scale, MAX_SCALE, "-")?;
         if r.length_m <= f.geometry.crank_radius_m {
             return Err(self.rig.error(
                 "bodies.rod.length_m",
@@ -672,15 +896,25 @@ impl Check<'_> {
             ));
         }
         let p = &f.bodies.piston;
-        self.positive("bodies.piston.mass_kg", p.mass_kg, "kg")?;
-        self.positive("bodies.piston.mass_scale", p.mass_scale, "-")
+        self.size("bodies.piston.mass_kg", p.mass_kg, m, "kg")?;
+        self.size("bodies.piston.mass_scale", p.mass_scale, MAX_SCALE, "-")
     }
 
     /// Each joint's contact radius and length, and no empty law name.
     fn joints(&self) -> Result<(), RigError> {
         for (name, j) in self.rig.file.joints.named() {
-            self.positive(&format!("joints.{name}.radius_m"), j.radius_m, "m")?;
-            self.positive(&format!("joints.{name}.length_m"), j.length_m, "m")?;
+            self.size(
+                &format!("joints.{name}.radius_m"),
+                j.radius_m,
+                MAX_LENGTH_M,
+                "m",
+            )?;
+            self.size(
+                &format!("joints.{name}.length_m"),
+                j.length_m,
+                MAX_LENGTH_M,
+                "m",
+            )?;
             for (i, l) in j.laws.iter().enumerate() {
                 if l.law.trim().is_empty() {
                     let field = format!("joints.{name}.laws[{i}].law");
@@ -719,7 +953,12 @@ impl Check<'_> {
     /// once the number of plateaus is known).
     fn oil(&self) -> Result<(), RigError> {
         let oil = &self.rig.file.oil;
-        self.positive("oil.density_kg_m3", oil.density_kg_m3, "kg/m^3")?;
+        self.size(
+            "oil.density_kg_m3",
+            oil.density_kg_m3,
+            MAX_DENSITY_KG_M3,
+            "kg/m^3",
+        )?;
         match oil.viscosity {
             ViscosityModel::Vogel {
                 k_cst,
@@ -843,10 +1082,14 @@ impl Check<'_> {
                 ));
             }
             let nu = oil.viscosity.kinematic_cst(t);
-            if !(nu.is_finite() && nu > 0.0) {
+            if !(nu.is_finite() && nu > 0.0 && nu <= MAX_VISCOSITY_CST) {
                 return Err(self.rig.error(
                     "oil.viscosity",
-                    format!("gives a non-physical viscosity ({nu} cSt) at {t} C"),
+                    format!(
+                        "gives a non-physical viscosity ({} cSt) at {t} C; an oil's is positive and at most {} cSt",
+                        readable(nu),
+                        readable(MAX_VISCOSITY_CST)
+                    ),
                 ));
             }
         }
@@ -864,11 +1107,16 @@ impl Check<'_> {
             motor_inertia_kg_m2,
         } = self.rig.file.drive
         {
-            self.non_negative("drive.kp", kp, "N m s/rad")?;
-            self.non_negative("drive.ki", ki, "N m/rad")?;
-            self.positive("drive.torque_limit_nm", torque_limit_nm, "N m")?;
-            self.positive("drive.belt_ratio", belt_ratio, "-")?;
-            self.non_negative("drive.motor_inertia_kg_m2", motor_inertia_kg_m2, "kg m^2")?;
+            self.size_or_zero("drive.kp", kp, 1e4, "N m s/rad")?;
+            self.size_or_zero("drive.ki", ki, 1e6, "N m/rad")?;
+            self.size("drive.torque_limit_nm", torque_limit_nm, 1e5, "N m")?;
+            self.size("drive.belt_ratio", belt_ratio, 100.0, "-")?;
+            self.size_or_zero(
+                "drive.motor_inertia_kg_m2",
+                motor_inertia_kg_m2,
+                MAX_INERTIA_KG_M2,
+                "kg m^2",
+            )?;
         }
         Ok(())
     }
@@ -918,8 +1166,20 @@ impl Check<'_> {
     }
 }
 
-/// Parse one `--law JOINT=LAW[:PARAMS_TOML_FILE]` argument into the joint and the law.
-pub fn parse_law_arg(arg: &str) -> Result<(String, LawRef), RigError> {
+/// One `--law JOINT=LAW[:PARAMS_TOML_FILE]` argument, parsed.
+#[derive(Debug, Clone)]
+pub struct LawArg {
+    /// The joint.
+    pub joint: String,
+    /// The law and its parameters.
+    pub law: LawRef,
+    /// The argument and its parameter file, for locating errors about the law.
+    pub origin: LawOrigin,
+}
+
+/// Parse one `--law JOINT=LAW[:PARAMS_TOML_FILE]` argument into the joint and the law; the
+/// parameter file is read (capped, regular files only) and parsed here.
+pub fn parse_law_arg(arg: &str) -> Result<LawArg, RigError> {
     let err = |message: String| RigError {
         file: PathBuf::from("--law"),
         line: None,
@@ -936,26 +1196,34 @@ pub fn parse_law_arg(arg: &str) -> Result<(String, LawRef), RigError> {
             JOINT_NAMES.join(", ")
         )));
     }
-    let (law, params) = match spec.split_once(':') {
+    let (law, params, source) = match spec.split_once(':') {
         Some((l, file)) => {
-            let text = std::fs::read_to_string(file)
-                .map_err(|e| err(format!("cannot read parameter file `{file}`: {e}")))?;
+            let text = read_text(Path::new(file))
+                .map_err(|e| err(format!("the parameter file `{file}` {e}")))?;
             let table: toml::Table = toml::from_str(&text).map_err(|e: toml::de::Error| {
                 let at = e.span().map(|s| line_col(&text, s.start));
                 let place = at.map_or(String::new(), |(l, c)| format!(":{l}:{c}"));
                 err(format!("{file}{place}: {}", e.message()))
             })?;
-            (l, table)
+            let source = Source {
+                path: PathBuf::from(file),
+                text,
+            };
+            (l, table, Some(Arc::new(source)))
         }
-        None => (spec, toml::Table::new()),
+        None => (spec, toml::Table::new(), None),
     };
-    Ok((
-        joint.to_string(),
-        LawRef {
+    Ok(LawArg {
+        joint: joint.to_string(),
+        law: LawRef {
             law: law.to_string(),
             params,
         },
-    ))
+        origin: LawOrigin::Arg {
+            arg: arg.to_string(),
+            params: source,
+        },
+    })
 }
 
 /// Apply `--law JOINT=LAW[:PARAMS_TOML_FILE]` arguments: the first for a joint replaces the
@@ -963,12 +1231,15 @@ pub fn parse_law_arg(arg: &str) -> Result<(String, LawRef), RigError> {
 pub fn attach_laws(rig: &mut Rig, args: &[String]) -> Result<(), RigError> {
     let mut replaced: Vec<String> = Vec::new();
     for arg in args {
-        let (joint, law) = parse_law_arg(arg)?;
+        let LawArg { joint, law, origin } = parse_law_arg(arg)?;
         if let Some(j) = rig.file.joints.get_mut(&joint) {
             if !replaced.contains(&joint) {
                 j.laws.clear();
+                rig.law_origins.retain(|(name, _), _| *name != joint);
                 replaced.push(joint.clone());
             }
+            rig.law_origins
+                .insert((joint.clone(), j.laws.len()), origin);
             j.laws.push(law);
         }
         rig.overridden.push(format!("joints.{joint}.laws"));
@@ -986,13 +1257,7 @@ pub const OIL_FILE_KEYS: [&str; 5] = ["name", "grade", "source", "viscosity", "d
 /// and a viscosity model that does not parse.
 pub fn oil_file_sets(path: &Path) -> Result<Vec<String>, RigError> {
     let err = |text: &str, field: &str, message: String| RigError::at(path, text, field, message);
-    let text = std::fs::read_to_string(path).map_err(|e| RigError {
-        file: path.to_path_buf(),
-        line: None,
-        column: None,
-        field: "(file)".into(),
-        message: format!("cannot read the oil file: {e}"),
-    })?;
+    let text = read_text(path).map_err(|e| file_error(path, "oil file", &e))?;
     let table: toml::Table = toml::from_str(&text).map_err(|e| serde_error(path, &text, &e, ""))?;
     if let Some(k) = table.keys().find(|k| *k != "oil") {
         return Err(err(

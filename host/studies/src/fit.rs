@@ -511,6 +511,11 @@ pub fn fit(
     registry: &LawRegistry,
     options: &FitOptions,
 ) -> Result<(FitResult, LawSet), StudyError> {
+    // Every input checked before anything runs.
+    crate::study::check_lawsets(rig, std::slice::from_ref(lawset), registry)?;
+    for d in runs.iter().chain(&options.validate) {
+        crate::study::check_data(rig, d)?;
+    }
     let model = TorqueModel::new(rig, lawset, free, runs.to_vec(), registry);
     let data_error = |message: String| StudyError::Data {
         file: lawset.path.clone(),

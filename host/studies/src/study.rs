@@ -31,6 +31,15 @@ pub enum StudyError {
         /// The failure.
         error: Box<SimError>,
     },
+    /// A law set's laws cannot be bound on the rig (an unknown law, a misspelled or
+    /// out-of-range parameter): found by [`check_lawsets`] before any run starts.
+    #[error("law set `{lawset}`: {error}")]
+    Laws {
+        /// Law set.
+        lawset: String,
+        /// Where and what (the law-set file's line and column, or the `--law` argument).
+        error: Box<SimError>,
+    },
     /// A sweep's temperatures or speeds are unusable.
     #[error(transparent)]
     Input(#[from] SweepInputError),
@@ -72,6 +81,41 @@ pub fn check_unique_names(lawsets: &[LawSet]) -> Result<(), StudyError> {
     Ok(())
 }
 
+/// Check every law set of a study against the rig and the loaded laws before anything runs:
+/// distinct names ([`check_unique_names`]), and every law of every set bound on `rig` (its law
+/// found in `registry`, its parameters checked against the law's declaration and by the law
+/// itself, its state allocated). An error is located in the law-set file (`FILE:line:column:
+/// laws[i] (joint J, law L): parameter ...`) or at the `--law` argument (and its parameter
+/// file). Binding takes milliseconds, so a bad third set fails at once, with no results
+/// written. Free parameters are resolved by the studies themselves.
+pub fn check_lawsets(
+    rig: &Rig,
+    lawsets: &[LawSet],
+    registry: &LawRegistry,
+) -> Result<(), StudyError> {
+    check_unique_names(lawsets)?;
+    for ls in lawsets {
+        let r = prepare(rig, ls, None)?;
+        tribo_config::rig::simulation(&r, registry).map_err(|e| StudyError::Laws {
+            lawset: ls.name().into(),
+            error: Box::new(e),
+        })?;
+    }
+    Ok(())
+}
+
+/// Check that `rig` can run the cycle a data run makes (its speeds held long enough for the
+/// rig's measurement window, its oil temperatures in range): what [`prepare`] does for every
+/// run, done once before any run starts.
+pub fn check_data(rig: &Rig, data: &DataRun) -> Result<(), StudyError> {
+    let mut r = rig.clone();
+    run_through(&mut r, &data.rows).map_err(|mut e| {
+        e.message.push_str(&format!(": {}", data.file.display()));
+        e
+    })?;
+    Ok(())
+}
+
 /// One measured point.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct DataRow {
@@ -103,8 +147,15 @@ impl DataRun {
 /// Lines starting with `#` are comments (sources).
 pub fn read_data(arg: &str) -> Result<(PathBuf, Vec<DataRow>), StudyError> {
     let path = PathBuf::from(arg);
-    let text = match std::fs::read_to_string(&path) {
+    let text = match tribo_config::files::read_text(&path) {
         Ok(t) => t,
+        Err(e) if !e.is_not_found() => {
+            return Err(StudyError::Data {
+                file: path,
+                line: None,
+                message: format!("the data file {e}"),
+            })
+        }
         Err(e) => match tribo_config::bundled::data(arg) {
             Some(t) => {
                 let name = PathBuf::from(format!(
@@ -117,7 +168,10 @@ pub fn read_data(arg: &str) -> Result<(PathBuf, Vec<DataRow>), StudyError> {
                 return Err(StudyError::Data {
                     file: path,
                     line: None,
-                    message: format!("cannot read the data file: {e}"),
+                    message: format!(
+                        "{e}, and no bundled data file has that name; bundled: {}",
+                        tribo_config::bundled::data_names().join(", ")
+                    ),
                 })
             }
         },
@@ -170,6 +224,8 @@ pub fn parse_data(path: &Path, text: &str) -> Result<Vec<DataRow>, StudyError> {
         line,
         message,
     };
+    // A spreadsheet's byte order mark is not part of the first column's name.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut reader = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
         .trim(csv::Trim::All)
@@ -190,18 +246,16 @@ pub fn parse_data(path: &Path, text: &str) -> Result<Vec<DataRow>, StudyError> {
         let line = rec.position().map(|p| p.line());
         let num = |i: usize, name: &str| -> Result<f64, StudyError> {
             let cell = rec.get(i).unwrap_or("");
-            cell.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| {
-                    err(
-                        line,
-                        format!(
-                            "column `{name}` (column {}): `{cell}` is not a number",
-                            i + 1
-                        ),
-                    )
-                })
+            let what = match cell.parse::<f64>() {
+                Ok(x) if x.is_finite() => return Ok(x),
+                // `1e400`, `inf`, `NaN`: numbers, but none a measurement can be.
+                Ok(_) => "is not a finite number",
+                Err(_) => "is not a number",
+            };
+            Err(err(
+                line,
+                format!("column `{name}` (column {}): `{cell}` {what}", i + 1),
+            ))
         };
         let row = DataRow {
             speed_rpm: num(cs, "speed_rpm")?,
@@ -215,8 +269,14 @@ pub fn parse_data(path: &Path, text: &str) -> Result<Vec<DataRow>, StudyError> {
         return Err(err(None, "no data rows".into()));
     }
     rows.sort_by(|a, b| a.speed_rpm.total_cmp(&b.speed_rpm));
-    if rows.windows(2).any(|w| w[0].speed_rpm == w[1].speed_rpm) {
-        return Err(err(None, "two rows have the same speed".into()));
+    if let Some(w) = rows.windows(2).find(|w| w[0].speed_rpm == w[1].speed_rpm) {
+        return Err(err(
+            None,
+            format!(
+                "two rows have the same speed ({} rpm); give each speed once",
+                readable(w[0].speed_rpm)
+            ),
+        ));
     }
     Ok(rows)
 }
@@ -241,19 +301,24 @@ pub fn prepare(rig: &Rig, lawset: &LawSet, data: Option<&[DataRow]>) -> Result<R
     let mut r = rig.clone();
     lawset.apply(&mut r);
     if let Some(rows) = data {
-        r.file.cycle.segments = Some(cycle_through(rows));
-        r.file.oil.temperature_c =
-            Temperature::PerPlateau(rows.iter().map(|x| x.oil_temp_c).collect());
-        r.overridden.push("cycle".into());
-        r.overridden.push("oil.temperature_c".into());
-        tribo_config::rig::revalidate(&r).map_err(|mut e| {
-            e.message.push_str(
-                " (this run's cycle and oil temperatures are built from the data file's rows)",
-            );
-            e
-        })?;
+        run_through(&mut r, rows)?;
     }
     Ok(r)
+}
+
+/// Drive `r` through the speeds of `rows` (the cycle of [`cycle_through`]) at their oil
+/// temperatures, and validate it again.
+fn run_through(r: &mut Rig, rows: &[DataRow]) -> Result<(), Box<RigError>> {
+    r.file.cycle.segments = Some(cycle_through(rows));
+    r.file.oil.temperature_c = Temperature::PerPlateau(rows.iter().map(|x| x.oil_temp_c).collect());
+    r.overridden.push("cycle".into());
+    r.overridden.push("oil.temperature_c".into());
+    tribo_config::rig::revalidate(r).map_err(|mut e| {
+        e.message.push_str(
+            " (this run's cycle and oil temperatures are built from the data file's rows)",
+        );
+        e
+    })
 }
 
 /// Run one rig (steady-state or full cycle).
@@ -507,7 +572,11 @@ pub fn compare(
     registry: &LawRegistry,
     options: &CompareOptions,
 ) -> Result<Comparison, StudyError> {
-    check_unique_names(lawsets)?;
+    // Every input checked before anything runs.
+    check_lawsets(rig, lawsets, registry)?;
+    for d in std::iter::once(data).chain(&options.validate) {
+        check_data(rig, d)?;
+    }
     let measured: Vec<f64> = data.rows.iter().map(|r| r.torque_nm).collect();
     let spread = measured.iter().copied().fold(f64::NEG_INFINITY, f64::max)
         - measured.iter().copied().fold(f64::INFINITY, f64::min);
@@ -677,7 +746,16 @@ pub fn mass_response(
     steady: bool,
     fedem: Option<&[(f64, f64)]>,
 ) -> Result<Vec<MassResponse>, StudyError> {
-    check_unique_names(lawsets)?;
+    // Every input checked before anything runs.
+    check_lawsets(rig, lawsets, registry)?;
+    for s in scales {
+        scaled(rig, body, *s).map_err(|mut e| {
+            e.file = PathBuf::from("--scale");
+            e.message
+                .push_str(&format!(" (the rig's value times the scale factor {s})"));
+            e
+        })?;
+    }
     let jobs: Vec<(usize, Option<f64>)> = (0..lawsets.len())
         .flat_map(|i| std::iter::once((i, None)).chain(scales.iter().map(move |s| (i, Some(*s)))))
         .collect();
@@ -1003,8 +1081,14 @@ pub fn sweep(
     registry: &LawRegistry,
     progress: Option<&tribo_core::observe::Position>,
 ) -> Result<Sweep, StudyError> {
-    check_unique_names(lawsets)?;
+    // Every input checked before anything runs.
     check_sweep_inputs(temps_c, speeds_rpm)?;
+    check_lawsets(rig, lawsets, registry)?;
+    if let Some(ls) = lawsets.first() {
+        for t in temps_c {
+            sweep_rig(rig, ls, speeds_rpm, *t)?;
+        }
+    }
     let jobs: Vec<(usize, f64)> = (0..lawsets.len())
         .flat_map(|i| temps_c.iter().map(move |t| (i, *t)))
         .collect();

@@ -5,9 +5,9 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use tribo_plugin_api::loader::{LawError, LawInstance, LawRegistry};
-use tribo_plugin_api::{LawInput, LawOutput};
+use tribo_plugin_api::{JointKind, LawInput, LawOutput, HAS_COEFFICIENT, HAS_DERIVATIVE};
 
-use super::error::{Fault, SimError};
+use super::error::{readable, Fault, SimError, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 use super::joint::JointId;
 use super::results::LawTime;
 use crate::model::RigFile;
@@ -123,22 +123,80 @@ impl BoundJoint {
         Ok(())
     }
 
-    /// Check a law's output on this joint at `input` (finite; a stateless law must not add
-    /// energy, a stateful one may return what it stored) and return its power into the joint.
+    /// Check a law's output on this joint at `input` (finite; of a physical size against
+    /// `reaction_n`, the largest joint reaction of the solve the law is evaluated at; optional
+    /// outputs it marks present finite; a stateless law must not add energy, a stateful one may
+    /// return what it stored) and return its power into the joint.
     #[inline(always)]
     pub(super) fn checked_power(
         &self,
         law: &BoundLaw,
         input: &LawInput,
         out: &LawOutput,
+        reaction_n: f64,
     ) -> Result<f64, SimError> {
+        if !out.force.is_finite() {
+            return Err(unusable(self.id, law, input, out.force));
+        }
+        // Below the bound at the floor load and without optional outputs, nothing more to
+        // check: one comparison on the usual path.
+        if out.force.abs() > MAX_FORCE_PER_REACTION * REACTION_FLOOR_N
+            || out.flags & (HAS_COEFFICIENT | HAS_DERIVATIVE) != 0
+        {
+            implausible(self.id, law, input, out, reaction_n)?;
+        }
         let power = out.force * input.relative_velocity;
         let adds = power > 0.0 && !law.is_stateful() && power > 1e-9 * (1.0 + power.abs().sqrt());
-        if !out.force.is_finite() || adds {
+        if adds {
             return Err(unusable(self.id, law, input, out.force));
         }
         Ok(power)
     }
+}
+
+/// The error for an output no law may give, if `out` is one: a finite force or torque of more
+/// than [`MAX_FORCE_PER_REACTION`] times the largest joint reaction (`reaction_n`, the law's
+/// own normal load, at least [`REACTION_FLOOR_N`]), or a non-finite coefficient or dF/dv
+/// marked present.
+#[cold]
+fn implausible(
+    joint: JointId,
+    law: &BoundLaw,
+    input: &LawInput,
+    out: &LawOutput,
+    reaction_n: f64,
+) -> Result<(), SimError> {
+    let (noun, unit) = match joint.kind() {
+        JointKind::Prismatic => ("force", "N"),
+        JointKind::Revolute => ("torque", "N m"),
+    };
+    let scale = reaction_n.max(input.normal_load_n).max(REACTION_FLOOR_N);
+    let bound = MAX_FORCE_PER_REACTION * scale;
+    let (what, why) = if out.force.abs() > bound {
+        (
+            format!("a {noun} of {} {unit}", readable(out.force)),
+            format!(
+                "that is more than {MAX_FORCE_PER_REACTION:e} times the largest joint reaction at that instant ({scale:.1} N, so at most {bound:.3e} {unit}): no friction or damping law gives such a {noun}, so the law is wrong at these inputs"
+            ),
+        )
+    } else if let Some(c) = out.coefficient().filter(|c| !c.is_finite()) {
+        (
+            format!("a non-finite friction coefficient ({c})"),
+            "it marked the coefficient present (HAS_COEFFICIENT), so it must be a number; a law without one leaves the flag clear".to_string(),
+        )
+    } else if let Some(d) = out.derivative().filter(|d| !d.is_finite()) {
+        (
+            format!("a non-finite dF/dv ({d})"),
+            "it marked the derivative present (HAS_DERIVATIVE), so it must be a number; a law without one leaves the flag clear".to_string(),
+        )
+    } else {
+        return Ok(());
+    };
+    Err(SimError::Implausible {
+        fault: fault(joint, law, input, out.force),
+        what,
+        why,
+    })
 }
 
 /// Bind the model's laws from `registry` to the joints, in `JointId::ALL` order; the number of
@@ -147,10 +205,23 @@ pub(super) fn bind_joints(
     model: &RigFile,
     registry: &LawRegistry,
 ) -> Result<(Vec<BoundJoint>, usize), SimError> {
-    let setup = |field: String, e: &dyn std::fmt::Display| SimError::Setup {
-        at: None,
-        field,
-        message: e.to_string(),
+    // A parameter's problem keeps the law and parameter apart from the message, so the
+    // configuration layer can point at the parameter in the file that gives it.
+    let setup = |field: String, e: LawError| match e {
+        LawError::Param { source, path } => SimError::Setup {
+            at: None,
+            field,
+            law: Some(source.law),
+            param: (!source.parameter.is_empty()).then_some(source.parameter),
+            message: format!("{} (library `{}`)", source.message, path.display()),
+        },
+        other => SimError::Setup {
+            at: None,
+            field,
+            law: None,
+            param: None,
+            message: other.to_string(),
+        },
     };
     let mut joints = Vec::with_capacity(JointId::ALL.len());
     let mut n_laws = 0;
@@ -160,13 +231,13 @@ pub(super) fn bind_joints(
             let field = format!("joints.{name}.laws[{i}]");
             let lib = registry
                 .get(&l.law)
-                .map_err(|e| setup(format!("{field}.law"), &e))?;
+                .map_err(|e| setup(format!("{field}.law"), e))?;
             let instance = lib
                 .create(&l.params)
-                .map_err(|e| setup(format!("{field}.params"), &e))?;
+                .map_err(|e| setup(format!("{field}.params"), e))?;
             let state = instance
                 .new_state()
-                .map_err(|e| setup(format!("{field}.law"), &e))?;
+                .map_err(|e| setup(format!("{field}.law"), e))?;
             laws.push(BoundLaw {
                 name: l.law.clone(),
                 instance,
@@ -220,10 +291,9 @@ pub(super) fn law_failed(joint: JointId, input: &LawInput, e: LawError) -> SimEr
     }
 }
 
-/// A law that returned a non-finite force, or (stateless) one that adds energy.
-#[cold]
-fn unusable(joint: JointId, law: &BoundLaw, input: &LawInput, force: f64) -> SimError {
-    let fault = Box::new(Fault {
+/// Where, when and with which inputs `law` on `joint` returned `force`.
+fn fault(joint: JointId, law: &BoundLaw, input: &LawInput, force: f64) -> Box<Fault> {
+    Box::new(Fault {
         joint: joint.name().into(),
         law: law.name.clone(),
         file: law.instance.path().display().to_string(),
@@ -231,7 +301,13 @@ fn unusable(joint: JointId, law: &BoundLaw, input: &LawInput, force: f64) -> Sim
         force,
         velocity: input.relative_velocity,
         load_n: input.normal_load_n,
-    });
+    })
+}
+
+/// A law that returned a non-finite force, or (stateless) one that adds energy.
+#[cold]
+fn unusable(joint: JointId, law: &BoundLaw, input: &LawInput, force: f64) -> SimError {
+    let fault = fault(joint, law, input, force);
     if force.is_finite() {
         SimError::AddsEnergy(fault)
     } else {

@@ -7,13 +7,18 @@ use tribo_plugin_api::loader::LawError;
 pub enum SimError {
     /// A law cannot be bound (a law name that no plugin provides, bad law parameters): `field`
     /// is its dotted path in the model, `at` where the configuration layer found it
-    /// (`file:line:column`), if it knows.
-    #[error("{}{field}: {message}", at.as_deref().map(|a| format!("{a}: ")).unwrap_or_default())]
+    /// (`file:line:column`), if it knows. The configuration layer may replace `field` by the
+    /// place the law was attached (a law-set entry, a `--law` argument).
+    #[error("{}", setup_text(.at.as_deref(), .field, .law.as_deref(), .param.as_deref(), .message))]
     Setup {
         /// Where the field was written, if known.
         at: Option<String>,
         /// Dotted path of the field, e.g. `joints.piston.laws[0].params`.
         field: String,
+        /// The law a parameter problem is about, when `field` does not already name it.
+        law: Option<String>,
+        /// The parameter at fault, if the problem is one parameter's.
+        param: Option<String>,
         /// What is wrong.
         message: String,
     },
@@ -36,6 +41,32 @@ pub enum SimError {
     /// A law returned a force that is not a finite number.
     #[error("joint `{}`, law `{}` ({}) returned a non-finite force ({}) at t = {:.6} s for inputs: velocity {}, normal load {} N", .0.joint, .0.law, .0.file, .0.force, .0.time_s, .0.velocity, .0.load_n)]
     NonFinite(Box<Fault>),
+    /// A law returned a finite force (or torque) beyond any physical size, more than
+    /// [`MAX_FORCE_PER_REACTION`] times the largest joint reaction at that instant, or a
+    /// non-finite value in an optional output it marked present (`what` and `why` say which).
+    #[error("joint `{}`, law `{}` ({}) returned {what} at t = {:.6} s for inputs: velocity {}, normal load {} N; {why}", .fault.joint, .fault.law, .fault.file, .fault.time_s, readable(.fault.velocity), readable(.fault.load_n))]
+    Implausible {
+        /// Where, when and with which inputs.
+        fault: Box<Fault>,
+        /// What was returned, e.g. `a force of 1e300 N`.
+        what: String,
+        /// Why it cannot be used.
+        why: String,
+    },
+    /// The host's own model produced a value that is not finite (a reaction, the crank's
+    /// acceleration, a velocity or the viscosity handed to the laws): the rig's numbers are out
+    /// of proportion, and no law is to blame.
+    #[error("the model produced a non-finite {quantity}{} ({value}) at t = {time_s:.6} s, before any law was given it: the rig's numbers are out of proportion; check the masses, inertias and lengths (bodies.*, geometry.*), the drive (drive.*) and the oil (oil.*) for values far outside an engine's", .joint.map(|j| format!(" at joint `{j}`")).unwrap_or_default())]
+    Model {
+        /// Time, s.
+        time_s: f64,
+        /// What is not finite, e.g. `normal load`.
+        quantity: &'static str,
+        /// The joint, if the quantity is a joint's.
+        joint: Option<&'static str>,
+        /// The value.
+        value: f64,
+    },
     /// A stateless law returned a force that pushes the motion (F*V > 0).
     #[error("joint `{}`, law `{}` ({}) adds energy at t = {:.6} s: force {} has the sign of the relative velocity {} (normal load {} N); a friction or damping law must oppose the motion", .0.joint, .0.law, .0.file, .0.time_s, .0.force, .0.velocity, .0.load_n)]
     AddsEnergy(Box<Fault>),
@@ -65,9 +96,31 @@ pub enum SimError {
         rel_tol: f64,
     },
     /// The step observer failed (the CLI's time-series writer, say): the run stops with its
-    /// error.
+    /// error. Its message is this one's; it is not also given as the cause, which an error
+    /// chain (`{:#}`) would print a second time.
     #[error("{0}")]
-    Observer(#[source] crate::observe::ObserverError),
+    Observer(crate::observe::ObserverError),
+}
+
+/// A law's force (N) or torque (N m) may be at most this many times the largest joint reaction
+/// (N) at the instant: friction is a coefficient (rarely above 1) times a load, a torque that
+/// times a lever far below a metre, so a million times the largest load is no physics but a
+/// wrong law (an overflow, a unit error). See [`REACTION_FLOOR_N`].
+pub const MAX_FORCE_PER_REACTION: f64 = 1e6;
+
+/// The reaction the bound of [`MAX_FORCE_PER_REACTION`] is taken from is at least this, N: a
+/// joint at (nearly) zero load may still feel viscous drag, and the rig's weight alone loads its
+/// joints with tens of N, so a force of up to 1e6 N is never refused.
+pub const REACTION_FLOOR_N: f64 = 1.0;
+
+/// A number as a person reads it in a message: `1e308` and `1e-9` rather than hundreds of
+/// digits, ordinary numbers as they are.
+pub fn readable(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-3..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
 }
 
 /// Where, when and with which inputs a law returned an unusable force.
@@ -97,6 +150,32 @@ pub struct Unsettled {
     pub laws: Vec<String>,
     /// Last change (or residual) of its normal load, N.
     pub change_n: f64,
+}
+
+/// The message of [`SimError::Setup`]: where, which field, law and parameter, what is wrong;
+/// each said once.
+fn setup_text(
+    at: Option<&str>,
+    field: &str,
+    law: Option<&str>,
+    param: Option<&str>,
+    message: &str,
+) -> String {
+    let mut s = String::new();
+    if let Some(at) = at {
+        s.push_str(at);
+        s.push_str(": ");
+    }
+    s.push_str(field);
+    s.push_str(": ");
+    match (law, param) {
+        (Some(l), Some(p)) => s.push_str(&format!("law `{l}`, parameter `{p}`: ")),
+        (Some(l), None) => s.push_str(&format!("law `{l}`: ")),
+        (None, Some(p)) => s.push_str(&format!("parameter `{p}`: ")),
+        (None, None) => {}
+    }
+    s.push_str(message);
+    s
 }
 
 /// The message of [`SimError::NoConvergence`]: where, which joints and laws, what to do.

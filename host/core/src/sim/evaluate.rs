@@ -132,6 +132,9 @@ pub(super) struct Problem<'a> {
     pub(super) control: Control,
     pub(super) inputs: &'a mut [LawInput; 5],
     pub(super) t: f64,
+    /// The largest joint normal load of the solve the laws are evaluated at, N: the scale of
+    /// the bound on a law's force (`MAX_FORCE_PER_REACTION`).
+    pub(super) reaction_n: f64,
 }
 
 impl Problem<'_> {
@@ -262,6 +265,7 @@ impl Simulation {
             omega: at.omega,
             oil: at.oil,
         };
+        check_inputs(at, &rel)?;
         let mut inputs: [LawInput; 5] =
             std::array::from_fn(|ji| self.joints[ji].input(&instant, rel[ji]));
         let mut p = Problem {
@@ -269,12 +273,14 @@ impl Simulation {
             control: at.control,
             inputs: &mut inputs,
             t: at.t,
+            reaction_n: 0.0,
         };
         // Phase 1: the plain fixed-point iteration (solve, evaluate the laws at the resulting
         // normal loads, repeat). It settles every bundled law set in a few iterations.
         for it in 1..=self.max_iter {
             let (alpha, re) = p.solve(&loads);
             let normals = self.normals(&re);
+            check_solve(at.t, alpha, &re, &normals)?;
             let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
             let verdict = progress.judge(&normals, self.tol, scale, self.max_iter - it);
             if matches!(verdict, Verdict::Converged) || self.n_laws == 0 {
@@ -315,6 +321,7 @@ impl Simulation {
     ) -> Result<JointLoads, SimError> {
         // Law inputs: only the loads change from one iteration to the next.
         let comps = self.components(re);
+        p.reaction_n = normals.iter().fold(0.0, |m, n| m.max(*n));
         let mut new_loads = JointLoads::default();
         // Powers and mean loads are written for every law below; only the regime indicators
         // are set sparsely and need clearing.
@@ -378,7 +385,7 @@ impl Simulation {
                 Ok(out) => out,
                 Err(e) => return Err(law_failed(id, input, e)),
             };
-            let power = joint.checked_power(law, input, &out)?;
+            let power = joint.checked_power(law, input, &out, p.reaction_n)?;
             total += out.force;
             if let Some((rates, k)) = record.as_mut() {
                 let regime = out.regime().unwrap_or(Regime::None) as usize;
@@ -422,6 +429,72 @@ impl Simulation {
             unsettled,
         }
     }
+}
+
+/// The host's own inputs to the laws at `at` (crank speed, oil viscosity, each joint's
+/// relative velocity `rel`) must be finite: a non-finite one is the model's fault, reported as
+/// such before any law could be blamed for it.
+#[inline(always)]
+fn check_inputs(at: &Point, rel: &[f64; 5]) -> Result<(), SimError> {
+    let all = at.omega.is_finite()
+        & at.oil.1.is_finite()
+        & at.theta.is_finite()
+        & rel.iter().fold(true, |ok, v| ok & v.is_finite());
+    if all {
+        return Ok(());
+    }
+    let model = |quantity, joint, value| SimError::Model {
+        time_s: at.t,
+        quantity,
+        joint,
+        value,
+    };
+    Err(if !at.omega.is_finite() {
+        model("crank speed", None, at.omega)
+    } else if !at.theta.is_finite() {
+        model("crank angle", None, at.theta)
+    } else if !at.oil.1.is_finite() {
+        model("oil viscosity", None, at.oil.1)
+    } else {
+        let id = JointId::ALL
+            .into_iter()
+            .find(|id| !rel[*id].is_finite())
+            .unwrap_or(JointId::MainA);
+        model("relative velocity", Some(id.name()), rel[id])
+    })
+}
+
+/// A solve's crank acceleration, drive torque and normal loads must be finite (the laws are
+/// given the loads next): a non-finite one is the model's fault, named with its joint.
+#[inline(always)]
+pub(super) fn check_solve(
+    t: f64,
+    alpha: f64,
+    re: &Reactions,
+    normals: &[f64; 5],
+) -> Result<(), SimError> {
+    let all = alpha.is_finite()
+        & re.drive_torque_nm.is_finite()
+        & normals.iter().fold(true, |ok, n| ok & n.is_finite());
+    if all {
+        return Ok(());
+    }
+    let model = |quantity, joint, value| SimError::Model {
+        time_s: t,
+        quantity,
+        joint,
+        value,
+    };
+    Err(
+        match JointId::ALL
+            .into_iter()
+            .find(|id| !normals[*id].is_finite())
+        {
+            Some(id) => model("normal load", Some(id.name()), normals[id]),
+            None if !alpha.is_finite() => model("crank acceleration", None, alpha),
+            None => model("drive torque", None, re.drive_torque_nm),
+        },
+    )
 }
 
 /// The evaluation at `at` from the final solve `s`: its reactions, normal loads and

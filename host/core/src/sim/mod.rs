@@ -39,7 +39,7 @@ use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
 use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
-pub use error::{Fault, SimError, Unsettled};
+pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use joint::JointId;
 pub use results::{
     DriveKind, EnergyBalance, LawResult, LawTime, PlateauResult, RegimeShare, RunResult,

@@ -6,7 +6,7 @@ use nalgebra::{Matrix5, Vector2, Vector5};
 use tribo_plugin_api::LawInput;
 
 use super::error::SimError;
-use super::evaluate::{loads_from, Problem, Settled};
+use super::evaluate::{check_solve, loads_from, Problem, Settled};
 use super::joint::JointId;
 use super::Simulation;
 use crate::mechanics::Reactions;
@@ -124,6 +124,7 @@ impl Simulation {
             normals: *entry_normals,
             moment: entry.slide_moment_nm,
         };
+        p.reaction_n = entry_normals.iter().fold(0.0, |m, n| m.max(*n));
         let u: [f64; 5] = std::array::from_fn(|ji| entry_normals[ji].sqrt());
         let cur = self.round(p, &base, &u, rates)?;
         let active = std::array::from_fn(|ji| !self.joints[ji].laws.is_empty());
@@ -339,9 +340,11 @@ impl Simulation {
         }
         let loads = loads_from(&totals);
         let (alpha, re) = p.solve(&loads);
+        let normals = self.normals(&re);
+        check_solve(p.t, alpha, &re, &normals)?;
         Ok(Settled {
             alpha,
-            normals: self.normals(&re),
+            normals,
             re,
             loads,
             totals,

@@ -263,3 +263,211 @@ fn rate_layout_tiles_the_rate_vector() {
     }
     assert!(seen.iter().all(|&c| c == 1), "{seen:?}");
 }
+
+/// Parameters of [`Constant`].
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct ConstantParams {
+    force: f64,
+    /// 0: only the force; 1: also a NaN coefficient marked present; 2: an infinite dF/dv
+    /// marked present.
+    mode: f64,
+}
+
+impl Default for ConstantParams {
+    fn default() -> Self {
+        Self {
+            force: 1.0,
+            mode: 0.0,
+        }
+    }
+}
+
+/// A law opposing the motion with a constant force or torque, whatever the load: with 1e300
+/// it is the absurd law of issue 15; at zero load it stands for viscous drag.
+struct Constant {
+    p: ConstantParams,
+}
+
+impl Law for Constant {
+    type Params = ConstantParams;
+    const NAME: &'static str = "constant-unit";
+    const VERSION: &'static str = "0";
+    const SUMMARY: &'static str = "constant friction force, any size (unit test)";
+
+    fn parameters() -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::number("force", "N", "force or torque", 0.0, 1e308),
+            ParamSpec::number("mode", "-", "which output misbehaves", 0.0, 2.0),
+        ]
+    }
+
+    fn new(p: ConstantParams) -> Result<Self, ParamError> {
+        Ok(Self { p })
+    }
+
+    fn evaluate(&self, input: &LawInput, _state: &[f64]) -> LawOutput {
+        let out = LawOutput::force(-input.relative_velocity.signum() * self.p.force);
+        match self.p.mode as u32 {
+            1 => out.with_coefficient(f64::NAN),
+            2 => out.with_derivative(f64::INFINITY),
+            _ => out.with_coefficient(0.1).with_derivative(0.0),
+        }
+    }
+}
+
+/// The bundled rig (as plain data) with the constant law of `params` on `joint`, and its
+/// model edited by `edit`.
+fn constant_simulation(
+    joint: &str,
+    params: &str,
+    edit: impl FnOnce(&mut RigFile),
+) -> Result<Simulation, super::SimError> {
+    let text = include_str!("../../../../rigs/crf250r-motored.toml");
+    let mut model: RigFile = toml::from_str(text).expect("rig parses");
+    let law = crate::model::LawRef {
+        law: "constant-unit".into(),
+        params: toml::from_str(params).expect("params"),
+    };
+    model.joints.get_mut(joint).expect("joint").laws = vec![law];
+    edit(&mut model);
+    let mut registry = LawRegistry::new();
+    registry
+        .insert(LawLibrary::in_process::<Constant>().expect("law describes itself"))
+        .expect("one law");
+    Simulation::new(&model, &registry)
+}
+
+/// One evaluation of `sim` at 3000 rpm, crank at 1 rad, no acceleration.
+fn evaluate_once(sim: &Simulation) -> Result<(), super::SimError> {
+    let at = Point {
+        t: 0.5,
+        dt: 1e-5,
+        theta: 1.0,
+        omega: 3000.0 * TAU / 60.0,
+        control: Control::Acceleration(0.0),
+        margin: f64::INFINITY,
+        oil: sim.oil_at(0.5),
+    };
+    sim.evaluate(&at, &JointLoads::default(), Vec::new())
+        .map(|_| ())
+}
+
+#[test]
+fn a_law_force_a_million_times_the_largest_reaction_is_refused_naming_law_joint_and_bound() {
+    for (joint, noun) in [
+        ("piston", "a force of 1e300 N"),
+        ("big_end", "a torque of 1e300 N m"),
+    ] {
+        let mut sim = constant_simulation(joint, "force = 1e300", |_| {}).expect("binds");
+        let err = evaluate_once(&sim).expect_err("1e300 is refused");
+        assert!(
+            matches!(err, super::SimError::Implausible { .. }),
+            "{err:?}"
+        );
+        let msg = err.to_string();
+        for word in [
+            &format!("joint `{joint}`"),
+            "law `constant-unit`",
+            "<in-process constant-unit>",
+            noun,
+            "t = 0.500000 s",
+            "more than 1e6 times the largest joint reaction",
+            "so at most",
+        ] {
+            assert!(msg.contains(word), "`{word}` missing: {msg}");
+        }
+        // The bound is a million times the reaction quoted, which is a real reaction: the
+        // rig's weight and inertia load every joint with more than the floor.
+        let reaction: f64 = msg
+            .split("largest joint reaction at that instant (")
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|r| r.parse().ok())
+            .expect("reaction in the message");
+        assert!(
+            reaction > super::REACTION_FLOOR_N && reaction < 1e5,
+            "{msg}"
+        );
+        // A whole run fails the same way, at its first evaluation.
+        let run = sim.run_steady().expect_err("the run fails");
+        assert!(matches!(run, super::SimError::Implausible { .. }), "{run}");
+    }
+}
+
+#[test]
+fn large_but_physical_forces_and_drag_at_zero_load_are_not_refused() {
+    // 1e5 N on the piston: absurd for this rig, but within a million times its reactions (the
+    // iteration then fails or succeeds on its own terms, never on the bound).
+    let sim = constant_simulation("piston", "force = 1e5", |_| {}).expect("binds");
+    match evaluate_once(&sim) {
+        Ok(()) => {}
+        Err(e) => assert!(!matches!(e, super::SimError::Implausible { .. }), "{e}"),
+    }
+    // A drag of 1e6 N m with every body nearly weightless and still: reactions far below the
+    // floor, and the floor's bound (1e6) is not exceeded.
+    let sim = constant_simulation("main_a", "force = 1e6", |m| {
+        m.bodies.rod.mass_kg = 1e-12;
+        m.bodies.piston.mass_kg = 1e-12;
+        m.bodies.crank.mass_kg = 1e-12;
+    })
+    .expect("binds");
+    match evaluate_once(&sim) {
+        Ok(()) => {}
+        Err(e) => assert!(!matches!(e, super::SimError::Implausible { .. }), "{e}"),
+    }
+    // An ordinary law with a coefficient and a derivative marked present passes.
+    let sim = constant_simulation("piston", "force = 5.0", |_| {}).expect("binds");
+    evaluate_once(&sim).expect("an ordinary force");
+}
+
+#[test]
+fn a_non_finite_coefficient_or_derivative_marked_present_is_refused() {
+    for (mode, words) in [
+        (
+            "1",
+            ["non-finite friction coefficient (NaN)", "HAS_COEFFICIENT"],
+        ),
+        ("2", ["non-finite dF/dv (inf)", "HAS_DERIVATIVE"]),
+    ] {
+        let sim = constant_simulation("piston", &format!("force = 5.0\nmode = {mode}"), |_| {})
+            .expect("binds");
+        let err = evaluate_once(&sim).expect_err("refused").to_string();
+        for w in words
+            .iter()
+            .chain(&["law `constant-unit`", "joint `piston`"])
+        {
+            assert!(err.contains(w), "`{w}` missing: {err}");
+        }
+    }
+}
+
+#[test]
+fn a_non_finite_value_made_by_the_host_is_the_models_fault_not_the_laws() {
+    // A rod of 1e308 kg: its inertia force overflows, and the normal loads the law would be
+    // given are infinite. The error blames the model (which value, which joint, when) and
+    // points at the rig's numbers; it never names the law.
+    for with_law in [true, false] {
+        let mut sim = constant_simulation("main_a", "force = 0.1", |m| {
+            m.bodies.rod.mass_kg = 1e308;
+            if !with_law {
+                m.joints.main_a.laws.clear();
+            }
+        })
+        .expect("binds");
+        let err = sim
+            .run_steady()
+            .expect_err("no result from an infinite load");
+        assert!(matches!(err, super::SimError::Model { .. }), "{err:?}");
+        let msg = err.to_string();
+        for word in [
+            "the model produced a non-finite normal load",
+            "at joint `",
+            "t = ",
+            "bodies.*",
+        ] {
+            assert!(msg.contains(word), "`{word}` missing: {msg}");
+        }
+        assert!(!msg.contains("constant-unit"), "{msg}");
+    }
+}

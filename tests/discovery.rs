@@ -140,7 +140,7 @@ fn a_law_not_found_names_the_broken_candidates() {
     assert_mentions(
         &stderr,
         &[
-            "joints.piston.laws[0].law",
+            "--law: piston=broken",
             "no law named `broken`",
             "coulomb",
             "2 plugin files could not be opened",

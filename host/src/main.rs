@@ -443,7 +443,8 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     let registry = g.registry()?;
     let mut sim = tribo::rig::simulation(&rig, &registry)?;
     if let Some(dir) = &csv {
-        tribo::output::check_result_dir(dir, "--csv")?;
+        tribo::output::check_result_dir(dir, "--csv")
+            .with_context(|| format!("writing CSV into {}", dir.display()))?;
     }
     let progress = Progress::start("simulating the test cycle", Some(1000), g.quiet);
     sim.report_progress(progress.position());
@@ -539,21 +540,11 @@ struct SetSource {
 /// set later, not the whole study.
 fn check_sources(sources: &[SetSource], registry: &LawRegistry) -> anyhow::Result<()> {
     for s in sources {
-        let (rig, sets_loaded) = study_inputs(s.rig.clone(), &s.sets, vec![s.lawset.clone()])?;
-        for mut ls in sets_loaded {
+        let (rig, mut sets_loaded) = study_inputs(s.rig.clone(), &s.sets, vec![s.lawset.clone()])?;
+        for ls in &mut sets_loaded {
             ls.add_law_args(&s.laws)?;
-            let prepared = tribo::study::prepare(&rig, &ls, None)?;
-            for (joint, j) in prepared.model().joints.named() {
-                for (i, l) in j.laws.iter().enumerate() {
-                    let field = format!("joints.{joint}.laws[{i}]");
-                    let lib = registry
-                        .get(&l.law)
-                        .map_err(|e| prepared.error(&format!("{field}.law"), e.to_string()))?;
-                    tribo_plugin_api::describe::check_params(lib.description(), &l.params)
-                        .map_err(|e| prepared.error(&format!("{field}.params"), e.to_string()))?;
-                }
-            }
         }
+        tribo::study::check_lawsets_described(&rig, &sets_loaded, registry)?;
     }
     Ok(())
 }

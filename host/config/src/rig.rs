@@ -225,7 +225,20 @@ impl Rig {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimError> {
-    Simulation::new(rig.model(), registry).map_err(|e| match e {
+    Simulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+}
+
+/// Check `rig`'s laws against `registry` as [`simulation`] would bind them (each law known, its
+/// parameters' names, types and ranges), errors located the same way, without creating an
+/// instance: no law code beyond its description runs.
+pub fn check_laws(rig: &Rig, registry: &LawRegistry) -> Result<(), SimError> {
+    Simulation::check_laws(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+}
+
+/// A setup error of `rig`'s laws located in the file, law-set entry or `--law` argument that
+/// attached the law.
+fn locate_setup(rig: &Rig, e: SimError) -> SimError {
+    match e {
         SimError::Setup {
             at: None,
             field,
@@ -259,7 +272,7 @@ pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimEr
             }
         }
         other => other,
-    })
+    }
 }
 
 /// `joints.J.laws[k]REST` split into the joint, the index and the rest (`.params`, `.law`).

@@ -104,6 +104,25 @@ pub fn check_lawsets(
     Ok(())
 }
 
+/// [`check_lawsets`] without creating any law instance: names unique, every law known and its
+/// parameters' names, types and ranges right, located in the law-set file. Only descriptions are
+/// read, so no law code runs; the check a study runs before starting isolated workers.
+pub fn check_lawsets_described(
+    rig: &Rig,
+    lawsets: &[LawSet],
+    registry: &LawRegistry,
+) -> Result<(), StudyError> {
+    check_unique_names(lawsets)?;
+    for ls in lawsets {
+        let r = prepare(rig, ls, None)?;
+        tribo_config::rig::check_laws(&r, registry).map_err(|e| StudyError::Laws {
+            lawset: ls.name().into(),
+            error: Box::new(e),
+        })?;
+    }
+    Ok(())
+}
+
 /// Check that `rig` can run the cycle a data run makes (its speeds held long enough for the
 /// rig's measurement window, its oil temperatures in range): what [`prepare`] does for every
 /// run, done once before any run starts.

@@ -199,15 +199,38 @@ fn implausible(
     })
 }
 
-/// Bind the model's laws from `registry` to the joints, in `JointId::ALL` order; the number of
-/// laws bound in all is returned with them.
-pub(super) fn bind_joints(
-    model: &RigFile,
-    registry: &LawRegistry,
-) -> Result<(Vec<BoundJoint>, usize), SimError> {
-    // A parameter's problem keeps the law and parameter apart from the message, so the
-    // configuration layer can point at the parameter in the file that gives it.
-    let setup = |field: String, e: LawError| match e {
+/// Check the model's laws against `registry` without creating any instance: each law exists and
+/// its parameters have the names, types and ranges its description declares. Only the laws'
+/// descriptions are read, so no law code runs: a study checks every law set this way before it
+/// starts, and a law that misbehaves when created or run fails only its own set later.
+pub(super) fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), SimError> {
+    for (name, j) in model.joints.named() {
+        for (i, l) in j.laws.iter().enumerate() {
+            let field = format!("joints.{name}.laws[{i}]");
+            let lib = registry
+                .get(&l.law)
+                .map_err(|e| setup_error(format!("{field}.law"), e))?;
+            tribo_plugin_api::describe::check_params(lib.description(), &l.params).map_err(
+                |source| {
+                    setup_error(
+                        format!("{field}.params"),
+                        LawError::Param {
+                            source,
+                            path: lib.path().to_path_buf(),
+                        },
+                    )
+                },
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// A binding problem as a setup error; a parameter's problem keeps the law and parameter apart
+/// from the message, so the configuration layer can point at the parameter in the file that
+/// gives it.
+fn setup_error(field: String, e: LawError) -> SimError {
+    match e {
         LawError::Param { source, path } => SimError::Setup {
             at: None,
             field,
@@ -222,7 +245,16 @@ pub(super) fn bind_joints(
             param: None,
             message: other.to_string(),
         },
-    };
+    }
+}
+
+/// Bind the model's laws from `registry` to the joints, in `JointId::ALL` order; the number of
+/// laws bound in all is returned with them.
+pub(super) fn bind_joints(
+    model: &RigFile,
+    registry: &LawRegistry,
+) -> Result<(Vec<BoundJoint>, usize), SimError> {
+    let setup = setup_error;
     let mut joints = Vec::with_capacity(JointId::ALL.len());
     let mut n_laws = 0;
     for (id, (name, j)) in JointId::ALL.into_iter().zip(model.joints.named()) {

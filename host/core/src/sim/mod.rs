@@ -138,6 +138,12 @@ enum Method {
 }
 
 impl Simulation {
+    /// Check `model`'s laws against `registry` (each law known, its parameters' names, types
+    /// and ranges) without creating an instance: no law code beyond its description runs.
+    pub fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), SimError> {
+        bind::check_laws(model, registry)
+    }
+
     /// Bind the model's laws (from `registry`) and prepare the mechanism and cycle.
     pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
         let f = model;

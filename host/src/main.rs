@@ -131,8 +131,9 @@ struct RunArgs {
     /// Also write plateaus.csv and joints.csv into this directory.
     #[arg(long, value_name = "DIR")]
     csv: Option<PathBuf>,
-    /// Stream the time history (one line per step) to this CSV file.
-    #[arg(long, value_name = "FILE")]
+    /// Stream the time history (one line per step) to this CSV file (not with --steady, which
+    /// computes each plateau directly and has no time history).
+    #[arg(long, value_name = "FILE", conflicts_with = "steady")]
     timeseries: Option<PathBuf>,
 }
 

@@ -376,9 +376,9 @@ impl Search {
     }
 
     fn scan_dir(&mut self, dir: &Path) -> Result<(), LawError> {
-        let io = |source| LawError::Io {
+        let io = |error| LawError::Io {
             path: dir.to_path_buf(),
-            source,
+            error,
         };
         self.check_dir(dir);
         let mut found = Vec::new();

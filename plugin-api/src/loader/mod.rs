@@ -116,10 +116,11 @@ pub enum LawError {
         broken: Vec<String>,
     },
     /// A parameter was rejected.
-    #[error("{source} (library `{path}`)")]
+    #[error("{error} (library `{path}`)")]
     Param {
-        /// The parameter problem.
-        source: ParamError,
+        /// The parameter problem (in the message, not a `source`: the CLI prints the chain of
+        /// sources, which would repeat it).
+        error: ParamError,
         /// File.
         path: PathBuf,
     },
@@ -175,12 +176,12 @@ pub enum LawError {
         value: u32,
     },
     /// A directory of the plugin path could not be read.
-    #[error("cannot read plugin directory `{path}`: {source}")]
+    #[error("cannot read plugin directory `{path}`: {error}")]
     Io {
         /// Directory.
         path: PathBuf,
-        /// OS error.
-        source: std::io::Error,
+        /// OS error (in the message, not a `source`, so it is printed once).
+        error: std::io::Error,
     },
 }
 
@@ -381,7 +382,7 @@ impl LawLibrary {
 
     fn param_error(&self, e: ParamError) -> LawError {
         LawError::Param {
-            source: e,
+            error: e,
             path: self.path.clone(),
         }
     }

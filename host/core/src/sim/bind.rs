@@ -215,7 +215,7 @@ pub(super) fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), 
                     setup_error(
                         format!("{field}.params"),
                         LawError::Param {
-                            source,
+                            error: source,
                             path: lib.path().to_path_buf(),
                         },
                     )
@@ -231,7 +231,10 @@ pub(super) fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), 
 /// gives it.
 fn setup_error(field: String, e: LawError) -> SimError {
     match e {
-        LawError::Param { source, path } => SimError::Setup {
+        LawError::Param {
+            error: source,
+            path,
+        } => SimError::Setup {
             at: None,
             field,
             law: Some(source.law),

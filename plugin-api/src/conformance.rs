@@ -10,7 +10,8 @@
 //! The sweep covers what the solver can hand a law on the bundled rig
 //! (`rigs/crf250r-motored.toml`): relative velocity of both signs through zero
 //! (1e-6 to 1000 rad/s on a revolute joint, 1e-6 to 30 m/s on a slide), normal loads 0 to 50 kN,
-//! oil at 40, 80 and 110 C with the rig oil's viscosity (ASTM D341 through 115 cSt at 40 C and
+//! oil from 20 to 150 C (40, 80 and 110 C the working range, 20 and 150 C its cold and hot
+//! edges: about 0.25 to 0.005 Pa s) with the rig oil's viscosity (ASTM D341 through 115 cSt at 40 C and
 //! 17.5 cSt at 100 C, 860 kg/m^3), the main-bearing, small-end and piston contact geometries, two
 //! engine speeds and both a zero (steady-state quadrature) and a transient time step.
 
@@ -398,7 +399,11 @@ impl Findings {
             Some(first) if self.count == 1 => fail(check, first),
             Some(first) => fail(
                 check,
-                format!("{first} (and {} more of {} tried)", self.count - 1, self.tried),
+                format!(
+                    "{first} (and {} more of {} tried)",
+                    self.count - 1,
+                    self.tried
+                ),
             ),
         }
     }
@@ -407,9 +412,12 @@ impl Findings {
 fn check_description(lib: &LawLibrary) -> CheckResult {
     let d = lib.description();
     let mut problems = Vec::new();
-    let valid_name = d.name.chars().next().is_some_and(|c| c.is_ascii_lowercase())
-        && d
-            .name
+    let valid_name = d
+        .name
+        .chars()
+        .next()
+        .is_some_and(|c| c.is_ascii_lowercase())
+        && d.name
             .chars()
             .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-');
     if !valid_name {
@@ -755,7 +763,7 @@ fn sweep() -> Vec<LawInput> {
     for g in GEOMETRIES {
         for v in velocities(g.kind) {
             for &load in &[0.0, 10.0, 1000.0, 50_000.0] {
-                for &t in &[40.0, 80.0, 110.0] {
+                for &t in &[20.0, 40.0, 80.0, 110.0, 150.0] {
                     for &engine in &[314.16, 942.48] {
                         for &dt in &[0.0, 2e-5] {
                             out.push(sweep_input(g, v, load, t, engine, dt));
@@ -907,13 +915,7 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
         }
         finite.tried();
         if !all_finite(&out) {
-            finite.found(|| {
-                format!(
-                    "{} at {}",
-                    describe_output(&out),
-                    describe_input(input)
-                )
-            });
+            finite.found(|| format!("{} at {}", describe_output(&out), describe_input(input)));
             continue;
         }
         dissipative.tried();
@@ -942,9 +944,12 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
                         )
                     });
                 }
-                Err(e) => {
-                    errors.found(|| format!("{e} (finite-difference neighbour of {})", describe_input(input)))
-                }
+                Err(e) => errors.found(|| {
+                    format!(
+                        "{e} (finite-difference neighbour of {})",
+                        describe_input(input)
+                    )
+                }),
             }
         }
     }
@@ -960,13 +965,13 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
     ));
     results.push(finite.result(
         Check::Finite,
-        format!("force and flagged outputs finite at {} inputs", points.len()),
+        format!(
+            "force and flagged outputs finite at {} inputs",
+            points.len()
+        ),
     ));
     results.push(match &options.active {
-        Some(reason) => skip(
-            Check::Dissipative,
-            format!("declared active: {reason}"),
-        ),
+        Some(reason) => skip(Check::Dissipative, format!("declared active: {reason}")),
         None => dissipative.result(
             Check::Dissipative,
             format!(

@@ -125,7 +125,9 @@ mod tests {
     fn conforms() {
         assert_law_conforms::<FedemFriction>();
         assert_law_conforms_with::<FedemFriction>("mu = 0.0025");
-        assert_law_conforms_with::<FedemFriction>("mu = 0.3\nprestress = 1.0\nstribeck_s = 2.0\nv_slip = 0.05");
+        assert_law_conforms_with::<FedemFriction>(
+            "mu = 0.3\nprestress = 1.0\nstribeck_s = 2.0\nv_slip = 0.05",
+        );
     }
 
     #[test]

@@ -311,7 +311,9 @@ mod tests {
     fn conforms() {
         assert_law_conforms::<MixedFilm>();
         assert_law_conforms_with::<MixedFilm>("preload_n = 20.0");
-        assert_law_conforms_with::<MixedFilm>("mu_b = 0.1\nc_h = 1.884\nface_width_m = 1e-3\nsigma_m = 0.3e-6\npreload_n = 220.0");
+        assert_law_conforms_with::<MixedFilm>(
+            "mu_b = 0.1\nc_h = 1.884\nface_width_m = 1e-3\nsigma_m = 0.3e-6\npreload_n = 220.0",
+        );
     }
 
     #[test]

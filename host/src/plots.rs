@@ -621,6 +621,8 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
         crate::plugin_api::JointKind::Prismatic => ("force", "N"),
     };
     let state_note = if c.stateful { ", steady sliding" } else { "" };
+    // Cold curves are drawn wider, so a temperature-blind law's hot curve lies visibly on top.
+    let stroke = |k: &crate::check::Curve| if temps.first() == Some(&k.oil_temp_c) { 4 } else { 2 };
     let color = |k: &crate::check::Curve| {
         let t = temps.iter().position(|x| *x == k.oil_temp_c).unwrap_or(0);
         let l = loads.iter().position(|x| *x == k.load_n).unwrap_or(0);
@@ -656,7 +658,7 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
             .filter(|p| p.1.is_finite())
             .copied()
             .collect();
-        chart.draw_series(LineSeries::new(pts, color(k).stroke_width(2)))?;
+        chart.draw_series(LineSeries::new(pts, color(k).stroke_width(stroke(k))))?;
     }
     // Bottom: magnitude against speed on a log axis (the Stribeck region near zero).
     let speeds = c
@@ -700,7 +702,7 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
             .filter(|p| p.0 > 0.0 && p.1.is_finite())
             .copied()
             .collect();
-        log_chart.draw_series(LineSeries::new(pts, color(k).stroke_width(2)))?;
+        log_chart.draw_series(LineSeries::new(pts, color(k).stroke_width(stroke(k))))?;
     }
     let entries: Vec<(String, Swatch)> = c
         .curves

@@ -448,14 +448,14 @@ fn check_description(lib: &LawLibrary) -> CheckResult {
             problems.push(format!("parameter `{}` is not documented", p.name));
         }
         match &p.default {
-            ParamValue::Number(_) | ParamValue::NumberList(_) => {
-                if p.min.is_nan() || p.max.is_nan() || p.min > p.max {
-                    problems.push(format!(
-                        "parameter `{}`: range {} is empty",
-                        p.name,
-                        p.range_text()
-                    ));
-                }
+            ParamValue::Number(_) | ParamValue::NumberList(_)
+                if p.min.is_nan() || p.max.is_nan() || p.min > p.max =>
+            {
+                problems.push(format!(
+                    "parameter `{}`: range {} is empty",
+                    p.name,
+                    p.range_text()
+                ));
             }
             ParamValue::Choice(_) if p.choices.is_empty() => {
                 problems.push(format!("parameter `{}` offers no choices", p.name));

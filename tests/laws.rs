@@ -663,3 +663,14 @@ fn plot_law_curves_are_the_law_at_the_plotted_loads_and_oil() {
         );
     }
 }
+
+#[test]
+fn a_law_that_crashes_check_law_is_named_with_the_signal() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let lib_path = dir.path().join(plugin_file_name("tribo_law_fixture_crash"));
+    compile_c(&[c_fixture("crash_in_evaluate.c")], &lib_path, true);
+    let out = run_tribo(&["check-law", lib_path.to_str().expect("utf-8")], None);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success(), "{stderr}");
+    assert_mentions(&stderr, &["SIGSEGV", "fixture-crash-in-evaluate"]);
+}

@@ -622,7 +622,13 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
     };
     let state_note = if c.stateful { ", steady sliding" } else { "" };
     // Cold curves are drawn wider, so a temperature-blind law's hot curve lies visibly on top.
-    let stroke = |k: &crate::check::Curve| if temps.first() == Some(&k.oil_temp_c) { 4 } else { 2 };
+    let stroke = |k: &crate::check::Curve| {
+        if temps.first() == Some(&k.oil_temp_c) {
+            4
+        } else {
+            2
+        }
+    };
     let color = |k: &crate::check::Curve| {
         let t = temps.iter().position(|x| *x == k.oil_temp_c).unwrap_or(0);
         let l = loads.iter().position(|x| *x == k.load_n).unwrap_or(0);

@@ -864,9 +864,13 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
     let zero = match inst.new_state() {
         Ok(s) => s,
         Err(e) => {
+            // The host could not allocate the declared state: an error, and nothing to run.
             return Check::ALL[5..]
                 .iter()
-                .map(|c| skip(*c, format!("no state: {e}")))
+                .map(|c| match c {
+                    Check::NoErrors => fail(*c, e.to_string()),
+                    _ => skip(*c, "no state (see `no-errors`)"),
+                })
                 .collect();
         }
     };

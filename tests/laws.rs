@@ -1,9 +1,15 @@
-//! Every law of the library as a dynamic plugin: listed by `tribo laws`, and run through the CLI
-//! on the reference rig with the law attached (positive dissipation, energy balance).
+//! Every law of the library as a dynamic plugin: listed by `tribo laws`, run through the CLI
+//! on the reference rig with the law attached (positive dissipation, energy balance), passed by
+//! `tribo check-law`, and plotted by `tribo plot-law`. Faulty laws written for these tests fail
+//! `check-law`, each naming the check it breaks.
 
 mod common;
 
 use common::*;
+use serde::{Deserialize, Serialize};
+use tribo::plugin_api::conformance::{self, Check, Options, Report, Status};
+use tribo::plugin_api::loader::{plugin_file_name, LawLibrary};
+use tribo::plugin_api::{JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec};
 
 // Gentle enough for the PI drive to follow within its 5 N m limit (J*alpha ~ 2.9 N m) and a
 // hold long enough to settle (speed error decays at ~22 1/s), so the plateau is steady.
@@ -179,54 +185,492 @@ fn fedem_friction_plateau_torques_do_not_depend_on_the_sign_smoothing() {
     }
 }
 
+/// Joint of the bundled rig each law is plotted on (its natural place in the engine).
+fn plot_joint(law: &str) -> &'static str {
+    match law {
+        "petroff-journal" | "rolling-bearing" | "polyline-damper" => "main_a",
+        "fedem-friction" => "big_end",
+        _ => "piston",
+    }
+}
+
+fn write_params(dir: &std::path::Path, law: &str, params: &str) -> std::path::PathBuf {
+    let f = dir.join(format!("{law}.toml"));
+    std::fs::write(&f, params).expect("write params");
+    f
+}
+
 #[test]
-fn stateless_laws_dissipate_and_their_derivatives_match_finite_differences() {
-    use tribo::plugin_api::loader::load_paths;
-    use tribo::plugin_api::{JointKind, LawInput};
-    ensure_plugins_built();
-    let registry = load_paths(&[profile_dir()]).expect("plugins load");
-    let mut checked = 0;
+fn check_law_passes_every_bundled_law_with_defaults_and_rig_parameters() {
+    let dir = tempfile::tempdir().expect("temp dir");
     for (law, _, params) in CASES {
-        let lib = registry.get(law).expect("law present");
-        let inst = lib.create(&params.parse().expect("toml")).expect("creates");
-        if inst.state_size() > 0 {
-            continue; // F*V <= 0 is a property of stateless laws only (LuGre stores energy)
-        }
-        checked += 1;
-        for kind in [JointKind::Revolute, JointKind::Prismatic] {
-            for &v in &[
-                -900.0, -12.0, -0.4, -1e-3, -1e-6, 0.0, 1e-6, 1e-3, 0.4, 12.0, 900.0,
-            ] {
-                for &n in &[0.0, 25.0, 800.0, 15000.0] {
-                    for &eta in &[0.004, 0.024, 0.3] {
-                        let mut input = LawInput::at_rest(kind);
-                        input.normal_load_n = n;
-                        input.contact_radius_m = 0.02;
-                        input.contact_length_m = 0.015;
-                        input.viscosity_pa_s = eta;
-                        input.engine_speed_rad_s = 450.0;
-                        let at = |v: f64| {
-                            inst.evaluate(&input.with_velocity(v), &[])
-                                .expect("evaluates")
-                        };
-                        let out = at(v);
-                        assert!(
-                            out.force.is_finite() && out.force * v <= 0.0,
-                            "{law} {kind:?} v={v} n={n} eta={eta}: F={}",
-                            out.force
-                        );
-                        if let Some(d) = out.derivative() {
-                            let h = 1e-7 * (1.0 + v.abs());
-                            let fd = (at(v + h).force - at(v - h).force) / (2.0 * h);
-                            assert!(
-                                (fd - d).abs() <= 1e-4 * (1.0 + d.abs().max(fd.abs())),
-                                "{law} {kind:?} v={v} n={n}: dF/dv {d} vs fd {fd}"
-                            );
-                        }
-                    }
-                }
+        let pfile = write_params(dir.path(), law, params);
+        let with_params = [
+            "check-law",
+            law,
+            "--json",
+            "--params",
+            pfile.to_str().expect("utf-8"),
+        ];
+        for args in [&with_params[..3], &with_params[..]] {
+            let out = run_tribo(args, None);
+            let (stdout, stderr) = text(&out);
+            assert!(out.status.success(), "{law} {args:?}: {stdout}\n{stderr}");
+            let json: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+            assert_eq!(json["law"], law);
+            let checks = json["checks"].as_array().expect("checks");
+            assert_eq!(
+                checks.len(),
+                Check::ALL.len(),
+                "{law}: every check reported"
+            );
+            for c in checks {
+                let name = c["check"].as_str().unwrap_or("");
+                let status = c["status"].as_str().unwrap_or("");
+                // Only checks that do not apply may be skipped: dF/dv of a law that reports
+                // none, commit of a stateless law. Everything else must have run and passed.
+                let expected = match name {
+                    "derivative" => matches!(
+                        law,
+                        "coulomb"
+                            | "c-coulomb"
+                            | "petroff-journal"
+                            | "polyline-damper"
+                            | "rolling-bearing"
+                    ),
+                    "commit" => law == "lugre",
+                    _ => true,
+                };
+                let want = if expected { "pass" } else { "skip" };
+                assert_eq!(status, want, "{law} {args:?}: {name}: {}", c["detail"]);
             }
         }
     }
-    assert_eq!(checked, 8, "every stateless law was swept");
+    // The table form says so, and a library can be named by its path as well as by its name.
+    ensure_plugins_built();
+    let lib = built_library("tribo_law_c_coulomb");
+    let out = run_tribo(&["check-law", lib.to_str().expect("utf-8")], None);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(
+        stdout.contains("law `c-coulomb`") && stdout.contains("all checks passed"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn check_law_refuses_bad_arguments_with_clear_errors() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let missing = dir.path().join("nope.toml");
+    let out = run_tribo(
+        &[
+            "check-law",
+            "coulomb",
+            "--params",
+            missing.to_str().expect("utf-8"),
+        ],
+        None,
+    );
+    assert!(!out.status.success());
+    assert_mentions(&text(&out).1, &["nope.toml", "parameter file"]);
+    let bad = write_params(dir.path(), "bad", "mu = 0.1\nmu = = 2\n");
+    let out = run_tribo(
+        &[
+            "check-law",
+            "coulomb",
+            "--params",
+            bad.to_str().expect("utf-8"),
+        ],
+        None,
+    );
+    assert!(!out.status.success());
+    assert_mentions(&text(&out).1, &["bad.toml", "line 2"]);
+    // A parameter out of range is the `create` check's failure, naming the parameter.
+    let high = write_params(dir.path(), "high", "mu = 50.0\n");
+    let out = run_tribo(
+        &[
+            "check-law",
+            "coulomb",
+            "--params",
+            high.to_str().expect("utf-8"),
+        ],
+        None,
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let (stdout, stderr) = text(&out);
+    assert!(
+        stdout.contains("create") && stdout.contains("`mu`"),
+        "{stdout}"
+    );
+    assert_mentions(&stderr, &["coulomb", "create"]);
+    let out = run_tribo(&["check-law", "no-such-law"], None);
+    assert!(!out.status.success());
+    assert_mentions(&text(&out).1, &["no-such-law"]);
+}
+
+// ---- Faulty laws: each breaks one rule and must fail exactly the check for it. ----
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct MuParams {
+    mu: f64,
+}
+
+impl Default for MuParams {
+    fn default() -> Self {
+        Self { mu: 0.1 }
+    }
+}
+
+fn mu_spec() -> Vec<ParamSpec> {
+    vec![ParamSpec::number(
+        "mu",
+        "-",
+        "friction coefficient",
+        0.0,
+        1.0,
+    )]
+}
+
+fn arm(input: &LawInput) -> f64 {
+    if input.kind() == Some(JointKind::Revolute) {
+        input.contact_radius_m
+    } else {
+        1.0
+    }
+}
+
+/// Pushes along the motion: feeds energy in.
+struct Pushing(f64);
+impl Law for Pushing {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-pushing";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "friction with the wrong sign";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+        let (s, _) = tribo::plugin_api::smooth_sign(input.sliding_velocity_m_s, 1e-3);
+        LawOutput::force(self.0 * input.normal_load_n * arm(input) * s)
+    }
+}
+
+/// A viscous damper whose reported dF/dv is twice the true one.
+struct WrongDerivative(f64);
+impl Law for WrongDerivative {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-wrong-derivative";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "viscous damper with a wrong dF/dv";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+        let c = self.0 * (1.0 + input.normal_load_n);
+        LawOutput::force(-c * input.relative_velocity).with_derivative(-2.0 * c)
+    }
+}
+
+/// Coulomb friction with a hard sign written as v/|v|: NaN at zero velocity.
+struct NanAtRest(f64);
+impl Law for NanAtRest {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-nan-at-rest";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "Coulomb friction as v/|v|";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+        let v = input.sliding_velocity_m_s;
+        LawOutput::force(-self.0 * input.normal_load_n * arm(input) * v / v.abs())
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct HighMu {
+    mu: f64,
+}
+
+impl Default for HighMu {
+    fn default() -> Self {
+        // The fault: outside the declared [0, 1].
+        Self { mu: 2.0 }
+    }
+}
+
+/// A default outside its own declared range.
+struct BadDefault(f64);
+impl Law for BadDefault {
+    type Params = HighMu;
+    const NAME: &'static str = "fixture-bad-default";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "a default outside its range";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: HighMu) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+        LawOutput::force(-self.0 * input.relative_velocity)
+    }
+}
+
+/// Panics above 20 kN.
+struct PanicsUnderLoad(f64);
+impl Law for PanicsUnderLoad {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-panics-under-load";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "panics above 20 kN";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+        assert!(input.normal_load_n <= 20e3, "load table ends at 20 kN");
+        LawOutput::force(-self.0 * input.relative_velocity)
+    }
+}
+
+/// A state that grows tenfold at every commit (an unstable integrator).
+struct Diverging(f64);
+impl Law for Diverging {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-diverging";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "a state that blows up";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn state_size(&self) -> usize {
+        1
+    }
+    fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
+        let z = state.first().copied().unwrap_or(0.0).abs();
+        LawOutput::force(-(self.0 + z) * input.relative_velocity)
+    }
+    fn commit(&self, input: &LawInput, state: &mut [f64]) {
+        if let Some(z) = state.first_mut() {
+            *z = 10.0 * *z + input.dt_s;
+        }
+    }
+}
+
+fn report_of<L: Law>() -> Report {
+    let lib = LawLibrary::in_process::<L>().expect("describes itself");
+    conformance::check_law(&lib, &toml::Table::new())
+}
+
+fn detail(r: &Report, c: Check) -> String {
+    r.get(c).map(|x| x.detail.clone()).unwrap_or_default()
+}
+
+#[test]
+fn a_non_dissipative_law_fails_dissipative_unless_declared_active() {
+    let r = report_of::<Pushing>();
+    assert_eq!(r.failed(), vec![Check::Dissipative], "{r}");
+    assert!(detail(&r, Check::Dissipative).contains("F*v"), "{r}");
+    // Declared active, with its reason, it passes and the reason is shown.
+    let lib = LawLibrary::in_process::<Pushing>().expect("describes itself");
+    let r = conformance::check_with(
+        &lib,
+        &Options {
+            params: toml::Table::new(),
+            active: Some("a test motor".into()),
+        },
+    );
+    assert!(r.passed(), "{r}");
+    let d = r.get(Check::Dissipative).expect("reported");
+    assert_eq!(d.status, Status::Skip);
+    assert!(d.detail.contains("a test motor"), "{r}");
+}
+
+#[test]
+fn a_wrong_derivative_fails_derivative() {
+    let r = report_of::<WrongDerivative>();
+    assert_eq!(r.failed(), vec![Check::Derivative], "{r}");
+    assert!(
+        detail(&r, Check::Derivative).contains("finite differences"),
+        "{r}"
+    );
+}
+
+#[test]
+fn nan_at_zero_velocity_fails_finite_naming_the_input() {
+    let r = report_of::<NanAtRest>();
+    assert_eq!(r.failed(), vec![Check::Finite], "{r}");
+    let d = detail(&r, Check::Finite);
+    assert!(d.contains("F=NaN") && d.contains("v=0e0"), "{d}");
+}
+
+#[test]
+fn an_out_of_range_default_fails_defaults_naming_the_parameter() {
+    let r = report_of::<BadDefault>();
+    assert_eq!(r.failed(), vec![Check::Defaults, Check::Create], "{r}");
+    let d = detail(&r, Check::Defaults);
+    assert!(
+        d.contains("`mu`") && d.contains("2.0") && d.contains("[0, 1]"),
+        "{d}"
+    );
+    // Nothing can be evaluated without an instance: those checks say so instead of passing.
+    assert_eq!(r.get(Check::Finite).map(|c| c.status), Some(Status::Skip));
+}
+
+#[test]
+fn a_panic_is_a_named_error_not_a_crash() {
+    let r = report_of::<PanicsUnderLoad>();
+    assert_eq!(r.failed(), vec![Check::NoErrors], "{r}");
+    let d = detail(&r, Check::NoErrors);
+    assert!(
+        d.contains("panicked") && d.contains("load table ends at 20 kN"),
+        "{d}"
+    );
+    assert!(d.contains("load 50000 N"), "{d}");
+}
+
+#[test]
+fn a_diverging_state_fails_commit() {
+    let r = report_of::<Diverging>();
+    assert_eq!(r.failed(), vec![Check::Commit], "{r}");
+    assert!(detail(&r, Check::Commit).contains("state value"), "{r}");
+}
+
+#[test]
+fn a_state_mutating_evaluate_fails_pure_evaluate_through_the_c_abi_and_the_cli() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let lib_path = dir
+        .path()
+        .join(plugin_file_name("tribo_law_fixture_mutating"));
+    compile_c(&[c_fixture("mutating_evaluate.c")], &lib_path, true);
+    let lib = LawLibrary::load(&lib_path).expect("loads");
+    let r = conformance::check_law(&lib, &toml::Table::new());
+    assert_eq!(r.failed(), vec![Check::PureEvaluate], "{r}");
+    assert!(
+        detail(&r, Check::PureEvaluate).contains("changed the state"),
+        "{r}"
+    );
+    // Through the command: exit 1, the table marks the check, the error names it.
+    let out = run_tribo(&["check-law", lib_path.to_str().expect("utf-8")], None);
+    let (stdout, stderr) = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("pure-evaluate") && l.contains("FAIL")),
+        "{stdout}"
+    );
+    assert!(stdout.contains("1 check failed: pure-evaluate"), "{stdout}");
+    assert_mentions(&stderr, &["fixture-mutating-evaluate", "pure-evaluate"]);
+}
+
+#[test]
+fn plot_law_writes_an_svg_for_every_bundled_law() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for (law, _, params) in CASES {
+        let pfile = write_params(dir.path(), law, params);
+        let svg = dir.path().join(format!("{law}.svg"));
+        let out = run_tribo(
+            &[
+                "plot-law",
+                law,
+                "--params",
+                pfile.to_str().expect("utf-8"),
+                "--joint",
+                plot_joint(law),
+                "--out",
+                svg.to_str().expect("utf-8"),
+            ],
+            None,
+        );
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "{law}: {stderr}");
+        assert!(stdout.contains(svg.to_str().expect("utf-8")), "{stdout}");
+        let text = std::fs::read_to_string(&svg).expect("svg written");
+        assert!(
+            text.trim_start().starts_with("<svg") && text.trim_end().ends_with("</svg>"),
+            "{law}"
+        );
+        assert!(text.contains(law), "{law}: the title names the law");
+        // Three loads x two temperatures, in both panels.
+        assert!(
+            text.matches("<polyline").count() >= 12,
+            "{law}: six curves per panel"
+        );
+        for label in ["200 N, 40 C", "5000 N, 100 C"] {
+            assert!(text.contains(label), "{law}: legend entry {label}");
+        }
+    }
+    // A joint the rig does not have is refused by name.
+    let out = run_tribo(&["plot-law", "coulomb", "--joint", "crosshead"], None);
+    assert!(!out.status.success());
+    assert_mentions(&text(&out).1, &["crosshead", "piston"]);
+}
+
+#[test]
+fn plot_law_curves_are_the_law_at_the_plotted_loads_and_oil() {
+    ensure_plugins_built();
+    let registry = tribo::plugin_api::loader::load_paths(&[profile_dir()]).expect("plugins load");
+    // Coulomb on the piston: |F| = mu N far above the smoothing speed, opposing the motion.
+    let lib = registry.get("coulomb").expect("coulomb");
+    let c = tribo::check::sample_law(lib, &"mu = 0.08".parse().expect("toml"), "piston")
+        .expect("sampled");
+    assert_eq!(c.curves.len(), 6);
+    for k in &c.curves {
+        for &(v, f) in &k.points {
+            assert!(f * v <= 0.0, "opposes motion: v {v} F {f}");
+            if v.abs() > 1.0 {
+                assert!(
+                    (f.abs() - 0.08 * k.load_n).abs() < 1e-6 * k.load_n,
+                    "v {v}: {f}"
+                );
+            }
+        }
+    }
+    // Petroff on a main bearing: torque proportional to viscosity, so the 40 C curve is the
+    // hotter one times the rig oil's viscosity ratio, at every speed and load.
+    let lib = registry.get("petroff-journal").expect("petroff");
+    let c = tribo::check::sample_law(lib, &"clearance_m = 2e-5".parse().expect("toml"), "main_a")
+        .expect("sampled");
+    let (cold, hot) = (&c.curves[0], &c.curves[3]);
+    assert_eq!((cold.oil_temp_c, hot.oil_temp_c), (40.0, 100.0));
+    let ratio = cold.viscosity_pa_s / hot.viscosity_pa_s;
+    assert!(
+        (ratio - 115.0 / 17.5).abs() < 1e-9,
+        "rig oil 115 / 17.5 cSt: {ratio}"
+    );
+    for (a, b) in cold.points.iter().zip(&hot.points) {
+        assert!(
+            (a.1 - ratio * b.1).abs() <= 1e-9 * a.1.abs().max(1e-12),
+            "{a:?} {b:?}"
+        );
+    }
+}
+
+#[test]
+fn a_law_that_crashes_check_law_is_named_with_the_signal() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let lib_path = dir.path().join(plugin_file_name("tribo_law_fixture_crash"));
+    compile_c(&[c_fixture("crash_in_evaluate.c")], &lib_path, true);
+    let out = run_tribo(&["check-law", lib_path.to_str().expect("utf-8")], None);
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success(), "{stderr}");
+    assert_mentions(&stderr, &["SIGSEGV", "fixture-crash-in-evaluate"]);
 }

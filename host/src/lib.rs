@@ -13,6 +13,8 @@
 //! - [`timeseries`]: the per-step CSV of `tribo run --timeseries`, an observer of the run;
 //! - [`progress`]: a progress display for long runs (stderr, terminals only);
 //! - [`laws`]: the listing of discovered laws (`tribo laws`);
+//! - [`check`]: a law by path or name checked against the contract (`tribo check-law`) and
+//!   sampled for its force-velocity plot (`tribo plot-law`);
 //! - [`scaffold`]: generation of a new law crate (`tribo new-law`).
 //!
 //! The layers are re-exported under the names the binary, tests and benches have always used:
@@ -21,6 +23,7 @@
 //! [`score`], [`uncertainty`] from `tribo_studies`. Laws are never linked in; they are found and
 //! loaded through `tribo_plugin_api::loader`.
 
+pub mod check;
 pub mod isolate;
 pub mod laws;
 pub mod output;

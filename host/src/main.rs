@@ -49,6 +49,13 @@ enum Command {
     Sweep(SweepArgs),
     /// Generate a new law plugin crate with a documented law, parameters and unit tests.
     NewLaw(NewLawArgs),
+    /// Check a law library against the contract (description, parameter ranges, finite and
+    /// dissipative output over a sweep, dF/dv, pure evaluate, commit, threads); exit 1 naming
+    /// the failed checks.
+    CheckLaw(CheckLawArgs),
+    /// Plot a law's force (or torque) against sliding velocity at three loads and two oil
+    /// temperatures (SVG).
+    PlotLaw(PlotLawArgs),
     /// Internal: run one job of a study in this process on behalf of a parent `tribo`.
     #[command(name = "__worker", hide = true)]
     Worker(WorkerArgs),
@@ -308,6 +315,40 @@ struct NewLawArgs {
     dir: Option<PathBuf>,
 }
 
+/// The arguments of `tribo check-law`.
+#[derive(Args)]
+struct CheckLawArgs {
+    /// Law library file (.so, .dylib, .dll) or law name (found like every other command's laws).
+    law: String,
+    /// TOML table of parameters to check the law with (missing ones take their defaults).
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
+    /// The law feeds energy in on purpose, for this reason: the dissipation check is skipped
+    /// and the reason shown.
+    #[arg(long, value_name = "REASON")]
+    active: Option<String>,
+    /// Machine-readable JSON report instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The arguments of `tribo plot-law`.
+#[derive(Args)]
+struct PlotLawArgs {
+    /// Law library file or law name.
+    law: String,
+    /// TOML table of parameters (missing ones take their defaults).
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
+    /// Joint of the bundled rig whose contact geometry the law sits on: main_a, main_b,
+    /// big_end, small_end (revolute: torque) or piston (prismatic: force).
+    #[arg(long, default_value = "piston")]
+    joint: String,
+    /// SVG file to write (default: plot_<law>.svg in the current directory).
+    #[arg(long, value_name = "FILE.svg")]
+    out: Option<PathBuf>,
+}
+
 /// The body a mass study scales, as the command line spells it.
 #[derive(Clone, Copy, clap::ValueEnum, Serialize, Deserialize)]
 enum BodyArg {
@@ -397,6 +438,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(a) => cmd_fit(&g, a),
         Command::Sweep(a) => cmd_sweep(&g, a),
         Command::NewLaw(a) => cmd_new_law(a),
+        Command::CheckLaw(a) => cmd_check_law(&g, a),
+        Command::PlotLaw(a) => cmd_plot_law(&g, a),
         Command::Worker(a) => cmd_worker(&g, a),
     }
 }
@@ -1092,6 +1135,52 @@ fn cmd_new_law(a: NewLawArgs) -> anyhow::Result<()> {
         )?;
     }
     emit(&out_text)
+}
+
+/// `tribo check-law`: the conformance checks on one law, as a table or JSON; exit 1 naming
+/// the failed checks.
+fn cmd_check_law(g: &Globals, a: CheckLawArgs) -> anyhow::Result<()> {
+    use tribo_plugin_api::conformance;
+    let params = tribo::check::read_params(a.params.as_deref())?;
+    let registry = g.registry()?;
+    let lib = tribo::check::open_law(&registry, &a.law)?;
+    let options = conformance::Options {
+        params,
+        active: a.active,
+    };
+    let report = conformance::check_with(&lib, &options);
+    let text = if a.json {
+        format!("{}\n", serde_json::to_string_pretty(&report)?)
+    } else {
+        report.to_table()
+    };
+    emit(&text)?;
+    let failed: Vec<&str> = report.failed().iter().map(|c| c.as_str()).collect();
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        anyhow::bail!(
+            "law `{}` failed {} check{}: {}",
+            report.law,
+            failed.len(),
+            if failed.len() == 1 { "" } else { "s" },
+            failed.join(", ")
+        )
+    }
+}
+
+/// `tribo plot-law`: a law's force-velocity curves as an SVG file.
+fn cmd_plot_law(g: &Globals, a: PlotLawArgs) -> anyhow::Result<()> {
+    let params = tribo::check::read_params(a.params.as_deref())?;
+    let registry = g.registry()?;
+    let lib = tribo::check::open_law(&registry, &a.law)?;
+    let out = a.out.unwrap_or_else(|| {
+        PathBuf::from(format!("plot_{}.svg", tribo::plots::file_stem(lib.name())))
+    });
+    tribo::output::check_result_file(&out)?;
+    let curves = tribo::check::sample_law(&lib, &params, &a.joint)?;
+    tribo::plots::write_law_plot(&curves, &out)?;
+    emit(&format!("wrote {}\n", out.display()))
 }
 
 /// Data files (CSV) or bundled data names, read in order.

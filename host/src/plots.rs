@@ -563,6 +563,164 @@ pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> Result<Vec<String>, O
     Ok(files)
 }
 
+/// The SVG of `tribo plot-law`: a law's force (or torque) against sliding velocity through
+/// zero (top), and its magnitude against sliding speed on a logarithmic axis for the
+/// low-speed detail (bottom); one line per load and oil temperature (blues cold, reds hot,
+/// darker for heavier loads), legend beside the plots.
+pub fn law_plot_svg(c: &crate::check::LawCurves) -> std::io::Result<String> {
+    svg(|s| law_plot(c, s))
+}
+
+/// Write [`law_plot_svg`] to `path` atomically (a temporary file beside it, renamed into
+/// place).
+pub fn write_law_plot(c: &crate::check::LawCurves, path: &Path) -> Result<(), OutputError> {
+    let name = path.display().to_string();
+    let text = rendered(&name, law_plot_svg(c))?;
+    crate::output::write_atomic(path, text.as_bytes())
+}
+
+/// Colour of a law-plot curve: temperature `t` of `nt` picks blues (cold) or reds (hot),
+/// load `l` of `nl` its shade, darker for heavier.
+fn law_curve_color(t: usize, nt: usize, l: usize, nl: usize) -> RGBColor {
+    let base = temperature_color(if t + 1 == nt && nt > 1 { 4 } else { 0 }, 5);
+    let f = if nl > 1 {
+        0.55 - 0.55 * l as f64 / (nl - 1) as f64
+    } else {
+        0.0
+    };
+    let lift = |c: u8| (c as f64 + (255.0 - c as f64) * f).round() as u8;
+    RGBColor(lift(base.0), lift(base.1), lift(base.2))
+}
+
+fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
+    let (w, h) = (960_u32, 900_u32);
+    let root = SVGBackend::with_string(out, (w, h)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let temps: Vec<f64> = {
+        let mut t: Vec<f64> = c.curves.iter().map(|k| k.oil_temp_c).collect();
+        t.dedup();
+        t
+    };
+    let loads: Vec<f64> = {
+        let mut l: Vec<f64> = c.curves.iter().map(|k| k.load_n).collect();
+        l.sort_by(f64::total_cmp);
+        l.dedup();
+        l
+    };
+    let labels: Vec<String> = c
+        .curves
+        .iter()
+        .map(|k| format!("{} N, {} C", k.load_n, k.oil_temp_c))
+        .collect();
+    let title = "load, oil";
+    let width = legend_width(&[labels.as_slice(), &[title.to_string()]].concat());
+    let (plots, side) = root.split_horizontally(w - width);
+    let (top, bottom) = plots.split_vertically(h / 2);
+    let (quantity, unit) = match c.kind {
+        crate::plugin_api::JointKind::Revolute => ("torque", "N m"),
+        crate::plugin_api::JointKind::Prismatic => ("force", "N"),
+    };
+    let state_note = if c.stateful { ", steady sliding" } else { "" };
+    // Cold curves are drawn wider, so a temperature-blind law's hot curve lies visibly on top.
+    let stroke = |k: &crate::check::Curve| {
+        if temps.first() == Some(&k.oil_temp_c) {
+            4
+        } else {
+            2
+        }
+    };
+    let color = |k: &crate::check::Curve| {
+        let t = temps.iter().position(|x| *x == k.oil_temp_c).unwrap_or(0);
+        let l = loads.iter().position(|x| *x == k.load_n).unwrap_or(0);
+        law_curve_color(t, temps.len(), l, loads.len())
+    };
+    // Top: signed force through zero.
+    let (x0, x1) = range(
+        c.curves.iter().flat_map(|k| k.points.iter().map(|p| p.0)),
+        0.02,
+    );
+    let (y0, y1) = range(
+        c.curves
+            .iter()
+            .flat_map(|k| k.points.iter().map(|p| p.1))
+            .chain([0.0]),
+        0.08,
+    );
+    let mut chart = frame(
+        &top,
+        &format!(
+            "{}: {quantity} vs sliding velocity, {} joint{state_note}",
+            c.law, c.joint
+        ),
+        x0..x1,
+        y0..y1,
+        "sliding velocity at the contact (m/s)",
+        &format!("friction {quantity} ({unit})"),
+    )?;
+    for k in &c.curves {
+        let pts: Vec<(f64, f64)> = k
+            .points
+            .iter()
+            .filter(|p| p.1.is_finite())
+            .copied()
+            .collect();
+        chart.draw_series(LineSeries::new(pts, color(k).stroke_width(stroke(k))))?;
+    }
+    // Bottom: magnitude against speed on a log axis (the Stribeck region near zero).
+    let speeds = c
+        .curves
+        .iter()
+        .flat_map(|k| k.speed_points.iter().map(|p| p.0))
+        .filter(|v| *v > 0.0);
+    let (s0, s1) = speeds.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+    let (s0, s1) = if s0.is_finite() && s1 > s0 {
+        (s0, s1)
+    } else {
+        (1e-5, 1.0)
+    };
+    let (m0, m1) = range(
+        c.curves
+            .iter()
+            .flat_map(|k| k.speed_points.iter().map(|p| p.1))
+            .chain([0.0]),
+        0.08,
+    );
+    bottom.fill(&WHITE)?;
+    let mut log_chart = ChartBuilder::on(&bottom)
+        .caption(
+            format!("|{quantity}| vs sliding speed (logarithmic)"),
+            ("sans-serif", 20),
+        )
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d((s0..s1).log_scale(), 0.0f64.min(m0)..m1)?;
+    log_chart
+        .configure_mesh()
+        .x_desc("sliding speed at the contact (m/s)")
+        .x_label_formatter(&|x| format!("{x:.0e}"))
+        .y_desc(format!("|{quantity}| ({unit})"))
+        .draw()?;
+    for k in &c.curves {
+        let pts: Vec<(f64, f64)> = k
+            .speed_points
+            .iter()
+            .filter(|p| p.0 > 0.0 && p.1.is_finite())
+            .copied()
+            .collect();
+        log_chart.draw_series(LineSeries::new(pts, color(k).stroke_width(stroke(k))))?;
+    }
+    let entries: Vec<(String, Swatch)> = c
+        .curves
+        .iter()
+        .zip(&labels)
+        .map(|(k, l)| (l.clone(), Swatch::Line(color(k))))
+        .collect();
+    legend_beside(&side, title, &entries)?;
+    root.present()?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

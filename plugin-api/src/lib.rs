@@ -8,11 +8,15 @@
 //! - [`Law`] and [`export_law!`]: what a Rust law author writes (a struct, a serde parameter type,
 //!   the physics), with all FFI done by the macro;
 //! - [`describe`](mod@describe): parameter descriptions and their checking;
-//! - `loader` (feature `loader`): discovery and loading of both kinds of library into one handle.
+//! - `loader` (feature `loader`): discovery and loading of both kinds of library into one handle;
+//! - `conformance` (feature `conformance`): the checks of `tribo check-law` as a library, so a
+//!   law's own `cargo test` runs them in one line.
 //!
 //! `abi_stable` is used only inside this crate, so it can be replaced without touching the
 //! host or any law.
 
+#[cfg(feature = "conformance")]
+pub mod conformance;
 pub mod contract;
 pub mod describe;
 mod law;

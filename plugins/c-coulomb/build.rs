@@ -55,4 +55,6 @@ fn main() {
         .status()
         .expect("the C compiler could not be started; install gcc or clang, or set CC");
     assert!(status.success(), "compiling {} failed", source.display());
+    // For the crate's unit test, which loads the library and runs the conformance checks.
+    println!("cargo:rustc-env=TRIBO_C_COULOMB_LIB={}", output.display());
 }

@@ -99,7 +99,8 @@ export_law!(Coulomb);
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tribo_plugin_api::{assert_law_is_consistent, create_from_table};
+    use tribo_plugin_api::conformance::{assert_law_conforms, assert_law_conforms_with};
+    use tribo_plugin_api::create_from_table;
 
     fn law(text: &str) -> Coulomb {
         let table: toml::Table = text.parse().expect("test TOML parses");
@@ -113,9 +114,14 @@ mod tests {
         i.with_velocity(velocity)
     }
 
+    /// The checks of `tribo check-law` (description, defaults and ranges, finite, dissipative,
+    /// dF/dv, pure evaluate, commit, threads) with the defaults and the parameter sets below.
     #[test]
-    fn description_is_consistent() {
-        assert_law_is_consistent::<Coulomb>();
+    fn conforms() {
+        assert_law_conforms::<Coulomb>();
+        assert_law_conforms_with::<Coulomb>("mu = 0.08");
+        assert_law_conforms_with::<Coulomb>("mu = 0.3\nc_viscous = 0.1");
+        assert_law_conforms_with::<Coulomb>("mu = 0.2\nc_viscous = 0.05\nv_smooth = 0.01");
     }
 
     #[test]
@@ -139,39 +145,6 @@ mod tests {
         // Moving at -3 m/s: friction +0.08*150, viscous -2.5*(-3) = +7.5.
         let expected = 0.08 * 150.0 + 7.5;
         assert!((out.force - expected).abs() < 1e-9, "{}", out.force);
-    }
-
-    #[test]
-    fn always_opposes_motion() {
-        let l = law("mu = 0.3\nc_viscous = 0.1");
-        for &v in &[-10.0, -1e-3, -1e-9, 1e-9, 1e-3, 10.0] {
-            for &n in &[0.0, 1.0, 1e4] {
-                for kind in [JointKind::Revolute, JointKind::Prismatic] {
-                    let out = l.evaluate(&input(kind, v, n, 0.02), &[]);
-                    assert!(out.force * v <= 0.0, "F={} v={v}", out.force);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn derivative_matches_finite_difference() {
-        let l = law("mu = 0.2\nc_viscous = 0.05\nv_smooth = 0.01");
-        for kind in [JointKind::Revolute, JointKind::Prismatic] {
-            for &v in &[-0.5, -0.01, 0.0, 0.003, 0.2] {
-                let h = 1e-7;
-                let f = |v| l.evaluate(&input(kind, v, 300.0, 0.02), &[]).force;
-                let fd = (f(v + h) - f(v - h)) / (2.0 * h);
-                let an = l
-                    .evaluate(&input(kind, v, 300.0, 0.02), &[])
-                    .derivative()
-                    .expect("provided");
-                assert!(
-                    (fd - an).abs() < 1e-5 * (1.0 + an.abs()),
-                    "{kind:?} v={v}: fd {fd} an {an}"
-                );
-            }
-        }
     }
 
     #[test]

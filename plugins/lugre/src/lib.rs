@@ -173,7 +173,8 @@ export_law!(LuGre);
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tribo_plugin_api::{assert_law_is_consistent, create_from_table};
+    use tribo_plugin_api::conformance::{assert_law_conforms, assert_law_conforms_with};
+    use tribo_plugin_api::create_from_table;
 
     fn law(text: &str) -> Result<LuGre, ParamError> {
         create_from_table::<LuGre>(&text.parse().expect("toml"))
@@ -186,9 +187,12 @@ mod tests {
         i.with_velocity(v)
     }
 
+    /// The checks of `tribo check-law` (description, defaults and ranges, finite, dissipative,
+    /// dF/dv, pure evaluate, commit, threads) with the defaults and the parameter sets below.
     #[test]
-    fn consistent_description() {
-        assert_law_is_consistent::<LuGre>();
+    fn conforms() {
+        assert_law_conforms::<LuGre>();
+        assert_law_conforms_with::<LuGre>("mu_c = 0.05\nmu_s = 0.08\nsigma1 = 1.0\nsigma2 = 0.001");
     }
 
     #[test]

@@ -268,7 +268,8 @@ export_law!(MixedFilm);
 #[cfg(test)]
 mod tests {
     use super::*;
-    use tribo_plugin_api::{assert_law_is_consistent, create_from_table};
+    use tribo_plugin_api::conformance::{assert_law_conforms, assert_law_conforms_with};
+    use tribo_plugin_api::create_from_table;
 
     fn law(text: &str) -> Result<MixedFilm, ParamError> {
         create_from_table::<MixedFilm>(&text.parse().expect("toml"))
@@ -304,9 +305,15 @@ mod tests {
         (2.0 * std::f64::consts::PI).sqrt() * t.powf(x + 0.5) * (-t).exp() * a
     }
 
+    /// The checks of `tribo check-law` (description, defaults and ranges, finite, dissipative,
+    /// dF/dv, pure evaluate, commit, threads) with the defaults and the parameter sets below.
     #[test]
-    fn consistent_description() {
-        assert_law_is_consistent::<MixedFilm>();
+    fn conforms() {
+        assert_law_conforms::<MixedFilm>();
+        assert_law_conforms_with::<MixedFilm>("preload_n = 20.0");
+        assert_law_conforms_with::<MixedFilm>(
+            "mu_b = 0.1\nc_h = 1.884\nface_width_m = 1e-3\nsigma_m = 0.3e-6\npreload_n = 220.0",
+        );
     }
 
     #[test]

@@ -21,7 +21,23 @@ static NEXT_NAME: AtomicUsize = AtomicUsize::new(1);
 static NEXT_SLOT: AtomicUsize = AtomicUsize::new(0);
 
 thread_local! {
-    static MY_SLOT: usize = NEXT_SLOT.fetch_add(1, Ordering::Relaxed) % SLOTS;
+    /// This thread's slot, assigned at its first plugin call (`usize::MAX` until then). A
+    /// const-initialised cell: reading it is one thread-local load, no lazy-init check.
+    static MY_SLOT: std::cell::Cell<usize> = const { std::cell::Cell::new(usize::MAX) };
+}
+
+/// This thread's slot.
+#[inline]
+fn my_slot() -> usize {
+    MY_SLOT.with(|s| {
+        let slot = s.get();
+        if slot != usize::MAX {
+            return slot;
+        }
+        let slot = NEXT_SLOT.fetch_add(1, Ordering::Relaxed) % SLOTS;
+        s.set(slot);
+        slot
+    })
 }
 
 /// A registered description of plugin code ("law `x` (file)"); 0 means nothing.
@@ -48,8 +64,12 @@ pub struct Running {
 /// Mark the current thread as running the plugin code `id`.
 #[inline]
 pub fn enter(id: CodeId) -> Running {
-    let slot = MY_SLOT.with(|s| *s);
-    let previous = SLOT[slot].swap(id.0, Ordering::Relaxed);
+    let slot = my_slot();
+    // Only this thread writes its slot (threads beyond SLOTS share one, which only blurs the
+    // diagnosis), so a plain load and store do; an atomic swap would cost a locked instruction
+    // on every law call.
+    let previous = SLOT[slot].load(Ordering::Relaxed);
+    SLOT[slot].store(id.0, Ordering::Relaxed);
     Running { slot, previous }
 }
 

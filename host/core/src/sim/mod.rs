@@ -43,7 +43,8 @@ use crate::observe::{NoObserver, StepObserver, StepSample};
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use joint::JointId;
 pub use results::{
-    DriveKind, EnergyBalance, LawResult, LawTime, PlateauResult, RegimeShare, RunResult,
+    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, LawResult, LawTime, PlateauFmep,
+    PlateauResult, RegimeShare, RunResult,
 };
 
 use adaptive::Adaptive;
@@ -86,6 +87,8 @@ pub struct Simulation {
     progress: Option<crate::observe::Position>,
     /// The gas pressures on the piston, if the rig has any.
     gas: Option<GasModel>,
+    /// Displacement (swept volume), m^3.
+    displacement_m3: f64,
 }
 
 /// The mechanism of the model: its bodies reduced to the rig's geometry (the crank's
@@ -191,6 +194,12 @@ impl Simulation {
             n_laws,
             progress: None,
             gas: GasModel::from_rig(f),
+            displacement_m3: std::f64::consts::PI
+                * 0.25
+                * f.geometry.bore_m
+                * f.geometry.bore_m
+                * 2.0
+                * f.geometry.crank_radius_m,
         })
     }
 
@@ -215,6 +224,19 @@ impl Simulation {
             2
         } else {
             1
+        }
+    }
+
+    /// The run's FMEP definition: 4-stroke when the gas pressure makes the cycle 4-stroke,
+    /// else per revolution.
+    pub fn fmep(&self) -> Fmep {
+        Fmep {
+            basis: if self.revolutions_per_cycle() == 2 {
+                FmepBasis::FourStroke
+            } else {
+                FmepBasis::TwoStroke
+            },
+            displacement_m3: self.displacement_m3,
         }
     }
 
@@ -311,6 +333,7 @@ impl Simulation {
                 Drive::Pi { .. } => DriveKind::Pi,
             },
             plateaus: results,
+            fmep: self.fmep(),
             energy_residual_j: energy.residual_j,
             energy,
             steps,

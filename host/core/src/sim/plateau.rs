@@ -4,7 +4,7 @@
 
 use std::f64::consts::TAU;
 
-use super::results::{LawResult, PlateauResult, RegimeShare};
+use super::results::{ComponentFmep, LawResult, PlateauFmep, PlateauResult, RegimeShare};
 use super::Simulation;
 use crate::cycle::{rad_s_to_rpm, Plateau};
 
@@ -218,7 +218,24 @@ impl Simulation {
                 k += 1;
             }
         }
+        let fmep = self.fmep();
+        let mut components: Vec<ComponentFmep> = Vec::new();
+        for l in &joints {
+            match components.iter_mut().find(|c| c.joint == l.joint) {
+                Some(c) => c.kpa += fmep.kpa(l.friction_torque_nm),
+                None => components.push(ComponentFmep {
+                    joint: l.joint.clone(),
+                    kpa: fmep.kpa(l.friction_torque_nm),
+                }),
+            }
+        }
+        let plateau_fmep = PlateauFmep {
+            total_kpa: fmep.kpa(joints.iter().map(|l| l.friction_torque_nm).sum()),
+            motoring_kpa: fmep.kpa(d(0) / dtheta),
+            components,
+        };
         PlateauResult {
+            fmep: plateau_fmep,
             set_speed_rpm: rad_s_to_rpm(omega_ref),
             mean_speed_rpm: rad_s_to_rpm(dtheta / dt),
             motoring_torque_nm: d(0) / dtheta,

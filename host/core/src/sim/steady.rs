@@ -48,6 +48,7 @@ impl Simulation {
             rig: self.rig_name.clone(),
             drive: DriveKind::Steady,
             plateaus: results,
+            fmep: self.fmep(),
             energy_residual_j: energy.residual_j,
             energy,
             steps,

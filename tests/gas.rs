@@ -282,3 +282,73 @@ fn a_four_stroke_pressure_switches_fmep_to_the_4_pi_basis() {
         assert_eq!(p.revolutions, 2);
     }
 }
+
+#[test]
+fn crank_angle_traces_average_to_the_plateau_values_and_are_written_by_run() {
+    let sets = [SHORT_CYCLE, MOTORED_4S, "oil.temperature_c=80.0"];
+    let mut r = rig("crf250r-motored", &sets);
+    tribo::lawset::LawSet::load("fedem-baseline")
+        .expect("bundled law set")
+        .apply(&mut r);
+    let mut sim = tribo::rig::simulation(&r, &plugins()).expect("simulation");
+    let steady = sim.run_steady().expect("steady run");
+    let traces = sim.crank_angle_traces(0.5).expect("traces");
+    assert_eq!(traces.len(), steady.plateaus.len());
+    for (t, p) in traces.iter().zip(&steady.plateaus) {
+        // 720 degrees at 0.5 degree: 1440 samples of a 4-stroke cycle.
+        assert_eq!(t.samples.len(), 1440);
+        assert!(t.samples.last().expect("samples").crank_angle_deg > 719.0);
+        for (k, law) in p.joints.iter().enumerate() {
+            let mean: f64 = t
+                .samples
+                .iter()
+                .map(|s| s.laws[k].friction_torque_nm)
+                .sum::<f64>()
+                / t.samples.len() as f64;
+            assert!(
+                (mean - law.friction_torque_nm).abs()
+                    <= 2e-3 * law.friction_torque_nm.abs().max(1e-4),
+                "{} rpm {} {}: trace mean {mean} vs plateau {}",
+                p.set_speed_rpm,
+                law.joint,
+                law.law,
+                law.friction_torque_nm
+            );
+        }
+        // The firing TDC (360 degrees) carries the compression peak.
+        let at_tdc = &t.samples[720];
+        assert!((at_tdc.pressures_pa[0] - 101_325.0 * 12.9_f64.powf(1.4)).abs() < 1.0);
+    }
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let out = dir.path().join("angles");
+    let mut args = vec![
+        "run",
+        "crf250r-motored",
+        "--lawset",
+        "fedem-baseline",
+        "--steady",
+    ];
+    for s in &sets {
+        args.push("--set");
+        args.push(s);
+    }
+    args.extend([
+        "--crank-angle",
+        out.to_str().expect("utf-8"),
+        "--resolution-deg",
+        "2",
+    ]);
+    let o = common::run_tribo(&args, None);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("crank_angle.csv")).expect("crank_angle.csv");
+    // Header plus 2 plateaus x 360 angles x 4 laws of fedem-baseline on its joints.
+    let rows = csv.lines().count() - 1;
+    assert_eq!(rows % 360, 0, "{rows} rows");
+    for f in [
+        "crank_angle_loads.csv",
+        "friction_vs_angle_3000.svg",
+        "bearing_loads_6000.svg",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+}

@@ -213,6 +213,84 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputE
     out.commit()
 }
 
+/// The crank-angle results of `run --crank-angle DIR`: `crank_angle.csv` (one row per
+/// plateau, angle and law: friction torque, power, normal load, sliding speed, regime),
+/// `crank_angle_loads.csv` (one row per plateau and angle: big-end and main-bearing load
+/// vectors, cylinder and crankcase pressure, drive torque), and per plateau the friction
+/// torque of every joint over the cycle (`friction_vs_angle_RPM.svg`) and the polar diagram of
+/// the big-end and main-bearing loads (`bearing_loads_RPM.svg`). Swapped in whole.
+pub fn write_crank_angle(
+    traces: &[crate::sim::CrankAngleTrace],
+    dir: &Path,
+) -> Result<(), crate::output::OutputError> {
+    let mut out = crate::output::ResultDir::create(dir, "run", "--crank-angle")?;
+    let mut rows = Vec::new();
+    let mut loads = Vec::new();
+    for t in traces {
+        for s in &t.samples {
+            for ((joint, law), l) in t.laws.iter().zip(&s.laws) {
+                rows.push(vec![
+                    t.speed_rpm.to_string(),
+                    s.crank_angle_deg.to_string(),
+                    joint.clone(),
+                    law.clone(),
+                    l.friction_torque_nm.to_string(),
+                    l.power_w.to_string(),
+                    l.normal_load_n.to_string(),
+                    l.sliding_speed_m_s.to_string(),
+                    l.regime.clone(),
+                ]);
+            }
+            loads.push(vec![
+                t.speed_rpm.to_string(),
+                s.crank_angle_deg.to_string(),
+                s.big_end_n[0].to_string(),
+                s.big_end_n[1].to_string(),
+                s.main_n[0].to_string(),
+                s.main_n[1].to_string(),
+                s.pressures_pa[0].to_string(),
+                s.pressures_pa[1].to_string(),
+                s.drive_torque_nm.to_string(),
+            ]);
+        }
+    }
+    let header = [
+        "speed_rpm",
+        "crank_angle_deg",
+        "joint",
+        "law",
+        "friction_torque_nm",
+        "power_w",
+        "normal_load_n",
+        "sliding_speed_m_s",
+        "regime",
+    ];
+    let text = csv_text(&header, rows).map_err(|e| render("crank_angle.csv", e))?;
+    out.write("crank_angle.csv", text.as_bytes())?;
+    let header = [
+        "speed_rpm",
+        "crank_angle_deg",
+        "big_end_x_n",
+        "big_end_y_n",
+        "main_x_n",
+        "main_y_n",
+        "cylinder_pa",
+        "crankcase_pa",
+        "drive_torque_nm",
+    ];
+    let text = csv_text(&header, loads).map_err(|e| render("crank_angle_loads.csv", e))?;
+    out.write("crank_angle_loads.csv", text.as_bytes())?;
+    for t in traces {
+        let name = format!("friction_vs_angle_{:.0}.svg", t.speed_rpm);
+        let svg = crate::plots::friction_vs_angle_svg(t).map_err(|e| render(&name, e))?;
+        out.write(&name, svg.as_bytes())?;
+        let name = format!("bearing_loads_{:.0}.svg", t.speed_rpm);
+        let svg = crate::plots::bearing_polar_svg(t).map_err(|e| render(&name, e))?;
+        out.write(&name, svg.as_bytes())?;
+    }
+    out.commit()
+}
+
 /// A table that could not be rendered, naming the file.
 fn render(what: &str, error: std::io::Error) -> crate::output::OutputError {
     crate::output::OutputError::Render {

@@ -16,6 +16,7 @@
 
 mod adaptive;
 mod bind;
+mod crank_angle;
 mod energy;
 mod error;
 mod evaluate;
@@ -40,6 +41,7 @@ use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
 use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
+pub use crank_angle::{AngleSample, CrankAngleTrace, LawSample};
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use joint::JointId;
 pub use results::{

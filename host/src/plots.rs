@@ -563,51 +563,6 @@ pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> Result<Vec<String>, O
     Ok(files)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn axis_ranges_are_finite_whatever_the_values() {
-        let cases: [&[f64]; 6] = [
-            &[1e308, -1e308],
-            &[f64::MAX, f64::MIN, f64::NAN],
-            &[f64::INFINITY, f64::NEG_INFINITY],
-            &[],
-            &[3.0, 3.0],
-            &[1e300, 1e300],
-        ];
-        for values in cases {
-            let (lo, hi) = range(values.iter().copied(), 0.15);
-            assert!(
-                lo.is_finite() && hi.is_finite() && lo < hi,
-                "{values:?}: {lo}..{hi}"
-            );
-            assert!(hi - lo <= 2.0 * AXIS_LIMIT * 1.31, "{values:?}: {lo}..{hi}");
-        }
-        // Ordinary values keep their padded range.
-        let (lo, hi) = range([1.0, 3.0].into_iter(), 0.5);
-        assert_eq!((lo, hi), (0.0, 4.0));
-    }
-
-    #[test]
-    fn a_chart_of_absurd_values_is_drawn_quickly() {
-        let start = std::time::Instant::now();
-        let (x0, x1) = range([1e308, -1e308, 3000.0].into_iter(), 0.05);
-        let (y0, y1) = range([1e308, -1e308, f64::NAN].into_iter(), 0.15);
-        let text = svg(|s| {
-            let root = SVGBackend::with_string(s, (900, 560)).into_drawing_area();
-            let mut chart = frame(&root, "absurd", x0..x1, y0..y1, "x", "y")?;
-            chart.draw_series(LineSeries::new([(1e308, -1e308), (x0, y1)], BLACK))?;
-            root.present()?;
-            Ok(())
-        })
-        .expect("drawn");
-        assert!(text.contains("<svg"));
-        assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
-    }
-}
-
 /// The FMEP breakdown of a run as stacked bars: one bar per plateau, one band per component
 /// (joint), in kPa, the basis in the caption (`run --csv`: `fmep.svg`).
 pub fn fmep_svg(r: &crate::sim::RunResult) -> std::io::Result<String> {
@@ -786,4 +741,49 @@ fn bearing_polar_plot(t: &crate::sim::CrankAngleTrace, out: &mut String) -> Plot
     legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     root.present()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axis_ranges_are_finite_whatever_the_values() {
+        let cases: [&[f64]; 6] = [
+            &[1e308, -1e308],
+            &[f64::MAX, f64::MIN, f64::NAN],
+            &[f64::INFINITY, f64::NEG_INFINITY],
+            &[],
+            &[3.0, 3.0],
+            &[1e300, 1e300],
+        ];
+        for values in cases {
+            let (lo, hi) = range(values.iter().copied(), 0.15);
+            assert!(
+                lo.is_finite() && hi.is_finite() && lo < hi,
+                "{values:?}: {lo}..{hi}"
+            );
+            assert!(hi - lo <= 2.0 * AXIS_LIMIT * 1.31, "{values:?}: {lo}..{hi}");
+        }
+        // Ordinary values keep their padded range.
+        let (lo, hi) = range([1.0, 3.0].into_iter(), 0.5);
+        assert_eq!((lo, hi), (0.0, 4.0));
+    }
+
+    #[test]
+    fn a_chart_of_absurd_values_is_drawn_quickly() {
+        let start = std::time::Instant::now();
+        let (x0, x1) = range([1e308, -1e308, 3000.0].into_iter(), 0.05);
+        let (y0, y1) = range([1e308, -1e308, f64::NAN].into_iter(), 0.15);
+        let text = svg(|s| {
+            let root = SVGBackend::with_string(s, (900, 560)).into_drawing_area();
+            let mut chart = frame(&root, "absurd", x0..x1, y0..y1, "x", "y")?;
+            chart.draw_series(LineSeries::new([(1e308, -1e308), (x0, y1)], BLACK))?;
+            root.present()?;
+            Ok(())
+        })
+        .expect("drawn");
+        assert!(text.contains("<svg"));
+        assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
+    }
 }

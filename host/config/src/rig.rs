@@ -548,8 +548,11 @@ fn read_trace_file(rig: &mut Rig) -> Result<(), RigError> {
     Ok(())
 }
 
+/// A bad row of a pressure trace: line, column (1-based) and what is wrong.
+type TraceError = (usize, usize, String);
+
 /// Parse a pressure trace CSV into angles and pressures, or `(line, column, message)`.
-fn parse_trace(text: &str) -> Result<(Vec<f64>, Vec<f64>), (usize, usize, String)> {
+fn parse_trace(text: &str) -> Result<(Vec<f64>, Vec<f64>), TraceError> {
     let (mut angles, mut pressures) = (Vec::new(), Vec::new());
     let mut header_allowed = true;
     for (i, raw) in text.lines().enumerate() {
@@ -1133,7 +1136,7 @@ impl Check<'_> {
                     return Err(self.rig.error(field, format!("a trace needs at least two points and as many pressures as angles, got {} angles and {} pressures", crank_angle_deg.len(), pressure_pa.len())));
                 }
                 for (i, w) in crank_angle_deg.windows(2).enumerate() {
-                    if !(w[1] > w[0]) {
+                    if w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater) {
                         return Err(self.rig.error(
                             field,
                             format!(

@@ -332,11 +332,14 @@ fn crank_angle_traces_average_to_the_plateau_values_and_are_written_by_run() {
         args.push("--set");
         args.push(s);
     }
+    let fmep_dir = dir.path().join("fmep");
     args.extend([
         "--crank-angle",
         out.to_str().expect("utf-8"),
         "--resolution-deg",
         "2",
+        "--fmep",
+        fmep_dir.to_str().expect("utf-8"),
     ]);
     let o = common::run_tribo(&args, None);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -350,6 +353,33 @@ fn crank_angle_traces_average_to_the_plateau_values_and_are_written_by_run() {
         "bearing_loads_6000.svg",
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
+    }
+    // fmep.csv: per plateau the components add up to the total row, on the 4-stroke basis.
+    let fmep = std::fs::read_to_string(fmep_dir.join("fmep.csv")).expect("fmep.csv");
+    assert!(fmep_dir.join("fmep.svg").is_file());
+    for rpm in ["3000", "6000"] {
+        let rows: Vec<Vec<&str>> = fmep
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect())
+            .filter(|r: &Vec<&str>| r[0] == rpm)
+            .collect();
+        assert!(!rows.is_empty() && rows.iter().all(|r| r[4] == "four-stroke"));
+        let value = |r: &Vec<&str>| r[2].parse::<f64>().expect("kPa");
+        let parts: f64 = rows
+            .iter()
+            .filter(|r| r[1] != "total" && r[1] != "motoring")
+            .map(value)
+            .sum();
+        let total = rows
+            .iter()
+            .find(|r| r[1] == "total")
+            .map(value)
+            .expect("total");
+        assert!(
+            (parts - total).abs() <= 1e-9 * total.abs(),
+            "{rpm}: {parts} vs {total}"
+        );
     }
 }
 

@@ -140,6 +140,9 @@ struct RunArgs {
     /// per joint and law; bearing loads and pressures; friction-vs-angle and polar load plots).
     #[arg(long = "crank-angle", value_name = "DIR")]
     crank_angle: Option<PathBuf>,
+    /// Also write the FMEP breakdown (fmep.csv, stacked bars fmep.svg) into this directory.
+    #[arg(long, value_name = "DIR")]
+    fmep: Option<PathBuf>,
     /// Angular resolution of --crank-angle, degrees.
     #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG")]
     resolution_deg: f64,
@@ -443,6 +446,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         csv,
         timeseries,
         crank_angle,
+        fmep,
         resolution_deg,
     } = a;
     if !(resolution_deg.is_finite() && resolution_deg > 0.0 && resolution_deg <= 10.0) {
@@ -459,6 +463,10 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     if let Some(dir) = &csv {
         tribo::output::check_result_dir(dir, "--csv")
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
+    }
+    if let Some(dir) = &fmep {
+        tribo::output::check_result_dir(dir, "--fmep")
+            .with_context(|| format!("writing FMEP into {}", dir.display()))?;
     }
     if let Some(dir) = &crank_angle {
         tribo::output::check_result_dir(dir, "--crank-angle")
@@ -485,6 +493,10 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     if let Some(dir) = &csv {
         tribo::report::write_csv(&result, dir)
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
+    }
+    if let Some(dir) = &fmep {
+        tribo::report::write_fmep(&result, dir)
+            .with_context(|| format!("writing FMEP into {}", dir.display()))?;
     }
     if let Some(dir) = &crank_angle {
         let traces = sim.crank_angle_traces(resolution_deg)?;

@@ -564,7 +564,7 @@ pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> Result<Vec<String>, O
 }
 
 /// The FMEP breakdown of a run as stacked bars: one bar per plateau, one band per component
-/// (joint), in kPa, the basis in the caption (`run --csv`: `fmep.svg`).
+/// (joint), in kPa, the basis in the caption (`run --fmep`: `fmep.svg`).
 pub fn fmep_svg(r: &crate::sim::RunResult) -> std::io::Result<String> {
     svg(|s| fmep_plot(r, s))
 }

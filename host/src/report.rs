@@ -161,8 +161,8 @@ pub fn fmep_csv(r: &RunResult) -> std::io::Result<String> {
     )
 }
 
-/// `plateaus.csv` (one row per plateau), `joints.csv` (one row per plateau and joint),
-/// `fmep.csv` and the stacked FMEP bars `fmep.svg` in `dir` (`run --csv`), through the `csv` writer so a law name with a comma or quote stays one
+/// `plateaus.csv` (one row per plateau) and `joints.csv` (one row per plateau and joint) in
+/// `dir` (`run --csv`), through the `csv` writer so a law name with a comma or quote stays one
 /// field. Numbers are in Rust's shortest round-trip form, as in the JSON. The two files are
 /// swapped in together ([`crate::output::ResultDir`]): `dir` never holds one old and one new.
 pub fn write_csv(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputError> {
@@ -206,6 +206,12 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputE
     }
     let j = csv_text(&JOINTS_CSV_HEADER, joints).map_err(|source| render("joints.csv", source))?;
     out.write("joints.csv", j.as_bytes())?;
+    out.commit()
+}
+
+/// `fmep.csv` and the stacked FMEP bars `fmep.svg` in `dir` (`run --fmep`), swapped in whole.
+pub fn write_fmep(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputError> {
+    let mut out = crate::output::ResultDir::create(dir, "run", "--fmep")?;
     let f = fmep_csv(r).map_err(|source| render("fmep.csv", source))?;
     out.write("fmep.csv", f.as_bytes())?;
     let svg = crate::plots::fmep_svg(r).map_err(|source| render("fmep.svg", source))?;

@@ -142,6 +142,17 @@ struct RunArgs {
     /// computes each plateau directly and has no time history).
     #[arg(long, value_name = "FILE", conflicts_with = "steady")]
     timeseries: Option<PathBuf>,
+    /// Also write crank-angle-resolved results into this directory: per plateau, one cycle at
+    /// the plateau speed (CSV of friction torque, power, normal load, sliding speed and regime
+    /// per joint and law; bearing loads and pressures; friction-vs-angle and polar load plots).
+    #[arg(long = "crank-angle", value_name = "DIR")]
+    crank_angle: Option<PathBuf>,
+    /// Also write the FMEP breakdown (fmep.csv, stacked bars fmep.svg) into this directory.
+    #[arg(long, value_name = "DIR")]
+    fmep: Option<PathBuf>,
+    /// Angular resolution of --crank-angle, degrees.
+    #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG")]
+    resolution_deg: f64,
 }
 
 /// The arguments of `tribo compare`.
@@ -477,7 +488,13 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         json,
         csv,
         timeseries,
+        crank_angle,
+        fmep,
+        resolution_deg,
     } = a;
+    if !(resolution_deg.is_finite() && resolution_deg > 0.0 && resolution_deg <= 10.0) {
+        anyhow::bail!("--resolution-deg: must be in (0, 10] degrees, got {resolution_deg}");
+    }
     let sets = with_oil_file(oil.as_deref(), sets)?;
     let mut rig = tribo::rig::load_rig(&rig, &sets)?;
     if let Some(ls) = lawset {
@@ -489,6 +506,14 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     if let Some(dir) = &csv {
         tribo::output::check_result_dir(dir, "--csv")
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
+    }
+    if let Some(dir) = &fmep {
+        tribo::output::check_result_dir(dir, "--fmep")
+            .with_context(|| format!("writing FMEP into {}", dir.display()))?;
+    }
+    if let Some(dir) = &crank_angle {
+        tribo::output::check_result_dir(dir, "--crank-angle")
+            .with_context(|| format!("writing crank-angle results into {}", dir.display()))?;
     }
     let progress = Progress::start("simulating the test cycle", Some(1000), g.quiet);
     sim.report_progress(progress.position());
@@ -511,6 +536,15 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     if let Some(dir) = &csv {
         tribo::report::write_csv(&result, dir)
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
+    }
+    if let Some(dir) = &fmep {
+        tribo::report::write_fmep(&result, dir)
+            .with_context(|| format!("writing FMEP into {}", dir.display()))?;
+    }
+    if let Some(dir) = &crank_angle {
+        let traces = sim.crank_angle_traces(resolution_deg)?;
+        tribo::report::write_crank_angle(&traces, dir)
+            .with_context(|| format!("writing crank-angle results into {}", dir.display()))?;
     }
     if json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;

@@ -721,6 +721,186 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
     Ok(())
 }
 
+/// The FMEP breakdown of a run as stacked bars: one bar per plateau, one band per component
+/// (joint), in kPa, the basis in the caption (`run --fmep`: `fmep.svg`).
+pub fn fmep_svg(r: &crate::sim::RunResult) -> std::io::Result<String> {
+    svg(|s| fmep_plot(r, s))
+}
+
+fn fmep_plot(r: &crate::sim::RunResult, out: &mut String) -> PlotResult {
+    let root = SVGBackend::with_string(out, (1000, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let p = &r.plateaus;
+    let labels: Vec<String> = p
+        .first()
+        .map(|x| x.fmep.components.iter().map(|c| c.joint.clone()).collect())
+        .unwrap_or_default();
+    let (plot, side) = root.split_horizontally(1000 - legend_width(&labels));
+    let n = p.len().max(1) as f64;
+    let tops: Vec<f64> = p
+        .iter()
+        .map(|x| x.fmep.components.iter().map(|c| c.kpa.max(0.0)).sum())
+        .collect();
+    let (_, y1) = range(tops.iter().copied().chain([0.0]), 0.1);
+    let basis = match r.fmep.basis {
+        crate::sim::FmepBasis::TwoStroke => "2 pi T / V_d",
+        crate::sim::FmepBasis::FourStroke => "4 pi T / V_d",
+    };
+    let mut chart = frame(
+        &plot,
+        &format!("FMEP by component: {} ({basis})", r.rig),
+        -0.5..n - 0.5,
+        0.0..y1,
+        "plateau (index; speeds in the legend column)",
+        "FMEP (kPa)",
+    )?;
+    for (i, x) in p.iter().enumerate() {
+        let mut base = 0.0;
+        for (k, c) in x.fmep.components.iter().enumerate() {
+            let h = c.kpa.max(0.0);
+            let color = COLORS[k % COLORS.len()];
+            let xi = i as f64;
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(xi - 0.35, base), (xi + 0.35, base + h)],
+                color.mix(0.8).filled(),
+            )))?;
+            base += h;
+        }
+    }
+    let mut entries: Vec<(String, Swatch)> = labels
+        .iter()
+        .enumerate()
+        .rev()
+        .map(|(k, l)| (l.clone(), Swatch::Fill(COLORS[k % COLORS.len()])))
+        .collect();
+    for (i, x) in p.iter().enumerate() {
+        entries.push((
+            format!("{i}: {:.0} rpm", x.set_speed_rpm),
+            Swatch::Fill(WHITE),
+        ));
+    }
+    legend_beside(&side, "component", &entries)?;
+    root.present()?;
+    Ok(())
+}
+
+/// Friction torque at the crank of every joint (its laws summed) over one cycle of a plateau
+/// (`run --crank-angle`).
+pub fn friction_vs_angle_svg(t: &crate::sim::CrankAngleTrace) -> std::io::Result<String> {
+    svg(|s| friction_vs_angle_plot(t, s))
+}
+
+fn friction_vs_angle_plot(t: &crate::sim::CrankAngleTrace, out: &mut String) -> PlotResult {
+    let root = SVGBackend::with_string(out, (1000, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut joints: Vec<String> = Vec::new();
+    for (j, _) in &t.laws {
+        if !joints.contains(j) {
+            joints.push(j.clone());
+        }
+    }
+    let series: Vec<Vec<(f64, f64)>> = joints
+        .iter()
+        .map(|j| {
+            t.samples
+                .iter()
+                .map(|s| {
+                    let sum: f64 = t
+                        .laws
+                        .iter()
+                        .zip(&s.laws)
+                        .filter(|((jj, _), _)| jj == j)
+                        .map(|(_, l)| l.friction_torque_nm)
+                        .sum();
+                    (s.crank_angle_deg, sum)
+                })
+                .collect()
+        })
+        .collect();
+    let (plot, side) = root.split_horizontally(1000 - legend_width(&joints));
+    let x1 = t
+        .samples
+        .last()
+        .map_or(360.0, |s| s.crank_angle_deg)
+        .max(1.0);
+    let (y0, y1) = range(series.iter().flatten().map(|p| p.1).chain([0.0]), 0.05);
+    let mut chart = frame(
+        &plot,
+        &format!("Friction torque over the cycle at {:.0} rpm", t.speed_rpm),
+        0.0..x1,
+        y0..y1,
+        "crank angle (degrees)",
+        "friction torque at the crank (N m)",
+    )?;
+    for (k, pts) in series.into_iter().enumerate() {
+        let color = COLORS[k % COLORS.len()];
+        chart.draw_series(LineSeries::new(pts, color.stroke_width(2)))?;
+    }
+    let entries: Vec<(String, Swatch)> = joints
+        .iter()
+        .enumerate()
+        .map(|(k, j)| (j.clone(), Swatch::Line(COLORS[k % COLORS.len()])))
+        .collect();
+    legend_beside(&side, "joint", &entries)?;
+    root.present()?;
+    Ok(())
+}
+
+/// The polar load diagram of a plateau's cycle: the big-end force (crank on rod) and the
+/// main-bearing force (ground on crank) as vectors in the engine frame, x across and y along
+/// the cylinder axis (`run --crank-angle`).
+pub fn bearing_polar_svg(t: &crate::sim::CrankAngleTrace) -> std::io::Result<String> {
+    svg(|s| bearing_polar_plot(t, s))
+}
+
+fn bearing_polar_plot(t: &crate::sim::CrankAngleTrace, out: &mut String) -> PlotResult {
+    let root = SVGBackend::with_string(out, (760, 700)).into_drawing_area();
+    let big: Vec<(f64, f64)> = t
+        .samples
+        .iter()
+        .map(|s| (s.big_end_n[0], s.big_end_n[1]))
+        .collect();
+    let main: Vec<(f64, f64)> = t
+        .samples
+        .iter()
+        .map(|s| (s.main_n[0], s.main_n[1]))
+        .collect();
+    let reach = big
+        .iter()
+        .chain(&main)
+        .map(|p| p.0.abs().max(p.1.abs()))
+        .fold(1.0_f64, f64::max)
+        * 1.1;
+    let mut chart = frame(
+        &root,
+        &format!("Bearing loads over the cycle at {:.0} rpm", t.speed_rpm),
+        -reach..reach,
+        -reach..reach,
+        "force across the cylinder, x (N)",
+        "force along the cylinder axis, y (N)",
+    )?;
+    for (k, (name, pts)) in [
+        ("big end (crank on rod)", big),
+        ("main bearings (on crank)", main),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let color = COLORS[k];
+        let mut closed = pts.clone();
+        if let Some(first) = pts.first() {
+            closed.push(*first);
+        }
+        chart
+            .draw_series(LineSeries::new(closed, color.stroke_width(2)))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+    }
+    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    root.present()?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

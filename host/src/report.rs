@@ -25,6 +25,7 @@ pub fn to_text(r: &RunResult) -> String {
             p.set_speed_rpm, p.mean_speed_rpm, p.motoring_torque_nm, p.oil_temp_c
         );
     }
+    out.push_str(&fmep_text(r));
     if r.plateaus.iter().any(|p| !p.joints.is_empty()) {
         let _ = writeln!(out, "\nper joint and law (friction torque at the crank, N m; power, W; regime shares b/m/h)");
         for p in &r.plateaus {
@@ -46,11 +47,19 @@ pub fn to_text(r: &RunResult) -> String {
         }
     }
     let e = &r.energy;
-    let _ = writeln!(
-        out,
-        "\nenergy: motor work {:.4} J = energy change {:.4} J + dissipated {:.4} J + residual {:.3e} J (relative {:.2e})",
-        e.motor_work_j, e.mechanical_energy_change_j, e.dissipated_j, e.residual_j, e.relative_residual
-    );
+    if e.gas_work_j != 0.0 {
+        let _ = writeln!(
+            out,
+            "\nenergy: motor work {:.4} J = energy change {:.4} J + dissipated {:.4} J + gas work {:.4} J + residual {:.3e} J (relative {:.2e})",
+            e.motor_work_j, e.mechanical_energy_change_j, e.dissipated_j, e.gas_work_j, e.residual_j, e.relative_residual
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "\nenergy: motor work {:.4} J = energy change {:.4} J + dissipated {:.4} J + residual {:.3e} J (relative {:.2e})",
+            e.motor_work_j, e.mechanical_energy_change_j, e.dissipated_j, e.residual_j, e.relative_residual
+        );
+    }
     if !r.law_time.is_empty() {
         let _ = writeln!(out, "\ntime in laws (sampled):");
         for l in &r.law_time {
@@ -70,6 +79,86 @@ pub fn to_text(r: &RunResult) -> String {
         let _ = writeln!(out, "warning: {w}");
     }
     out
+}
+
+/// The FMEP breakdown per plateau and component (kPa and bar), with its basis; empty when no
+/// law is attached.
+pub fn fmep_text(r: &RunResult) -> String {
+    let mut out = String::new();
+    if r.plateaus.iter().all(|p| p.joints.is_empty()) {
+        return out;
+    }
+    let _ = writeln!(
+        out,
+        "\nFMEP, kPa (bar = kPa / 100); {}, V_d = {:.1} cm^3",
+        r.fmep.basis.formula(),
+        r.fmep.displacement_m3 * 1e6
+    );
+    let names: Vec<&str> = r
+        .plateaus
+        .first()
+        .map(|p| p.fmep.components.iter().map(|c| c.joint.as_str()).collect())
+        .unwrap_or_default();
+    let _ = write!(out, "{:>10} {:>9} {:>7}", "set rpm", "total", "bar");
+    for n in &names {
+        let _ = write!(out, " {n:>9}");
+    }
+    let _ = writeln!(out, " {:>9}", "motoring");
+    for p in &r.plateaus {
+        let f = &p.fmep;
+        let _ = write!(
+            out,
+            "{:>10.0} {:>9.3} {:>7.4}",
+            p.set_speed_rpm,
+            f.total_kpa,
+            f.total_kpa / 100.0
+        );
+        for c in &f.components {
+            let _ = write!(out, " {:>9.3}", c.kpa);
+        }
+        let _ = writeln!(out, " {:>9.3}", f.motoring_kpa);
+    }
+    out
+}
+
+/// `fmep.csv`: one row per plateau and component (joint) plus a `total` row per plateau, in
+/// kPa and bar, with the basis (`two-stroke`: 2 pi T / V_d, `four-stroke`: 4 pi T / V_d).
+pub fn fmep_csv(r: &RunResult) -> std::io::Result<String> {
+    let basis = match r.fmep.basis {
+        crate::sim::FmepBasis::TwoStroke => "two-stroke",
+        crate::sim::FmepBasis::FourStroke => "four-stroke",
+    };
+    let mut rows = Vec::new();
+    for p in &r.plateaus {
+        let parts = p
+            .fmep
+            .components
+            .iter()
+            .map(|c| (c.joint.as_str(), c.kpa))
+            .chain([
+                ("total", p.fmep.total_kpa),
+                ("motoring", p.fmep.motoring_kpa),
+            ]);
+        for (name, kpa) in parts {
+            rows.push(vec![
+                p.set_speed_rpm.to_string(),
+                name.to_string(),
+                kpa.to_string(),
+                (kpa / 100.0).to_string(),
+                basis.to_string(),
+            ]);
+        }
+    }
+    csv_text(
+        &[
+            "set_speed_rpm",
+            "component",
+            "fmep_kpa",
+            "fmep_bar",
+            "basis",
+        ],
+        rows,
+    )
 }
 
 /// `plateaus.csv` (one row per plateau) and `joints.csv` (one row per plateau and joint) in
@@ -117,6 +206,94 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputE
     }
     let j = csv_text(&JOINTS_CSV_HEADER, joints).map_err(|source| render("joints.csv", source))?;
     out.write("joints.csv", j.as_bytes())?;
+    out.commit()
+}
+
+/// `fmep.csv` and the stacked FMEP bars `fmep.svg` in `dir` (`run --fmep`), swapped in whole.
+pub fn write_fmep(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputError> {
+    let mut out = crate::output::ResultDir::create(dir, "run", "--fmep")?;
+    let f = fmep_csv(r).map_err(|source| render("fmep.csv", source))?;
+    out.write("fmep.csv", f.as_bytes())?;
+    let svg = crate::plots::fmep_svg(r).map_err(|source| render("fmep.svg", source))?;
+    out.write("fmep.svg", svg.as_bytes())?;
+    out.commit()
+}
+
+/// The crank-angle results of `run --crank-angle DIR`: `crank_angle.csv` (one row per
+/// plateau, angle and law: friction torque, power, normal load, sliding speed, regime),
+/// `crank_angle_loads.csv` (one row per plateau and angle: big-end and main-bearing load
+/// vectors, cylinder and crankcase pressure, drive torque), and per plateau the friction
+/// torque of every joint over the cycle (`friction_vs_angle_RPM.svg`) and the polar diagram of
+/// the big-end and main-bearing loads (`bearing_loads_RPM.svg`). Swapped in whole.
+pub fn write_crank_angle(
+    traces: &[crate::sim::CrankAngleTrace],
+    dir: &Path,
+) -> Result<(), crate::output::OutputError> {
+    let mut out = crate::output::ResultDir::create(dir, "run", "--crank-angle")?;
+    let mut rows = Vec::new();
+    let mut loads = Vec::new();
+    for t in traces {
+        for s in &t.samples {
+            for ((joint, law), l) in t.laws.iter().zip(&s.laws) {
+                rows.push(vec![
+                    t.speed_rpm.to_string(),
+                    s.crank_angle_deg.to_string(),
+                    joint.clone(),
+                    law.clone(),
+                    l.friction_torque_nm.to_string(),
+                    l.power_w.to_string(),
+                    l.normal_load_n.to_string(),
+                    l.sliding_speed_m_s.to_string(),
+                    l.regime.clone(),
+                ]);
+            }
+            loads.push(vec![
+                t.speed_rpm.to_string(),
+                s.crank_angle_deg.to_string(),
+                s.big_end_n[0].to_string(),
+                s.big_end_n[1].to_string(),
+                s.main_n[0].to_string(),
+                s.main_n[1].to_string(),
+                s.pressures_pa[0].to_string(),
+                s.pressures_pa[1].to_string(),
+                s.drive_torque_nm.to_string(),
+            ]);
+        }
+    }
+    let header = [
+        "speed_rpm",
+        "crank_angle_deg",
+        "joint",
+        "law",
+        "friction_torque_nm",
+        "power_w",
+        "normal_load_n",
+        "sliding_speed_m_s",
+        "regime",
+    ];
+    let text = csv_text(&header, rows).map_err(|e| render("crank_angle.csv", e))?;
+    out.write("crank_angle.csv", text.as_bytes())?;
+    let header = [
+        "speed_rpm",
+        "crank_angle_deg",
+        "big_end_x_n",
+        "big_end_y_n",
+        "main_x_n",
+        "main_y_n",
+        "cylinder_pa",
+        "crankcase_pa",
+        "drive_torque_nm",
+    ];
+    let text = csv_text(&header, loads).map_err(|e| render("crank_angle_loads.csv", e))?;
+    out.write("crank_angle_loads.csv", text.as_bytes())?;
+    for t in traces {
+        let name = format!("friction_vs_angle_{:.0}.svg", t.speed_rpm);
+        let svg = crate::plots::friction_vs_angle_svg(t).map_err(|e| render(&name, e))?;
+        out.write(&name, svg.as_bytes())?;
+        let name = format!("bearing_loads_{:.0}.svg", t.speed_rpm);
+        let svg = crate::plots::bearing_polar_svg(t).map_err(|e| render(&name, e))?;
+        out.write(&name, svg.as_bytes())?;
+    }
     out.commit()
 }
 
@@ -229,6 +406,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
         out,
         "(N m; +-95%: half-width of the 95% confidence band of the model torque from its fitted\n parameters; -: nothing fitted inside its range, no band)"
     );
+    out.push_str(&comparison_fmep(c));
     out.push('\n');
     out.push_str(&wrap(&format!("scores, ranked by {}", c.ranked_by), 98, ""));
     let _ = writeln!(
@@ -359,6 +537,37 @@ fn csv_text(header: &[&str], rows: Vec<Vec<String>>) -> std::io::Result<String> 
     String::from_utf8(bytes).map_err(std::io::Error::other)
 }
 
+/// The comparison's FMEP column: model FMEP (all laws, kPa) per speed and law set, with the
+/// basis of the first set's run.
+fn comparison_fmep(c: &crate::study::Comparison) -> String {
+    let mut out = String::new();
+    let Some(first) = c.sets.first() else {
+        return out;
+    };
+    let _ = write!(out, "\n{:>7} {:>9}", "rpm", "measured");
+    for s in &c.sets {
+        let name: String = s.lawset.chars().take(21).collect();
+        let _ = write!(out, " | {name:>21}");
+    }
+    out.push('\n');
+    for (i, d) in c.data.iter().enumerate() {
+        let measured = first.run.fmep.kpa(d.torque_nm);
+        let _ = write!(out, "{:>7.0} {:>9.2}", d.speed_rpm, measured);
+        for s in &c.sets {
+            let v = s.run.plateaus.get(i).map_or(f64::NAN, |p| p.fmep.total_kpa);
+            let _ = write!(out, " | {v:>21.2}");
+        }
+        out.push('\n');
+    }
+    let _ = writeln!(
+        out,
+        "(FMEP, kPa: {}, V_d = {:.1} cm^3; measured: the measured torque converted the same way)",
+        first.run.fmep.basis.formula(),
+        first.run.fmep.displacement_m3 * 1e6
+    );
+    out
+}
+
 fn cell(x: Option<f64>) -> String {
     x.map_or(String::new(), |v| v.to_string())
 }
@@ -381,6 +590,7 @@ pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
                     cell(s.band_lower_nm.as_ref().and_then(|b| b.get(i).copied())),
                     cell(s.band_upper_nm.as_ref().and_then(|b| b.get(i).copied())),
                     cell(s.temperature_response.percent_per_10c.get(i).copied()),
+                    p.fmep.total_kpa.to_string(),
                 ]);
             }
         }
@@ -398,6 +608,7 @@ pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
             "band95_lower_nm",
             "band95_upper_nm",
             "torque_change_percent_per_10c",
+            "model_fmep_kpa",
         ],
         rows,
     )
@@ -726,12 +937,16 @@ mod tests {
                 window_s: [2.4, 2.5],
                 revolutions: 5,
                 joints: vec![joint],
+                gas_torque_nm: 0.0,
+                fmep: Default::default(),
             }],
+            fmep: Default::default(),
             energy_residual_j: 0.0,
             energy: EnergyBalance {
                 motor_work_j: 1.0,
                 mechanical_energy_change_j: 0.0,
                 dissipated_j: 1.0,
+                gas_work_j: 0.0,
                 residual_j: 0.0,
                 relative_residual: 0.0,
             },

@@ -15,6 +15,14 @@ const RIGS: &[(&str, &str)] = &[
         "reference-frictionless.toml",
         include_str!("../../../rigs/reference-frictionless.toml"),
     ),
+    (
+        "crf250r-compression.toml",
+        include_str!("../../../rigs/crf250r-compression.toml"),
+    ),
+    (
+        "crf250r-fired.toml",
+        include_str!("../../../rigs/crf250r-fired.toml"),
+    ),
 ];
 
 /// Bundled law sets.
@@ -50,6 +58,10 @@ const DATA: &[(&str, &str)] = &[
     (
         "fedem-light-rod.csv",
         include_str!("../../../rigs/data/fedem-light-rod.csv"),
+    ),
+    (
+        "crf250r-fired-synthetic.csv",
+        include_str!("../../../rigs/data/crf250r-fired-synthetic.csv"),
     ),
 ];
 

@@ -493,6 +493,110 @@ fn forget_oil_description(table: &mut toml::Table) {
     }
 }
 
+/// Fill a cylinder-pressure `trace` given by `file` from that CSV: next to the rig file (or
+/// any file of its `extends` chain, child first), else a bundled data file. A row is
+/// `crank_angle_deg,pressure_pa`; a first row that is not numbers is a header; `#` starts a
+/// comment. A bad row is an error at the CSV's line and column.
+fn read_trace_file(rig: &mut Rig) -> Result<(), RigError> {
+    let name = match &rig.file.gas.cylinder {
+        CylinderPressure::Trace {
+            file: Some(name), ..
+        } => name.clone(),
+        _ => return Ok(()),
+    };
+    let field = "gas.cylinder.file";
+    let mut found: Option<(PathBuf, String)> = None;
+    for src in &rig.sources {
+        let Some(dir) = src.path.parent() else {
+            continue;
+        };
+        if src.path.starts_with("<bundled>") {
+            continue;
+        }
+        let path = dir.join(&name);
+        match read_text(&path) {
+            Ok(text) => {
+                found = Some((path, text));
+                break;
+            }
+            Err(e) if e.is_not_found() => {}
+            Err(e) => return Err(rig.error(field, format!("{}: {e}", path.display()))),
+        }
+    }
+    if found.is_none() {
+        found = crate::bundled::data(&name)
+            .map(|t| (PathBuf::from(format!("<bundled>/{name}")), t.to_string()));
+    }
+    let Some((path, text)) = found else {
+        return Err(rig.error(
+            field,
+            format!("pressure trace `{name}` not found next to the rig file nor among the bundled data ({})", crate::bundled::data_names().join(", ")),
+        ));
+    };
+    let (angles, pressures) = parse_trace(&text).map_err(|(line, col, msg)| {
+        rig.error(field, format!("{}:{line}:{col}: {msg}", path.display()))
+    })?;
+    if let CylinderPressure::Trace {
+        crank_angle_deg,
+        pressure_pa,
+        ..
+    } = &mut rig.file.gas.cylinder
+    {
+        *crank_angle_deg = angles;
+        *pressure_pa = pressures;
+    }
+    Ok(())
+}
+
+/// A bad row of a pressure trace: line, column (1-based) and what is wrong.
+type TraceError = (usize, usize, String);
+
+/// Parse a pressure trace CSV into angles and pressures, or `(line, column, message)`.
+fn parse_trace(text: &str) -> Result<(Vec<f64>, Vec<f64>), TraceError> {
+    let (mut angles, mut pressures) = (Vec::new(), Vec::new());
+    let mut header_allowed = true;
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("");
+        if line.trim().is_empty() {
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').collect();
+        if cells.len() != 2 {
+            return Err((
+                i + 1,
+                1,
+                format!(
+                    "expected two columns `crank_angle_deg,pressure_pa`, found {}",
+                    cells.len()
+                ),
+            ));
+        }
+        let first = cells[0].trim().parse::<f64>();
+        if first.is_err() && header_allowed {
+            header_allowed = false;
+            continue;
+        }
+        header_allowed = false;
+        let mut values = [0.0; 2];
+        let mut col = 1;
+        for (k, cell) in cells.iter().enumerate() {
+            let what = ["crank angle (degrees)", "pressure (Pa)"][k];
+            let lead = cell.len() - cell.trim_start().len();
+            values[k] = cell.trim().parse::<f64>().map_err(|_| {
+                (
+                    i + 1,
+                    col + lead,
+                    format!("expected a number, the {what}, got `{}`", cell.trim()),
+                )
+            })?;
+            col += cell.len() + 1;
+        }
+        angles.push(values[0]);
+        pressures.push(values[1]);
+    }
+    Ok((angles, pressures))
+}
+
 /// Find the text of a rig named by `extends` in `from`: next to it on disk, else bundled.
 /// `Ok(None)` if neither exists; a file that exists but cannot be read (a directory, a device,
 /// too large) is an error, not a reason to look among the bundled rigs.
@@ -539,12 +643,13 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
             }
         })?
     };
-    let rig = Rig {
+    let mut rig = Rig {
         file,
         sources,
         overridden,
         law_origins: BTreeMap::new(),
     };
+    read_trace_file(&mut rig)?;
     validate(&rig)?;
     Ok(rig)
 }
@@ -737,6 +842,9 @@ pub const MAX_DENSITY_KG_M3: f64 = 2e4;
 /// The most viscous oil accepted at any of the rig's temperatures, cSt (a cold 10W-50 is a
 /// few thousand).
 pub const MAX_VISCOSITY_CST: f64 = 1e6;
+/// Largest gas pressure, Pa (1000 bar: far above any engine's peak).
+const MAX_PRESSURE_PA: f64 = 1e8;
+
 /// Why the sizes of a rig are bounded, in an error message.
 const SIZE_WHY: &str = "far beyond any engine, and large enough to overflow the model";
 
@@ -753,7 +861,8 @@ fn validate(rig: &Rig) -> Result<(), RigError> {
     check.oil_temperatures(plateaus)?;
     check.drive()?;
     check.measurement()?;
-    check.solver()
+    check.solver()?;
+    check.gas()
 }
 
 /// The rig's validators, one per part of the file, run in the order of [`validate`] so the
@@ -958,6 +1067,137 @@ impl Check<'_> {
                 "joints.main_b.load_share",
                 format!("the two main-bearing load shares must add up to 1, they add up to {sum}"),
             ));
+        }
+        Ok(())
+    }
+
+    /// The gas pressures: ambient, the motored cylinder's ratio, exponent and intake pressure,
+    /// a trace's table (two equal-length columns, angles rising within [0, 720), pressures
+    /// positive), the sealed crankcase's volume (above the displacement) and exponent; the
+    /// 4-stroke phase 0 or 360 degrees (the rig's angle 0 is a top dead centre).
+    fn gas(&self) -> Result<(), RigError> {
+        let f = &self.rig.file;
+        let g = &f.gas;
+        self.size("gas.ambient_pa", g.ambient_pa, MAX_PRESSURE_PA, "Pa")?;
+        if g.cycle_angle_at_zero_deg != 0.0 && g.cycle_angle_at_zero_deg != 360.0 {
+            return Err(self.rig.error(
+                "gas.cycle_angle_at_zero_deg",
+                format!(
+                    "must be 0 (crank angle 0 is the gas-exchange TDC) or 360 (the firing TDC), got {}",
+                    readable(g.cycle_angle_at_zero_deg)
+                ),
+            ));
+        }
+        let displacement = std::f64::consts::PI
+            * 0.25
+            * f.geometry.bore_m.powi(2)
+            * 2.0
+            * f.geometry.crank_radius_m;
+        match &g.cylinder {
+            CylinderPressure::None => {}
+            CylinderPressure::Motored {
+                compression_ratio,
+                polytropic_exponent,
+                intake_pressure_pa,
+                ..
+            } => {
+                self.within(
+                    "gas.cylinder.compression_ratio",
+                    *compression_ratio,
+                    (1.01, 40.0),
+                    "",
+                    "a geometric compression ratio of a piston engine",
+                )?;
+                self.within(
+                    "gas.cylinder.polytropic_exponent",
+                    *polytropic_exponent,
+                    (1.0, 1.67),
+                    "",
+                    "isothermal to monatomic adiabatic",
+                )?;
+                self.size(
+                    "gas.cylinder.intake_pressure_pa",
+                    *intake_pressure_pa,
+                    MAX_PRESSURE_PA,
+                    "Pa",
+                )?;
+            }
+            CylinderPressure::Trace {
+                crank_angle_deg,
+                pressure_pa,
+                ..
+            } => {
+                let field = if self.rig.file.gas.cylinder_file().is_some() {
+                    "gas.cylinder.file"
+                } else {
+                    "gas.cylinder.crank_angle_deg"
+                };
+                if crank_angle_deg.len() < 2 || crank_angle_deg.len() != pressure_pa.len() {
+                    return Err(self.rig.error(field, format!("a trace needs at least two points and as many pressures as angles, got {} angles and {} pressures", crank_angle_deg.len(), pressure_pa.len())));
+                }
+                for (i, w) in crank_angle_deg.windows(2).enumerate() {
+                    if w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater) {
+                        return Err(self.rig.error(
+                            field,
+                            format!(
+                                "crank angles must rise: point {} ({}) is not above point {} ({})",
+                                i + 2,
+                                readable(w[1]),
+                                i + 1,
+                                readable(w[0])
+                            ),
+                        ));
+                    }
+                }
+                let (lo, hi) = (
+                    crank_angle_deg[0],
+                    crank_angle_deg[crank_angle_deg.len() - 1],
+                );
+                if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi < 720.0) {
+                    return Err(self.rig.error(field, format!("crank angles must lie in [0, 720) degrees of the 4-stroke cycle (0: gas-exchange TDC), got {} to {}", readable(lo), readable(hi))));
+                }
+                for (i, p) in pressure_pa.iter().enumerate() {
+                    if !(p.is_finite() && *p > 0.0 && *p <= MAX_PRESSURE_PA) {
+                        return Err(self.rig.error(field, format!("pressure at point {} must be an absolute pressure in (0, {}] Pa, got {}", i + 1, readable(MAX_PRESSURE_PA), readable(*p))));
+                    }
+                }
+            }
+        }
+        if let CrankcasePressure::Sealed {
+            volume_at_tdc_m3,
+            polytropic_exponent,
+            pressure_at_tdc_pa,
+        } = &g.crankcase
+        {
+            self.size(
+                "gas.crankcase.volume_at_tdc_m3",
+                *volume_at_tdc_m3,
+                1.0,
+                "m^3",
+            )?;
+            if *volume_at_tdc_m3 <= 1.05 * displacement {
+                return Err(self.rig.error(
+                    "gas.crankcase.volume_at_tdc_m3",
+                    format!(
+                        "must exceed the displacement ({} m^3) by at least 5%, or the piston squeezes the crankcase to nothing, got {}",
+                        readable(displacement),
+                        readable(*volume_at_tdc_m3)
+                    ),
+                ));
+            }
+            self.within(
+                "gas.crankcase.polytropic_exponent",
+                *polytropic_exponent,
+                (1.0, 1.67),
+                "",
+                "isothermal to monatomic adiabatic",
+            )?;
+            self.size(
+                "gas.crankcase.pressure_at_tdc_pa",
+                *pressure_at_tdc_pa,
+                MAX_PRESSURE_PA,
+                "Pa",
+            )?;
         }
         Ok(())
     }

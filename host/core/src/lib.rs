@@ -1,13 +1,14 @@
 //! # tribo-core
 //!
 //! The solver any program can embed: a rig described as plain data ([`model`]), its planar
-//! multibody mechanics ([`mechanics`]), the test cycle ([`cycle`]), oil viscosity ([`oil`]),
+//! multibody mechanics ([`mechanics`]), the test cycle ([`cycle`]), oil viscosity ([`oil`]), gas pressures on the piston ([`gas`]),
 //! embedded Runge-Kutta pairs ([`erk`]) and the simulation that runs the cycle with friction
 //! laws on the joints ([`sim`]). It reads no file and writes nothing but what the caller hands
 //! it; progress is reported through [`observe`]. Laws come through `tribo_plugin_api`.
 
 pub mod cycle;
 pub mod erk;
+pub mod gas;
 pub mod mechanics;
 pub mod model;
 pub mod observe;

@@ -290,6 +290,18 @@ impl Mechanism {
     /// to each friction load. Done once per evaluation; the friction/reaction iteration then
     /// only combines vectors.
     pub fn kinematics(&self, theta: f64, omega: f64) -> Kinematics {
+        self.kinematics_with_piston_force(theta, omega, 0.0)
+    }
+
+    /// [`Mechanism::kinematics`] with a known force `piston_force_n` applied to the piston along
+    /// +y (towards the head), such as the net gas force: it enters the multipliers' load-free
+    /// part like gravity does.
+    pub fn kinematics_with_piston_force(
+        &self,
+        theta: f64,
+        omega: f64,
+        piston_force_n: f64,
+    ) -> Kinematics {
         let q = self.positions(theta);
         let c = self.columns(&q);
         let mut e9 = Q::zeros();
@@ -299,7 +311,9 @@ impl Mechanism {
         // Accelerations: Phi_q q'' = gamma(q, q') + alpha * e9.
         let qdd0 = c.solve(&self.gamma(&q, &qd));
         let qdd_alpha = c.solve(&e9);
-        self.multipliers(q, qd, qdd0, qdd_alpha, |rhs| c.solve_transpose(rhs))
+        self.multipliers(q, qd, qdd0, qdd_alpha, piston_force_n, |rhs| {
+            c.solve_transpose(rhs)
+        })
     }
 
     /// [`Mechanism::kinematics`] by dense LU factorisation of the full constraint Jacobian: the
@@ -315,19 +329,21 @@ impl Mechanism {
         let qd = solve(&(e9 * omega));
         let qdd0 = solve(&self.gamma(&q, &qd));
         let qdd_alpha = solve(&e9);
-        self.multipliers(q, qd, qdd0, qdd_alpha, |rhs| {
+        self.multipliers(q, qd, qdd0, qdd_alpha, 0.0, |rhs| {
             lu_t.solve(rhs).unwrap_or_else(Q::zeros)
         })
     }
 
     /// Multipliers' responses (gravity and inertia at alpha = 0, per unit alpha, per unit friction
-    /// load) from `Phi_q^T lambda = Q - M q''`, given a solver for `Phi_q^T`.
+    /// load) from `Phi_q^T lambda = Q - M q''`, given a solver for `Phi_q^T`; `piston_force_n`
+    /// is an applied force on the piston along +y besides gravity.
     fn multipliers(
         &self,
         q: Q,
         qd: Q,
         qdd0: Q,
         qdd_alpha: Q,
+        piston_force_n: f64,
         solve_t: impl Fn(&Q) -> Q,
     ) -> Kinematics {
         let gv = self.geo.gravity_m_s2;
@@ -335,6 +351,10 @@ impl Mechanism {
         gravity[1] = -self.mass[0] * gv;
         gravity[4] = -self.mass[3] * gv;
         gravity[7] = -self.mass[6] * gv;
+        // Only a rig with a gas load adds anything: the thesis rig's numbers stay bit for bit.
+        if piston_force_n != 0.0 {
+            gravity[7] += piston_force_n;
+        }
         let unit = |entries: &[(usize, f64)]| {
             let mut f = Q::zeros();
             for (i, v) in entries {

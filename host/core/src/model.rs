@@ -39,6 +39,153 @@ pub struct RigFile {
     /// Numerical settings.
     #[serde(default)]
     pub solver: SolverSettings,
+    /// Gas pressures on the piston: cylinder above, crankcase below (default: none, the
+    /// thesis's head-less rig with an atmospheric crankcase).
+    #[serde(default)]
+    pub gas: GasSpec,
+}
+
+/// Standard atmospheric pressure, Pa.
+pub const ATMOSPHERE_PA: f64 = 101_325.0;
+
+fn atmosphere() -> f64 {
+    ATMOSPHERE_PA
+}
+
+/// Gas pressures acting on the piston (`crate::gas` states the models).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct GasSpec {
+    /// Pressure on the piston crown.
+    #[serde(default)]
+    pub cylinder: CylinderPressure,
+    /// Pressure under the piston.
+    #[serde(default)]
+    pub crankcase: CrankcasePressure,
+    /// Ambient pressure, Pa: on the crown of a head-less rig and the crankcase's reference.
+    #[serde(default = "atmosphere")]
+    pub ambient_pa: f64,
+    /// Where the rig's crank angle 0 (a top dead centre) sits in the 4-stroke cycle, degrees:
+    /// 0 = the gas-exchange TDC (start of intake), 360 = the firing (compression) TDC.
+    #[serde(default)]
+    pub cycle_angle_at_zero_deg: f64,
+}
+
+/// The pressure on the piston crown.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum CylinderPressure {
+    /// No head: the crown sees the ambient pressure (the thesis rig).
+    #[default]
+    None,
+    /// Head on, motored: polytropic compression and expansion of the trapped charge.
+    Motored {
+        /// Geometric compression ratio (cylinder volume at BDC over that at TDC), > 1.
+        compression_ratio: f64,
+        /// Polytropic exponent (1.4: adiabatic air, no heat loss).
+        #[serde(default = "kappa")]
+        polytropic_exponent: f64,
+        /// Pressure of the charge at BDC (intake pressure), Pa.
+        #[serde(default = "atmosphere")]
+        intake_pressure_pa: f64,
+        /// `closed` (the cylinder never opens: every revolution the same) or `four-stroke`
+        /// (ideal valves at the dead centres: intake and exhaust strokes at the intake pressure).
+        #[serde(default)]
+        valves: Valves,
+    },
+    /// A pressure-vs-crank-angle trace over the 720-degree cycle, linearly interpolated.
+    Trace {
+        /// CSV file (`crank_angle_deg,pressure_pa`; 4-stroke angle from the gas-exchange TDC)
+        /// read by the configuration layer into `crank_angle_deg`/`pressure_pa`.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        file: Option<String>,
+        /// Where the trace comes from (measurement, synthetic model and its numbers).
+        #[serde(default)]
+        source: Option<String>,
+        /// Cycle angles, degrees, rising, within [0, 720).
+        #[serde(default)]
+        crank_angle_deg: Vec<f64>,
+        /// Absolute cylinder pressure at each angle, Pa.
+        #[serde(default)]
+        pressure_pa: Vec<f64>,
+    },
+}
+
+fn kappa() -> f64 {
+    1.4
+}
+
+/// Valve events of the motored cylinder.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(rename_all = "kebab-case")]
+pub enum Valves {
+    /// Closed cylinder: compression and expansion every revolution (a 2-stroke-like cycle).
+    #[default]
+    Closed,
+    /// Ideal 4-stroke valves at the dead centres.
+    FourStroke,
+}
+
+/// The pressure under the piston.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum CrankcasePressure {
+    /// Open to the ambient (default).
+    #[default]
+    Atmospheric,
+    /// A sealed volume pumped by the piston underside, polytropic, no breather flow.
+    Sealed {
+        /// Crankcase volume with the piston at TDC, m^3 (must exceed the displacement).
+        volume_at_tdc_m3: f64,
+        /// Polytropic exponent (1.4: adiabatic, reversible).
+        #[serde(default = "kappa")]
+        polytropic_exponent: f64,
+        /// Crankcase pressure with the piston at TDC, Pa (default: ambient).
+        #[serde(default = "atmosphere")]
+        pressure_at_tdc_pa: f64,
+    },
+}
+
+impl Default for GasSpec {
+    fn default() -> Self {
+        Self {
+            cylinder: CylinderPressure::None,
+            crankcase: CrankcasePressure::Atmospheric,
+            ambient_pa: ATMOSPHERE_PA,
+            cycle_angle_at_zero_deg: 0.0,
+        }
+    }
+}
+
+impl GasSpec {
+    /// Whether the rig has no gas load at all (the thesis rig): no head, open crankcase.
+    pub fn is_none(&self) -> bool {
+        matches!(self.cylinder, CylinderPressure::None)
+            && matches!(self.crankcase, CrankcasePressure::Atmospheric)
+    }
+
+    /// The trace's CSV file name, if the cylinder pressure is a trace read from a file.
+    pub fn cylinder_file(&self) -> Option<&str> {
+        match &self.cylinder {
+            CylinderPressure::Trace { file, .. } => file.as_deref(),
+            _ => None,
+        }
+    }
+
+    /// Whether the pressure repeats only every second revolution (a 4-stroke cycle).
+    pub fn four_stroke(&self) -> bool {
+        matches!(
+            self.cylinder,
+            CylinderPressure::Motored {
+                valves: Valves::FourStroke,
+                ..
+            } | CylinderPressure::Trace { .. }
+        )
+    }
 }
 
 /// Geometry of the crank train.

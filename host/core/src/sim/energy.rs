@@ -9,6 +9,7 @@ impl Simulation {
     /// Kinetic plus potential energy of the mechanism at crank angle `theta` and speed
     /// `omega`, J.
     pub(super) fn mechanical_energy(&self, theta: f64, omega: f64) -> f64 {
+        // Positions and velocities only: the gas force does not change them.
         let (st, _) = self.mech.solve(theta, omega, 0.0, &JointLoads::default());
         self.mech.kinetic_energy(&st.qd) + self.mech.potential_energy(&st.q)
     }
@@ -18,11 +19,23 @@ impl EnergyBalance {
     /// The balance of `motor_work` (J) against the mechanical energy's `change` and the
     /// energy `dissipated` by the laws: what is left is the integration's residual.
     pub fn from_terms(motor_work: f64, change: f64, dissipated: f64) -> Self {
-        let residual = motor_work - change - dissipated;
+        Self::from_terms_with_gas(motor_work, change, dissipated, 0.0)
+    }
+
+    /// [`EnergyBalance::from_terms`] with the work `gas_work` (J) the mechanism did on the gas
+    /// above and below the piston.
+    pub fn from_terms_with_gas(
+        motor_work: f64,
+        change: f64,
+        dissipated: f64,
+        gas_work: f64,
+    ) -> Self {
+        let residual = motor_work - change - dissipated - gas_work;
         Self {
             motor_work_j: motor_work,
             mechanical_energy_change_j: change,
             dissipated_j: dissipated,
+            gas_work_j: gas_work,
             residual_j: residual,
             relative_residual: if motor_work.abs() > 0.0 {
                 residual.abs() / motor_work.abs()

@@ -13,6 +13,7 @@ use super::joint::JointId;
 use super::newton::plain_iteration_stalls;
 use super::rates::RateLayout;
 use super::Simulation;
+use crate::gas::GasState;
 use crate::mechanics::{JointLoads, Kinematics, Reactions};
 
 /// How the crank is driven at an evaluation: its acceleration is known (prescribed crank,
@@ -72,6 +73,11 @@ pub(super) struct Eval {
     /// which hold each phase to its own convergence test.
     #[cfg_attr(not(test), allow(dead_code))]
     pub(super) newton: bool,
+    /// The gas pressures, piston position and 4-stroke angle at this instant (rigs with gas
+    /// loads): what a law will be handed by contract v2.
+    pub(super) gas: Option<GasState>,
+    /// The settled joint reactions.
+    pub(super) reactions: Reactions,
 }
 
 impl Eval {
@@ -256,8 +262,12 @@ impl Simulation {
         rates.resize(self.layout().len(), 0.0);
         // Positions, velocities and the factorised constraints do not depend on the loads:
         // computed once, the iteration below only recombines the multipliers.
-        let kin = self.mech.kinematics(at.theta, at.omega);
+        let (kin, gas) = self.kinematics(at.theta, at.omega);
         let rel = relative_velocities(&kin.qd);
+        // The power into the gas: the gas force's power on the piston, negated.
+        if let Some(g) = &gas {
+            rates[self.layout().gas()] = -g.force_n * kin.qd[7];
+        }
         let instant = Instant {
             t: at.t,
             dt: at.dt,
@@ -292,11 +302,11 @@ impl Simulation {
                     totals: [0.0; 5],
                     iterations: it,
                 };
-                return Ok((finish(at, &rel, rates, &s, false), loads));
+                return Ok((finish(at, &rel, rates, &s, false, gas), loads));
             }
             if matches!(verdict, Verdict::Stalls) {
                 let s = self.settle_by_newton(&mut p, it, &re, &normals, &mut rates)?;
-                return Ok((finish(at, &rel, rates, &s, true), s.loads));
+                return Ok((finish(at, &rel, rates, &s, true, gas), s.loads));
             }
             let new_loads = self.plain_round(&mut p, &re, &normals, &mut rates)?;
             if it == self.max_iter {
@@ -500,7 +510,14 @@ pub(super) fn check_solve(
 /// The evaluation at `at` from the final solve `s`: its reactions, normal loads and
 /// iterations, the motor power, and the switching functions (`rel`: the joints' relative
 /// velocities).
-fn finish(at: &Point, rel: &[f64; 5], mut rates: Vec<f64>, s: &Settled, newton: bool) -> Eval {
+fn finish(
+    at: &Point,
+    rel: &[f64; 5],
+    mut rates: Vec<f64>,
+    s: &Settled,
+    newton: bool,
+    gas: Option<GasState>,
+) -> Eval {
     rates[RateLayout::MOTOR] = s.re.drive_torque_nm * at.omega;
     let mut switches = [0.0; SWITCHES];
     switches[..5].copy_from_slice(rel);
@@ -515,5 +532,7 @@ fn finish(at: &Point, rel: &[f64; 5], mut rates: Vec<f64>, s: &Settled, newton: 
         switches,
         iterations: s.iterations,
         newton,
+        gas,
+        reactions: s.re,
     }
 }

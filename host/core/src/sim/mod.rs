@@ -16,6 +16,7 @@
 
 mod adaptive;
 mod bind;
+mod crank_angle;
 mod energy;
 mod error;
 mod evaluate;
@@ -35,14 +36,17 @@ use tribo_plugin_api::loader::LawRegistry;
 
 use crate::cycle::Cycle;
 use crate::erk::{Controller, DORMAND_PRINCE_54};
+use crate::gas::GasModel;
 use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
 use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
+pub use crank_angle::{AngleSample, CrankAngleTrace, LawSample};
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use joint::JointId;
 pub use results::{
-    DriveKind, EnergyBalance, LawResult, LawTime, PlateauResult, RegimeShare, RunResult,
+    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, LawResult, LawTime, PlateauFmep,
+    PlateauResult, RegimeShare, RunResult,
 };
 
 use adaptive::Adaptive;
@@ -83,6 +87,10 @@ pub struct Simulation {
     max_iter: u32,
     n_laws: usize,
     progress: Option<crate::observe::Position>,
+    /// The gas pressures on the piston, if the rig has any.
+    gas: Option<GasModel>,
+    /// Displacement (swept volume), m^3.
+    displacement_m3: f64,
 }
 
 /// The mechanism of the model: its bodies reduced to the rig's geometry (the crank's
@@ -187,6 +195,13 @@ impl Simulation {
             max_iter: f.solver.friction_max_iter,
             n_laws,
             progress: None,
+            gas: GasModel::from_rig(f),
+            displacement_m3: std::f64::consts::PI
+                * 0.25
+                * f.geometry.bore_m
+                * f.geometry.bore_m
+                * 2.0
+                * f.geometry.crank_radius_m,
         })
     }
 
@@ -198,6 +213,54 @@ impl Simulation {
     /// The mechanism (for tests and studies).
     pub fn mechanism(&self) -> &Mechanism {
         &self.mech
+    }
+
+    /// The gas model, if the rig has gas loads.
+    pub fn gas(&self) -> Option<&GasModel> {
+        self.gas.as_ref()
+    }
+
+    /// Crank revolutions per cycle: 2 when the gas pressure makes the cycle 4-stroke, else 1.
+    pub fn revolutions_per_cycle(&self) -> u32 {
+        if self.gas.as_ref().is_some_and(GasModel::four_stroke) {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// The run's FMEP definition: 4-stroke when the gas pressure makes the cycle 4-stroke,
+    /// else per revolution.
+    pub fn fmep(&self) -> Fmep {
+        Fmep {
+            basis: if self.revolutions_per_cycle() == 2 {
+                FmepBasis::FourStroke
+            } else {
+                FmepBasis::TwoStroke
+            },
+            displacement_m3: self.displacement_m3,
+        }
+    }
+
+    /// The load-independent kinematics at `theta`, `omega` with the gas force applied, and the
+    /// gas state (if any).
+    #[inline]
+    pub(super) fn kinematics(
+        &self,
+        theta: f64,
+        omega: f64,
+    ) -> (crate::mechanics::Kinematics, Option<crate::gas::GasState>) {
+        match &self.gas {
+            None => (self.mech.kinematics(theta, omega), None),
+            Some(g) => {
+                let s = g.at(theta);
+                (
+                    self.mech
+                        .kinematics_with_piston_force(theta, omega, s.force_n),
+                    Some(s),
+                )
+            }
+        }
     }
 
     /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
@@ -257,7 +320,13 @@ impl Simulation {
         };
         let change = self.mechanical_energy(w.y.0, w.y.1) - e0;
         let dissipated: f64 = w.acc[self.layout().powers()].iter().sum();
-        let energy = EnergyBalance::from_terms(w.acc[RateLayout::MOTOR], change, dissipated);
+        let gas_work = w.acc[self.layout().gas()];
+        let energy = EnergyBalance::from_terms_with_gas(
+            w.acc[RateLayout::MOTOR],
+            change,
+            dissipated,
+            gas_work,
+        );
         let (results, warnings) = plateaus.results(self);
         Ok(RunResult {
             rig: self.rig_name.clone(),
@@ -266,6 +335,7 @@ impl Simulation {
                 Drive::Pi { .. } => DriveKind::Pi,
             },
             plateaus: results,
+            fmep: self.fmep(),
             energy_residual_j: energy.residual_j,
             energy,
             steps,

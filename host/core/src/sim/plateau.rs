@@ -4,7 +4,7 @@
 
 use std::f64::consts::TAU;
 
-use super::results::{LawResult, PlateauResult, RegimeShare};
+use super::results::{ComponentFmep, LawResult, PlateauFmep, PlateauResult, RegimeShare};
 use super::Simulation;
 use crate::cycle::{rad_s_to_rpm, Plateau};
 
@@ -46,6 +46,8 @@ pub(super) struct Plateaus {
     plateaus: Vec<Plateau>,
     records: Vec<Window>,
     saturated_time: Vec<f64>,
+    /// One cycle's crank angle, rad (2 pi, or 4 pi for a 4-stroke cycle).
+    cycle: f64,
 }
 
 impl Plateaus {
@@ -58,7 +60,7 @@ impl Plateaus {
             .map(|p| {
                 let w = p.omega.max(1e-9);
                 let h = sim.time_step(sim.step_rad, w);
-                let margin = sim.window_s + 2.0 * TAU / w;
+                let margin = sim.window_s + (sim.cycle_angle() + TAU) / w;
                 Window::with_capacity((margin / h).ceil() as usize + 16, n)
             })
             .collect();
@@ -67,6 +69,7 @@ impl Plateaus {
             plateaus,
             records,
             saturated_time,
+            cycle: sim.cycle_angle(),
         }
     }
 
@@ -84,7 +87,7 @@ impl Plateaus {
         rates: &[f64],
     ) {
         for (pi, p) in self.plateaus.iter().enumerate() {
-            let margin = window_s + 2.0 * TAU / p.omega.max(1e-9) + 2.0 * h;
+            let margin = window_s + (self.cycle + TAU) / p.omega.max(1e-9) + 2.0 * h;
             if t1 >= p.t_end - margin && t1 <= p.t_end + 1e-12 {
                 if saturated {
                     self.saturated_time[pi] += h;
@@ -118,12 +121,20 @@ impl Plateaus {
 }
 
 impl Simulation {
-    /// Whole revolutions in the measurement window at speed `omega` (at least one).
+    /// Whole revolutions in the measurement window at speed `omega`: whole cycles, so a
+    /// multiple of [`Simulation::revolutions_per_cycle`] (at least one cycle).
     pub(super) fn window_revs(&self, omega: f64) -> u32 {
-        ((self.window_s * omega / TAU).floor() as u32).max(1)
+        let per = self.revolutions_per_cycle();
+        let cycles = ((self.window_s * omega / self.cycle_angle()).floor() as u32).max(1);
+        cycles * per
     }
 
-    /// Plateau values over the last whole revolutions of a hold.
+    /// One cycle's crank angle, rad: 2 pi, or 4 pi for a 4-stroke cycle.
+    pub(super) fn cycle_angle(&self) -> f64 {
+        TAU * self.revolutions_per_cycle() as f64
+    }
+
+    /// Plateau values over the last whole revolutions (whole cycles) of a hold.
     fn measure(&self, pi: usize, omega_ref: f64, t_end: f64, recs: &Window) -> PlateauResult {
         let revs = self.window_revs(omega_ref);
         let n = self.layout().len();
@@ -207,10 +218,28 @@ impl Simulation {
                 k += 1;
             }
         }
+        let fmep = self.fmep();
+        let mut components: Vec<ComponentFmep> = Vec::new();
+        for l in &joints {
+            match components.iter_mut().find(|c| c.joint == l.joint) {
+                Some(c) => c.kpa += fmep.kpa(l.friction_torque_nm),
+                None => components.push(ComponentFmep {
+                    joint: l.joint.clone(),
+                    kpa: fmep.kpa(l.friction_torque_nm),
+                }),
+            }
+        }
+        let plateau_fmep = PlateauFmep {
+            total_kpa: fmep.kpa(joints.iter().map(|l| l.friction_torque_nm).sum()),
+            motoring_kpa: fmep.kpa(d(0) / dtheta),
+            components,
+        };
         PlateauResult {
+            fmep: plateau_fmep,
             set_speed_rpm: rad_s_to_rpm(omega_ref),
             mean_speed_rpm: rad_s_to_rpm(dtheta / dt),
             motoring_torque_nm: d(0) / dtheta,
+            gas_torque_nm: d(layout.gas()) / dtheta,
             oil_temp_c: self.temps[pi],
             viscosity_pa_s: self.viscosities[pi],
             window_s,

@@ -7,7 +7,8 @@
 const NORMALS_TOL_FACTOR: f64 = 100.0;
 
 /// Where each accumulated quantity sits in an evaluation's rate vector, for `n` laws: the motor
-/// power, then each law's dissipated power, its four regime indicators and its normal load.
+/// power, then each law's dissipated power, its four regime indicators and its normal load,
+/// and last the power the mechanism puts into the gas (zero without gas loads).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct RateLayout {
     pub(super) n: usize,
@@ -18,6 +19,10 @@ impl RateLayout {
     pub(super) const MOTOR: usize = 0;
     /// Length of the rate vector.
     pub(super) fn len(self) -> usize {
+        2 + 6 * self.n
+    }
+    /// The power into the gas (minus the gas force's power on the piston).
+    pub(super) fn gas(self) -> usize {
         1 + 6 * self.n
     }
     /// Every law's dissipated power.

@@ -73,18 +73,96 @@ pub struct PlateauResult {
     pub set_speed_rpm: f64,
     /// Mean crank speed over the measurement window, rpm.
     pub mean_speed_rpm: f64,
-    /// Mean motoring torque over whole crank revolutions, N m.
+    /// Mean motoring torque over whole crank revolutions (whole 4-stroke cycles when the gas
+    /// pressure makes the cycle 4-stroke), N m.
     pub motoring_torque_nm: f64,
+    /// Mean torque absorbed by the gas over the window (the gas work over the crank angle), N m.
+    #[serde(default)]
+    pub gas_torque_nm: f64,
     /// Oil temperature, C.
     pub oil_temp_c: f64,
     /// Dynamic viscosity at that temperature, Pa s.
     pub viscosity_pa_s: f64,
     /// Start and end of the window, s.
     pub window_s: [f64; 2],
-    /// Whole revolutions averaged.
+    /// Whole revolutions averaged (an even number for a 4-stroke cycle).
     pub revolutions: u32,
     /// Per joint and law.
     pub joints: Vec<LawResult>,
+    /// Friction mean effective pressure, total and per component (basis: [`RunResult::fmep`]).
+    #[serde(default)]
+    pub fmep: PlateauFmep,
+}
+
+/// How FMEP is defined for a run: the work per cycle over the displacement.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde", rename_all = "kebab-case")]
+pub enum FmepBasis {
+    /// One cycle per revolution, FMEP = 2 pi T / V_d: the motored rig without a 4-stroke
+    /// pressure (every revolution the same, "2-stroke averaged").
+    #[default]
+    TwoStroke,
+    /// One cycle per two revolutions, FMEP = 4 pi T / V_d.
+    FourStroke,
+}
+
+impl FmepBasis {
+    /// The formula, for reports.
+    pub fn formula(self) -> &'static str {
+        match self {
+            FmepBasis::TwoStroke => {
+                "FMEP = 2 pi T / V_d (per revolution: the 2-stroke-averaged motored rig)"
+            }
+            FmepBasis::FourStroke => "FMEP = 4 pi T / V_d (4-stroke cycle)",
+        }
+    }
+}
+
+/// The run's FMEP definition: basis and swept volume.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct Fmep {
+    /// 2-stroke (per revolution) or 4-stroke basis.
+    pub basis: FmepBasis,
+    /// Displacement (swept volume) V_d = pi / 4 bore^2 stroke, m^3.
+    pub displacement_m3: f64,
+}
+
+impl Fmep {
+    /// Mean effective pressure of a mean crank torque `torque_nm`, kPa.
+    pub fn kpa(&self, torque_nm: f64) -> f64 {
+        let cycle = match self.basis {
+            FmepBasis::TwoStroke => std::f64::consts::TAU,
+            FmepBasis::FourStroke => 2.0 * std::f64::consts::TAU,
+        };
+        if self.displacement_m3 > 0.0 {
+            cycle * torque_nm / self.displacement_m3 * 1e-3
+        } else {
+            0.0
+        }
+    }
+}
+
+/// One plateau's FMEP breakdown, kPa (1 bar = 100 kPa).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct PlateauFmep {
+    /// All laws together (from the dissipated power), kPa.
+    pub total_kpa: f64,
+    /// The motoring torque's mean effective pressure (friction plus any net gas work), kPa.
+    pub motoring_kpa: f64,
+    /// Per joint (component; the laws on it summed, the mains separately), in joint order.
+    pub components: Vec<ComponentFmep>,
+}
+
+/// FMEP of one component (joint).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct ComponentFmep {
+    /// Joint name.
+    pub joint: String,
+    /// Its friction mean effective pressure, kPa.
+    pub kpa: f64,
 }
 
 /// Energy bookkeeping over the whole run.
@@ -97,7 +175,10 @@ pub struct EnergyBalance {
     pub mechanical_energy_change_j: f64,
     /// Energy dissipated by all laws, J.
     pub dissipated_j: f64,
-    /// motor work - energy change - dissipation, J.
+    /// Work done on the gas in the cylinder and crankcase, J (zero without gas loads).
+    #[serde(default)]
+    pub gas_work_j: f64,
+    /// motor work - energy change - dissipation - gas work, J.
     pub residual_j: f64,
     /// |residual| / motor work.
     pub relative_residual: f64,
@@ -113,6 +194,9 @@ pub struct RunResult {
     pub drive: DriveKind,
     /// One entry per hold of the cycle.
     pub plateaus: Vec<PlateauResult>,
+    /// How the plateaus' FMEP is defined (basis, displacement).
+    #[serde(default)]
+    pub fmep: Fmep,
     /// Energy residual over the run, J.
     pub energy_residual_j: f64,
     /// Full energy bookkeeping.

@@ -1,8 +1,6 @@
 //! The steady state: each plateau speed computed directly, the crank turning at exactly that
 //! speed, every quantity integrated over whole revolutions with the periodic trapezoid rule.
 
-use std::f64::consts::TAU;
-
 use super::bind::reset_states;
 use super::error::SimError;
 use super::evaluate::{Control, Point};
@@ -13,14 +11,14 @@ use crate::mechanics::JointLoads;
 
 impl Simulation {
     /// Steady state at every plateau speed, computed directly: the crank turns at exactly the
-    /// plateau speed and each quantity is integrated over one revolution (periodic trapezoid
-    /// rule at the run's crank-angle step). Stateless laws need one revolution; with stateful
+    /// plateau speed and each quantity is integrated over one cycle, a revolution or two for
+    /// a 4-stroke cycle (periodic trapezoid rule at the run's crank-angle step). Stateless laws need one revolution; with stateful
     /// laws revolutions are repeated until the revolution's mean torque repeats to 1e-9 (at
     /// most 200). Every law's state starts from zero at every plateau.
     pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
         let n_plateaus = self.cycle.plateaus().len();
         let mut results = Vec::with_capacity(n_plateaus);
-        let (mut motor, mut dissipated) = (0.0, 0.0);
+        let (mut motor, mut dissipated, mut gas) = (0.0, 0.0, 0.0);
         let mut w = Work::new(self.layout().len());
         let mut steps = 0_u64;
         for pi in 0..n_plateaus {
@@ -29,16 +27,28 @@ impl Simulation {
             let (delta, t) = self.steady_plateau(pi, omega, &mut w, &mut steps)?;
             motor += delta[0];
             dissipated += delta[self.layout().powers()].iter().sum::<f64>();
-            let window = [t - TAU / omega, t];
-            results.push(self.plateau_result(pi, omega, &delta, TAU / omega, TAU, window, 1));
+            gas += delta[self.layout().gas()];
+            let cycle = self.cycle_angle();
+            let window = [t - cycle / omega, t];
+            let revs = self.revolutions_per_cycle();
+            results.push(self.plateau_result(
+                pi,
+                omega,
+                &delta,
+                cycle / omega,
+                cycle,
+                window,
+                revs,
+            ));
         }
         // Over a periodic revolution the mechanical energy returns to its start value, so the
-        // balance is motor work = dissipation.
-        let energy = EnergyBalance::from_terms(motor, 0.0, dissipated);
+        // balance is motor work = dissipation + gas work.
+        let energy = EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas);
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: DriveKind::Steady,
             plateaus: results,
+            fmep: self.fmep(),
             energy_residual_j: energy.residual_j,
             energy,
             steps,
@@ -59,8 +69,10 @@ impl Simulation {
         steps: &mut u64,
     ) -> Result<(Vec<f64>, f64), SimError> {
         let oil = (self.temps[pi], self.viscosities[pi]);
-        let m = ((TAU / self.step_rad).ceil() as usize).max(16);
-        let h = TAU / omega / m as f64;
+        // One cycle: a revolution, or two for a 4-stroke cycle.
+        let cycle = self.cycle_angle();
+        let m = ((cycle / self.step_rad).ceil() as usize).max(16);
+        let h = cycle / omega / m as f64;
         w.guess = JointLoads::default();
         let mut last_torque = f64::NAN;
         let mut delta = vec![0.0; self.layout().len()];
@@ -93,7 +105,7 @@ impl Simulation {
                 w.guess = l1;
                 *steps += 1;
             }
-            let torque = delta[0] / TAU;
+            let torque = delta[0] / cycle;
             if !self.stateful || (torque - last_torque).abs() <= 1e-9 * torque.abs().max(1e-12) {
                 break;
             }

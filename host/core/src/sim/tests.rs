@@ -253,6 +253,7 @@ fn rate_layout_tiles_the_rate_vector() {
     let l = RateLayout { n: 3 };
     let mut seen = vec![0; l.len()];
     seen[RateLayout::MOTOR] += 1;
+    seen[l.gas()] += 1;
     for k in 0..3 {
         seen[l.power(k)] += 1;
         seen[l.normal(k)] += 1;

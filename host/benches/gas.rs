@@ -1,0 +1,45 @@
+//! The cost of the gas-pressure model: the full thesis cycle (prescribed crank, fedem-baseline)
+//! on the head-less rig and on the same rig with the head on (motored 4-stroke compression).
+//! Issue 17 allows the pressure model at most 20% more (docs/performance.md).
+//!
+//! Needs the release plugins: `cargo build --release && cargo bench -p tribo --bench gas`.
+// criterion_group! generates an undocumented entry function.
+#![allow(missing_docs)]
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use tribo::lawset::LawSet;
+use tribo::plugin_api::loader::{load_paths, LawRegistry};
+use tribo::rig::load_rig;
+
+fn registry() -> LawRegistry {
+    let exe = std::env::current_exe().expect("bench executable path");
+    let dir: PathBuf = exe
+        .parent()
+        .and_then(|d| d.parent())
+        .expect("profile directory")
+        .to_path_buf();
+    load_paths(&[dir]).expect("release plugins: run `cargo build --release` first")
+}
+
+fn bench(c: &mut Criterion) {
+    let reg = registry();
+    let mut g = c.benchmark_group("gas");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    for rig_name in ["crf250r-motored", "crf250r-compression"] {
+        let mut rig = load_rig(&PathBuf::from(rig_name), &[]).expect("bundled rig");
+        LawSet::load("fedem-baseline")
+            .expect("bundled law set")
+            .apply(&mut rig);
+        let mut sim = tribo::rig::simulation(&rig, &reg).expect("simulation");
+        g.bench_function(format!("full_cycle_{rig_name}"), |b| {
+            b.iter(|| sim.run().expect("run"))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -13,6 +13,8 @@
 !
 ! A law implements the seven functions as module procedures with
 ! bind(c, name="tribo_law_evaluate") and so on; `tribo new-law NAME --lang fortran` writes one.
+! Give them Fortran names other than their C names (abi_evaluate, say): Fortran ignores case, so
+! a function tribo_law_contract_version would clash with the constant TRIBO_LAW_CONTRACT_VERSION.
 ! Compile this file with the law (it is a module, so before it) into one shared library:
 !
 !   gfortran -shared -fPIC -O2 -frecursive tribo_law.f90 my_law.f90 -o libtribo_law_my_law.so

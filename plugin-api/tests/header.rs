@@ -254,7 +254,11 @@ fn assert_same<V: PartialEq + std::fmt::Debug>(
             diffs.push(format!("{k}: in {what} ({v:?}), missing from Rust"));
         }
     }
-    assert!(diffs.is_empty(), "{what} and Rust disagree:\n{}", diffs.join("\n"));
+    assert!(
+        diffs.is_empty(),
+        "{what} and Rust disagree:\n{}",
+        diffs.join("\n")
+    );
 }
 
 fn c_program(h: &Header) -> String {

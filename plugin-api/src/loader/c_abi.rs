@@ -5,7 +5,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use super::{LawError, LawLibrary};
-use crate::contract::{CLawDescription as CDescription, CParamSpec, LawInput, LawOutput};
+use crate::contract::{CLawDescription as CDescription, LawInput, LawOutput};
 use crate::describe::{LawDescription, ParamError, ParamSpec, ParamValue};
 
 type DescribeFn = unsafe extern "C" fn() -> *const CDescription;

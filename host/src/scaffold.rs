@@ -101,6 +101,7 @@ impl Scaffold {
     /// The commands that test, build and check the new law, one line each, for the user.
     pub fn next_steps(&self) -> Vec<String> {
         let dir = self.dir.display();
+        let (name, file) = (&self.name, &self.library_file);
         match &self.crate_name {
             Some(krate) => {
                 let mut steps = vec![
@@ -109,33 +110,39 @@ impl Scaffold {
                 ];
                 if self.workspace_member {
                     steps.push(format!(
-                        "the library {} lands in target/release/, where tribo finds it",
-                        self.library_file
+                        "the library {file} lands in target/release/, where tribo finds it"
                     ));
+                    steps.push(format!("check: tribo check-law target/release/{file}"));
                     steps.push(format!(
-                        "check: tribo check-law target/release/{}",
-                        self.library_file
+                        "use:   tribo run crf250r-motored --steady --law piston={name}"
                     ));
                 } else {
                     steps.push(format!(
-                        "then put {} in a directory on TRIBO_PLUGIN_PATH or pass --plugin",
-                        self.library_file
+                        "then put {file} in a directory on TRIBO_PLUGIN_PATH or pass --plugin"
                     ));
                 }
                 steps
             }
-            None => vec![
-                format!("test:  make -C {dir} test"),
-                format!(
-                    "build: make -C {dir}          (builds {})",
-                    self.library_file
-                ),
-                format!("check: make -C {dir} check    (tribo check-law on it)"),
-                format!(
-                    "use:   tribo run RIG --plugin {dir}/{} --law JOINT={}",
-                    self.library_file, self.name
-                ),
-            ],
+            None => {
+                let mut steps = vec![
+                    format!("test:  make -C {dir} test"),
+                    format!("build: make -C {dir}   (builds {file})"),
+                    format!("check: make -C {dir} check   (tribo check-law on {file})"),
+                    format!(
+                        "use:   tribo run crf250r-motored --steady --plugin {dir}/{file} --law piston={name}"
+                    ),
+                ];
+                if self
+                    .include_dir
+                    .as_ref()
+                    .is_some_and(|inc| inc.starts_with(&self.dir))
+                {
+                    steps.push(format!(
+                        "no Tribo checkout here: tribo_law.h and tribo_law.f90 were copied into {dir}/include"
+                    ));
+                }
+                steps
+            }
         }
     }
 }

@@ -34,10 +34,10 @@
  *
  *   - Parameters are doubles only. A C law cannot declare a switch, a list or a word (Rust laws
  *     can); use a number with a documented range, e.g. 0 or 1 for a switch.
- *   - Nothing may unwind or jump across these functions. A C++ exception escaping an extern "C"
- *     function calls std::terminate (the process aborts): catch everything inside each function
- *     and return NULL / a non-zero status. Never call exit(), abort(), Fortran STOP or ERROR STOP,
- *     or longjmp out of a call.
+ *   - Nothing may unwind or jump across these functions. A C++ exception that escapes one aborts
+ *     the process running the law (tribo cannot catch a foreign exception): catch everything
+ *     inside each function and return NULL / a non-zero status. Never call exit(), abort(),
+ *     Fortran STOP or ERROR STOP, or longjmp out of a call.
  *   - A crash is not contained inside the process that runs the law. tribo compare, fit,
  *     mass-response and sweep run each law set in a worker process: a crash, abort, exit(), hang
  *     (time limit) or runaway memory (memory limit) fails that law set, named with the law and the

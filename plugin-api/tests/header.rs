@@ -359,7 +359,7 @@ fn fortran_module_layout_and_constants_match_the_rust_contract() {
         "compiling the Fortran layout program against tribo_law.f90",
     );
     let (layout, constants) = read_printed(&run(
-        &mut Command::new(&exe).current_dir(&dir),
+        Command::new(&exe).current_dir(&dir),
         "the Fortran layout program",
     ));
     assert_same("the Fortran module", &layout, &rust_structs());

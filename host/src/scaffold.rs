@@ -17,6 +17,10 @@ pub enum ScaffoldError {
     /// Refuse to overwrite.
     #[error("`{0}` already exists; choose another name or --dir")]
     Exists(PathBuf),
+    /// A C, C++ or Fortran folder would land in the workspace's `plugins/`, whose every
+    /// directory cargo takes for a crate.
+    #[error("`{0}` would be inside the workspace's plugins/, where cargo takes every directory for a Rust crate (and would stop building); generate a C, C++ or Fortran law elsewhere with --dir")]
+    InPluginsDir(PathBuf),
     /// File system error.
     #[error("cannot write `{path}`: {source}")]
     Io {
@@ -327,6 +331,9 @@ pub fn new_law(
     if law_dir.exists() {
         return Err(ScaffoldError::Exists(law_dir));
     }
+    if lang != Lang::Rust && ws.as_ref().is_some_and(|ws| parent == ws.join("plugins")) {
+        return Err(ScaffoldError::InPluginsDir(law_dir));
+    }
     let snake = name.replace('-', "_");
     let lib = format!("tribo_law_{snake}");
     let type_name: String = name
@@ -465,6 +472,27 @@ mod tests {
         for bad in ["/home/a b/x", "/x/$(rm)", "/x#y", "/c:/x", ""] {
             assert_eq!(make_safe(Path::new(bad)), None, "{bad}");
         }
+    }
+
+    #[test]
+    fn a_c_law_is_not_put_among_the_workspace_crates() {
+        let tmp = std::env::temp_dir().join(format!("tribo-scaffold-ws-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&tmp);
+        std::fs::create_dir_all(tmp.join("plugin-api")).expect("mkdir");
+        std::fs::create_dir_all(tmp.join("plugins")).expect("mkdir");
+        std::fs::write(tmp.join("Cargo.toml"), "[workspace]\n").expect("write");
+        std::fs::write(tmp.join("plugin-api/Cargo.toml"), "").expect("write");
+        let exe = Path::new("tribo");
+        let e = new_law("x", Lang::C, None, &tmp.join("plugins"), exe).unwrap_err();
+        assert!(matches!(e, ScaffoldError::InPluginsDir(_)), "{e}");
+        let e = new_law("x", Lang::Fortran, Some(Path::new("plugins")), &tmp, exe).unwrap_err();
+        assert!(matches!(e, ScaffoldError::InPluginsDir(_)), "{e}");
+        assert!(!tmp.join("plugins/x").exists());
+        // Beside the plugins, in the checkout, is fine.
+        let s = new_law("x", Lang::Cpp, None, &tmp, exe).expect("generates");
+        assert_eq!(s.dir, tmp.join("x"));
+        assert_eq!(s.include_dir, Some(tmp.join("plugin-api/include")));
+        let _ = std::fs::remove_dir_all(&tmp);
     }
 
     #[test]

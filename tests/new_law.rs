@@ -1,6 +1,9 @@
 //! The law author's workflow end to end: `tribo new-law` in a copy of the workspace, the
 //! generated unit tests pass, the library builds, `tribo laws` lists it, and evaluating it
-//! through the loaded library gives the value of its documented formula.
+//! through the loaded library gives the value of its documented formula. The same for each
+//! language (Rust, C, C++, Fortran): every template builds without a warning, passes its own
+//! unit tests, loads, describes the same parameters and gives the same torques in `tribo run`
+//! and `tribo compare`. Needs make, cc, c++ and gfortran (`.ci/setup-toolchains`).
 
 mod common;
 
@@ -29,10 +32,15 @@ fn copy_tree(from: &Path, to: &Path) {
 }
 
 fn cargo(ws: &Path, target: &Path, args: &[&str]) -> String {
+    cargo_with(ws, target, args, &[])
+}
+
+fn cargo_with(ws: &Path, target: &Path, args: &[&str], env: &[(&str, &str)]) -> String {
     let out = Command::new(env!("CARGO"))
         .args(args)
         .current_dir(ws)
         .env("CARGO_TARGET_DIR", target)
+        .envs(env.iter().copied())
         .output()
         .expect("cargo runs");
     let all = format!(
@@ -236,4 +244,338 @@ fn bad_law_names_are_refused() {
         assert!(!out.status.success());
         assert!(text(&out).1.contains("not a valid law name"), "{bad}");
     }
+}
+
+/// `make ARGS` in `dir`: its standard output and error together; panics if it fails.
+fn make(dir: &Path, args: &[&str]) -> String {
+    let out = Command::new("make")
+        .args(args)
+        .current_dir(dir)
+        .env_remove("TRIBO_INCLUDE")
+        .output()
+        .unwrap_or_else(|e| panic!("make cannot start ({e}); run .ci/setup-toolchains"));
+    let (stdout, stderr) = text(&out);
+    let all = format!("{stdout}{stderr}");
+    assert!(
+        out.status.success(),
+        "make {args:?} in {} failed:\n{all}",
+        dir.display()
+    );
+    all
+}
+
+/// `tribo new-law NAME --lang LANG [--dir DIR]` in `cwd`; panics unless it succeeds.
+fn new_law(cwd: &Path, name: &str, lang: &str, dir: Option<&Path>) -> String {
+    let mut cmd = Command::new(tribo_exe());
+    cmd.args(["new-law", name, "--lang", lang]).current_dir(cwd);
+    if let Some(d) = dir {
+        cmd.arg("--dir").arg(d);
+    }
+    let out = cmd.output().expect("tribo runs");
+    let (stdout, stderr) = text(&out);
+    assert!(
+        out.status.success(),
+        "new-law {name} --lang {lang}: {stderr}"
+    );
+    stdout
+}
+
+/// The parameters every language's law is run with: none of them the default, and each of a
+/// different size, so a law that read them in another order would give other numbers.
+const PARAMS_TOML: &str = "mu_0 = 0.08\nslope = 0.015\nv_smooth = 2e-3\n";
+
+/// Plateau motoring torques and the piston's friction torques of `tribo run --steady` with law
+/// `name` from `library` on the piston.
+fn steady_run(library: &Path, name: &str, params: &Path) -> (Vec<f64>, Vec<f64>) {
+    let law = format!("piston={name}:{}", params.display());
+    let out = Command::new(tribo_exe())
+        .args([
+            "run",
+            "crf250r-motored",
+            "--steady",
+            "--json",
+            "--law",
+            &law,
+            "--plugin",
+        ])
+        .arg(library)
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .output()
+        .expect("tribo runs");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "tribo run with {name}: {stderr}");
+    let json: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+    let plateaus = json["plateaus"].as_array().expect("plateaus");
+    let mut motoring = Vec::new();
+    let mut piston = Vec::new();
+    for p in plateaus {
+        motoring.push(p["motoring_torque_nm"].as_f64().expect("motoring torque"));
+        let joint = p["joints"]
+            .as_array()
+            .and_then(|j| j.iter().find(|j| j["joint"] == "piston"))
+            .expect("the piston joint");
+        assert_eq!(joint["law"], name, "{stdout}");
+        piston.push(
+            joint["friction_torque_nm"]
+                .as_f64()
+                .expect("friction torque"),
+        );
+    }
+    (motoring, piston)
+}
+
+fn assert_close(what: &str, a: &[f64], b: &[f64]) {
+    assert_eq!(a.len(), b.len(), "{what}: {a:?} vs {b:?}");
+    for (x, y) in a.iter().zip(b) {
+        assert!(
+            (x - y).abs() <= 1e-12 * x.abs().max(y.abs()),
+            "{what}: {x:e} vs {y:e} ({a:?} vs {b:?})"
+        );
+    }
+}
+
+#[test]
+fn every_language_template_builds_loads_and_gives_the_same_torques() {
+    ensure_plugins_built();
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let ws = tmp.path().join("tribo");
+    copy_tree(&workspace(), &ws);
+    let target = workspace().join("target/e2e-new-law");
+    let laws_dir = tmp.path().join("laws");
+    let params = tmp.path().join("params.toml");
+    std::fs::write(&params, PARAMS_TOML).expect("write params");
+
+    let mut built: Vec<(&str, String, std::path::PathBuf)> = Vec::new();
+
+    // Rust: a workspace member, built as its README says; plugin-api is built here as every
+    // law author builds it (without the host's loader feature), and must not warn, nor must its
+    // documentation.
+    let stdout = new_law(&ws, "same-rust", "rust", None);
+    assert!(stdout.contains("created tribo-law-same-rust"), "{stdout}");
+    let test_log = cargo(&ws, &target, &["test", "-p", "tribo-law-same-rust"]);
+    assert!(test_log.contains("4 passed"), "{test_log}");
+    let build_log = cargo(
+        &ws,
+        &target,
+        &["build", "--release", "-p", "tribo-law-same-rust"],
+    );
+    assert!(!build_log.contains("warning"), "{build_log}");
+    cargo_with(
+        &ws,
+        &target,
+        &[
+            "doc",
+            "--no-deps",
+            "-p",
+            "tribo-plugin-api",
+            "-p",
+            "tribo-law-same-rust",
+        ],
+        &[("RUSTDOCFLAGS", "-D warnings")],
+    );
+    built.push((
+        "rust",
+        "same-rust".into(),
+        target
+            .join("release")
+            .join(tribo::plugin_api::loader::plugin_file_name(
+                "tribo_law_same_rust",
+            )),
+    ));
+
+    // C, C++, Fortran: a folder each, generated from inside the checkout (so the Makefile points
+    // at its plugin-api/include), tested and built by its Makefile.
+    for lang in ["c", "cpp", "fortran"] {
+        let name = format!("same-{lang}");
+        let stdout = new_law(&ws, &name, lang, Some(&laws_dir));
+        assert!(
+            stdout.contains(&format!("created law `{name}` ({lang})")),
+            "{stdout}"
+        );
+        let dir = laws_dir.join(&name);
+        let makefile = std::fs::read_to_string(dir.join("Makefile")).expect("Makefile");
+        let include = ws.join("plugin-api/include");
+        assert!(
+            makefile.contains(&format!("TRIBO_INCLUDE ?= {}\n", include.display())),
+            "{makefile}"
+        );
+        assert!(std::fs::read_to_string(dir.join("README.md"))
+            .expect("README")
+            .contains("make test"));
+        let test_log = make(&dir, &["test"]);
+        assert!(
+            test_log.contains(&format!("{name}: all tests passed")),
+            "{test_log}"
+        );
+        let build_log = make(&dir, &[]);
+        assert!(
+            !build_log.to_lowercase().contains("warning"),
+            "{lang}: {build_log}"
+        );
+        let snake = name.replace('-', "_");
+        let lib = dir.join(tribo::plugin_api::loader::plugin_file_name(&format!(
+            "tribo_law_{snake}"
+        )));
+        assert!(lib.is_file(), "{} not built", lib.display());
+        built.push((lang, name, lib));
+    }
+
+    // Every template's law passes the conformance checks, by library path as an author runs
+    // them (`make check` runs the same command for C, C++ and Fortran).
+    for (lang, _, lib) in &built {
+        let out = std::process::Command::new(tribo_exe())
+            .arg("check-law")
+            .arg(lib)
+            .env_remove("TRIBO_PLUGIN_PATH")
+            .output()
+            .expect("tribo check-law runs");
+        let (stdout, stderr) = text(&out);
+        assert!(
+            out.status.success() && !stdout.contains("FAIL"),
+            "{lang}: check-law failed:\n{stdout}{stderr}"
+        );
+    }
+
+    // Loaded by tribo's loader: the right ABI, the same description, and the documented formula
+    // at hand-picked points, identical in every language.
+    let table: toml::Table = PARAMS_TOML.parse().expect("toml");
+    let mut reference: Option<(tribo::plugin_api::LawDescription, Vec<f64>)> = None;
+    for (lang, name, lib_path) in &built {
+        let lib = LawLibrary::load(lib_path).expect("loads");
+        assert_eq!(
+            lib.abi(),
+            if *lang == "rust" { Abi::Rust } else { Abi::C },
+            "{lang}"
+        );
+        let mut description = lib.description().clone();
+        assert_eq!(&description.name, name);
+        description.name.clear();
+        let inst = lib.create(&table).expect("creates");
+        let mut forces = Vec::new();
+        for (kind, v, n, r) in [
+            (JointKind::Prismatic, 5.0, 200.0, 0.0),
+            (JointKind::Prismatic, -0.7, 1500.0, 0.0),
+            (JointKind::Revolute, 300.0, 2500.0, 0.02),
+            (JointKind::Prismatic, 2e-4, 100.0, 0.0),
+            (JointKind::Prismatic, 0.0, 100.0, 0.0),
+        ] {
+            let mut input = LawInput::at_rest(kind);
+            input.normal_load_n = n;
+            input.contact_radius_m = r;
+            let out = inst
+                .evaluate(&input.with_velocity(v), &[])
+                .expect("evaluates");
+            let want = template_formula(0.08, 0.015, 2e-3, kind, v, n, r);
+            assert!(
+                (out.force - want).abs() <= 1e-12 * (1.0 + want.abs()),
+                "{lang} {kind:?} v={v}: {} vs {want}",
+                out.force
+            );
+            let vs = input.with_velocity(v).sliding_velocity_m_s;
+            assert_eq!(out.coefficient(), Some(0.08 + 0.015 * vs.abs()), "{lang}");
+            forces.push(out.force);
+        }
+        match &reference {
+            None => reference = Some((description, forces)),
+            Some((d, f)) => {
+                assert_eq!(&description, d, "{lang}: description differs from Rust's");
+                assert_close(&format!("{lang} forces"), &forces, f);
+            }
+        }
+    }
+
+    // `tribo run` on the bundled rig, the law on the piston: the same plateau torques from
+    // every language.
+    let runs: Vec<(Vec<f64>, Vec<f64>)> = built
+        .iter()
+        .map(|(_, name, lib)| steady_run(lib, name, &params))
+        .collect();
+    assert!(runs[0].1.iter().all(|t| *t > 0.0), "{:?}", runs[0]);
+    for ((lang, _, _), run) in built.iter().zip(&runs).skip(1) {
+        assert_close(&format!("{lang} motoring torques"), &run.0, &runs[0].0);
+        assert_close(&format!("{lang} piston torques"), &run.1, &runs[0].1);
+    }
+
+    // `tribo compare` with the law on every law set's piston.
+    for (lang, name, lib) in &built {
+        let out = Command::new(tribo_exe())
+            .args(["compare", "--steady", "--no-cv", "--json", "--law"])
+            .arg(format!("piston={name}:{}", params.display()))
+            .arg("--plugin")
+            .arg(lib)
+            .arg("--out")
+            .arg(tmp.path().join(format!("compare-{lang}")))
+            .env_remove("TRIBO_PLUGIN_PATH")
+            .output()
+            .expect("tribo runs");
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "compare with {name}: {stderr}");
+        let cmp: serde_json::Value = serde_json::from_str(&stdout).expect("json");
+        let sets = cmp["sets"].as_array().expect("sets");
+        assert!(!sets.is_empty());
+        for set in sets {
+            let joints = set["run"]["plateaus"][0]["joints"]
+                .as_array()
+                .expect("joints");
+            assert!(
+                joints
+                    .iter()
+                    .any(|j| j["joint"] == "piston" && j["law"] == name.as_str()),
+                "{lang}: {name} not on the piston of {}",
+                set["lawset"]
+            );
+        }
+    }
+}
+
+#[test]
+fn a_c_law_generated_outside_a_checkout_carries_its_header_and_builds() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let stdout = new_law(tmp.path(), "lone-law", "c", None);
+    assert!(stdout.contains("created law `lone-law` (c)"), "{stdout}");
+    let dir = tmp.path().join("lone-law");
+    // No checkout above the temporary directory: the header travels with the law, and is the
+    // header of this tribo.
+    let copied = std::fs::read_to_string(dir.join("include/tribo_law.h")).expect("header");
+    let original = std::fs::read_to_string(workspace().join("plugin-api/include/tribo_law.h"))
+        .expect("header");
+    assert_eq!(copied, original);
+    let test_log = make(&dir, &["test"]);
+    assert!(
+        test_log.contains("lone-law: all tests passed"),
+        "{test_log}"
+    );
+    make(&dir, &[]);
+    let lib = LawLibrary::load(&dir.join(tribo::plugin_api::loader::plugin_file_name(
+        "tribo_law_lone_law",
+    )))
+    .expect("loads");
+    assert_eq!(lib.name(), "lone-law");
+
+    // A Rust law needs the checkout's plugin-api, and says so.
+    let out = Command::new(tribo_exe())
+        .args(["new-law", "lone-rust"])
+        .current_dir(tmp.path())
+        .output()
+        .expect("tribo runs");
+    assert!(!out.status.success());
+    assert!(
+        text(&out).1.contains("no Tribo workspace"),
+        "{}",
+        text(&out).1
+    );
+}
+
+#[test]
+fn an_unknown_language_is_refused_with_the_choices() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let out = Command::new(tribo_exe())
+        .args(["new-law", "py-law", "--lang", "python"])
+        .current_dir(tmp.path())
+        .output()
+        .expect("tribo runs");
+    assert_eq!(out.status.code(), Some(2), "clap's usage error");
+    let stderr = text(&out).1;
+    assert!(stderr.contains("rust, c, cpp or fortran"), "{stderr}");
+    assert!(!tmp.path().join("py-law").exists());
 }

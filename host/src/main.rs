@@ -321,7 +321,12 @@ struct SweepArgs {
 struct NewLawArgs {
     /// Law name: lowercase letters, digits and hyphens (e.g. `my-law`).
     name: String,
-    /// Directory to create the crate in (default: the workspace's plugins/).
+    /// Language of the law: rust (a cargo crate), c, cpp or fortran (a folder with the law, a
+    /// Makefile and a unit test, built against the checkout's tribo_law.h).
+    #[arg(long, default_value = "rust", value_name = "rust|c|cpp|fortran")]
+    lang: scaffold::Lang,
+    /// Directory to create the law in (default: the workspace's plugins/ for Rust, the current
+    /// directory for C, C++ and Fortran).
     #[arg(long)]
     dir: Option<PathBuf>,
 }
@@ -1147,26 +1152,21 @@ struct QuietFailure;
 fn cmd_new_law(a: NewLawArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     let cwd = std::env::current_dir().context("reading the current directory")?;
-    let s = scaffold::new_law(&a.name, a.dir.as_deref(), &cwd)?;
-    writeln!(out_text, "created {} in {}", s.crate_name, s.dir.display())?;
-    writeln!(out_text, "  test:  cargo test -p {}", s.crate_name)?;
-    writeln!(
-        out_text,
-        "  build: cargo build --release -p {}",
-        s.crate_name
-    )?;
-    if s.workspace_member {
-        writeln!(
+    // The Makefiles of C, C++ and Fortran laws run this tribo for `make check`.
+    let exe = std::env::current_exe().unwrap_or_else(|_| PathBuf::from("tribo"));
+    let s = scaffold::new_law(&a.name, a.lang, a.dir.as_deref(), &cwd, &exe)?;
+    match &s.crate_name {
+        Some(krate) => writeln!(out_text, "created {krate} in {}", s.dir.display())?,
+        None => writeln!(
             out_text,
-            "  the library {} lands in target/release/, where tribo finds it",
-            s.library_file
-        )?;
-    } else {
-        writeln!(
-            out_text,
-            "  then put {} in a directory on TRIBO_PLUGIN_PATH or pass --plugin",
-            s.library_file
-        )?;
+            "created law `{}` ({}) in {}",
+            s.name,
+            s.lang,
+            s.dir.display()
+        )?,
+    }
+    for step in s.next_steps() {
+        writeln!(out_text, "  {step}")?;
     }
     emit(&out_text)
 }

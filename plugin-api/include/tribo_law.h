@@ -1,14 +1,16 @@
 /*
- * tribo_law.h - the C ABI of a Tribo friction/damping law plugin.
+ * tribo_law.h - the C ABI of a Tribo friction/damping law plugin, contract version 1.
  *
  * A law is a shared library (.so / .dylib / .dll) exporting the seven functions below with
  * C linkage. The host (tribo) loads it at run time; nothing else needs rebuilding. Anything
- * that can produce C-callable symbols works: C, C++ (extern "C"), Fortran (bind(C)).
+ * that can produce C-callable symbols works: C, C++ (extern "C"), Fortran (bind(c), with the
+ * module tribo_law.f90 beside this header). `tribo new-law NAME --lang c|cpp|fortran` writes a
+ * working law, its Makefile and a unit test; docs/writing-a-law.md walks through it.
  *
  * Loading order, which the host guarantees:
  *   1. tribo_law_contract_version() is called first, before any other symbol is looked up.
  *      If it differs from TRIBO_LAW_CONTRACT_VERSION of the host, the library is refused.
- *   2. tribo_law_describe() gives the name, version, summary and parameters.
+ *   2. tribo_law_describe() gives the name, version, summary and parameters (once per load).
  *   3. tribo_law_create() makes an instance from checked parameter values.
  *   4. Per time step: tribo_law_evaluate() any number of times (the host may iterate or reject
  *      the step), then tribo_law_commit() once if the step is accepted.
@@ -19,14 +21,54 @@
  * force * relative_velocity <= 0.
  *
  * State: a law that needs memory (a LuGre bristle deflection, say) declares how many doubles it
- * needs with tribo_law_state_size(). The HOST owns that array and zero-initialises it;
- * evaluate() must only read it, commit() advances it. An instance must not keep mutable
- * per-step data of its own: the host may evaluate several trial steps and keep none of them.
- * evaluate() must be re-entrant for one instance (it takes a const instance pointer).
+ * needs with tribo_law_state_size() (at most 2^20). The HOST owns that array and
+ * zero-initialises it; evaluate() must only read it, commit() advances it. An instance must not
+ * keep mutable per-step data of its own: the host may evaluate several trial steps and keep none
+ * of them. evaluate() must be re-entrant for one instance (it takes a const instance pointer).
  *
  * Parameters: the host parses the user's TOML, checks every name, type and range against the
  * description below, fills in defaults, and passes the values as doubles in the order of
  * `params`. So create() only checks combinations (thresholds in order, say).
+ *
+ * The rules a law in C, C++ or Fortran must keep (each is a mistake someone made):
+ *
+ *   - Parameters are doubles only. A C law cannot declare a switch, a list or a word (Rust laws
+ *     can); use a number with a documented range, e.g. 0 or 1 for a switch.
+ *   - Nothing may unwind or jump across these functions. A C++ exception that escapes one aborts
+ *     the process running the law (tribo cannot catch a foreign exception): catch everything
+ *     inside each function and return NULL / a non-zero status. Never call exit(), abort(),
+ *     Fortran STOP or ERROR STOP, or longjmp out of a call.
+ *   - A crash is not contained inside the process that runs the law. tribo compare, fit,
+ *     mass-response and sweep run each law set in a worker process: a crash, abort, exit(), hang
+ *     (time limit) or runaway memory (memory limit) fails that law set, named with the law and the
+ *     library, and the other sets still finish (exit status 1). tribo run and --in-process run the
+ *     law inside tribo itself: a crash ends tribo, naming the law. It is never silent, but it loses
+ *     the run: return an error status instead.
+ *   - Errors are statuses: create() returns NULL with a message starting "PARAM: " when a
+ *     parameter is at fault; evaluate() and commit() return non-zero. A NaN or infinite force, or
+ *     a stateless law whose force pushes the motion (force * velocity > 0), ends the run with an
+ *     error naming the law, the joint, the time and the inputs.
+ *   - Threads: the host evaluates many instances at once on several threads (studies run in
+ *     parallel) and may call evaluate() on one instance from several threads. Keep no global or
+ *     static mutable data (in Fortran: no SAVE variables, and remember that a local variable
+ *     initialised in its declaration is implicitly SAVE; compile with -frecursive).
+ *   - Standard output belongs to tribo's results: a law must not print there (tribo moves it to
+ *     standard error, a worker discards it). Print diagnostics to standard error, sparingly.
+ *   - The library file is named for the law: law "my-law" is libtribo_law_my_law.so (.dylib on
+ *     macOS, tribo_law_my_law.dll on Windows; "-" becomes "_"). In a plugin directory tribo only
+ *     looks at files named libtribo_law_*, opens a file only when its law is asked for, and opens
+ *     the file named for the law first. Another name works but is found later.
+ *   - One library per law name. Two libraries that provide the law a command asks for are an
+ *     error naming both files, in every command (tribo laws refuses any duplicate); remove old
+ *     copies from TRIBO_PLUGIN_PATH, --plugin and the tribo executable's directory.
+ *   - A plugin is native code run with the user's rights, in tribo or its worker: it is not
+ *     sandboxed. Keep plugin directories writable by their owner only.
+ *
+ * Versions: the contract version changes with any change a plugin could observe (a field added,
+ * removed, moved or re-interpreted, a symbol added or changed); there are no "compatible"
+ * additions. What version 2 is expected to bring is in docs/writing-a-law.md ("ABI note").
+ * Every struct and constant below is checked against the Rust definitions
+ * (plugin-api/src/contract.rs) by plugin-api/tests/header.rs, field offset by field offset.
  */
 #ifndef TRIBO_LAW_H
 #define TRIBO_LAW_H

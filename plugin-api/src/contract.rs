@@ -1,9 +1,13 @@
 //! The data that crosses the plugin boundary on every evaluation.
 //!
-//! These types are `#[repr(C)]` and mirrored field for field by `include/tribo_law.h`, so a law
-//! written in C, C++ or Fortran sees exactly what a Rust law sees. Enumerations travel as `u32`
-//! because a foreign library could hand back any integer; the accessors turn them into Rust enums
-//! and reject values the contract does not define.
+//! These types are `#[repr(C)]` and mirrored field for field by `include/tribo_law.h` (and by the
+//! Fortran module `include/tribo_law.f90`), so a law written in C, C++ or Fortran sees exactly
+//! what a Rust law sees. Enumerations travel as `u32` because a foreign library could hand back
+//! any integer; the accessors turn them into Rust enums and reject values the contract does not
+//! define. Every struct and constant here is checked against the header and the Fortran module
+//! by `plugin-api/tests/header.rs`.
+
+use std::ffi::c_char;
 
 use abi_stable::StableAbi;
 use serde::{Deserialize, Serialize};
@@ -236,6 +240,42 @@ impl LawOutput {
     pub fn regime(&self) -> Option<Regime> {
         Regime::from_u32(self.regime)
     }
+}
+
+/// `tribo_param_spec` of the C header: one scalar parameter as a C law describes it. The strings
+/// are NUL-terminated and owned by the law (static storage).
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct CParamSpec {
+    /// Key in the TOML table.
+    pub name: *const c_char,
+    /// Unit in plain text, `-` for dimensionless.
+    pub unit: *const c_char,
+    /// Physical meaning.
+    pub doc: *const c_char,
+    /// Value used when the user gives none.
+    pub default_value: f64,
+    /// Smallest allowed value, inclusive.
+    pub min: f64,
+    /// Largest allowed value, inclusive.
+    pub max: f64,
+}
+
+/// `tribo_law_description` of the C header: what `tribo_law_describe` returns. It must stay
+/// valid while the library is loaded.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct CLawDescription {
+    /// Unique law name, NUL-terminated.
+    pub name: *const c_char,
+    /// Implementation version, NUL-terminated.
+    pub version: *const c_char,
+    /// One-line summary, NUL-terminated.
+    pub summary: *const c_char,
+    /// Number of entries at `params`.
+    pub n_params: u32,
+    /// The parameters, in the order `tribo_law_create` receives their values.
+    pub params: *const CParamSpec,
 }
 
 /// A sign function that is smooth through zero: `x / sqrt(x^2 + eps^2)`. Laws share it so the

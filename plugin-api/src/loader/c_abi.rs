@@ -5,27 +5,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use super::{LawError, LawLibrary};
-use crate::contract::{LawInput, LawOutput};
+use crate::contract::{CLawDescription as CDescription, LawInput, LawOutput};
 use crate::describe::{LawDescription, ParamError, ParamSpec, ParamValue};
-
-#[repr(C)]
-struct CParamSpec {
-    name: *const c_char,
-    unit: *const c_char,
-    doc: *const c_char,
-    default_value: f64,
-    min: f64,
-    max: f64,
-}
-
-#[repr(C)]
-struct CDescription {
-    name: *const c_char,
-    version: *const c_char,
-    summary: *const c_char,
-    n_params: u32,
-    params: *const CParamSpec,
-}
 
 type DescribeFn = unsafe extern "C" fn() -> *const CDescription;
 type CreateFn = unsafe extern "C" fn(*const f64, usize, *mut c_char, usize) -> *mut c_void;

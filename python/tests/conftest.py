@@ -43,9 +43,3 @@ def cli(tribo_bin, tmp_path):
 
     return call
 
-
-def cli_error(stderr: str) -> str:
-    """The message of the CLI's one `error:` line."""
-    lines = [l for l in stderr.splitlines() if l.startswith("error: ")]
-    assert len(lines) == 1, stderr
-    return lines[0][len("error: "):]

@@ -215,7 +215,10 @@ impl LawSetSpec {
             LawSet::from_text(Path::new(name), &table_text(table, "law set")?)?
         } else {
             let source = self.source.as_deref().ok_or_else(|| {
-                Failure::new(Kind::Input, "a law set needs a name, a file, a text or a dict")
+                Failure::new(
+                    Kind::Input,
+                    "a law set needs a name, a file, a text or a dict",
+                )
             })?;
             LawSet::load(source)?
         };
@@ -395,9 +398,7 @@ fn laws(py: Python<'_>, plugin_paths: Vec<PathBuf>) -> PyResult<String> {
         let broken: Vec<_> = listing
             .broken
             .iter()
-            .map(|(p, e)| {
-                serde_json::json!({"file": p.display().to_string(), "error": chain(*e)})
-            })
+            .map(|(p, e)| serde_json::json!({"file": p.display().to_string(), "error": chain(*e)}))
             .collect();
         to_json(&serde_json::json!({"laws": laws, "broken": broken}))
     })
@@ -425,14 +426,14 @@ struct RunJob {
     plugin_paths: Vec<PathBuf>,
 }
 
+/// A run's JSON and, with a time series, its column names and samples.
+type RunOutput<'py> = (String, Option<(Vec<&'static str>, Bound<'py, PyBytes>)>);
+
 /// `run(job_json)`: one rig through its cycle (or steady state), as `tribo run --json`.
 /// Returns the result's JSON, and with `timeseries` the column names and the samples as
 /// native-endian f64 bytes (row after row).
 #[pyfunction]
-fn run<'py>(
-    py: Python<'py>,
-    job: &str,
-) -> PyResult<(String, Option<(Vec<&'static str>, Bound<'py, PyBytes>)>)> {
+fn run<'py>(py: Python<'py>, job: &str) -> PyResult<RunOutput<'py>> {
     let (json, series) = detached(py, || {
         let job: RunJob = serde_json::from_str(job)?;
         if job.steady && job.timeseries {
@@ -529,7 +530,9 @@ fn mass_response(py: Python<'_>, job: &str) -> PyResult<String> {
             other => {
                 return Err(Failure::new(
                     Kind::Input,
-                    format!("body: `{other}` is not a body that can be scaled; use rod, piston or crank"),
+                    format!(
+                    "body: `{other}` is not a body that can be scaled; use rod, piston or crank"
+                ),
                 ))
             }
         };

@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# The Python half of the test command (README): a virtual environment in target/pyenv with
+# maturin, pytest, pandas, numpy, dask[distributed] and matplotlib from PyPI, the `tribo` wheel
+# built with maturin and installed into it, then the Python tests and the worked example.
+# Needs `cargo build --release --workspace` first (the tests compare against target/release/tribo
+# and load the law plugins from target/release).
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+root="$(dirname "$here")"
+target="${CARGO_TARGET_DIR:-$root/target}"
+venv="$target/pyenv"
+python="${PYTHON:-python3}"
+if [ ! -x "$venv/bin/python" ]; then
+  "$python" -m venv "$venv"
+fi
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+  "maturin>=1.5,<2" pytest pandas numpy "dask[distributed]" matplotlib
+rm -rf "$target/wheels"
+(cd "$here" && "$venv/bin/maturin" build --release --quiet -o "$target/wheels")
+"$venv/bin/python" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$target"/wheels/tribo-*.whl
+cd "$here"
+# The example writes its plot into a scratch directory; MPLBACKEND keeps matplotlib off any display.
+MPLBACKEND=Agg TRIBO_EXAMPLE_OUT="$target/python-example" "$venv/bin/python" examples/crf250r_study.py
+"$venv/bin/pytest" -q -p no:cacheprovider tests

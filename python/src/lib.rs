@@ -1,0 +1,698 @@
+//! `tribo._native`: the Rust half of the `tribo` Python package.
+//!
+//! Each function takes a job as JSON (the rig, law sets and options as the CLI's arguments
+//! would give them), runs it through the same library calls as `tribo ... --in-process`, with
+//! the GIL released, and hands the result back as the JSON the CLI's `--json` prints (so the
+//! numbers are the same bits). The Python package (`python/tribo/`) turns those into pandas
+//! DataFrames and numpy arrays. Errors are raised as the exception classes of
+//! `tribo.errors`, carrying the CLI's message.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+use pyo3::exceptions::PyRuntimeError;
+use pyo3::prelude::*;
+use pyo3::types::PyBytes;
+use serde::Deserialize;
+
+use tribo_config::bundled;
+use tribo_config::lawset::LawSet;
+use tribo_config::rig::{self, Rig, RigError};
+use tribo_core::observe::{ObserverError, StepObserver, StepSample};
+use tribo_core::sim::SimError;
+use tribo_plugin_api::loader::{discover, LawError, LawRegistry};
+use tribo_studies::fit::{FitOptions, FitResult};
+use tribo_studies::study::{self, DataRun, StudyError, SweepInputError};
+
+/// Where the plugins of the checkout this module was built from are: `target/release` beside
+/// the workspace, the directory of the `tribo` binary. The CLI searches its own directory; this
+/// module is loaded by Python, whose directory holds no laws, so it searches the checkout's
+/// instead (only if it exists where the module runs).
+const CHECKOUT_PLUGINS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../target/release");
+
+/// What went wrong, as the Python exception class of `tribo.errors` that reports it.
+#[derive(Debug, Clone, Copy)]
+enum Kind {
+    /// A rig, law set, data file, parameter or option the user gave is wrong.
+    Input,
+    /// A law library cannot be loaded.
+    Plugin,
+    /// A run failed (a law's fault, the solver did not converge, ...).
+    Simulation,
+}
+
+impl Kind {
+    /// The class name in `tribo.errors`.
+    fn class(self) -> &'static str {
+        match self {
+            Kind::Input => "InputError",
+            Kind::Plugin => "PluginError",
+            Kind::Simulation => "SimulationError",
+        }
+    }
+}
+
+/// An error on its way to Python: the exception class and the CLI's message.
+#[derive(Debug)]
+struct Failure {
+    /// Which exception.
+    kind: Kind,
+    /// The message as the CLI prints it after `error: `.
+    message: String,
+}
+
+impl Failure {
+    fn new(kind: Kind, message: impl Into<String>) -> Self {
+        Self {
+            kind,
+            message: message.into(),
+        }
+    }
+}
+
+/// `e` and its causes joined by `: `, as the CLI prints an error chain (`{:#}` of anyhow).
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        text.push_str(": ");
+        text.push_str(&s.to_string());
+        source = s.source();
+    }
+    text
+}
+
+impl From<RigError> for Failure {
+    fn from(e: RigError) -> Self {
+        Self::new(Kind::Input, chain(&e))
+    }
+}
+
+impl From<Box<RigError>> for Failure {
+    fn from(e: Box<RigError>) -> Self {
+        Self::new(Kind::Input, chain(&*e))
+    }
+}
+
+impl From<SimError> for Failure {
+    fn from(e: SimError) -> Self {
+        let kind = match e {
+            SimError::Setup { .. } => Kind::Input,
+            _ => Kind::Simulation,
+        };
+        Self::new(kind, chain(&e))
+    }
+}
+
+impl From<StudyError> for Failure {
+    fn from(e: StudyError) -> Self {
+        let kind = match &e {
+            StudyError::Run { error, .. } if !matches!(**error, SimError::Setup { .. }) => {
+                Kind::Simulation
+            }
+            _ => Kind::Input,
+        };
+        Self::new(kind, chain(&e))
+    }
+}
+
+impl From<SweepInputError> for Failure {
+    fn from(e: SweepInputError) -> Self {
+        Self::new(Kind::Input, chain(&e))
+    }
+}
+
+impl From<LawError> for Failure {
+    fn from(e: LawError) -> Self {
+        // The CLI's context for the same failure.
+        Self::new(Kind::Plugin, format!("loading law plugins: {}", chain(&e)))
+    }
+}
+
+impl From<serde_json::Error> for Failure {
+    fn from(e: serde_json::Error) -> Self {
+        Self::new(Kind::Input, format!("the job handed to tribo._native: {e}"))
+    }
+}
+
+/// Raise `f` as its `tribo.errors` class (a `RuntimeError` if that module cannot be imported).
+fn raise(py: Python<'_>, f: Failure) -> PyErr {
+    let class = py
+        .import("tribo.errors")
+        .and_then(|m| m.getattr(f.kind.class()));
+    match class {
+        Ok(class) => match class.call1((f.message.clone(),)) {
+            Ok(value) => PyErr::from_value(value),
+            Err(e) => e,
+        },
+        Err(_) => PyRuntimeError::new_err(f.message),
+    }
+}
+
+/// A rig as the Python side describes it: a bundled name or file (`source`), or a text or
+/// table given in Python (`text` / `table`, named `name` in messages); `sets` are `--set`
+/// overrides and `oil` an `--oil` file.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct RigSpec {
+    source: Option<String>,
+    text: Option<String>,
+    table: Option<serde_json::Value>,
+    name: Option<String>,
+    sets: Vec<String>,
+    oil: Option<PathBuf>,
+}
+
+/// A law set as the Python side describes it (as [`RigSpec`]), plus `--law` arguments added.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct LawSetSpec {
+    source: Option<String>,
+    text: Option<String>,
+    table: Option<serde_json::Value>,
+    name: Option<String>,
+    laws: Vec<String>,
+}
+
+/// A TOML document from a table given in Python (as JSON).
+fn table_text(table: &serde_json::Value, what: &str) -> Result<String, Failure> {
+    toml::to_string(table).map_err(|e| {
+        Failure::new(
+            Kind::Input,
+            format!("the {what} given as a dict cannot be written as TOML: {e} (None values and mixed lists have no TOML form)"),
+        )
+    })
+}
+
+impl RigSpec {
+    /// Load, extend, override and validate, as `tribo run RIG --oil ... --set ...` does.
+    fn load(&self) -> Result<Rig, Failure> {
+        let mut sets = match &self.oil {
+            Some(path) => rig::oil_file_sets(path)?,
+            None => Vec::new(),
+        };
+        sets.extend(self.sets.iter().cloned());
+        let name = self.name.as_deref().unwrap_or("<python>.toml");
+        if let Some(text) = &self.text {
+            return Ok(rig::load_rig_text(Path::new(name), text, &sets)?);
+        }
+        if let Some(table) = &self.table {
+            let text = table_text(table, "rig")?;
+            return Ok(rig::load_rig_text(Path::new(name), &text, &sets)?);
+        }
+        let source = self.source.as_deref().unwrap_or(bundled::DEFAULT_RIG);
+        Ok(rig::load_rig(Path::new(source), &sets)?)
+    }
+}
+
+impl LawSetSpec {
+    /// Load the law set and add its `--law` arguments.
+    fn load(&self) -> Result<LawSet, Failure> {
+        let name = self.name.as_deref().unwrap_or("<python>.toml");
+        let mut ls = if let Some(text) = &self.text {
+            LawSet::from_text(Path::new(name), text)?
+        } else if let Some(table) = &self.table {
+            LawSet::from_text(Path::new(name), &table_text(table, "law set")?)?
+        } else {
+            let source = self.source.as_deref().ok_or_else(|| {
+                Failure::new(
+                    Kind::Input,
+                    "a law set needs a name, a file, a text or a dict",
+                )
+            })?;
+            LawSet::load(source)?
+        };
+        ls.add_law_args(&self.laws)?;
+        Ok(ls)
+    }
+}
+
+/// Law sets given, or the CLI's defaults.
+fn lawsets(specs: &[LawSetSpec]) -> Result<Vec<LawSet>, Failure> {
+    if specs.is_empty() {
+        return bundled::DEFAULT_LAWSETS
+            .iter()
+            .map(|n| Ok(LawSet::load(n)?))
+            .collect();
+    }
+    specs.iter().map(LawSetSpec::load).collect()
+}
+
+/// Data runs by name or file.
+fn data_runs(names: &[String]) -> Result<Vec<DataRun>, Failure> {
+    names.iter().map(|n| Ok(DataRun::read(n)?)).collect()
+}
+
+/// Registries already found, by search path and `TRIBO_PLUGIN_PATH`: each law library is
+/// opened once per process, as in one `tribo` command.
+type Registries = Vec<((Vec<PathBuf>, Option<std::ffi::OsString>), Arc<LawRegistry>)>;
+static REGISTRIES: Mutex<Registries> = Mutex::new(Vec::new());
+
+/// The search path: `plugin_paths` (as `--plugin`), then the checkout's `target/release` if
+/// it exists; `discover` adds `TRIBO_PLUGIN_PATH` and the executable's directory.
+fn search_path(plugin_paths: &[PathBuf]) -> Vec<PathBuf> {
+    let mut paths = plugin_paths.to_vec();
+    let checkout = PathBuf::from(CHECKOUT_PLUGINS);
+    if checkout.is_dir() {
+        paths.push(std::fs::canonicalize(&checkout).unwrap_or(checkout));
+    }
+    paths
+}
+
+/// The law registry for `plugin_paths`, found once and kept.
+fn registry(plugin_paths: &[PathBuf]) -> Result<Arc<LawRegistry>, Failure> {
+    let key = (
+        plugin_paths.to_vec(),
+        std::env::var_os(tribo_plugin_api::loader::PLUGIN_PATH_ENV),
+    );
+    let mut cache = REGISTRIES.lock().unwrap_or_else(|p| p.into_inner());
+    if let Some((_, r)) = cache.iter().find(|(k, _)| *k == key) {
+        return Ok(Arc::clone(r));
+    }
+    let r = Arc::new(discover(&search_path(plugin_paths))?);
+    cache.push((key, Arc::clone(&r)));
+    Ok(r)
+}
+
+/// Run `work` without the GIL and turn its failure into the Python exception.
+fn detached<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce() -> Result<T, Failure> + Send,
+) -> PyResult<T> {
+    py.detach(work).map_err(|f| raise(py, f))
+}
+
+/// Serialize a result as the CLI's `--json` does (compact; the numbers are the same).
+fn to_json<T: serde::Serialize>(value: &T) -> Result<String, Failure> {
+    serde_json::to_string(value)
+        .map_err(|e| Failure::new(Kind::Simulation, format!("serialising the results: {e}")))
+}
+
+/// The time series of a transient run, row after row of [`SERIES_COLUMNS`] values.
+#[derive(Default)]
+struct Series {
+    values: Vec<f64>,
+}
+
+/// The columns of a time series, in the order [`Series`] stores them.
+/// The names and units are those of the CLI's `--timeseries` CSV.
+const SERIES_COLUMNS: [&str; 10] = [
+    "time_s",
+    "theta_rad",
+    "speed_rpm",
+    "motoring_torque_nm",
+    "motoring_torque_filtered_nm",
+    "main_a_normal_load_n",
+    "main_b_normal_load_n",
+    "big_end_normal_load_n",
+    "small_end_normal_load_n",
+    "piston_normal_load_n",
+];
+
+impl StepObserver for Series {
+    fn step(&mut self, s: &StepSample<'_>) -> Result<(), ObserverError> {
+        self.values.extend_from_slice(&[
+            s.time_s,
+            s.crank_angle_rad,
+            tribo_core::cycle::rad_s_to_rpm(s.speed_rad_s),
+            s.motoring_torque_nm,
+            s.filtered_torque_nm,
+        ]);
+        self.values.extend_from_slice(s.normal_loads_n);
+        Ok(())
+    }
+}
+
+/// `load_rig(spec_json)`: the rig loaded and validated; returns its model as JSON, with the
+/// file it came from.
+#[pyfunction]
+fn load_rig(py: Python<'_>, spec: &str) -> PyResult<String> {
+    detached(py, || {
+        let spec: RigSpec = serde_json::from_str(spec)?;
+        let rig = spec.load()?;
+        to_json(&serde_json::json!({
+            "path": rig.path().display().to_string(),
+            "model": rig.model(),
+        }))
+    })
+}
+
+/// `load_lawset(spec_json)`: the law set loaded; returns its content and file as JSON.
+#[pyfunction]
+fn load_lawset(py: Python<'_>, spec: &str) -> PyResult<String> {
+    detached(py, || {
+        let spec: LawSetSpec = serde_json::from_str(spec)?;
+        let ls = spec.load()?;
+        to_json(&serde_json::json!({
+            "path": ls.path.display().to_string(),
+            "file": ls.file,
+        }))
+    })
+}
+
+/// `free_params(lawset_json, plugin_paths, ids)`: the free parameters of a law set (those it
+/// marks, or `ids`), with bounds and start values, as JSON.
+#[pyfunction]
+#[pyo3(signature = (lawset, plugin_paths, ids=None))]
+fn free_params(
+    py: Python<'_>,
+    lawset: &str,
+    plugin_paths: Vec<PathBuf>,
+    ids: Option<Vec<String>>,
+) -> PyResult<String> {
+    detached(py, || {
+        let spec: LawSetSpec = serde_json::from_str(lawset)?;
+        let ls = spec.load()?;
+        let registry = registry(&plugin_paths)?;
+        let free = ls.free_params(&registry, ids.as_deref())?;
+        let rows: Vec<_> = free
+            .iter()
+            .map(|p| {
+                serde_json::json!({
+                    "id": p.id, "entry": p.entry, "param": p.param,
+                    "lower": p.bounds[0], "upper": p.bounds[1], "value": p.value,
+                })
+            })
+            .collect();
+        to_json(&rows)
+    })
+}
+
+/// `laws(plugin_paths)`: every law found (name, version, file), and the files that could not
+/// be opened with the reason, as JSON.
+#[pyfunction]
+fn laws(py: Python<'_>, plugin_paths: Vec<PathBuf>) -> PyResult<String> {
+    detached(py, || {
+        let registry = registry(&plugin_paths)?;
+        let listing = registry.open_all()?;
+        let laws: Vec<_> = listing
+            .laws
+            .iter()
+            .map(|l| {
+                serde_json::json!({
+                    "name": l.name(),
+                    "file": l.path().display().to_string(),
+                })
+            })
+            .collect();
+        let broken: Vec<_> = listing
+            .broken
+            .iter()
+            .map(|(p, e)| serde_json::json!({"file": p.display().to_string(), "error": chain(*e)}))
+            .collect();
+        to_json(&serde_json::json!({"laws": laws, "broken": broken}))
+    })
+}
+
+/// `search_path(plugin_paths)`: the paths searched before `TRIBO_PLUGIN_PATH`.
+#[pyfunction]
+fn plugin_search_path(plugin_paths: Vec<PathBuf>) -> Vec<PathBuf> {
+    search_path(&plugin_paths)
+}
+
+/// A `tribo run` job.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RunJob {
+    rig: RigSpec,
+    lawset: Option<LawSetSpec>,
+    #[serde(default)]
+    laws: Vec<String>,
+    #[serde(default)]
+    steady: bool,
+    #[serde(default)]
+    timeseries: bool,
+    #[serde(default)]
+    plugin_paths: Vec<PathBuf>,
+}
+
+/// A run's JSON and, with a time series, its column names and samples.
+type RunOutput<'py> = (String, Option<(Vec<&'static str>, Bound<'py, PyBytes>)>);
+
+/// `run(job_json)`: one rig through its cycle (or steady state), as `tribo run --json`.
+/// Returns the result's JSON, and with `timeseries` the column names and the samples as
+/// native-endian f64 bytes (row after row).
+#[pyfunction]
+fn run<'py>(py: Python<'py>, job: &str) -> PyResult<RunOutput<'py>> {
+    let (json, series) = detached(py, || {
+        let job: RunJob = serde_json::from_str(job)?;
+        if job.steady && job.timeseries {
+            return Err(Failure::new(
+                Kind::Input,
+                "timeseries=True needs a transient run: a steady run computes each plateau directly and has no time history",
+            ));
+        }
+        let mut rig = job.rig.load()?;
+        if let Some(ls) = &job.lawset {
+            ls.load()?.apply(&mut rig);
+        }
+        rig::attach_laws(&mut rig, &job.laws)?;
+        let registry = registry(&job.plugin_paths)?;
+        let mut sim = rig::simulation(&rig, &registry)?;
+        let (result, series) = if job.steady {
+            (sim.run_steady()?, None)
+        } else if job.timeseries {
+            let mut s = Series::default();
+            (sim.run_with(&mut s)?, Some(s))
+        } else {
+            (sim.run()?, None)
+        };
+        Ok((to_json(&result)?, series))
+    })?;
+    let series = series.map(|s| {
+        let bytes: Vec<u8> = s.values.iter().flat_map(|v| v.to_ne_bytes()).collect();
+        (SERIES_COLUMNS.to_vec(), PyBytes::new(py, &bytes))
+    });
+    Ok((json, series))
+}
+
+/// A `tribo compare` job.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CompareJob {
+    rig: RigSpec,
+    #[serde(default)]
+    lawsets: Vec<LawSetSpec>,
+    data: Option<String>,
+    #[serde(default)]
+    validate: Vec<String>,
+    #[serde(default)]
+    steady: bool,
+    #[serde(default)]
+    no_cv: bool,
+    #[serde(default)]
+    plugin_paths: Vec<PathBuf>,
+}
+
+/// `compare(job_json)`: law sets against measured data, as `tribo compare --json`.
+#[pyfunction]
+fn compare(py: Python<'_>, job: &str) -> PyResult<String> {
+    detached(py, || {
+        let job: CompareJob = serde_json::from_str(job)?;
+        let rig = job.rig.load()?;
+        let sets = lawsets(&job.lawsets)?;
+        study::check_unique_names(&sets)?;
+        let data = DataRun::read(job.data.as_deref().unwrap_or(bundled::DEFAULT_DATA))?;
+        let options = study::CompareOptions {
+            steady: job.steady,
+            no_cv: job.no_cv,
+            validate: data_runs(&job.validate)?,
+        };
+        let registry = registry(&job.plugin_paths)?;
+        to_json(&study::compare(&rig, &sets, &data, &registry, &options)?)
+    })
+}
+
+/// A `tribo mass-response` job.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MassJob {
+    rig: RigSpec,
+    #[serde(default)]
+    lawsets: Vec<LawSetSpec>,
+    body: String,
+    scales: Vec<f64>,
+    #[serde(default)]
+    steady: bool,
+    #[serde(default)]
+    plugin_paths: Vec<PathBuf>,
+}
+
+/// `mass_response(job_json)`: torque change for a scaled body, as `tribo mass-response --json`.
+#[pyfunction]
+fn mass_response(py: Python<'_>, job: &str) -> PyResult<String> {
+    detached(py, || {
+        let job: MassJob = serde_json::from_str(job)?;
+        let body = match job.body.as_str() {
+            "rod" => study::ScaledBody::Rod,
+            "piston" => study::ScaledBody::Piston,
+            "crank" => study::ScaledBody::Crank,
+            other => {
+                return Err(Failure::new(
+                    Kind::Input,
+                    format!(
+                    "body: `{other}` is not a body that can be scaled; use rod, piston or crank"
+                ),
+                ))
+            }
+        };
+        if let Some(bad) = job.scales.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            return Err(Failure::new(
+                Kind::Input,
+                format!("--scale/--scales: every scale factor must be positive, got {bad}"),
+            ));
+        }
+        let rig = job.rig.load()?;
+        let sets = lawsets(&job.lawsets)?;
+        study::check_unique_names(&sets)?;
+        let registry = registry(&job.plugin_paths)?;
+        let fedem = study::fedem_rod_change();
+        let fedem = (body == study::ScaledBody::Rod).then_some(fedem.as_slice());
+        to_json(&study::mass_response(
+            &rig,
+            &sets,
+            body,
+            &job.scales,
+            &registry,
+            job.steady,
+            fedem,
+        )?)
+    })
+}
+
+/// A `tribo fit` job.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FitJob {
+    rig: RigSpec,
+    lawset: LawSetSpec,
+    params: Option<Vec<String>>,
+    #[serde(default)]
+    data: Vec<String>,
+    #[serde(default)]
+    validate: Vec<String>,
+    starts: usize,
+    #[serde(default)]
+    no_cv: bool,
+    #[serde(default)]
+    plugin_paths: Vec<PathBuf>,
+}
+
+/// `fit(job_json)`: calibrate a law set's free parameters, as `tribo fit --json`; returns the
+/// report's JSON and the calibrated law set as the TOML `tribo fit` writes.
+#[pyfunction]
+fn fit(py: Python<'_>, job: &str) -> PyResult<(String, String)> {
+    detached(py, || {
+        let job: FitJob = serde_json::from_str(job)?;
+        if !(1..=64).contains(&job.starts) {
+            return Err(Failure::new(
+                Kind::Input,
+                format!("starts: {} is not in 1..=64", job.starts),
+            ));
+        }
+        let rig = job.rig.load()?;
+        let ls = job.lawset.load()?;
+        let names = if job.data.is_empty() {
+            vec![bundled::DEFAULT_DATA.to_string()]
+        } else {
+            job.data.clone()
+        };
+        let runs = data_runs(&names)?;
+        let options = FitOptions {
+            starts: job.starts,
+            cross_validate: !job.no_cv,
+            validate: data_runs(&job.validate)?,
+        };
+        let registry = registry(&job.plugin_paths)?;
+        let free = ls.free_params(&registry, job.params.as_deref())?;
+        let (result, fitted) =
+            tribo_studies::fit::fit(&rig, &ls, &free, &runs, &registry, &options)?;
+        let text = fitted
+            .to_toml(&fit_header(&rig, &result, runs.len()))
+            .map_err(|e| {
+                Failure::new(
+                    Kind::Simulation,
+                    format!("serialising the calibrated law set: {e}"),
+                )
+            })?;
+        Ok((to_json(&result)?, text))
+    })
+}
+
+/// The header `tribo fit` writes above a calibrated law set.
+fn fit_header(rig: &Rig, result: &FitResult, runs: usize) -> String {
+    format!(
+        "Calibrated by `tribo fit` on rig {} against {} points in {} run(s): RMSE {:.4} N m in sample, {} N m leave-one-out.\nParameters fitted: {}",
+        rig.file.name,
+        result.measured_nm.len(),
+        runs,
+        result.rmse_nm,
+        result
+            .scores
+            .cv_rmse_nm
+            .map_or("(not computed)".to_string(), |v| format!("{v:.4}")),
+        result.params.join(", ")
+    )
+}
+
+/// A `tribo sweep` job.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SweepJob {
+    rig: RigSpec,
+    #[serde(default)]
+    lawsets: Vec<LawSetSpec>,
+    temps_c: Vec<f64>,
+    speeds_rpm: Vec<f64>,
+    #[serde(default)]
+    plugin_paths: Vec<PathBuf>,
+}
+
+/// `sweep(job_json)`: torque over oil temperature and speed, as `tribo sweep --json`.
+#[pyfunction]
+fn sweep(py: Python<'_>, job: &str) -> PyResult<String> {
+    detached(py, || {
+        let job: SweepJob = serde_json::from_str(job)?;
+        study::check_sweep_inputs(&job.temps_c, &job.speeds_rpm)?;
+        let rig = job.rig.load()?;
+        let sets = lawsets(&job.lawsets)?;
+        study::check_unique_names(&sets)?;
+        let registry = registry(&job.plugin_paths)?;
+        to_json(&study::sweep(
+            &rig,
+            &sets,
+            &job.temps_c,
+            &job.speeds_rpm,
+            &registry,
+            None,
+        )?)
+    })
+}
+
+/// The bundled rigs, law sets and data files, by kind.
+#[pyfunction]
+fn bundled_names() -> (Vec<&'static str>, Vec<&'static str>, Vec<&'static str>) {
+    (
+        bundled::rig_names(),
+        bundled::lawset_names(),
+        bundled::data_names(),
+    )
+}
+
+/// The native module.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(load_rig, m)?)?;
+    m.add_function(wrap_pyfunction!(load_lawset, m)?)?;
+    m.add_function(wrap_pyfunction!(free_params, m)?)?;
+    m.add_function(wrap_pyfunction!(laws, m)?)?;
+    m.add_function(wrap_pyfunction!(plugin_search_path, m)?)?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(mass_response, m)?)?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(bundled_names, m)?)?;
+    m.add("CHECKOUT_PLUGINS", CHECKOUT_PLUGINS)?;
+    Ok(())
+}

@@ -1,0 +1,45 @@
+"""Shared fixtures: the `tribo` binary of this checkout and a helper that runs it for JSON."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+RELEASE = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "release"
+TRIBO = RELEASE / "tribo"
+
+
+@pytest.fixture(scope="session")
+def tribo_bin() -> Path:
+    """`target/release/tribo`, built by `cargo build --release` before the Python tests."""
+    if not TRIBO.is_file():
+        pytest.fail(f"{TRIBO} is missing: run `cargo build --release --workspace` first")
+    return TRIBO
+
+
+@pytest.fixture
+def cli(tribo_bin, tmp_path):
+    """Run `tribo ARGS` and return its JSON (asserting exit 0), or with `fail=True` its
+    standard error (asserting exit 1)."""
+
+    def call(*args: str, fail: bool = False):
+        proc = subprocess.run(
+            [str(tribo_bin), "--quiet", *args],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        if fail:
+            assert proc.returncode == 1, proc.stdout + proc.stderr
+            return proc.stderr
+        assert proc.returncode == 0, proc.stderr
+        return json.loads(proc.stdout)
+
+    return call
+

@@ -786,27 +786,40 @@ fn merge_comparisons(
     results: Vec<Result<WorkerOutput, WorkerFailure>>,
     no_cv: bool,
 ) -> anyhow::Result<tribo::study::Comparison> {
-    let mut merged: Option<tribo::study::Comparison> = None;
-    let mut sets = Vec::new();
-    let mut failed = Vec::new();
-    for (ls, r) in lawsets.iter().zip(results) {
-        match r {
-            Ok(WorkerOutput::Compare(mut c)) => {
-                sets.append(&mut c.sets);
-                merged.get_or_insert(*c);
-            }
-            Ok(_) => anyhow::bail!("a worker answered a comparison with something else"),
-            Err(e) => failed.push(failed_set(ls, e)),
-        }
-    }
-    let Some(mut cmp) = merged else {
+    let (parts, failed) = split_replies(lawsets, results, |o| match o {
+        WorkerOutput::Compare(c) => Some(*c),
+        _ => None,
+    })?;
+    let mut parts = parts.into_iter();
+    let Some(mut cmp) = parts.next() else {
         failures_error(&failed, lawsets.len(), None)?;
         anyhow::bail!("no law set to compare");
     };
-    tribo::study::rank_sets(&mut sets, no_cv);
-    cmp.sets = sets;
+    cmp.sets.extend(parts.flat_map(|c| c.sets));
+    tribo::study::rank_sets(&mut cmp.sets, no_cv);
     cmp.failed = failed;
     Ok(cmp)
+}
+
+/// The workers' replies, one per law set in order, split into the expected outputs (`pick`
+/// says which variant that is) and the sets that failed.
+fn split_replies<T>(
+    lawsets: &[tribo::lawset::LawSet],
+    results: Vec<Result<WorkerOutput, WorkerFailure>>,
+    pick: impl Fn(WorkerOutput) -> Option<T>,
+) -> anyhow::Result<(Vec<T>, Vec<tribo::study::FailedSet>)> {
+    let mut parts = Vec::new();
+    let mut failed = Vec::new();
+    for (ls, r) in lawsets.iter().zip(results) {
+        match r {
+            Ok(o) => parts.push(
+                pick(o)
+                    .ok_or_else(|| anyhow::anyhow!("a worker answered another job's question"))?,
+            ),
+            Err(e) => failed.push(failed_set(ls, e)),
+        }
+    }
+    Ok((parts, failed))
 }
 
 /// `mass-response` for the law sets of `a`, in this process.
@@ -867,16 +880,12 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        let mut result = Vec::new();
-        let mut failed = Vec::new();
         let results = g.run_isolated(sources, jobs, a.isolation.limits()?)?;
-        for (ls, r) in sets_loaded.iter().zip(results) {
-            match r {
-                Ok(WorkerOutput::MassResponse(mut m)) => result.append(&mut m),
-                Ok(_) => anyhow::bail!("a worker answered a mass response with something else"),
-                Err(e) => failed.push(failed_set(ls, e)),
-            }
-        }
+        let (parts, failed) = split_replies(&sets_loaded, results, |o| match o {
+            WorkerOutput::MassResponse(m) => Some(m),
+            _ => None,
+        })?;
+        let result: Vec<_> = parts.into_iter().flatten().collect();
         if result.is_empty() {
             failures_error(&failed, specs.len(), None)?;
         }
@@ -1084,24 +1093,16 @@ fn merge_sweeps(
     lawsets: &[tribo::lawset::LawSet],
     results: Vec<Result<WorkerOutput, WorkerFailure>>,
 ) -> anyhow::Result<tribo::study::Sweep> {
-    let mut merged: Option<tribo::study::Sweep> = None;
-    let mut sets = Vec::new();
-    let mut failed = Vec::new();
-    for (ls, r) in lawsets.iter().zip(results) {
-        match r {
-            Ok(WorkerOutput::Sweep(mut w)) => {
-                sets.append(&mut w.sets);
-                merged.get_or_insert(*w);
-            }
-            Ok(_) => anyhow::bail!("a worker answered a sweep with something else"),
-            Err(e) => failed.push(failed_set(ls, e)),
-        }
-    }
-    let Some(mut sweep) = merged else {
+    let (parts, failed) = split_replies(lawsets, results, |o| match o {
+        WorkerOutput::Sweep(w) => Some(*w),
+        _ => None,
+    })?;
+    let mut parts = parts.into_iter();
+    let Some(mut sweep) = parts.next() else {
         failures_error(&failed, lawsets.len(), None)?;
         anyhow::bail!("no law set to sweep");
     };
-    sweep.sets = sets;
+    sweep.sets.extend(parts.flat_map(|w| w.sets));
     sweep.failed = failed;
     Ok(sweep)
 }

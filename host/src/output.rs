@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use tempfile::NamedTempFile;
+use tribo_config::files::file_kind as kind;
 
 /// The file that marks a directory as a tribo result set and lists its files (TOML).
 pub const MARKER: &str = ".tribo-results";
@@ -172,35 +173,6 @@ fn show(flag: &str, path: &Path) -> String {
         path.display().to_string()
     } else {
         format!("{flag} {}", path.display())
-    }
-}
-
-/// What a file type is, in words, for messages.
-fn kind(t: std::fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if t.is_char_device() {
-            return "a character device";
-        }
-        if t.is_block_device() {
-            return "a block device";
-        }
-        if t.is_fifo() {
-            return "a named pipe (FIFO)";
-        }
-        if t.is_socket() {
-            return "a socket";
-        }
-    }
-    if t.is_symlink() {
-        "a symbolic link"
-    } else if t.is_dir() {
-        "a directory"
-    } else if t.is_file() {
-        "a regular file"
-    } else {
-        "a special file"
     }
 }
 
@@ -984,7 +956,7 @@ mod tests {
         )
         .expect("mkfifo");
         let err = write_atomic(&fifo, b"x").expect_err("a pipe");
-        assert!(err.to_string().contains("named pipe"), "{err}");
+        assert!(err.to_string().contains("a FIFO"), "{err}");
         assert_eq!(names(dir.path()), ["fifo"]);
     }
 

@@ -39,8 +39,9 @@ impl ReadError {
     }
 }
 
-/// What kind of non-regular file `t` is, in words.
-fn kind(t: std::fs::FileType) -> &'static str {
+/// What kind of file `t` is, in words, for messages ("a FIFO", "a directory", ...); shared by
+/// the input readers and the result writers.
+pub fn file_kind(t: std::fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;
@@ -57,10 +58,14 @@ fn kind(t: std::fs::FileType) -> &'static str {
             return "a socket";
         }
     }
-    if t.is_dir() {
+    if t.is_symlink() {
+        "a symbolic link"
+    } else if t.is_dir() {
         "a directory"
+    } else if t.is_file() {
+        "a regular file"
     } else {
-        "not a file"
+        "a special file"
     }
 }
 
@@ -77,7 +82,7 @@ pub fn read_bytes_capped(path: &Path, cap: u64) -> Result<Vec<u8>, ReadError> {
     // Checked before opening: opening a FIFO blocks until someone writes to it.
     let meta = std::fs::metadata(path).map_err(io)?;
     if !meta.is_file() {
-        return Err(ReadError::NotRegular(kind(meta.file_type())));
+        return Err(ReadError::NotRegular(file_kind(meta.file_type())));
     }
     if meta.len() > cap {
         return Err(ReadError::TooLarge);

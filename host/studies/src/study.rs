@@ -93,15 +93,9 @@ pub fn check_lawsets(
     lawsets: &[LawSet],
     registry: &LawRegistry,
 ) -> Result<(), StudyError> {
-    check_unique_names(lawsets)?;
-    for ls in lawsets {
-        let r = prepare(rig, ls, None)?;
-        tribo_config::rig::simulation(&r, registry).map_err(|e| StudyError::Laws {
-            lawset: ls.name().into(),
-            error: Box::new(e),
-        })?;
-    }
-    Ok(())
+    check_each(rig, lawsets, |r| {
+        tribo_config::rig::simulation(r, registry).map(drop)
+    })
 }
 
 /// [`check_lawsets`] without creating any law instance: names unique, every law known and its
@@ -112,10 +106,19 @@ pub fn check_lawsets_described(
     lawsets: &[LawSet],
     registry: &LawRegistry,
 ) -> Result<(), StudyError> {
+    check_each(rig, lawsets, |r| tribo_config::rig::check_laws(r, registry))
+}
+
+/// Unique names, then `check` on `rig` prepared with each law set, its error named by the set.
+fn check_each(
+    rig: &Rig,
+    lawsets: &[LawSet],
+    check: impl Fn(&Rig) -> Result<(), SimError>,
+) -> Result<(), StudyError> {
     check_unique_names(lawsets)?;
     for ls in lawsets {
         let r = prepare(rig, ls, None)?;
-        tribo_config::rig::check_laws(&r, registry).map_err(|e| StudyError::Laws {
+        check(&r).map_err(|e| StudyError::Laws {
             lawset: ls.name().into(),
             error: Box::new(e),
         })?;

@@ -150,7 +150,7 @@ fn side_thrust_with_gas_force_matches_the_slider_crank_force_balance() {
                 -30.0, 5.0, 15.0, 40.0, 90.0, 135.0, 200.0, 345.0, 370.0, 400.0, 600.0,
             ] {
                 let theta = f64::to_radians(deg);
-                let state = g.at(theta);
+                let state = g.at(theta, omega);
                 // Independent pressure: p V^n = const from BDC for the closed cylinder.
                 let kin = sim
                     .mechanism()
@@ -185,7 +185,7 @@ fn motored_pressure_is_the_polytropic_law_of_the_trapped_charge() {
         // Piston travel from TDC, thesis eq 4.3 (magnitude).
         let x = R * (1.0 - th.cos()) + L * (1.0 - (1.0 - (R / L * th.sin()).powi(2)).sqrt());
         let p = 101_325.0 * ((vc + vd) / (vc + area * x)).powf(1.4);
-        let s = g.at(th);
+        let s = g.at(th, 0.0);
         assert!(
             (s.cylinder_pa - p).abs() <= 1e-9 * p,
             "{deg}: {} vs {p}",
@@ -195,9 +195,13 @@ fn motored_pressure_is_the_polytropic_law_of_the_trapped_charge() {
     }
     // Intake and exhaust strokes at the intake pressure; TDC peak = p_in r_c^n.
     for deg in [10.0, 90.0, 170.0, 560.0, 700.0] {
-        assert_eq!(g.at(f64::to_radians(deg)).cylinder_pa, 101_325.0, "{deg}");
+        assert_eq!(
+            g.at(f64::to_radians(deg), 0.0).cylinder_pa,
+            101_325.0,
+            "{deg}"
+        );
     }
-    let peak = g.at(2.0 * PI).cylinder_pa;
+    let peak = g.at(2.0 * PI, 0.0).cylinder_pa;
     assert!((peak - 101_325.0 * 12.9_f64.powf(1.4)).abs() < 1e-6 * peak);
 }
 

@@ -253,7 +253,7 @@ impl Simulation {
         match &self.gas {
             None => (self.mech.kinematics(theta, omega), None),
             Some(g) => {
-                let s = g.at(theta);
+                let s = g.at(theta, omega);
                 (
                     self.mech
                         .kinematics_with_piston_force(theta, omega, s.force_n),

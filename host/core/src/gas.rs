@@ -310,6 +310,11 @@ impl GasModel {
         }
     }
 
+    /// Whether the pressures depend on the crank speed (a vented crankcase).
+    pub fn depends_on_speed(&self) -> bool {
+        matches!(self.crankcase, Crankcase::Vented(_))
+    }
+
     /// The crank speeds, rad/s, at which a vented crankcase is tabulated (empty for others).
     pub fn tabulated_speeds(&self) -> &[f64] {
         match &self.crankcase {

@@ -488,34 +488,3 @@ mod tests {
         }
     }
 }
-#[cfg(test)]
-mod scratch {
-    use super::*;
-    #[test]
-    fn scratch_numbers() {
-        for d in [1e-4, 3e-4, 1e-3, 3e-3, 9e-3, 0.03, 0.1, 0.2] {
-            let b = Breather {
-                volume_at_tdc_m3: 1e-3,
-                piston_area_m2: std::f64::consts::PI * 0.25 * 0.0768 * 0.0768,
-                crank_radius_m: 0.0269,
-                rod_length_m: 0.105,
-                polytropic_exponent: 1.4,
-                discharge_area_m2: 0.61 * std::f64::consts::PI * 0.25 * d * d,
-                ambient_pa: 101325.0,
-                temperature_k: 333.15,
-            };
-            for rpm in [1000.0, 3000.0, 6000.0, 9000.0] {
-                let w = rpm * std::f64::consts::PI / 30.0;
-                let t = std::time::Instant::now();
-                let c = b.periodic(w, b.ambient_pa);
-                let el = t.elapsed();
-                let (lo, hi) = c
-                    .pressure_pa
-                    .iter()
-                    .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(*p), b.max(*p)));
-                println!("d {d} rpm {rpm}: W {:.6e} J, P {:.4} W, tau {:.4} s, revs {}, res {:.1e}, p {:.0}..{:.0}, p0 {:.1}, {:?}",
-                c.pumping_work_j, c.pumping_work_j * w / TAU, c.time_constant_s, c.revolutions, c.periodicity_residual, lo, hi, c.pressure_pa[0], el);
-            }
-        }
-    }
-}

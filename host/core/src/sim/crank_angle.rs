@@ -119,7 +119,7 @@ impl Simulation {
                     if pass + 1 < passes {
                         continue;
                     }
-                    let (kin, _) = self.kinematics(theta, omega);
+                    let (kin, _) = self.kinematics(theta, omega, omega);
                     let rel = relative_velocities(&kin.qd);
                     let instant = Instant {
                         t: at.t,

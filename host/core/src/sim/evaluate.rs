@@ -262,7 +262,7 @@ impl Simulation {
         rates.resize(self.layout().len(), 0.0);
         // Positions, velocities and the factorised constraints do not depend on the loads:
         // computed once, the iteration below only recombines the multipliers.
-        let (kin, gas) = self.kinematics(at.theta, at.omega);
+        let (kin, gas) = self.kinematics(at.theta, at.omega, self.gas_speed(at));
         let rel = relative_velocities(&kin.qd);
         // The power into the gas: the gas force's power on the piston, negated.
         if let Some(g) = &gas {

@@ -243,23 +243,41 @@ impl Simulation {
     }
 
     /// The load-independent kinematics at `theta`, `omega` with the gas force applied, and the
-    /// gas state (if any).
+    /// gas state (if any), a vented crankcase read at the crank speed `gas_omega`.
     #[inline]
     pub(super) fn kinematics(
         &self,
         theta: f64,
         omega: f64,
+        gas_omega: f64,
     ) -> (crate::mechanics::Kinematics, Option<crate::gas::GasState>) {
         match &self.gas {
             None => (self.mech.kinematics(theta, omega), None),
             Some(g) => {
-                let s = g.at(theta, omega);
+                let s = g.at(theta, gas_omega);
                 (
                     self.mech
                         .kinematics_with_piston_force(theta, omega, s.force_n),
                     Some(s),
                 )
             }
+        }
+    }
+
+    /// The crank speed a vented crankcase is read at for point `at`: the crank's own when it
+    /// follows the cycle exactly (prescribed crank, steady state); the cycle's reference speed
+    /// under the PI drive, whose speed ripples within a revolution far faster than the
+    /// crankcase breathes (the tables are quasi-steady in the cycle's speed, and the mean
+    /// speed follows the reference).
+    #[inline]
+    fn gas_speed(&self, at: &evaluate::Point) -> f64 {
+        match at.control {
+            evaluate::Control::Torque(_)
+                if self.gas.as_ref().is_some_and(GasModel::depends_on_speed) =>
+            {
+                self.cycle.reference(at.t).1
+            }
+            _ => at.omega,
         }
     }
 

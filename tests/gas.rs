@@ -917,7 +917,7 @@ fn a_bad_vented_crankcase_is_an_error_naming_file_line_column_and_field() {
             vec!["breather_diameter_m", "breather_area_m2"],
         ),
         (
-            format!("volume_at_tdc_m3 = 0.001\nbreather_diameter_m = 0.009\ndischarge_coefficient = 0.6\npolytropic_exponent = 1.4\ntemperature_c = 900.0"),
+            "volume_at_tdc_m3 = 0.001\nbreather_diameter_m = 0.009\ndischarge_coefficient = 0.6\npolytropic_exponent = 1.4\ntemperature_c = 900.0".to_string(),
             "gas.crankcase.temperature_c",
             "temperature_c",
             vec!["[-50, 300]", "900"],

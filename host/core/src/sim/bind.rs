@@ -91,6 +91,8 @@ pub(super) struct Instant {
     pub(super) omega: f64,
     /// Oil temperature (C) and dynamic viscosity (Pa s).
     pub(super) oil: (f64, f64),
+    /// Pressures, piston travel and 4-stroke angle (contract version 2).
+    pub(super) gas: crate::gas::LawGas,
 }
 
 impl BoundJoint {
@@ -105,6 +107,10 @@ impl BoundJoint {
         input.crank_angle_rad = at.crank_angle;
         input.time_s = at.t;
         input.dt_s = at.dt;
+        input.cylinder_pressure_pa = at.gas.cylinder_pa;
+        input.crankcase_pressure_pa = at.gas.crankcase_pa;
+        input.piston_from_tdc_m = at.gas.piston_from_tdc_m;
+        input.cycle_angle_rad = at.gas.cycle_angle_rad;
         input.with_velocity(rel)
     }
 
@@ -372,6 +378,9 @@ impl super::Simulation {
             crank_angle: super::evaluate::crank_angle(theta),
             omega: e.omega,
             oil,
+            // The end evaluation's own gas state (a vented crankcase read at the speed that
+            // evaluation used).
+            gas: self.law_gas(theta, e.omega, e.gas.as_ref()),
         };
         for joint in self.joints.iter_mut().filter(|j| j.is_stateful()) {
             let id = joint.id;

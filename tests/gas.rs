@@ -786,13 +786,16 @@ fn on_a_frictionless_rig_the_drive_supplies_exactly_the_breather_s_pumping_loss(
     // breather. The head off (crankcase only) and on (reversible compression adds nothing).
     let breather = vented(0.009);
     for gas in [vec![breather.as_str()], vec![breather.as_str(), MOTORED_4S]] {
-        // The PI drive with the head on is left out: on main it ends a plateau with an empty
-        // measurement window (mean speed 2.4e302 rpm) whatever the crankcase, a fault of its
-        // own (reported), not of the breather.
+        // With the head on the PI drive needs a torque limit above the compression torque
+        // (hundreds of N m near the firing TDC); at the default 5 N m the crank stalls, which
+        // `a_drive_too_weak_for_the_compression_stalls_with_a_clear_error` covers.
         let drives: &[&str] = if gas.len() == 1 {
             &["drive.kind=\"prescribed\"", "drive={kind=\"pi\"}"]
         } else {
-            &["drive.kind=\"prescribed\""]
+            &[
+                "drive.kind=\"prescribed\"",
+                "drive={kind=\"pi\", torque_limit_nm=2000.0}",
+            ]
         };
         for &drive in drives {
             // The PI drive needs its holds to settle (its integral term takes about 0.2 s to
@@ -1003,4 +1006,34 @@ fn the_crankcase_is_tabulated_at_the_cycle_s_speeds_and_interpolated_between_the
         lo > 0.75 * AMBIENT && lo < 0.85 * AMBIENT && hi > 1.15 * AMBIENT && hi < 1.25 * AMBIENT,
         "{lo} {hi}"
     );
+}
+
+/// A PI drive whose torque limit is far below the compression torque cannot turn the crank
+/// through its holds: the run must end with an error naming the plateau, the revolutions turned
+/// and the limit to raise, never a plateau value from an empty window (it once printed a mean
+/// speed of 2.4e302 rpm).
+#[test]
+fn a_drive_too_weak_for_the_compression_stalls_with_a_clear_error() {
+    let r = rig(
+        "reference-frictionless",
+        &[
+            SHORT_CYCLE,
+            "drive={kind=\"pi\", torque_limit_nm=5.0}",
+            MOTORED_4S,
+        ],
+    );
+    let mut sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+    match sim.run() {
+        Err(e @ tribo::sim::SimError::Stalled { .. }) => {
+            let text = e.to_string();
+            for word in [
+                "rpm plateau has no measurement",
+                "revolutions",
+                "drive.torque_limit_nm",
+            ] {
+                assert!(text.contains(word), "`{word}` missing: {text}");
+            }
+        }
+        other => panic!("expected a stall error, got {other:?}"),
+    }
 }

@@ -377,7 +377,7 @@ impl Simulation {
             dissipated,
             gas_work,
         );
-        let (results, warnings) = plateaus.results(self);
+        let (results, warnings) = plateaus.results(self)?;
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: match self.drive {

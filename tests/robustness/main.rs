@@ -510,7 +510,9 @@ fn cases() -> Vec<Case> {
                     "--lawset",
                     "fedem-baseline",
                     "--set",
-                    "drive={kind=\"pi\", torque_limit_nm=1.2}",
+                    // Enough to turn the crank through the window (below about 2.8 N m the
+                    // crank stalls: the next cases), not enough to hold 3000 rpm throughout.
+                    "drive={kind=\"pi\", torque_limit_nm=3.4}",
                     "--set",
                     SHORT,
                     "--quiet",
@@ -528,7 +530,7 @@ fn cases() -> Vec<Case> {
                     "--lawset",
                     "fedem-baseline",
                     "--set",
-                    "drive={kind=\"pi\", torque_limit_nm=0.5}",
+                    "drive={kind=\"pi\", torque_limit_nm=2.9}",
                     "--set",
                     SHORT,
                     "--quiet",
@@ -536,6 +538,30 @@ fn cases() -> Vec<Case> {
             },
             code: 0,
             words: &["warning", "reached only", "never settled"],
+        },
+        Case {
+            // At 0.5 N m the crank hardly turns: no whole-revolution window exists, and the run
+            // used to print plateau values from an empty window (a mean of 3e302 rpm).
+            name: "solver: drive too weak to turn the crank (error)",
+            setup: |_| {
+                args(&[
+                    "run",
+                    "reference-frictionless",
+                    "--lawset",
+                    "fedem-baseline",
+                    "--set",
+                    "drive={kind=\"pi\", torque_limit_nm=0.5}",
+                    "--set",
+                    SHORT,
+                    "--quiet",
+                ])
+            },
+            code: 1,
+            words: &[
+                "3000 rpm plateau has no measurement",
+                "revolutions",
+                "drive.torque_limit_nm",
+            ],
         },
     ]
 }

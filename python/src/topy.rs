@@ -10,6 +10,9 @@
 //! must be strings, or integers, `bool`s or `char`s (written as strings, as `serde_json` does);
 //! other keys are refused (no tribo result has them).
 
+use std::cell::RefCell;
+use std::collections::HashMap;
+
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString};
@@ -47,24 +50,52 @@ pub fn to_py<'py, T: Serialize + ?Sized>(
     py: Python<'py>,
     value: &T,
 ) -> Result<Bound<'py, PyAny>, ToPyError> {
-    value.serialize(Builder { py })
+    let names = Names::default();
+    value.serialize(Builder { py, names: &names })
+}
+
+/// The field and variant names met in one conversion, each made a Python string once: a result
+/// repeats the same few names hundreds of times, and a string already made has its hash cached,
+/// so each later dict insertion skips both the decoding and the hashing (`json.loads` keeps
+/// such a memo of keys for the same reason). Names are `&'static str`, known by their address.
+#[derive(Default)]
+struct Names<'py> {
+    made: RefCell<HashMap<(usize, usize), Bound<'py, PyString>>>,
+}
+
+impl<'py> Names<'py> {
+    /// The Python string for the name `name`.
+    fn get(&self, py: Python<'py>, name: &'static str) -> Bound<'py, PyString> {
+        let key = (name.as_ptr() as usize, name.len());
+        self.made
+            .borrow_mut()
+            .entry(key)
+            .or_insert_with(|| PyString::new(py, name))
+            .clone()
+    }
 }
 
 /// The serde serializer whose output is a Python object.
 #[derive(Clone, Copy)]
-struct Builder<'py> {
+struct Builder<'a, 'py> {
     py: Python<'py>,
+    names: &'a Names<'py>,
 }
 
-impl<'py> Builder<'py> {
+impl<'a, 'py> Builder<'a, 'py> {
+    /// `value` through this builder (its names memo kept).
+    fn build<T: Serialize + ?Sized>(self, value: &T) -> Result<Bound<'py, PyAny>, ToPyError> {
+        value.serialize(self)
+    }
+
     /// `{variant: value}`, the form of a non-unit enum variant.
     fn tagged(
         self,
-        variant: &str,
+        variant: &'static str,
         value: Bound<'py, PyAny>,
     ) -> Result<Bound<'py, PyAny>, ToPyError> {
         let dict = PyDict::new(self.py);
-        dict.set_item(PyString::new(self.py, variant), value)?;
+        dict.set_item(self.names.get(self.py, variant), value)?;
         Ok(dict.into_any())
     }
 
@@ -75,22 +106,22 @@ impl<'py> Builder<'py> {
 }
 
 /// A list being built: its items so far, and the variant name for a tuple variant.
-struct ListBuilder<'py> {
-    py: Python<'py>,
+struct ListBuilder<'a, 'py> {
+    b: Builder<'a, 'py>,
     items: Vec<Bound<'py, PyAny>>,
     variant: Option<&'static str>,
 }
 
-impl<'py> ListBuilder<'py> {
+impl<'a, 'py> ListBuilder<'a, 'py> {
     fn push<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), ToPyError> {
-        self.items.push(to_py(self.py, value)?);
+        self.items.push(self.b.build(value)?);
         Ok(())
     }
 
     fn finish(self) -> Result<Bound<'py, PyAny>, ToPyError> {
-        let list = PyList::new(self.py, self.items)?.into_any();
+        let list = PyList::new(self.b.py, self.items)?.into_any();
         match self.variant {
-            Some(v) => Builder { py: self.py }.tagged(v, list),
+            Some(v) => self.b.tagged(v, list),
             None => Ok(list),
         }
     }
@@ -98,18 +129,18 @@ impl<'py> ListBuilder<'py> {
 
 /// A dict being built: the dict, the key waiting for its value (maps), and the variant name for
 /// a struct variant.
-struct DictBuilder<'py> {
-    py: Python<'py>,
+struct DictBuilder<'a, 'py> {
+    b: Builder<'a, 'py>,
     dict: Bound<'py, PyDict>,
     key: Option<Bound<'py, PyString>>,
     variant: Option<&'static str>,
 }
 
-impl<'py> DictBuilder<'py> {
-    fn new(py: Python<'py>, variant: Option<&'static str>) -> Self {
+impl<'a, 'py> DictBuilder<'a, 'py> {
+    fn new(b: Builder<'a, 'py>, variant: Option<&'static str>) -> Self {
         Self {
-            py,
-            dict: PyDict::new(py),
+            b,
+            dict: PyDict::new(b.py),
             key: None,
             variant,
         }
@@ -120,30 +151,31 @@ impl<'py> DictBuilder<'py> {
         key: &'static str,
         value: &T,
     ) -> Result<(), ToPyError> {
-        let value = to_py(self.py, value)?;
-        self.dict.set_item(PyString::new(self.py, key), value)?;
+        let value = self.b.build(value)?;
+        self.dict
+            .set_item(self.b.names.get(self.b.py, key), value)?;
         Ok(())
     }
 
     fn finish(self) -> Result<Bound<'py, PyAny>, ToPyError> {
         let dict = self.dict.into_any();
         match self.variant {
-            Some(v) => Builder { py: self.py }.tagged(v, dict),
+            Some(v) => self.b.tagged(v, dict),
             None => Ok(dict),
         }
     }
 }
 
-impl<'py> ser::Serializer for Builder<'py> {
+impl<'a, 'py> ser::Serializer for Builder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;
     type Error = ToPyError;
-    type SerializeSeq = ListBuilder<'py>;
-    type SerializeTuple = ListBuilder<'py>;
-    type SerializeTupleStruct = ListBuilder<'py>;
-    type SerializeTupleVariant = ListBuilder<'py>;
-    type SerializeMap = DictBuilder<'py>;
-    type SerializeStruct = DictBuilder<'py>;
-    type SerializeStructVariant = DictBuilder<'py>;
+    type SerializeSeq = ListBuilder<'a, 'py>;
+    type SerializeTuple = ListBuilder<'a, 'py>;
+    type SerializeTupleStruct = ListBuilder<'a, 'py>;
+    type SerializeTupleVariant = ListBuilder<'a, 'py>;
+    type SerializeMap = DictBuilder<'a, 'py>;
+    type SerializeStruct = DictBuilder<'a, 'py>;
+    type SerializeStructVariant = DictBuilder<'a, 'py>;
 
     fn serialize_bool(self, v: bool) -> Result<Self::Ok, Self::Error> {
         Ok(PyBool::new(self.py, v).to_owned().into_any())
@@ -224,7 +256,7 @@ impl<'py> ser::Serializer for Builder<'py> {
         _index: u32,
         variant: &'static str,
     ) -> Result<Self::Ok, Self::Error> {
-        self.serialize_str(variant)
+        Ok(self.names.get(self.py, variant).into_any())
     }
     fn serialize_newtype_struct<T: Serialize + ?Sized>(
         self,
@@ -240,12 +272,12 @@ impl<'py> ser::Serializer for Builder<'py> {
         variant: &'static str,
         value: &T,
     ) -> Result<Self::Ok, Self::Error> {
-        let inner = to_py(self.py, value)?;
+        let inner = self.build(value)?;
         self.tagged(variant, inner)
     }
     fn serialize_seq(self, len: Option<usize>) -> Result<Self::SerializeSeq, Self::Error> {
         Ok(ListBuilder {
-            py: self.py,
+            b: self,
             items: Vec::with_capacity(len.unwrap_or(0)),
             variant: None,
         })
@@ -268,20 +300,20 @@ impl<'py> ser::Serializer for Builder<'py> {
         len: usize,
     ) -> Result<Self::SerializeTupleVariant, Self::Error> {
         Ok(ListBuilder {
-            py: self.py,
+            b: self,
             items: Vec::with_capacity(len),
             variant: Some(variant),
         })
     }
     fn serialize_map(self, _len: Option<usize>) -> Result<Self::SerializeMap, Self::Error> {
-        Ok(DictBuilder::new(self.py, None))
+        Ok(DictBuilder::new(self, None))
     }
     fn serialize_struct(
         self,
         _name: &'static str,
         _len: usize,
     ) -> Result<Self::SerializeStruct, Self::Error> {
-        Ok(DictBuilder::new(self.py, None))
+        Ok(DictBuilder::new(self, None))
     }
     fn serialize_struct_variant(
         self,
@@ -290,11 +322,11 @@ impl<'py> ser::Serializer for Builder<'py> {
         variant: &'static str,
         _len: usize,
     ) -> Result<Self::SerializeStructVariant, Self::Error> {
-        Ok(DictBuilder::new(self.py, Some(variant)))
+        Ok(DictBuilder::new(self, Some(variant)))
     }
 }
 
-impl<'py> ser::SerializeSeq for ListBuilder<'py> {
+impl<'a, 'py> ser::SerializeSeq for ListBuilder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;
     type Error = ToPyError;
     fn serialize_element<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
@@ -305,7 +337,7 @@ impl<'py> ser::SerializeSeq for ListBuilder<'py> {
     }
 }
 
-impl<'py> ser::SerializeTuple for ListBuilder<'py> {
+impl<'a, 'py> ser::SerializeTuple for ListBuilder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;
     type Error = ToPyError;
     fn serialize_element<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
@@ -316,7 +348,7 @@ impl<'py> ser::SerializeTuple for ListBuilder<'py> {
     }
 }
 
-impl<'py> ser::SerializeTupleStruct for ListBuilder<'py> {
+impl<'a, 'py> ser::SerializeTupleStruct for ListBuilder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;
     type Error = ToPyError;
     fn serialize_field<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
@@ -327,7 +359,7 @@ impl<'py> ser::SerializeTupleStruct for ListBuilder<'py> {
     }
 }
 
-impl<'py> ser::SerializeTupleVariant for ListBuilder<'py> {
+impl<'a, 'py> ser::SerializeTupleVariant for ListBuilder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;
     type Error = ToPyError;
     fn serialize_field<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
@@ -338,11 +370,11 @@ impl<'py> ser::SerializeTupleVariant for ListBuilder<'py> {
     }
 }
 
-impl<'py> ser::SerializeMap for DictBuilder<'py> {
+impl<'a, 'py> ser::SerializeMap for DictBuilder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;
     type Error = ToPyError;
     fn serialize_key<T: Serialize + ?Sized>(&mut self, key: &T) -> Result<(), Self::Error> {
-        self.key = Some(map_key(self.py, key)?);
+        self.key = Some(map_key(self.b, key)?);
         Ok(())
     }
     fn serialize_value<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
@@ -350,7 +382,7 @@ impl<'py> ser::SerializeMap for DictBuilder<'py> {
             .key
             .take()
             .ok_or_else(|| ToPyError::Shape("a map value was given before its key".into()))?;
-        self.dict.set_item(key, to_py(self.py, value)?)?;
+        self.dict.set_item(key, self.b.build(value)?)?;
         Ok(())
     }
     fn end(self) -> Result<Self::Ok, Self::Error> {
@@ -358,7 +390,7 @@ impl<'py> ser::SerializeMap for DictBuilder<'py> {
     }
 }
 
-impl<'py> ser::SerializeStruct for DictBuilder<'py> {
+impl<'a, 'py> ser::SerializeStruct for DictBuilder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;
     type Error = ToPyError;
     fn serialize_field<T: Serialize + ?Sized>(
@@ -373,7 +405,7 @@ impl<'py> ser::SerializeStruct for DictBuilder<'py> {
     }
 }
 
-impl<'py> ser::SerializeStructVariant for DictBuilder<'py> {
+impl<'a, 'py> ser::SerializeStructVariant for DictBuilder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;
     type Error = ToPyError;
     fn serialize_field<T: Serialize + ?Sized>(
@@ -391,10 +423,11 @@ impl<'py> ser::SerializeStructVariant for DictBuilder<'py> {
 /// A map key as the string `serde_json` would write for it: a string as it is, an integer,
 /// `bool` or `char` in its text form; anything else (a float, a sequence, ...) is refused.
 fn map_key<'py, T: Serialize + ?Sized>(
-    py: Python<'py>,
+    b: Builder<'_, 'py>,
     key: &T,
 ) -> Result<Bound<'py, PyString>, ToPyError> {
-    let object = to_py(py, key)?;
+    let py = b.py;
+    let object = b.build(key)?;
     if let Ok(s) = object.cast::<PyString>() {
         return Ok(s.clone());
     }

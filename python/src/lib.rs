@@ -4,9 +4,10 @@
 //! would give them), runs it through the same library calls as `tribo ... --in-process`, with
 //! the GIL released, and hands the result back as the Python objects (dicts, lists, floats)
 //! that `json.loads` would make of the CLI's `--json` text (so the numbers are the same bits),
-//! built directly from the result ([`topy`]) rather than written as text and parsed again. The
-//! Python package (`python/tribo/`) turns those into pandas DataFrames and numpy arrays. Errors
-//! are raised as the exception classes of `tribo.errors`, carrying the CLI's message.
+//! built directly from the result (module `topy`) rather than written as text and parsed
+//! again. The Python package (`python/tribo/`) turns those into pandas DataFrames and numpy
+//! arrays. Errors are raised as the exception classes of `tribo.errors`, carrying the CLI's
+//! message.
 
 mod topy;
 

@@ -23,6 +23,10 @@ const RIGS: &[(&str, &str)] = &[
         "crf250r-fired.toml",
         include_str!("../../../rigs/crf250r-fired.toml"),
     ),
+    (
+        "crf250r-vented.toml",
+        include_str!("../../../rigs/crf250r-vented.toml"),
+    ),
 ];
 
 /// Bundled law sets.

@@ -378,7 +378,9 @@ impl super::Simulation {
             crank_angle: super::evaluate::crank_angle(theta),
             omega: e.omega,
             oil,
-            gas: self.law_gas(theta, None),
+            // The end evaluation's own gas state (a vented crankcase read at the speed that
+            // evaluation used).
+            gas: self.law_gas(theta, e.omega, e.gas.as_ref()),
         };
         for joint in self.joints.iter_mut().filter(|j| j.is_stateful()) {
             let id = joint.id;

@@ -3,8 +3,11 @@ set, from Python (``tribo.run(..., steady=True)`` and its plateau DataFrame) aga
 work in Rust (``bench/steady_baseline.rs``: load, bind, run, the result serialised as JSON; it
 also times the runs without the serialisation).
 
-Rounds alternate Rust and Python so a busy machine slows both alike. Two measures, each the
-best round of each side: the median wall time of a call, and the mean processor time of a call
+Rounds alternate Rust and Python so a busy machine slows both alike, and each round of either
+side is a fresh process: the speed of one process depends on where its stack, heap and
+libraries happened to land (address randomisation), so a single Python process against a
+fresh Rust process per round would compare one draw with the best of many. Two measures, each
+the best round of each side: the median wall time of a call, and the mean processor time of a call
 (this thread's time on a processor, from ``/proc/thread-self/schedstat``: the run is
 single-threaded, and this leaves out the time spent waiting for a processor, which dominates the
 wall clock's noise on a shared machine). Exits 1 if Python costs more than 10% over Rust on
@@ -12,6 +15,7 @@ either measure (against the baseline with its JSON).
 
     cargo build --release --workspace && cargo build --release -p tribo-python --example steady_baseline
     python bench/overhead.py [REPEATS] [ROUNDS]
+    python bench/overhead.py --round REPEATS   # one Python round (what the rounds run)
 """
 
 from __future__ import annotations
@@ -54,12 +58,26 @@ def python_ms(repeats: int, lawset: str, frame: bool) -> Tuple[float, float]:
     return statistics.median(times), cpu
 
 
+LAWSET = "stribeck-duty"
+
+
+def one_round(repeats: int) -> None:
+    """A Python round in this (fresh) process: prints the median wall ms, the mean processor ms
+    per call, and the median wall ms with the plateau DataFrame."""
+    tribo.run("crf250r-motored", lawset=LAWSET, steady=True).plateaus  # plugins opened, pandas warm
+    wall, cpu = python_ms(repeats, LAWSET, frame=False)
+    frame = python_ms(repeats, LAWSET, frame=True)[0]
+    print(f"{wall:.4f} {cpu:.4f} {frame:.4f}")
+
+
 def main() -> int:
+    if len(sys.argv) > 2 and sys.argv[1] == "--round":
+        one_round(int(sys.argv[2]))
+        return 0
     repeats = int(sys.argv[1]) if len(sys.argv) > 1 else 50
     rounds = int(sys.argv[2]) if len(sys.argv) > 2 else 9
-    lawset = "stribeck-duty"
+    lawset = LAWSET
     exe = ROOT / "target" / "release" / "examples" / "steady_baseline"
-    tribo.run("crf250r-motored", lawset=lawset, steady=True).plateaus  # plugins opened, pandas warm
     rust, bare, rust_cpu, py, py_cpu, frame = [], [], [], [], [], []
     for _ in range(rounds):
         out = subprocess.run([str(exe), str(repeats), lawset], check=True, capture_output=True, text=True)
@@ -67,10 +85,13 @@ def main() -> int:
         rust.append(whole)
         bare.append(unserialised)
         rust_cpu.append(cpu)
-        wall, cpu = python_ms(repeats, lawset, frame=False)
+        out = subprocess.run(
+            [sys.executable, __file__, "--round", str(repeats)], check=True, capture_output=True, text=True
+        )
+        wall, cpu, with_frame = (float(x) for x in out.stdout.split())
         py.append(wall)
         py_cpu.append(cpu)
-        frame.append(python_ms(repeats, lawset, frame=True)[0])
+        frame.append(with_frame)
     r, b, p, f = min(rust), min(bare), min(py), min(frame)
     rc, pc = min(rust_cpu), min(py_cpu)
     print(f"steady 7-speed run, {lawset}, best of {rounds} rounds of {repeats} runs:")

@@ -2,10 +2,14 @@
 //!
 //! Each function takes a job as JSON (the rig, law sets and options as the CLI's arguments
 //! would give them), runs it through the same library calls as `tribo ... --in-process`, with
-//! the GIL released, and hands the result back as the JSON the CLI's `--json` prints (so the
-//! numbers are the same bits). The Python package (`python/tribo/`) turns those into pandas
-//! DataFrames and numpy arrays. Errors are raised as the exception classes of
-//! `tribo.errors`, carrying the CLI's message.
+//! the GIL released, and hands the result back as the Python objects (dicts, lists, floats)
+//! that `json.loads` would make of the CLI's `--json` text (so the numbers are the same bits),
+//! built directly from the result (module `topy`) rather than written as text and parsed
+//! again. The Python package (`python/tribo/`) turns those into pandas DataFrames and numpy
+//! arrays. Errors are raised as the exception classes of `tribo.errors`, carrying the CLI's
+//! message.
+
+mod topy;
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -282,10 +286,30 @@ fn detached<T: Send>(
     py.detach(work).map_err(|f| raise(py, f))
 }
 
-/// Serialize a result as the CLI's `--json` does (compact; the numbers are the same).
-fn to_json<T: serde::Serialize>(value: &T) -> Result<String, Failure> {
-    serde_json::to_string(value)
-        .map_err(|e| Failure::new(Kind::Simulation, format!("serialising the results: {e}")))
+/// A result as the Python objects `json.loads` would make of the CLI's `--json` for it.
+fn to_python<'py, T: serde::Serialize + ?Sized>(
+    py: Python<'py>,
+    value: &T,
+) -> PyResult<Bound<'py, PyAny>> {
+    topy::to_py(py, value).map_err(|e| match e {
+        topy::ToPyError::Python(e) => e,
+        shape @ topy::ToPyError::Shape(_) => raise(
+            py,
+            Failure::new(
+                Kind::Simulation,
+                format!("handing the results to Python: {shape}"),
+            ),
+        ),
+    })
+}
+
+/// Run `work` without the GIL, then hand its result to Python as [`to_python`] does.
+fn detached_value<'py, T: serde::Serialize + Send>(
+    py: Python<'py>,
+    work: impl FnOnce() -> Result<T, Failure> + Send,
+) -> PyResult<Bound<'py, PyAny>> {
+    let value = detached(py, work)?;
+    to_python(py, &value)
 }
 
 /// The time series of a transient run, row after row of [`SERIES_COLUMNS`] values.
@@ -323,44 +347,53 @@ impl StepObserver for Series {
     }
 }
 
-/// `load_rig(spec_json)`: the rig loaded and validated; returns its model as JSON, with the
-/// file it came from.
+/// `load_rig(spec_json)`: the rig loaded and validated; returns `{"path", "model"}`: the file
+/// it came from and its model (as the JSON of the model, in Python objects).
 #[pyfunction]
-fn load_rig(py: Python<'_>, spec: &str) -> PyResult<String> {
-    detached(py, || {
+fn load_rig<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
+    detached_value(py, || {
         let spec: RigSpec = serde_json::from_str(spec)?;
         let rig = spec.load()?;
-        to_json(&serde_json::json!({
+        let model = serde_json::to_value(rig.model()).map_err(|e| {
+            Failure::new(
+                Kind::Simulation,
+                format!("serialising the rig's model: {e}"),
+            )
+        })?;
+        Ok(serde_json::json!({
             "path": rig.path().display().to_string(),
-            "model": rig.model(),
+            "model": model,
         }))
     })
 }
 
-/// `load_lawset(spec_json)`: the law set loaded; returns its content and file as JSON.
+/// `load_lawset(spec_json)`: the law set loaded; returns `{"path", "file"}`: its file and its
+/// content.
 #[pyfunction]
-fn load_lawset(py: Python<'_>, spec: &str) -> PyResult<String> {
-    detached(py, || {
+fn load_lawset<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
+    detached_value(py, || {
         let spec: LawSetSpec = serde_json::from_str(spec)?;
         let ls = spec.load()?;
-        to_json(&serde_json::json!({
+        let file = serde_json::to_value(&ls.file)
+            .map_err(|e| Failure::new(Kind::Simulation, format!("serialising the law set: {e}")))?;
+        Ok(serde_json::json!({
             "path": ls.path.display().to_string(),
-            "file": ls.file,
+            "file": file,
         }))
     })
 }
 
 /// `free_params(lawset_json, plugin_paths, ids)`: the free parameters of a law set (those it
-/// marks, or `ids`), with bounds and start values, as JSON.
+/// marks, or `ids`), with bounds and start values: a list of dicts.
 #[pyfunction]
 #[pyo3(signature = (lawset, plugin_paths, ids=None))]
-fn free_params(
-    py: Python<'_>,
+fn free_params<'py>(
+    py: Python<'py>,
     lawset: &str,
     plugin_paths: Vec<PathBuf>,
     ids: Option<Vec<String>>,
-) -> PyResult<String> {
-    detached(py, || {
+) -> PyResult<Bound<'py, PyAny>> {
+    detached_value(py, || {
         let spec: LawSetSpec = serde_json::from_str(lawset)?;
         let ls = spec.load()?;
         let registry = registry(&plugin_paths)?;
@@ -373,16 +406,16 @@ fn free_params(
                     "lower": p.bounds[0], "upper": p.bounds[1], "value": p.value,
                 })
             })
-            .collect();
-        to_json(&rows)
+            .collect::<Vec<_>>();
+        Ok(rows)
     })
 }
 
 /// `laws(plugin_paths)`: every law found (name, version, file), and the files that could not
-/// be opened with the reason, as JSON.
+/// be opened with the reason: `{"laws": [...], "broken": [...]}`.
 #[pyfunction]
-fn laws(py: Python<'_>, plugin_paths: Vec<PathBuf>) -> PyResult<String> {
-    detached(py, || {
+fn laws<'py>(py: Python<'py>, plugin_paths: Vec<PathBuf>) -> PyResult<Bound<'py, PyAny>> {
+    detached_value(py, || {
         let registry = registry(&plugin_paths)?;
         let listing = registry.open_all()?;
         let laws: Vec<_> = listing
@@ -400,7 +433,7 @@ fn laws(py: Python<'_>, plugin_paths: Vec<PathBuf>) -> PyResult<String> {
             .iter()
             .map(|(p, e)| serde_json::json!({"file": p.display().to_string(), "error": chain(*e)}))
             .collect();
-        to_json(&serde_json::json!({"laws": laws, "broken": broken}))
+        Ok(serde_json::json!({"laws": laws, "broken": broken}))
     })
 }
 
@@ -426,15 +459,18 @@ struct RunJob {
     plugin_paths: Vec<PathBuf>,
 }
 
-/// A run's JSON and, with a time series, its column names and samples.
-type RunOutput<'py> = (String, Option<(Vec<&'static str>, Bound<'py, PyBytes>)>);
+/// A run's result and, with a time series, its column names and samples.
+type RunOutput<'py> = (
+    Bound<'py, PyAny>,
+    Option<(Vec<&'static str>, Bound<'py, PyBytes>)>,
+);
 
 /// `run(job_json)`: one rig through its cycle (or steady state), as `tribo run --json`.
-/// Returns the result's JSON, and with `timeseries` the column names and the samples as
-/// native-endian f64 bytes (row after row).
+/// Returns the result (as Python objects), and with `timeseries` the column names and the
+/// samples as native-endian f64 bytes (row after row).
 #[pyfunction]
 fn run<'py>(py: Python<'py>, job: &str) -> PyResult<RunOutput<'py>> {
-    let (json, series) = detached(py, || {
+    let (result, series) = detached(py, || {
         let job: RunJob = serde_json::from_str(job)?;
         if job.steady && job.timeseries {
             return Err(Failure::new(
@@ -457,13 +493,14 @@ fn run<'py>(py: Python<'py>, job: &str) -> PyResult<RunOutput<'py>> {
         } else {
             (sim.run()?, None)
         };
-        Ok((to_json(&result)?, series))
+        Ok((result, series))
     })?;
+    let result = to_python(py, &result)?;
     let series = series.map(|s| {
         let bytes: Vec<u8> = s.values.iter().flat_map(|v| v.to_ne_bytes()).collect();
         (SERIES_COLUMNS.to_vec(), PyBytes::new(py, &bytes))
     });
-    Ok((json, series))
+    Ok((result, series))
 }
 
 /// A `tribo compare` job.
@@ -486,8 +523,8 @@ struct CompareJob {
 
 /// `compare(job_json)`: law sets against measured data, as `tribo compare --json`.
 #[pyfunction]
-fn compare(py: Python<'_>, job: &str) -> PyResult<String> {
-    detached(py, || {
+fn compare<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyAny>> {
+    detached_value(py, || {
         let job: CompareJob = serde_json::from_str(job)?;
         let rig = job.rig.load()?;
         let sets = lawsets(&job.lawsets)?;
@@ -499,7 +536,7 @@ fn compare(py: Python<'_>, job: &str) -> PyResult<String> {
             validate: data_runs(&job.validate)?,
         };
         let registry = registry(&job.plugin_paths)?;
-        to_json(&study::compare(&rig, &sets, &data, &registry, &options)?)
+        Ok(study::compare(&rig, &sets, &data, &registry, &options)?)
     })
 }
 
@@ -520,8 +557,8 @@ struct MassJob {
 
 /// `mass_response(job_json)`: torque change for a scaled body, as `tribo mass-response --json`.
 #[pyfunction]
-fn mass_response(py: Python<'_>, job: &str) -> PyResult<String> {
-    detached(py, || {
+fn mass_response<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyAny>> {
+    detached_value(py, || {
         let job: MassJob = serde_json::from_str(job)?;
         let body = match job.body.as_str() {
             "rod" => study::ScaledBody::Rod,
@@ -548,7 +585,7 @@ fn mass_response(py: Python<'_>, job: &str) -> PyResult<String> {
         let registry = registry(&job.plugin_paths)?;
         let fedem = study::fedem_rod_change();
         let fedem = (body == study::ScaledBody::Rod).then_some(fedem.as_slice());
-        to_json(&study::mass_response(
+        Ok(study::mass_response(
             &rig,
             &sets,
             body,
@@ -579,10 +616,10 @@ struct FitJob {
 }
 
 /// `fit(job_json)`: calibrate a law set's free parameters, as `tribo fit --json`; returns the
-/// report's JSON and the calibrated law set as the TOML `tribo fit` writes.
+/// report (as Python objects) and the calibrated law set as the TOML `tribo fit` writes.
 #[pyfunction]
-fn fit(py: Python<'_>, job: &str) -> PyResult<(String, String)> {
-    detached(py, || {
+fn fit<'py>(py: Python<'py>, job: &str) -> PyResult<(Bound<'py, PyAny>, String)> {
+    let (result, text) = detached(py, || {
         let job: FitJob = serde_json::from_str(job)?;
         if !(1..=64).contains(&job.starts) {
             return Err(Failure::new(
@@ -615,8 +652,9 @@ fn fit(py: Python<'_>, job: &str) -> PyResult<(String, String)> {
                     format!("serialising the calibrated law set: {e}"),
                 )
             })?;
-        Ok((to_json(&result)?, text))
-    })
+        Ok((result, text))
+    })?;
+    Ok((to_python(py, &result)?, text))
 }
 
 /// The header `tribo fit` writes above a calibrated law set.
@@ -650,15 +688,15 @@ struct SweepJob {
 
 /// `sweep(job_json)`: torque over oil temperature and speed, as `tribo sweep --json`.
 #[pyfunction]
-fn sweep(py: Python<'_>, job: &str) -> PyResult<String> {
-    detached(py, || {
+fn sweep<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyAny>> {
+    detached_value(py, || {
         let job: SweepJob = serde_json::from_str(job)?;
         study::check_sweep_inputs(&job.temps_c, &job.speeds_rpm)?;
         let rig = job.rig.load()?;
         let sets = lawsets(&job.lawsets)?;
         study::check_unique_names(&sets)?;
         let registry = registry(&job.plugin_paths)?;
-        to_json(&study::sweep(
+        Ok(study::sweep(
             &rig,
             &sets,
             &job.temps_c,

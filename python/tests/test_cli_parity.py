@@ -12,9 +12,24 @@ import pytest
 import tribo
 
 
-def same(a, b) -> None:
-    """Exact equality of two JSON documents (NaN never appears: serde_json writes null)."""
-    assert a == b
+def same(a, b, where: str = "$") -> None:
+    """Exact equality of two JSON documents: the same types (an ``int`` is not a ``float``), the
+    same keys in the same order, every float the same bits (NaN never appears: serde_json writes
+    null). ``==`` alone would take 1 for 1.0 and ignore key order, which the native module's
+    direct conversion (no JSON text in between) must get right as ``json.loads`` does."""
+    assert type(a) is type(b), f"{where}: {type(a).__name__} {a!r} against {type(b).__name__} {b!r}"
+    if isinstance(a, dict):
+        assert list(a) == list(b), f"{where}: keys {list(a)} against {list(b)}"
+        for k in a:
+            same(a[k], b[k], f"{where}.{k}")
+    elif isinstance(a, list):
+        assert len(a) == len(b), f"{where}: {len(a)} items against {len(b)}"
+        for i, (x, y) in enumerate(zip(a, b)):
+            same(x, y, f"{where}[{i}]")
+    elif isinstance(a, float):
+        assert a.hex() == b.hex(), f"{where}: {a!r} against {b!r}"
+    else:
+        assert a == b, f"{where}: {a!r} against {b!r}"
 
 
 def test_run_steady_matches_cli_and_dataframes_hold_its_numbers(cli):

@@ -1,9 +1,10 @@
 """Rigs, law sets, runs and studies: the Python face of ``tribo._native``.
 
 Every function hands one job to the native module, which runs it with the same library
-calls as ``tribo ... --json --in-process`` (the GIL released), and turns the JSON answer into
-pandas DataFrames. ``raw`` on every result holds that JSON as Python objects, exactly as the
-CLI prints it.
+calls as ``tribo ... --json --in-process`` (the GIL released), and turns the answer into
+pandas DataFrames. ``raw`` on every result holds the CLI's JSON as Python objects, exactly as
+``json.loads`` would read what the CLI prints (the native module builds these objects straight
+from the result, without the text).
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ def plugin_search_path(plugin_paths: Optional[Iterable[PathLike]] = None) -> Lis
 def laws(plugin_paths: Optional[Iterable[PathLike]] = None) -> pd.DataFrame:
     """Every law found (``tribo laws``): columns ``name`` and ``file``. Files that could not be
     opened are in ``.attrs["broken"]`` (file and reason)."""
-    out = json.loads(_native.laws(_plugin_paths(plugin_paths)))
+    out = _native.laws(_plugin_paths(plugin_paths))
     df = pd.DataFrame(out["laws"], columns=["name", "file"])
     df.attrs["broken"] = out["broken"]
     return df
@@ -123,7 +124,7 @@ class Rig:
         self._init(spec)
 
     def _init(self, spec: Dict[str, Any]) -> None:
-        loaded = json.loads(_native.load_rig(json.dumps(spec)))
+        loaded = _native.load_rig(json.dumps(spec))
         self._spec = spec
         self._path: str = loaded["path"]
         self._model: Dict[str, Any] = loaded["model"]
@@ -204,7 +205,7 @@ class LawSet:
         self._init({"source": os.fspath(source), "laws": list(laws)})
 
     def _init(self, spec: Dict[str, Any]) -> None:
-        loaded = json.loads(_native.load_lawset(json.dumps(spec)))
+        loaded = _native.load_lawset(json.dumps(spec))
         self._spec = spec
         self._path: str = loaded["path"]
         self._file: Dict[str, Any] = loaded["file"]
@@ -291,12 +292,10 @@ class LawSet:
     ) -> pd.DataFrame:
         """The free parameters (those the file marks, or ``ids``): ``id``, ``entry``, ``param``,
         ``lower``, ``upper``, ``value`` (bounds from the file or the law's range)."""
-        out = json.loads(
-            _native.free_params(
-                json.dumps(self._spec),
-                _plugin_paths(plugin_paths),
-                list(ids) if ids is not None else None,
-            )
+        out = _native.free_params(
+            json.dumps(self._spec),
+            _plugin_paths(plugin_paths),
+            list(ids) if ids is not None else None,
         )
         return pd.DataFrame(out, columns=["id", "entry", "param", "lower", "upper", "value"])
 
@@ -384,10 +383,11 @@ def _joint_rows(plateaus: List[Dict[str, Any]]) -> List[Dict[str, Any]]:
 
 def _plateau_frame(plateaus: List[Dict[str, Any]]) -> pd.DataFrame:
     cols = ["set_speed_rpm", "mean_speed_rpm", "motoring_torque_nm", "oil_temp_c", "viscosity_pa_s", "revolutions"]
-    df = pd.DataFrame([{k: p[k] for k in cols} for p in plateaus], columns=cols)
-    df["window_start_s"] = [p["window_s"][0] for p in plateaus]
-    df["window_end_s"] = [p["window_s"][1] for p in plateaus]
-    return df
+    # Built from columns in one call: adding columns to a frame one by one costs as much again.
+    data: Dict[str, List[Any]] = {k: [p[k] for p in plateaus] for k in cols}
+    data["window_start_s"] = [p["window_s"][0] for p in plateaus]
+    data["window_end_s"] = [p["window_s"][1] for p in plateaus]
+    return pd.DataFrame(data, columns=[*cols, "window_start_s", "window_end_s"])
 
 
 class RunResult:
@@ -451,13 +451,13 @@ def run(
         "timeseries": bool(timeseries),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    text, series = _native.run(json.dumps(job))
+    raw, series = _native.run(json.dumps(job))
     arrays = None
     if series is not None:
         names, data = series
         table = np.frombuffer(data, dtype=np.float64).reshape(-1, len(names))
         arrays = {n: table[:, i].copy() for i, n in enumerate(names)}
-    return RunResult(json.loads(text), arrays)
+    return RunResult(raw, arrays)
 
 
 class Comparison:
@@ -536,7 +536,7 @@ def compare(
         "no_cv": bool(no_cv),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    return Comparison(json.loads(_native.compare(json.dumps(job))))
+    return Comparison(_native.compare(json.dumps(job)))
 
 
 class MassResponse:
@@ -585,7 +585,7 @@ def mass_response(
         "steady": bool(steady),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    return MassResponse(json.loads(_native.mass_response(json.dumps(job))))
+    return MassResponse(_native.mass_response(json.dumps(job)))
 
 
 class FitResult:
@@ -651,8 +651,7 @@ def fit(
         "no_cv": bool(no_cv),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    text, toml_text = _native.fit(json.dumps(job))
-    raw = json.loads(text)
+    raw, toml_text = _native.fit(json.dumps(job))
     return FitResult(raw, toml_text, raw["lawset"])
 
 
@@ -709,4 +708,4 @@ def sweep(
         "speeds_rpm": [float(s) for s in speeds],
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    return Sweep(json.loads(_native.sweep(json.dumps(job))))
+    return Sweep(_native.sweep(json.dumps(job)))

@@ -185,6 +185,9 @@ pub struct TrainReactions {
     pub mains_n: Vec<Vector2<f64>>,
     /// Their sum: the crank's whole main reaction, N.
     pub main_total_n: Vector2<f64>,
+    /// Each throw's load on the mains before the split (its rods' big-end forces, its
+    /// counterweights' inertia and weight, its share of the balanced crank's weight), N.
+    pub throws_n: Vec<Vector2<f64>>,
     /// Per cylinder.
     pub cylinders: Vec<CylinderReactions>,
     /// Torque the drive applies to the crank (along theta), N m.
@@ -458,25 +461,23 @@ impl CrankTrain {
         let mut block = Vector2::zeros();
         // Each throw's load on the crank's mains, before the split: its share of the balanced
         // mass's weight, its counterweights' inertia and weight, its rods' big-end forces.
-        let mut throw_loads: Vec<Vector2<f64>> = self
-            .geo
-            .throws
-            .iter()
-            .map(|t| {
-                let mut f = -gravity * self.mass_per_throw;
-                for cw in &t.counterweights {
-                    let ang = kin.theta + t.angle_rad + cw.angle_rad;
-                    let (s, c) = ang.sin_cos();
-                    let pos = Vector2::new(-s, c) * cw.radius_m;
-                    let w2 = kin.omega * kin.omega;
-                    // d2/dt2 of R(-sin, cos): R(-c a + s w^2, -s a - c w^2).
-                    let acc = Vector2::new(-c * alpha + s * w2, -s * alpha - c * w2) * cw.radius_m;
-                    f += (acc - gravity) * cw.mass_kg;
-                    drive -= cross(pos, gravity * cw.mass_kg);
-                }
-                f
-            })
-            .collect();
+        // The recycled buffer: no allocation once it has the size.
+        let mut throw_loads = std::mem::take(&mut out.throws_n);
+        throw_loads.clear();
+        throw_loads.extend(self.geo.throws.iter().map(|t| {
+            let mut f = -gravity * self.mass_per_throw;
+            for cw in &t.counterweights {
+                let ang = kin.theta + t.angle_rad + cw.angle_rad;
+                let (s, c) = ang.sin_cos();
+                let pos = Vector2::new(-s, c) * cw.radius_m;
+                let w2 = kin.omega * kin.omega;
+                // d2/dt2 of R(-sin, cos): R(-c a + s w^2, -s a - c w^2).
+                let acc = Vector2::new(-c * alpha + s * w2, -s * alpha - c * w2) * cw.radius_m;
+                f += (acc - gravity) * cw.mass_kg;
+                drive -= cross(pos, gravity * cw.mass_kg);
+            }
+            f
+        }));
         for (ki, (c, ck)) in self.geo.cylinders.iter().zip(&kin.cylinders).enumerate() {
             let fr = self.frames[ki];
             let ld = loads.cylinders.get(ki).copied().unwrap_or_default();
@@ -520,6 +521,7 @@ impl CrankTrain {
         if self.geo.throws.is_empty() {
             total -= gravity * self.geo.crank_mass_kg;
         }
+        out.throws_n = throw_loads;
         out.main_total_n = total;
         out.block_force_n = block - total;
         out.drive_torque_nm = drive;
@@ -532,6 +534,93 @@ impl CrankTrain {
         // d(drive torque)/d(alpha) is the train's effective inertia at this angle (> 0).
         (torque - t0) / (t1 - t0)
     }
+}
+
+/// The crank train a rig's `[engine]` describes (`None` for the single-cylinder rig), from the
+/// validated model: the crank's balanced part from `[bodies.crank]`, each rod from
+/// `[bodies.rod]` with its own overrides, the piston from `[bodies.piston]`, the PI drive's
+/// motor inertia reflected through the belt.
+pub fn geometry(f: &crate::model::RigFile) -> Option<EngineGeometry> {
+    use crate::model::Drive;
+    let e = f.engine.as_ref()?;
+    let c = &f.bodies.crank;
+    let r = &f.bodies.rod;
+    let base_rod = RodGeometry {
+        mass_kg: r.mass_kg * r.mass_scale,
+        inertia_kg_m2: r.inertia_kg_m2 * r.inertia_scale,
+        length_m: r.length_m,
+        com_from_big_end_m: r.com_from_big_end_m,
+    };
+    let rod_of = |k: usize| {
+        let spec = e.rods.iter().find(|s| s.cylinder == k + 1);
+        spec.map_or(base_rod, |s| RodGeometry {
+            mass_kg: s.mass_kg.map_or(base_rod.mass_kg, |m| m * r.mass_scale),
+            inertia_kg_m2: s
+                .inertia_kg_m2
+                .map_or(base_rod.inertia_kg_m2, |j| j * r.inertia_scale),
+            length_m: s.length_m.unwrap_or(base_rod.length_m),
+            com_from_big_end_m: s.com_from_big_end_m.unwrap_or(base_rod.com_from_big_end_m),
+        })
+    };
+    let drive_inertia = match f.drive {
+        Drive::Pi {
+            belt_ratio,
+            motor_inertia_kg_m2,
+            ..
+        } => motor_inertia_kg_m2 * belt_ratio * belt_ratio,
+        Drive::Prescribed => 0.0,
+    };
+    Some(EngineGeometry {
+        crank_radius_m: f.geometry.crank_radius_m,
+        crank_mass_kg: c.mass_kg * c.mass_scale,
+        crank_inertia_kg_m2: c.inertia_kg_m2 * c.inertia_scale,
+        drive_inertia_kg_m2: drive_inertia,
+        gravity_m_s2: if f.geometry.gravity {
+            crate::sim::GRAVITY_M_S2
+        } else {
+            0.0
+        },
+        mains_axial_m: e.mains.iter().map(|m| m.axial_position_m).collect(),
+        throws: e
+            .throws
+            .iter()
+            .map(|t| ThrowGeometry {
+                angle_rad: t.angle_deg.to_radians(),
+                axial_m: t.axial_position_m,
+                counterweights: t
+                    .counterweights
+                    .iter()
+                    .map(|w| Counterweight {
+                        mass_kg: w.mass_kg * c.mass_scale,
+                        radius_m: w.radius_m,
+                        angle_rad: w.angle_deg.to_radians(),
+                    })
+                    .collect(),
+            })
+            .collect(),
+        cylinders: e
+            .cylinders
+            .iter()
+            .enumerate()
+            .map(|(k, s)| CylinderGeometry {
+                throw: s.throw.saturating_sub(1),
+                bank_rad: s.bank_angle_deg(e.v_angle_deg).to_radians(),
+                pin_offset_m: s.pin_offset_m,
+                crank_offset_m: s.crank_offset_m,
+                rod: rod_of(k),
+                piston_mass_kg: f.bodies.piston.mass_kg * f.bodies.piston.mass_scale,
+            })
+            .collect(),
+    })
+}
+
+/// Each cylinder's top dead centre in engine crank angle, rad: where its pin meets its axis
+/// (`bank - throw angle`).
+pub fn top_dead_centres(geo: &EngineGeometry) -> Vec<f64> {
+    geo.cylinders
+        .iter()
+        .map(|c| c.bank_rad - geo.throws.get(c.throw).map_or(0.0, |t| t.angle_rad))
+        .collect()
 }
 
 /// The most cylinders [`cylinder_phases`] takes (it tries every choice of firing TDCs).

@@ -1,0 +1,346 @@
+//! Multi-cylinder engines (issue 18, docs/engines.md): the `[engine]` description read and
+//! validated with errors naming file, line, column and field; law sets attaching to joint
+//! groups on engines and on the single-cylinder rig; an engine rig refused by the simulation
+//! with a clear message rather than solved as one cylinder.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use tribo::engine::{cylinder_phases, geometry, top_dead_centres, CrankTrain};
+use tribo::lawset::LawSet;
+use tribo::rig::{load_rig, load_rig_text, Rig, RigError};
+
+fn fixture(name: &str) -> PathBuf {
+    common::workspace()
+        .join("tests/fixtures/engines")
+        .join(format!("{name}.toml"))
+}
+
+fn text(name: &str) -> String {
+    std::fs::read_to_string(fixture(name)).expect("fixture")
+}
+
+/// Load `text` as if it were the fixture `name`, expecting an error.
+fn error_of(name: &str, text: &str) -> RigError {
+    load_rig_text(&fixture(name), text, &[]).expect_err("a rig error")
+}
+
+/// The 1-based line of the first occurrence of `needle` in `text` after `after`.
+fn line_of(text: &str, after: &str, needle: &str) -> usize {
+    let start = text.find(after).expect("anchor");
+    let at = start + text[start..].find(needle).expect("needle");
+    text[..at].matches('\n').count() + 1
+}
+
+fn laws_on(rig: &Rig, joint: &str) -> Vec<String> {
+    let names: Vec<String> = match &rig.file.engine {
+        Some(e) => e.laws.get(joint).cloned().unwrap_or_default(),
+        None => rig
+            .file
+            .joints
+            .named()
+            .into_iter()
+            .find(|(n, _)| *n == joint)
+            .map(|(_, j)| j.laws.clone())
+            .unwrap_or_default(),
+    }
+    .into_iter()
+    .map(|l| l.law)
+    .collect();
+    names
+}
+
+#[test]
+fn the_inline4_and_v_twin_fixtures_describe_their_crank_trains() {
+    let rig = load_rig(&fixture("inline4"), &[]).expect("valid inline-4");
+    let e = rig.file.engine.as_ref().expect("an engine");
+    assert_eq!(
+        e.joint_names()[..6],
+        [
+            "main_1",
+            "main_2",
+            "main_3",
+            "main_4",
+            "main_5",
+            "big_end_1"
+        ]
+    );
+    let geo = geometry(&rig.file).expect("engine geometry");
+    assert_eq!(geo.cylinders.len(), 4);
+    let train = CrankTrain::new(geo.clone()).expect("crank train");
+    // Every throw midway between two mains: half its load on each.
+    for split in train.main_split() {
+        assert!((split[0].1 - 0.5).abs() < 1e-12 && (split[1].1 - 0.5).abs() < 1e-12);
+    }
+    // Firing 1-3-4-2 every 180 degrees: cylinders 3 and 4 start on their firing TDC half.
+    let phases = cylinder_phases(&top_dead_centres(&geo), &e.firing_order, 0.0).expect("fits");
+    let deg: Vec<f64> = phases.iter().map(|p| p.to_degrees().round()).collect();
+    assert_eq!(deg, [0.0, 0.0, 360.0, 360.0]);
+
+    let rig = load_rig(&fixture("vtwin"), &[]).expect("valid V-twin");
+    let geo = geometry(&rig.file).expect("engine geometry");
+    let banks: Vec<f64> = geo
+        .cylinders
+        .iter()
+        .map(|c| c.bank_rad.to_degrees())
+        .collect();
+    assert_eq!(banks, [-45.0, 45.0]);
+    assert_eq!(geo.cylinders[0].throw, geo.cylinders[1].throw);
+    assert!(CrankTrain::new(geo).is_ok());
+}
+
+/// A bad engine description: what it is, the edited fixture text, the field the error must
+/// name, words of the message, and the text (after an anchor) its line must point at.
+type Case = (
+    &'static str,
+    String,
+    &'static str,
+    &'static [&'static str],
+    (&'static str, &'static str),
+);
+
+/// Each bad engine description is refused at its field.
+#[test]
+fn bad_engine_descriptions_are_refused_naming_the_field() {
+    let base = text("inline4");
+    let cases: [Case; 8] = [
+        (
+            "firing order not a permutation",
+            base.replace("firing_order = [1, 3, 4, 2]", "firing_order = [1, 3, 3, 2]"),
+            "engine.firing_order",
+            &["not a permutation of 1..4"],
+            ("[engine]", "firing_order"),
+        ),
+        (
+            "firing order that does not fit the crank",
+            base.replace("firing_order = [1, 3, 4, 2]", "firing_order = [1, 2, 3, 4]"),
+            "engine.firing_order",
+            &["does not fit the crank", "720-degree"],
+            ("[engine]", "firing_order"),
+        ),
+        (
+            "a throw listed twice",
+            base.replacen("axial_position_m = 0.135", "axial_position_m = 0.045", 1),
+            "engine.throws[1].axial_position_m",
+            &["throw 2 is at 0.045 m like throw 1", "listed twice"],
+            ("angle_deg = 180.0", "axial_position_m"),
+        ),
+        (
+            "a cylinder without a rod",
+            base.replace("[[engine.rods]]\ncylinder = 3\n", ""),
+            "engine.cylinders[2]",
+            &["cylinder 3 has no rod", "[[engine.rods]] with cylinder = 3"],
+            // The third [[engine.cylinders]] header.
+            ("throw = 2\n", "[[engine.cylinders]]"),
+        ),
+        (
+            "two rods on one cylinder",
+            base.replace("cylinder = 4", "cylinder = 2"),
+            "engine.rods[3].cylinder",
+            &["cylinder 2 has two rods"],
+            // The fourth rod, after the third's `cylinder = 3`.
+            ("[[engine.rods]]\ncylinder = 3", "cylinder = 2"),
+        ),
+        (
+            "a V angle outside 0-180",
+            base.replace(
+                "firing_order = [1, 3, 4, 2]",
+                "firing_order = [1, 3, 4, 2]\nv_angle_deg = 200.0",
+            ),
+            "engine.v_angle_deg",
+            &["[0, 180] degrees", "200"],
+            ("[engine]", "v_angle_deg"),
+        ),
+        (
+            "a cylinder on a throw that does not exist",
+            base.replacen("throw = 4", "throw = 7", 1),
+            "engine.cylinders[3].throw",
+            &["throw 7", "throws 1 to 4"],
+            ("throw = 3", "throw = 7"),
+        ),
+        (
+            "a main bearing of the single-cylinder rig on an engine",
+            base.replace(
+                "[joints.big_end]",
+                "[joints.main_a]\nradius_m = 0.02\nlength_m = 0.01\n[joints.big_end]",
+            ),
+            "joints.main_a",
+            &["[[engine.mains]]"],
+            ("", "[joints.main_a]"),
+        ),
+    ];
+    for (what, edited, field, words, (anchor, needle)) in cases {
+        assert_ne!(edited, base, "{what}: the edit applies");
+        let e = error_of("inline4", &edited);
+        assert_eq!(e.field, field, "{what}: {e}");
+        for w in words {
+            assert!(e.message.contains(w), "{what}: `{w}` in {e}");
+        }
+        assert_eq!(e.file, fixture("inline4"), "{what}");
+        let want = line_of(&edited, anchor, needle);
+        assert_eq!(e.line, Some(want), "{what}: {e}");
+        assert!(e.column.is_some(), "{what}: {e}");
+        // The rendered message carries file:line:column and the field.
+        let shown = e.to_string();
+        assert!(
+            shown.contains(&format!("inline4.toml:{want}:")) && shown.contains(field),
+            "{what}: {shown}"
+        );
+    }
+    // A cylinder banked beyond 180 degrees (without a V angle).
+    let e = error_of(
+        "inline4",
+        &base.replacen("throw = 2\n", "throw = 2\nbank_deg = 270.0\n", 1),
+    );
+    assert_eq!(e.field, "engine.cylinders[1].bank_deg", "{e}");
+    assert!(e.message.contains("[-180, 180]"), "{e}");
+}
+
+#[test]
+fn a_single_cylinder_rig_still_needs_both_main_bearings() {
+    let thesis = tribo::bundled::rig("crf250r-motored").expect("bundled");
+    let cut = thesis.replace(
+        "[joints.main_b]\nradius_m = 0.020           # [T table 9.5]\nlength_m = 0.015           # estimate: roller bearing width\nload_share = 0.5           # [T 9.2]\n",
+        "",
+    );
+    assert_ne!(cut, thesis);
+    let e = load_rig_text(Path::new("crf250r-motored.toml"), &cut, &[]).expect_err("no main_b");
+    assert_eq!(e.field, "joints.main_b", "{e}");
+    assert!(e.message.contains("missing table [joints.main_b]"), "{e}");
+}
+
+#[test]
+fn every_bundled_law_set_applies_to_every_bundled_rig_and_to_the_engines() {
+    let mut rigs: Vec<Rig> = tribo::bundled::rig_names()
+        .into_iter()
+        .map(|n| load_rig(Path::new(n), &[]).expect("bundled rig"))
+        .collect();
+    rigs.push(load_rig(&fixture("inline4"), &[]).expect("inline-4"));
+    rigs.push(load_rig(&fixture("vtwin"), &[]).expect("V-twin"));
+    for set_name in tribo::bundled::lawset_names() {
+        let set = LawSet::load(set_name).expect("bundled set");
+        for rig in &rigs {
+            let mut r = rig.clone();
+            set.apply(&mut r);
+            assert!(
+                r.unattached.is_empty(),
+                "{set_name} on {}: {:?}",
+                r.file.name,
+                r.unattached
+            );
+            // Each main bearing gets the set's main laws, each cylinder its big-end and
+            // piston laws: the same on every joint of a group.
+            let names: Vec<String> = match &r.file.engine {
+                Some(e) => e.joint_names(),
+                None => tribo::rig::JOINT_NAMES.map(String::from).to_vec(),
+            };
+            for kind in ["main", "big_end", "small_end", "piston"] {
+                let of_kind: Vec<Vec<String>> = names
+                    .iter()
+                    .filter(|n| n.starts_with(kind))
+                    .map(|n| laws_on(&r, n))
+                    .collect();
+                assert!(!of_kind.is_empty(), "{kind} on {}", r.file.name);
+                assert!(
+                    of_kind.iter().all(|l| *l == of_kind[0]),
+                    "{set_name} on {}: {kind} {of_kind:?}",
+                    r.file.name
+                );
+            }
+            assert!(!laws_on(
+                &r,
+                names
+                    .iter()
+                    .find(|n| n.starts_with("piston"))
+                    .expect("piston")
+            )
+            .is_empty());
+        }
+    }
+}
+
+#[test]
+fn groups_on_the_thesis_rig_bind_what_the_per_joint_entries_bound() {
+    // The bundled sets now say `main_*`; on the thesis rig that is main_a and main_b, each
+    // with the laws in entry order, exactly as the two per-main entries of each law did.
+    let mut rig = load_rig(Path::new("crf250r-motored"), &[]).expect("rig");
+    LawSet::load("fedem-baseline").expect("set").apply(&mut rig);
+    for main in ["main_a", "main_b"] {
+        assert_eq!(laws_on(&rig, main), ["fedem-friction", "polyline-damper"]);
+    }
+    assert_eq!(
+        laws_on(&rig, "big_end"),
+        ["fedem-friction", "polyline-damper"]
+    );
+    assert!(laws_on(&rig, "small_end").is_empty());
+    assert_eq!(laws_on(&rig, "piston"), ["fedem-friction"]);
+    // Numbered names reach cylinder 1 and the two mains.
+    let set = LawSet::from_text(
+        Path::new("ls.toml"),
+        "name = \"n\"\n[[laws]]\njoint = \"main_2\"\nlaw = \"coulomb\"\n[[laws]]\njoint = \"piston_1\"\nlaw = \"coulomb\"\n",
+    )
+    .expect("set");
+    set.apply(&mut rig);
+    assert!(rig.unattached.is_empty());
+    assert_eq!(laws_on(&rig, "main_b"), ["coulomb"]);
+    assert!(laws_on(&rig, "main_a").is_empty());
+    assert_eq!(laws_on(&rig, "piston"), ["coulomb"]);
+}
+
+#[test]
+fn an_entry_naming_no_joint_of_the_rig_is_refused_at_the_entry() {
+    let registry = tribo::plugin_api::loader::LawRegistry::new();
+    let set = LawSet::from_text(
+        Path::new("ls.toml"),
+        "name = \"x\"\n[[laws]]\njoint = \"piston_*\"\nlaw = \"coulomb\"\n[[laws]]\njoint = \"piston_5\"\nlaw = \"coulomb\"\n",
+    )
+    .expect("a valid set: piston_5 exists on a 5-cylinder engine");
+    let mut rig = load_rig(&fixture("inline4"), &[]).expect("inline-4");
+    set.apply(&mut rig);
+    let e = tribo::rig::check_laws(&rig, &registry).expect_err("no piston_5");
+    let msg = e.to_string();
+    assert!(msg.contains("ls.toml:6:9"), "{msg}");
+    assert!(
+        msg.contains("laws[1].joint") && msg.contains("no joint `piston_5`"),
+        "{msg}"
+    );
+    assert!(msg.contains("main_1, main_2"), "{msg}");
+    // main_a on an engine: the engine's mains are named.
+    let set = LawSet::from_text(
+        Path::new("ls.toml"),
+        "name = \"x\"\n[[laws]]\njoint = \"main_a\"\nlaw = \"coulomb\"\n",
+    )
+    .expect("set");
+    set.apply(&mut rig);
+    let msg = tribo::rig::check_laws(&rig, &registry)
+        .expect_err("main_a")
+        .to_string();
+    assert!(msg.contains("main_1 .. main_n; main_* attaches"), "{msg}");
+    // A name no rig has is refused when the set is read, listing the groups.
+    let e = LawSet::from_text(
+        Path::new("ls.toml"),
+        "name = \"x\"\n[[laws]]\njoint = \"piston_0\"\nlaw = \"coulomb\"\n",
+    )
+    .expect_err("piston_0");
+    assert!(e.message.contains("piston_*"), "{e}");
+}
+
+#[test]
+fn running_an_engine_rig_says_it_is_not_solved_yet() {
+    let out = Command::new(common::tribo_exe())
+        .args(["run", fixture("inline4").to_str().expect("utf-8")])
+        .output()
+        .expect("tribo runs");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("4-cylinder engine") && err.contains("does not run them yet"),
+        "{err}"
+    );
+    assert!(
+        out.stdout.is_empty(),
+        "no numbers for an engine it cannot solve"
+    );
+}

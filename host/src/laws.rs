@@ -74,6 +74,7 @@ fn law_json(lib: &LawLibrary) -> Value {
         .collect();
     json!({
         "name": d.name, "version": d.version, "abi": lib.abi().to_string(),
+        "contract_version": lib.contract_version(),
         "file": lib.path().display().to_string(), "summary": d.summary, "parameters": params,
     })
 }
@@ -87,9 +88,15 @@ pub fn to_text(listing: &LawListing<'_>) -> String {
     }
     for lib in &listing.laws {
         let d = lib.description();
+        // A library built against an older contract is adapted by the host; say so.
+        let adapted = if lib.contract_version() == CONTRACT_VERSION {
+            String::new()
+        } else {
+            format!(", contract v{}", lib.contract_version())
+        };
         let _ = writeln!(
             out,
-            "{} {} [{}]  {}",
+            "{} {} [{}{adapted}]  {}",
             d.name,
             d.version,
             lib.abi(),

@@ -36,8 +36,9 @@ module tribo_law
   implicit none
   private
 
-  !> Version of the contract; a library returning another value is refused.
-  integer(c_int32_t), parameter, public :: TRIBO_LAW_CONTRACT_VERSION = 1
+  !> Version of the contract (2: the gas state at the end of tribo_law_input); the host still
+  !> loads version-1 libraries and refuses newer ones.
+  integer(c_int32_t), parameter, public :: TRIBO_LAW_CONTRACT_VERSION = 2
 
   !> Joint kinds (tribo_law_input%joint_kind).
   integer(c_int32_t), parameter, public :: TRIBO_JOINT_REVOLUTE = 0   ! rad/s in, a torque in N m out
@@ -72,6 +73,11 @@ module tribo_law
     real(c_double) :: crank_angle_rad         ! crank angle from TDC, rad, [0, 2 pi)
     real(c_double) :: time_s                  ! simulation time, s
     real(c_double) :: dt_s                    ! current step size, s (0 in steady state)
+    ! Version 2:
+    real(c_double) :: cylinder_pressure_pa    ! absolute pressure on the crown, Pa
+    real(c_double) :: crankcase_pressure_pa   ! absolute pressure under the piston, Pa
+    real(c_double) :: piston_from_tdc_m       ! piston travel from TDC, m
+    real(c_double) :: cycle_angle_rad         ! angle in the 4-stroke cycle, rad, [0, 4 pi)
   end type tribo_law_input
 
   !> What a law returns for one evaluation.

@@ -1,5 +1,5 @@
 /*
- * tribo_law.h - the C ABI of a Tribo friction/damping law plugin, contract version 1.
+ * tribo_law.h - the C ABI of a Tribo friction/damping law plugin, contract version 2.
  *
  * A law is a shared library (.so / .dylib / .dll) exporting the seven functions below with
  * C linkage. The host (tribo) loads it at run time; nothing else needs rebuilding. Anything
@@ -9,7 +9,8 @@
  *
  * Loading order, which the host guarantees:
  *   1. tribo_law_contract_version() is called first, before any other symbol is looked up.
- *      If it differs from TRIBO_LAW_CONTRACT_VERSION of the host, the library is refused.
+ *      A version newer than the host's TRIBO_LAW_CONTRACT_VERSION, or older than the oldest it
+ *      still adapts (1), is refused.
  *   2. tribo_law_describe() gives the name, version, summary and parameters (once per load).
  *   3. tribo_law_create() makes an instance from checked parameter values.
  *   4. Per time step: tribo_law_evaluate() any number of times (the host may iterate or reject
@@ -65,8 +66,14 @@
  *     sandboxed. Keep plugin directories writable by their owner only.
  *
  * Versions: the contract version changes with any change a plugin could observe (a field added,
- * removed, moved or re-interpreted, a symbol added or changed); there are no "compatible"
- * additions. What version 2 is expected to bring is in docs/writing-a-law.md ("ABI note").
+ * removed, moved or re-interpreted, a symbol added or changed). The host keeps loading the
+ * older versions it knows and adapts them:
+ *   version 1: tribo_law_input ended at dt_s. A version-1 law is handed the same input pointer;
+ *              it reads only the fields it knows (the first 120 bytes), so it gives exactly the
+ *              results it gave before.
+ *   version 2: tribo_law_input gained the gas state at its end: cylinder and crankcase
+ *              pressure, the piston's travel from TDC and the angle in the 4-stroke cycle.
+ * Fields are only ever appended, never moved. docs/writing-a-law.md ("Contract versions").
  * Every struct and constant below is checked against the Rust definitions
  * (plugin-api/src/contract.rs) by plugin-api/tests/header.rs, field offset by field offset.
  */
@@ -82,7 +89,7 @@ extern "C" {
 
 /* Version of this contract. The host refuses a library whose tribo_law_contract_version()
  * returns anything else. */
-#define TRIBO_LAW_CONTRACT_VERSION 1u
+#define TRIBO_LAW_CONTRACT_VERSION 2u
 
 /* Joint kinds (tribo_law_input.joint_kind). */
 #define TRIBO_JOINT_REVOLUTE 0u  /* velocity in rad/s, return a torque in N m */
@@ -117,6 +124,11 @@ typedef struct tribo_law_input {
     double crank_angle_rad;       /* crank angle from TDC, rad, [0, 2 pi) */
     double time_s;                /* simulation time, s */
     double dt_s;                  /* current step size, s (0 in steady-state quadrature) */
+    /* Version 2: */
+    double cylinder_pressure_pa;  /* absolute pressure on the piston crown, Pa (ambient without gas) */
+    double crankcase_pressure_pa; /* absolute pressure under the piston, Pa */
+    double piston_from_tdc_m;     /* piston travel from TDC, m (0 at TDC, the stroke at BDC) */
+    double cycle_angle_rad;       /* angle in the 4-stroke cycle, rad, [0, 4 pi); 0 = gas-exchange TDC */
 } tribo_law_input;
 
 /* What a law returns for one evaluation. */

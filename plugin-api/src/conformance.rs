@@ -146,6 +146,9 @@ pub struct Report {
     pub path: String,
     /// ABI the law was loaded through.
     pub abi: String,
+    /// The contract version the library was built against (an older one is adapted by the
+    /// host, and the checks run through that adaptation).
+    pub contract_version: u32,
     /// The results, in [`Check::ALL`] order.
     pub checks: Vec<CheckResult>,
 }
@@ -177,8 +180,17 @@ impl Report {
         // Writing to a String cannot fail.
         let _ = writeln!(
             s,
-            "law `{}` {} ({}, {}), contract version {CONTRACT_VERSION}",
-            self.law, self.version, self.abi, self.path
+            "law `{}` {} ({}, {}), contract version {}{}",
+            self.law,
+            self.version,
+            self.abi,
+            self.path,
+            self.contract_version,
+            if self.contract_version == CONTRACT_VERSION {
+                String::new()
+            } else {
+                format!(" (adapted to {CONTRACT_VERSION})")
+            }
         );
         let _ = writeln!(s, "{:<22} {:<6} detail", "check", "result");
         for c in &self.checks {
@@ -293,6 +305,7 @@ pub fn check_with(lib: &LawLibrary, options: &Options) -> Report {
         version: desc.version.clone(),
         path: lib.path().display().to_string(),
         abi: lib.abi().to_string(),
+        contract_version: lib.contract_version(),
         checks: results,
     }
 }
@@ -467,7 +480,8 @@ fn check_description(lib: &LawLibrary) -> CheckResult {
         pass(
             Check::Description,
             format!(
-                "contract version {CONTRACT_VERSION}, {} parameter{}",
+                "contract version {}, {} parameter{}",
+                lib.contract_version(),
                 d.parameters.len(),
                 if d.parameters.len() == 1 { "" } else { "s" }
             ),

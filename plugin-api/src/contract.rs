@@ -17,8 +17,21 @@ use serde::{Deserialize, Serialize};
 ///
 /// Rule: any change a plugin could observe (a field added, moved or re-interpreted, a symbol
 /// added or changed) bumps this number. Additions are not made silently "compatible": an old
-/// plugin cannot know what a new field means.
-pub const CONTRACT_VERSION: u32 = 1;
+/// plugin cannot know what a new field means, so the host keeps an adapter for every version it
+/// still accepts ([`OLDEST_CONTRACT_VERSION`]).
+///
+/// Version 2 appended the gas state to [`LawInput`] (cylinder and crankcase pressure, piston
+/// travel from TDC, the 4-stroke cycle angle); version 1 is its first 16 fields.
+pub const CONTRACT_VERSION: u32 = 2;
+
+/// The oldest contract version the host still loads. A version-1 library sees the first
+/// fields of the same [`LawInput`] (C: the v1 struct is a prefix of the v2 struct; Rust: the
+/// frozen [`v1`] module), so it gives exactly the results it gave before version 2.
+pub const OLDEST_CONTRACT_VERSION: u32 = 1;
+
+/// Absolute pressure the host reports for the cylinder and the crankcase of a rig without gas
+/// loads: the standard atmosphere, Pa (ISO 2533).
+pub const STANDARD_ATMOSPHERE_PA: f64 = 101_325.0;
 
 /// Kind of joint a law is attached to; it decides the units of velocity and force.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -110,6 +123,122 @@ pub struct LawInput {
     pub time_s: f64,
     /// Size of the current time step, s (zero for a steady-state quadrature).
     pub dt_s: f64,
+    // Contract version 2 from here on: a version-1 law never reads past `dt_s`.
+    /// Absolute cylinder pressure on the piston crown, Pa (the ambient pressure on a rig
+    /// without gas loads). With `crankcase_pressure_pa` it gives the pressure drop across the
+    /// rings, the gas load behind a ring.
+    pub cylinder_pressure_pa: f64,
+    /// Absolute crankcase pressure under the piston, Pa (the ambient pressure unless the rig's
+    /// crankcase is sealed or vented).
+    pub crankcase_pressure_pa: f64,
+    /// Piston travel from top dead centre, m: 0 at TDC, the stroke at BDC.
+    pub piston_from_tdc_m: f64,
+    /// Crank angle within the 4-stroke cycle, rad, in `[0, 4*pi)`; 0 is the gas-exchange TDC
+    /// (start of intake). On a rig without a 4-stroke pressure model: the accumulated crank
+    /// angle modulo `4*pi`.
+    pub cycle_angle_rad: f64,
+}
+
+/// The frozen contract version 1, kept so libraries built against it load and run unchanged.
+pub mod v1 {
+    use abi_stable::StableAbi;
+
+    /// Contract version 1's law input: the first fields of [`super::LawInput`], in the same
+    /// order. Its name must stay `LawInput`: abi_stable compares type names when it checks a
+    /// version-1 Rust library's layout.
+    #[repr(C)]
+    #[derive(Debug, Clone, Copy, PartialEq, StableAbi)]
+    pub struct LawInput {
+        /// See [`super::LawInput::joint_kind`].
+        pub joint_kind: u32,
+        /// See [`super::LawInput::reserved`].
+        pub reserved: u32,
+        /// See [`super::LawInput::relative_velocity`].
+        pub relative_velocity: f64,
+        /// See [`super::LawInput::sliding_velocity_m_s`].
+        pub sliding_velocity_m_s: f64,
+        /// See [`super::LawInput::normal_load_n`].
+        pub normal_load_n: f64,
+        /// See [`super::LawInput::reaction_x_n`].
+        pub reaction_x_n: f64,
+        /// See [`super::LawInput::reaction_y_n`].
+        pub reaction_y_n: f64,
+        /// See [`super::LawInput::reaction_moment_nm`].
+        pub reaction_moment_nm: f64,
+        /// See [`super::LawInput::contact_radius_m`].
+        pub contact_radius_m: f64,
+        /// See [`super::LawInput::contact_length_m`].
+        pub contact_length_m: f64,
+        /// See [`super::LawInput::oil_temp_c`].
+        pub oil_temp_c: f64,
+        /// See [`super::LawInput::viscosity_pa_s`].
+        pub viscosity_pa_s: f64,
+        /// See [`super::LawInput::engine_speed_rad_s`].
+        pub engine_speed_rad_s: f64,
+        /// See [`super::LawInput::crank_angle_rad`].
+        pub crank_angle_rad: f64,
+        /// See [`super::LawInput::time_s`].
+        pub time_s: f64,
+        /// See [`super::LawInput::dt_s`].
+        pub dt_s: f64,
+    }
+
+    impl From<&LawInput> for super::LawInput {
+        /// The current input rebuilt from a version-1 one, the gas fields at rest (atmospheric
+        /// pressures, piston at TDC): what a version-1 Rust library hands its law.
+        fn from(v1: &LawInput) -> Self {
+            let mut input = super::LawInput::at_rest(super::JointKind::Revolute);
+            input.joint_kind = v1.joint_kind;
+            input.reserved = v1.reserved;
+            input.relative_velocity = v1.relative_velocity;
+            input.sliding_velocity_m_s = v1.sliding_velocity_m_s;
+            input.normal_load_n = v1.normal_load_n;
+            input.reaction_x_n = v1.reaction_x_n;
+            input.reaction_y_n = v1.reaction_y_n;
+            input.reaction_moment_nm = v1.reaction_moment_nm;
+            input.contact_radius_m = v1.contact_radius_m;
+            input.contact_length_m = v1.contact_length_m;
+            input.oil_temp_c = v1.oil_temp_c;
+            input.viscosity_pa_s = v1.viscosity_pa_s;
+            input.engine_speed_rad_s = v1.engine_speed_rad_s;
+            input.crank_angle_rad = v1.crank_angle_rad;
+            input.time_s = v1.time_s;
+            input.dt_s = v1.dt_s;
+            input
+        }
+    }
+
+    // The v1 input must be a prefix of the v2 input, field for field: the host hands a v1 law
+    // a view of the v2 input (`LawInput::as_v1`) and a v1 C law the v2 pointer itself.
+    macro_rules! same_offset {
+        ($($f:ident),*) => {
+            $(const _: () = assert!(
+                std::mem::offset_of!(LawInput, $f) == std::mem::offset_of!(super::LawInput, $f)
+            );)*
+        };
+    }
+    same_offset!(
+        joint_kind,
+        reserved,
+        relative_velocity,
+        sliding_velocity_m_s,
+        normal_load_n,
+        reaction_x_n,
+        reaction_y_n,
+        reaction_moment_nm,
+        contact_radius_m,
+        contact_length_m,
+        oil_temp_c,
+        viscosity_pa_s,
+        engine_speed_rad_s,
+        crank_angle_rad,
+        time_s,
+        dt_s
+    );
+    const _: () = assert!(std::mem::size_of::<LawInput>() == 120);
+    const _: () = assert!(std::mem::size_of::<super::LawInput>() == 152);
+    const _: () =
+        assert!(std::mem::align_of::<LawInput>() == std::mem::align_of::<super::LawInput>());
 }
 
 impl LawInput {
@@ -118,8 +247,8 @@ impl LawInput {
         JointKind::from_u32(self.joint_kind)
     }
 
-    /// A neutral input for a joint of `kind`: everything zero, 40 C oil. Tests and tools fill in
-    /// the fields they care about.
+    /// A neutral input for a joint of `kind`: everything zero, 40 C oil, both pressures
+    /// atmospheric. Tests and tools fill in the fields they care about.
     pub fn at_rest(kind: JointKind) -> Self {
         Self {
             joint_kind: kind as u32,
@@ -138,7 +267,20 @@ impl LawInput {
             crank_angle_rad: 0.0,
             time_s: 0.0,
             dt_s: 0.0,
+            cylinder_pressure_pa: STANDARD_ATMOSPHERE_PA,
+            crankcase_pressure_pa: STANDARD_ATMOSPHERE_PA,
+            piston_from_tdc_m: 0.0,
+            cycle_angle_rad: 0.0,
         }
+    }
+
+    /// This input as contract version 1 sees it: its first fields, without copying.
+    #[inline(always)]
+    pub fn as_v1(&self) -> &v1::LawInput {
+        // SAFETY: both types are `repr(C)`, `v1::LawInput`'s fields are the first fields of
+        // `LawInput` at the same offsets (asserted at compile time in `v1`), and the
+        // alignments are equal, so a `LawInput` reference is a valid `v1::LawInput` reference.
+        unsafe { &*(self as *const LawInput).cast::<v1::LawInput>() }
     }
 
     /// Set the relative velocity and derive the signed sliding velocity from the joint kind and

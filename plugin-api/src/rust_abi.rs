@@ -117,7 +117,9 @@ impl RootModule for LawModuleRef {
 }
 
 /// [`CONTRACT_VERSION`](crate::CONTRACT_VERSION) as a semver string for abi_stable (`major.0.0`).
-pub const CONTRACT_VERSION_STRING: &str = "1.0.0";
+pub const CONTRACT_VERSION_STRING: &str = "2.0.0";
+
+pub mod v1;
 
 /// The panic payload as text.
 pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
@@ -130,9 +132,10 @@ pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     }
 }
 
-struct Adapter<L: Law> {
-    law: L,
-    state_size: usize,
+/// A law behind the plugin boundary, with panics caught in every call.
+pub(crate) struct Adapter<L: Law> {
+    pub(crate) law: L,
+    pub(crate) state_size: usize,
 }
 
 impl<L: Law> RLawObject for Adapter<L> {
@@ -229,7 +232,7 @@ pub(crate) fn from_r_description(d: &RLawDescription) -> Result<LawDescription, 
     })
 }
 
-extern "C" fn describe_shim<L: Law>() -> RResult<RLawDescription, RCreateError> {
+pub(crate) extern "C" fn describe_shim<L: Law>() -> RResult<RLawDescription, RCreateError> {
     match catch_unwind(describe::<L>) {
         Ok(Ok(d)) => RResult::ROk(to_r_description(&d)),
         Ok(Err(e)) => RResult::RErr(RCreateError {
@@ -245,7 +248,9 @@ extern "C" fn describe_shim<L: Law>() -> RResult<RLawDescription, RCreateError> 
     }
 }
 
-extern "C" fn create_shim<L: Law>(params_toml: RStr<'_>) -> RResult<RLawBox, RCreateError> {
+/// Create law `L` from parameters given as TOML text, catching panics; shared by the current
+/// and the frozen version-1 module.
+pub(crate) fn create_adapter<L: Law>(params_toml: RStr<'_>) -> Result<Adapter<L>, RCreateError> {
     let result = catch_unwind(|| {
         let table: toml::Table = params_toml.as_str().parse().map_err(|e: toml::de::Error| {
             crate::ParamError::new(
@@ -258,21 +263,24 @@ extern "C" fn create_shim<L: Law>(params_toml: RStr<'_>) -> RResult<RLawBox, RCr
         Ok::<_, crate::ParamError>(Adapter { law, state_size })
     });
     match result {
-        Ok(Ok(adapter)) => RResult::ROk(RLawObject_TO::from_value(
-            adapter,
-            abi_stable::sabi_trait::TD_Opaque,
-        )),
-        Ok(Err(e)) => RResult::RErr(RCreateError {
+        Ok(Ok(adapter)) => Ok(adapter),
+        Ok(Err(e)) => Err(RCreateError {
             parameter: e.parameter.into(),
             message: e.message.into(),
             panicked: false,
         }),
-        Err(p) => RResult::RErr(RCreateError {
+        Err(p) => Err(RCreateError {
             parameter: RString::new(),
             message: panic_message(&*p).into(),
             panicked: true,
         }),
     }
+}
+
+extern "C" fn create_shim<L: Law>(params_toml: RStr<'_>) -> RResult<RLawBox, RCreateError> {
+    create_adapter::<L>(params_toml)
+        .map(|a| RLawObject_TO::from_value(a, abi_stable::sabi_trait::TD_Opaque))
+        .into()
 }
 
 /// The root module for law `L`, built with `contract_version` (normally [`CONTRACT_VERSION`](crate::CONTRACT_VERSION)).
@@ -354,6 +362,11 @@ mod tests {
             __private::ROOT_MODULE_LOADER_NAME,
             "_1as_0lib_1header_0root_bmodule_bloader"
         );
+    }
+
+    #[test]
+    fn frozen_v1_module_keeps_version_one() {
+        assert_eq!(v1::CONTRACT_VERSION_STRING, "1.0.0");
     }
 
     #[test]

@@ -11,8 +11,10 @@
 
 use std::collections::BTreeMap;
 use std::mem::{offset_of, size_of};
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use tribo_plugin_api::contract::v1::LawInput as V1Input;
 
 use tribo_plugin_api::contract::{CLawDescription, CParamSpec};
 use tribo_plugin_api::{
@@ -69,7 +71,12 @@ fn without_comments(text: &str) -> String {
 }
 
 fn parse_header() -> Header {
-    let text = std::fs::read_to_string(include_dir().join("tribo_law.h")).expect("read header");
+    parse_header_in(&include_dir())
+}
+
+/// The `tribo_law.h` of directory `dir` (the current one, or the frozen version 1).
+fn parse_header_in(dir: &Path) -> Header {
+    let text = std::fs::read_to_string(dir.join("tribo_law.h")).expect("read header");
     let code = without_comments(&text);
     let mut structs = Vec::new();
     let mut rest = code.as_str();
@@ -149,6 +156,10 @@ fn rust_structs() -> Layout {
             crank_angle_rad,
             time_s,
             dt_s,
+            cylinder_pressure_pa,
+            crankcase_pressure_pa,
+            piston_from_tdc_m,
+            cycle_angle_rad,
         ]
     );
     rust_layout!(
@@ -320,23 +331,81 @@ fn the_header_declares_every_struct_and_constant_of_the_rust_contract() {
     assert_same("tribo_law.h", &header_constants, &rust_constants());
 }
 
-#[test]
-fn c_header_layout_and_constants_match_the_rust_contract() {
-    let h = parse_header();
-    let dir = scratch("c");
+/// Compile and run the layout program of header `h` from include directory `include`.
+fn c_layout(h: &Header, include: &Path, name: &str) -> (Layout, BTreeMap<String, u64>) {
+    let dir = scratch(name);
     let src = dir.join("layout.c");
-    std::fs::write(&src, c_program(&h)).expect("write the C program");
+    std::fs::write(&src, c_program(h)).expect("write the C program");
     let exe = dir.join("layout");
     run(
         Command::new(tool("CC", "cc"))
             .args(["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-I"])
-            .arg(include_dir())
+            .arg(include)
             .arg(&src)
             .arg("-o")
             .arg(&exe),
         "compiling the C layout program",
     );
-    let (layout, constants) = read_printed(&run(&mut Command::new(&exe), "the C layout program"));
+    read_printed(&run(&mut Command::new(&exe), "the C layout program"))
+}
+
+/// The frozen version-1 header (`tests/fixtures/c/v1`, as released) lays its input out exactly
+/// as the host's `contract::v1::LawInput`, which is the prefix of the current input the host
+/// hands a version-1 law: so a law built from it reads the values it always read.
+#[test]
+fn the_frozen_v1_header_matches_the_v1_prefix_of_the_input() {
+    let v1_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/c/v1");
+    let h = parse_header_in(&v1_dir);
+    let (layout, constants) = c_layout(&h, &v1_dir, "c-v1");
+    let mut v1 = Layout::new();
+    rust_layout!(
+        v1,
+        "tribo_law_input",
+        V1Input,
+        [
+            joint_kind,
+            reserved,
+            relative_velocity,
+            sliding_velocity_m_s,
+            normal_load_n,
+            reaction_x_n,
+            reaction_y_n,
+            reaction_moment_nm,
+            contact_radius_m,
+            contact_length_m,
+            oil_temp_c,
+            viscosity_pa_s,
+            engine_speed_rad_s,
+            crank_angle_rad,
+            time_s,
+            dt_s,
+        ]
+    );
+    let input_v1: Layout = layout
+        .iter()
+        .filter(|(k, _)| k.starts_with("tribo_law_input."))
+        .map(|(k, v)| (k.clone(), *v))
+        .collect();
+    assert_same("the version-1 header", &input_v1, &v1);
+    // Every v1 field sits where the current input has it.
+    let current = rust_structs();
+    for (key, at) in &v1 {
+        if !key.ends_with(".size") {
+            assert_eq!(current.get(key), Some(at), "{key} moved in version 2");
+        }
+    }
+    assert_eq!(constants.get("TRIBO_LAW_CONTRACT_VERSION"), Some(&1));
+    // The other structs did not change.
+    for (key, at) in &layout {
+        if !key.starts_with("tribo_law_input.") {
+            assert_eq!(current.get(key), Some(at), "{key} changed in version 2");
+        }
+    }
+}
+
+#[test]
+fn c_header_layout_and_constants_match_the_rust_contract() {
+    let (layout, constants) = c_layout(&parse_header(), &include_dir(), "c");
     assert_same("the C header", &layout, &rust_structs());
     assert_same("the C header", &constants, &rust_constants());
 }

@@ -125,13 +125,23 @@ pub fn c_compiler() -> String {
 /// Compile C `sources` into `output` with the contract header on the include path; `shared`
 /// makes a shared library, otherwise an executable.
 pub fn compile_c(sources: &[PathBuf], output: &Path, shared: bool) {
+    compile_c_with(
+        sources,
+        output,
+        shared,
+        &workspace().join("plugin-api/include"),
+    );
+}
+
+/// [`compile_c`] with the header from directory `include` (e.g. the frozen version-1 header).
+pub fn compile_c_with(sources: &[PathBuf], output: &Path, shared: bool, include: &Path) {
     let mut cmd = Command::new(c_compiler());
     if shared {
         cmd.args(["-shared", "-fPIC"]);
     }
     cmd.args(["-O2", "-std=c99", "-Wall", "-Wextra"])
         .arg("-I")
-        .arg(workspace().join("plugin-api/include"))
+        .arg(include)
         .args(sources)
         .arg("-o")
         .arg(output)

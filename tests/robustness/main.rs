@@ -351,7 +351,8 @@ fn cases() -> Vec<Case> {
             code: 1,
             words: &[
                 "tribo_fixture_contract_mismatch",
-                "contract version 2",
+                // The fixture claims CONTRACT_VERSION + 1 (3 since contract version 2).
+                "contract version 3",
                 "rebuild the plugin",
             ],
         },

@@ -149,20 +149,12 @@ impl GasModel {
 
     /// Piston travel from TDC at crank angle `theta`, m (exact slider-crank).
     pub fn piston_from_tdc(&self, theta: f64) -> f64 {
-        let (r, l) = (self.crank_radius_m, self.rod_length_m);
-        let s = r * theta.sin();
-        r + l - r * theta.cos() - (l * l - s * s).sqrt()
+        piston_from_tdc(self.crank_radius_m, self.rod_length_m, theta)
     }
 
     /// The 4-stroke cycle angle of the rig's crank angle `theta` (accumulated), [0, 4 pi).
     pub fn cycle_angle(&self, theta: f64) -> f64 {
-        let a = theta + self.phase_rad;
-        let r = a - CYCLE_4 * (a / CYCLE_4).floor();
-        if (0.0..CYCLE_4).contains(&r) {
-            r
-        } else {
-            0.0
-        }
+        cycle_angle(theta + self.phase_rad)
     }
 
     /// Pressures and force at crank angle `theta` (accumulated, rad).
@@ -202,6 +194,48 @@ impl GasModel {
             piston_from_tdc_m: x,
             cycle_angle_rad: phi,
             force_n: self.area_m2 * (crankcase_pa - cylinder_pa),
+        }
+    }
+}
+
+/// Piston travel from TDC of a slider-crank of crank radius `r` and rod length `l` (m, pin on
+/// the cylinder axis) at crank angle `theta`, m.
+pub fn piston_from_tdc(r: f64, l: f64, theta: f64) -> f64 {
+    let s = r * theta.sin();
+    r + l - r * theta.cos() - (l * l - s * s).sqrt()
+}
+
+/// An accumulated angle (rad) reduced to one 4-stroke cycle, [0, 4 pi).
+pub fn cycle_angle(angle: f64) -> f64 {
+    let r = angle - CYCLE_4 * (angle / CYCLE_4).floor();
+    if (0.0..CYCLE_4).contains(&r) {
+        r
+    } else {
+        0.0
+    }
+}
+
+/// The gas state a law is handed (contract version 2): both absolute pressures, the piston
+/// travel from TDC and the 4-stroke cycle angle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LawGas {
+    /// Absolute cylinder pressure on the crown, Pa.
+    pub cylinder_pa: f64,
+    /// Absolute crankcase pressure under the piston, Pa.
+    pub crankcase_pa: f64,
+    /// Piston travel from TDC, m.
+    pub piston_from_tdc_m: f64,
+    /// Crank angle within the 4-stroke cycle, rad, [0, 4 pi).
+    pub cycle_angle_rad: f64,
+}
+
+impl From<&GasState> for LawGas {
+    fn from(s: &GasState) -> Self {
+        LawGas {
+            cylinder_pa: s.cylinder_pa,
+            crankcase_pa: s.crankcase_pa,
+            piston_from_tdc_m: s.piston_from_tdc_m,
+            cycle_angle_rad: s.cycle_angle_rad,
         }
     }
 }

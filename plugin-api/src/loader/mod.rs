@@ -62,14 +62,16 @@ pub enum LawError {
         path: PathBuf,
     },
     /// Built against another contract version.
-    #[error("`{path}` was built against law contract version {found}, but this tribo speaks version {expected}; rebuild the plugin against this Tribo's plugin-api")]
+    #[error("`{path}` was built against law contract version {found}, but this tribo speaks version {expected} and still loads versions {oldest} to {expected}; rebuild the plugin against this Tribo's plugin-api")]
     ContractMismatch {
         /// File.
         path: PathBuf,
         /// Version the library reports.
         found: u32,
-        /// Version of this host.
+        /// Newest version of this host ([`crate::CONTRACT_VERSION`]).
         expected: u32,
+        /// Oldest version this host still loads ([`crate::contract::OLDEST_CONTRACT_VERSION`]).
+        oldest: u32,
     },
     /// A required C symbol is missing.
     #[error("`{path}` exports `tribo_law_contract_version` but not `{symbol}`; a C law must export all seven functions of tribo_law.h")]
@@ -210,6 +212,8 @@ pub struct LawLibrary {
     description: LawDescription,
     path: PathBuf,
     abi: Abi,
+    /// The contract version the library was built against (older ones are adapted).
+    contract_version: u32,
     backend: LibBackend,
     /// Names this law in crash and hang reports ([`inflight`]).
     code: inflight::CodeId,
@@ -260,22 +264,25 @@ impl LawLibrary {
                 })?;
             sym()
         };
-        if version != crate::CONTRACT_VERSION {
+        if !(crate::contract::OLDEST_CONTRACT_VERSION..=crate::CONTRACT_VERSION).contains(&version)
+        {
             return Err(LawError::ContractMismatch {
                 path: path.to_path_buf(),
                 found: version,
                 expected: crate::CONTRACT_VERSION,
+                oldest: crate::contract::OLDEST_CONTRACT_VERSION,
             });
         }
         if rust::exports_rust_module(&lib) {
             drop(lib);
-            let lib = rust::RustLib::load(&open_path)?;
+            let lib = rust::RustLib::load(&open_path, version)?;
             let description = lib.describe(path)?;
             Ok(Self {
                 code: law_code(&description.name, path),
                 description,
                 path: path.to_path_buf(),
                 abi: Abi::Rust,
+                contract_version: version,
                 backend: LibBackend::Rust(lib),
             })
         } else {
@@ -286,6 +293,7 @@ impl LawLibrary {
                 description,
                 path: path.to_path_buf(),
                 abi: Abi::C,
+                contract_version: version,
                 backend: LibBackend::C(Arc::new(lib)),
             })
         }
@@ -302,6 +310,7 @@ impl LawLibrary {
             description: describe::<L>()?,
             path,
             abi: Abi::InProcess,
+            contract_version: crate::CONTRACT_VERSION,
             backend: LibBackend::InProcess(create::<L>),
         })
     }
@@ -326,6 +335,12 @@ impl LawLibrary {
         self.abi
     }
 
+    /// The contract version the library was built against: [`crate::CONTRACT_VERSION`], or an
+    /// older one the host adapts (a version-1 law sees the version-1 fields only).
+    pub fn contract_version(&self) -> u32 {
+        self.contract_version
+    }
+
     /// Create an instance from a parameter table (missing keys take their defaults). Names,
     /// types and ranges are checked against the description for every ABI.
     pub fn create(&self, params: &toml::Table) -> Result<LawInstance, LawError> {
@@ -336,7 +351,7 @@ impl LawLibrary {
                 let text = toml::to_string(&values_to_table(&values)).map_err(|e| {
                     self.param_error(ParamError::new("", e.to_string()).for_law(self.name()))
                 })?;
-                InstBackend::Rust(lib.create(&text, self)?)
+                lib.create(&text, self)?
             }
             LibBackend::C(lib) => {
                 let mut flat = Vec::with_capacity(values.len());
@@ -360,6 +375,7 @@ impl LawLibrary {
         };
         let state_size = match &backend {
             InstBackend::Rust(obj) => obj.state_size(),
+            InstBackend::RustV1(obj) => obj.state_size(),
             InstBackend::C(inst) => inst.state_size(),
             InstBackend::InProcess(law) => law.state_size(),
         };
@@ -423,6 +439,8 @@ impl<L: Law> DynLaw for L {
 
 enum InstBackend {
     Rust(crate::rust_abi::RLawBox),
+    /// A library built against contract version 1: handed the version-1 view of the input.
+    RustV1(crate::rust_abi::v1::RLawBox),
     C(c_abi::CInstance),
     InProcess(Box<dyn DynLaw>),
 }
@@ -510,6 +528,12 @@ impl LawInstance {
                     Err(self.failed("evaluate", format!("panicked: {msg}")))
                 }
             },
+            InstBackend::RustV1(obj) => match obj.evaluate(input.as_v1(), state.into()) {
+                abi_stable::std_types::RResult::ROk(out) => Ok(out),
+                abi_stable::std_types::RResult::RErr(msg) => {
+                    Err(self.failed("evaluate", format!("panicked: {msg}")))
+                }
+            },
             InstBackend::C(inst) => inst
                 .evaluate(input, state)
                 .map_err(|code| self.failed("evaluate", format!("returned error code {code}"))),
@@ -524,6 +548,12 @@ impl LawInstance {
         let _running = inflight::enter(self.code);
         match &self.backend {
             InstBackend::Rust(obj) => match obj.commit(input, state.into()) {
+                abi_stable::std_types::RResult::ROk(()) => Ok(()),
+                abi_stable::std_types::RResult::RErr(msg) => {
+                    Err(self.failed("commit", format!("panicked: {msg}")))
+                }
+            },
+            InstBackend::RustV1(obj) => match obj.commit(input.as_v1(), state.into()) {
                 abi_stable::std_types::RResult::ROk(()) => Ok(()),
                 abi_stable::std_types::RResult::RErr(msg) => {
                     Err(self.failed("commit", format!("panicked: {msg}")))

@@ -6,9 +6,9 @@ use std::path::Path;
 use abi_stable::library::{lib_header_from_path, ROOT_MODULE_LOADER_NAME_WITH_NUL};
 use abi_stable::std_types::{RResult, RStr};
 
-use super::{LawError, LawLibrary};
+use super::{InstBackend, LawError, LawLibrary};
 use crate::describe::{LawDescription, ParamError};
-use crate::rust_abi::{from_r_description, LawModuleRef, RLawBox};
+use crate::rust_abi::{from_r_description, v1, LawModuleRef, RCreateError, RLawDescription};
 
 /// True if `lib` exports an abi_stable library header (a Rust plugin).
 pub(super) fn exports_rust_module(lib: &libloading::Library) -> bool {
@@ -16,28 +16,48 @@ pub(super) fn exports_rust_module(lib: &libloading::Library) -> bool {
     unsafe { lib.get::<*const u8>(ROOT_MODULE_LOADER_NAME_WITH_NUL.as_bytes()) }.is_ok()
 }
 
-/// A Rust law library whose module passed abi_stable's version and layout checks.
-pub(super) struct RustLib {
-    module: LawModuleRef,
+/// A Rust law library whose module passed abi_stable's version and layout checks: built
+/// against the current contract or against the frozen version 1.
+pub(super) enum RustLib {
+    Current(LawModuleRef),
+    V1(v1::LawModuleRef),
 }
 
 impl RustLib {
-    pub(super) fn load(path: &Path) -> Result<Self, LawError> {
+    /// Load the module of `path`, whose version symbol said `version` (already checked to be
+    /// one the host speaks).
+    pub(super) fn load(path: &Path, version: u32) -> Result<Self, LawError> {
         let abi_err = |e: abi_stable::library::LibraryError| LawError::AbiCheck {
             path: path.to_path_buf(),
             detail: e.to_string(),
         };
         let header = lib_header_from_path(path).map_err(abi_err)?;
-        let module = header.init_root_module::<LawModuleRef>().map_err(abi_err)?;
-        let found = module.contract_version();
-        if found != crate::CONTRACT_VERSION {
+        let (lib, found) = if version == 1 {
+            let module = header
+                .init_root_module::<v1::LawModuleRef>()
+                .map_err(abi_err)?;
+            (Self::V1(module), module.contract_version())
+        } else {
+            let module = header.init_root_module::<LawModuleRef>().map_err(abi_err)?;
+            (Self::Current(module), module.contract_version())
+        };
+        // The module's own version must agree with the symbol the loader read first.
+        if found != version {
             return Err(LawError::ContractMismatch {
                 path: path.to_path_buf(),
                 found,
                 expected: crate::CONTRACT_VERSION,
+                oldest: crate::contract::OLDEST_CONTRACT_VERSION,
             });
         }
-        Ok(Self { module })
+        Ok(lib)
+    }
+
+    fn describe_fn(&self) -> extern "C" fn() -> RResult<RLawDescription, RCreateError> {
+        match self {
+            Self::Current(m) => m.describe(),
+            Self::V1(m) => m.describe(),
+        }
     }
 
     pub(super) fn describe(&self, path: &Path) -> Result<LawDescription, LawError> {
@@ -45,7 +65,7 @@ impl RustLib {
             path: path.to_path_buf(),
             detail,
         };
-        match (self.module.describe())() {
+        match (self.describe_fn())() {
             RResult::ROk(d) => from_r_description(&d).map_err(bad),
             RResult::RErr(e) => Err(bad(format!(
                 "{}{}{}",
@@ -60,8 +80,17 @@ impl RustLib {
         }
     }
 
-    pub(super) fn create(&self, params_toml: &str, lib: &LawLibrary) -> Result<RLawBox, LawError> {
-        match (self.module.create())(RStr::from_str(params_toml)) {
+    pub(super) fn create(
+        &self,
+        params_toml: &str,
+        lib: &LawLibrary,
+    ) -> Result<InstBackend, LawError> {
+        let params = RStr::from_str(params_toml);
+        let created = match self {
+            Self::Current(m) => (m.create())(params).map(InstBackend::Rust),
+            Self::V1(m) => (m.create())(params).map(InstBackend::RustV1),
+        };
+        match created {
             RResult::ROk(obj) => Ok(obj),
             RResult::RErr(e) if e.panicked => {
                 Err(lib.failed("create", format!("panicked: {}", e.message)))

@@ -91,6 +91,8 @@ pub(super) struct Instant {
     pub(super) omega: f64,
     /// Oil temperature (C) and dynamic viscosity (Pa s).
     pub(super) oil: (f64, f64),
+    /// Pressures, piston travel and 4-stroke angle (contract version 2).
+    pub(super) gas: crate::gas::LawGas,
 }
 
 impl BoundJoint {
@@ -105,6 +107,10 @@ impl BoundJoint {
         input.crank_angle_rad = at.crank_angle;
         input.time_s = at.t;
         input.dt_s = at.dt;
+        input.cylinder_pressure_pa = at.gas.cylinder_pa;
+        input.crankcase_pressure_pa = at.gas.crankcase_pa;
+        input.piston_from_tdc_m = at.gas.piston_from_tdc_m;
+        input.cycle_angle_rad = at.gas.cycle_angle_rad;
         input.with_velocity(rel)
     }
 
@@ -372,6 +378,7 @@ impl super::Simulation {
             crank_angle: super::evaluate::crank_angle(theta),
             omega: e.omega,
             oil,
+            gas: self.law_gas(theta, None),
         };
         for joint in self.joints.iter_mut().filter(|j| j.is_stateful()) {
             let id = joint.id;

@@ -284,6 +284,37 @@ impl Simulation {
         }
     }
 
+    /// The gas state the laws are handed at crank angle `theta` (accumulated): the gas
+    /// model's `state` when the rig has one (the same evaluation's, so nothing is computed
+    /// twice), else both pressures at the standard atmosphere, the piston travel of the
+    /// slider-crank and the angle modulo one 4-stroke cycle. With a gas model but no `state`
+    /// (a law commit, whose inputs need no force), the model is evaluated here.
+    #[inline]
+    pub(super) fn law_gas(
+        &self,
+        theta: f64,
+        state: Option<&crate::gas::GasState>,
+    ) -> crate::gas::LawGas {
+        match (state, &self.gas) {
+            (Some(s), _) => s.into(),
+            (None, Some(g)) => (&g.at(theta)).into(),
+            (None, None) => {
+                let geo = self.mech.geometry();
+                let ambient = tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
+                crate::gas::LawGas {
+                    cylinder_pa: ambient,
+                    crankcase_pa: ambient,
+                    piston_from_tdc_m: crate::gas::piston_from_tdc(
+                        geo.crank_radius_m,
+                        geo.rod_length_m,
+                        theta,
+                    ),
+                    cycle_angle_rad: crate::gas::cycle_angle(theta),
+                }
+            }
+        }
+    }
+
     /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
     /// and the ramp leading to it; after the last plateau, the last value.
     #[inline]

@@ -472,3 +472,124 @@ fn a_non_finite_value_made_by_the_host_is_the_models_fault_not_the_laws() {
         assert!(!msg.contains("constant-unit"), "{msg}");
     }
 }
+
+/// Every input the `record-unit` law was handed on the piston slide (contract version 2).
+static RECORDED: std::sync::Mutex<Vec<LawInput>> = std::sync::Mutex::new(Vec::new());
+
+/// A light viscous damper that records its inputs, to see what the host hands a law.
+struct Recorder;
+
+impl Law for Recorder {
+    type Params = SqrtParams;
+    const NAME: &'static str = "record-unit";
+    const VERSION: &'static str = "0";
+    const SUMMARY: &'static str = "records its inputs (unit test)";
+
+    fn parameters() -> Vec<ParamSpec> {
+        vec![ParamSpec::number("c_h", "-", "unused", 0.0, 1e3)]
+    }
+
+    fn new(_: SqrtParams) -> Result<Self, ParamError> {
+        Ok(Self)
+    }
+
+    fn evaluate(&self, input: &LawInput, _state: &[f64]) -> LawOutput {
+        if let Ok(mut seen) = RECORDED.lock() {
+            seen.push(*input);
+        }
+        LawOutput::force(-1e-3 * input.sliding_velocity_m_s)
+    }
+}
+
+/// The piston inputs of a steady run of the bundled rig with `gas`, the recorder on the piston.
+fn recorded_piston_inputs(gas: crate::model::GasSpec) -> (RigFile, Vec<LawInput>) {
+    let text = include_str!("../../../../rigs/crf250r-motored.toml");
+    let mut model: RigFile = toml::from_str(text).expect("rig parses");
+    model.gas = gas;
+    model.joints.piston.laws = vec![crate::model::LawRef {
+        law: "record-unit".into(),
+        params: toml::Table::new(),
+    }];
+    let mut registry = LawRegistry::new();
+    registry
+        .insert(LawLibrary::in_process::<Recorder>().expect("law describes itself"))
+        .expect("one law");
+    RECORDED.lock().expect("not poisoned").clear();
+    Simulation::new(&model, &registry)
+        .expect("simulation builds")
+        .run_steady()
+        .expect("steady run");
+    let seen = std::mem::take(&mut *RECORDED.lock().expect("not poisoned"));
+    let piston: Vec<LawInput> = seen
+        .into_iter()
+        .filter(|i| i.kind() == Some(JointKind::Prismatic))
+        .collect();
+    assert!(piston.len() > 100, "the piston law was evaluated");
+    (model, piston)
+}
+
+/// Contract version 2: the host hands every law the cylinder and crankcase pressure, the
+/// piston travel and the 4-stroke angle, checked against the slider-crank and the polytropic
+/// law written out here (not through `gas.rs`), with and without gas loads.
+#[test]
+fn laws_are_handed_the_gas_state_of_contract_v2() {
+    // Slider-crank travel from TDC, and the closed-cylinder polytropic pressure.
+    let travel = |m: &RigFile, theta: f64| {
+        let (r, l) = (m.geometry.crank_radius_m, m.bodies.rod.length_m);
+        let pin_height = r * theta.cos() + (l * l - (r * theta.sin()).powi(2)).sqrt();
+        r + l - pin_height
+    };
+    let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * (1.0 + a.abs().max(b.abs()));
+
+    // No gas: both pressures atmospheric, the travel exact, the cycle angle the crank angle.
+    let (model, inputs) = recorded_piston_inputs(crate::model::GasSpec::default());
+    for i in &inputs {
+        assert_eq!(i.cylinder_pressure_pa, 101_325.0);
+        assert_eq!(i.crankcase_pressure_pa, 101_325.0);
+        assert!(close(
+            i.piston_from_tdc_m,
+            travel(&model, i.crank_angle_rad),
+            1e-12
+        ));
+        assert!((0.0..2.0 * TAU).contains(&i.cycle_angle_rad));
+        assert!(close(
+            i.cycle_angle_rad.rem_euclid(TAU),
+            i.crank_angle_rad,
+            1e-9
+        ));
+    }
+
+    // Motored, closed cylinder (ratio 10, n 1.3, 1 bar at BDC) over a sealed crankcase.
+    let gas: crate::model::GasSpec = toml::from_str(
+        r#"
+        ambient_pa = 100000.0
+        [cylinder]
+        kind = "motored"
+        compression_ratio = 10.0
+        polytropic_exponent = 1.3
+        intake_pressure_pa = 100000.0
+        [crankcase]
+        kind = "sealed"
+        volume_at_tdc_m3 = 0.001
+        polytropic_exponent = 1.4
+        pressure_at_tdc_pa = 100000.0
+        "#,
+    )
+    .expect("gas table parses");
+    let (model, inputs) = recorded_piston_inputs(gas);
+    let area = std::f64::consts::PI * 0.25 * model.geometry.bore_m.powi(2);
+    let vd = area * 2.0 * model.geometry.crank_radius_m;
+    let vc = vd / 9.0;
+    let mut peak: f64 = 0.0;
+    for i in &inputs {
+        let x = travel(&model, i.crank_angle_rad);
+        assert!(close(i.piston_from_tdc_m, x, 1e-12));
+        let cylinder = 1e5 * ((vc + vd) / (vc + area * x)).powf(1.3);
+        let crankcase = 1e5 * (0.001 / (0.001 - area * x)).powf(1.4);
+        assert!(close(i.cylinder_pressure_pa, cylinder, 1e-9), "{i:?}");
+        assert!(close(i.crankcase_pressure_pa, crankcase, 1e-9), "{i:?}");
+        peak = peak.max(i.cylinder_pressure_pa);
+    }
+    // The compression TDC was seen: 10^1.3 bar, about 20 bar.
+    assert!(peak > 0.95 * 1e5 * 10f64.powf(1.3), "peak {peak}");
+}

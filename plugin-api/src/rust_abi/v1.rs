@@ -1,0 +1,147 @@
+//! The Rust plugin ABI of contract version 1, frozen: what a library built against version 1
+//! exports, so the host can still load it (`loader/rust.rs`).
+//!
+//! abi_stable checks a library's root module against the host's type by layout, field names,
+//! type names and crate name (`tribo-plugin-api`, version 0.1.x). So every item here keeps the
+//! name and shape it had in version 1: [`LawModule`], [`RLawObject`] and the input
+//! [`LawInput`](crate::contract::v1::LawInput). The parts version 2 did not change
+//! ([`RLawDescription`](super::RLawDescription), [`RCreateError`](super::RCreateError),
+//! [`LawOutput`](crate::LawOutput)) are shared with the current module. Nothing here may change
+//! again: a version-1 library in the field was built from exactly this.
+
+// As in the parent module: abi_stable's `sabi_trait` expansion, not ours.
+#![allow(non_local_definitions)]
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use abi_stable::library::RootModule;
+use abi_stable::prefix_type::PrefixTypeTrait;
+use abi_stable::sabi_trait;
+use abi_stable::sabi_types::VersionStrings;
+use abi_stable::std_types::{RBox, RResult, RSlice, RSliceMut, RStr, RString};
+use abi_stable::StableAbi;
+
+use super::{create_adapter, describe_shim, panic_message, Adapter, RCreateError, RLawDescription};
+use crate::contract::{v1::LawInput, LawOutput};
+use crate::law::Law;
+
+/// Contract version 1 as abi_stable's semver string.
+pub const CONTRACT_VERSION_STRING: &str = "1.0.0";
+
+/// A version-1 law instance across the boundary: as the current one, with the v1 input.
+#[sabi_trait]
+pub trait RLawObject: Send + Sync {
+    /// Number of state variables.
+    fn state_size(&self) -> usize;
+
+    /// Evaluate; `Err` carries a panic message.
+    fn evaluate(&self, input: &LawInput, state: RSlice<'_, f64>) -> RResult<LawOutput, RString>;
+
+    /// Commit an accepted step; `Err` carries a panic message.
+    #[sabi(last_prefix_field)]
+    fn commit(&self, input: &LawInput, state: RSliceMut<'_, f64>) -> RResult<(), RString>;
+}
+
+/// Boxed, type-erased version-1 law instance.
+pub type RLawBox = RLawObject_TO<'static, RBox<()>>;
+
+/// The root module a version-1 library exports.
+#[repr(C)]
+#[derive(StableAbi)]
+#[sabi(kind(Prefix(prefix_ref = LawModuleRef)))]
+#[sabi(missing_field(panic))]
+pub struct LawModule {
+    /// Always 1.
+    pub contract_version: u32,
+    /// Describe the law.
+    pub describe: extern "C" fn() -> RResult<RLawDescription, RCreateError>,
+    /// Create an instance from parameters given as TOML text.
+    #[sabi(last_prefix_field)]
+    pub create: extern "C" fn(RStr<'_>) -> RResult<RLawBox, RCreateError>,
+}
+
+impl RootModule for LawModuleRef {
+    abi_stable::declare_root_module_statics! {LawModuleRef}
+    const BASE_NAME: &'static str = "tribo_law";
+    const NAME: &'static str = "tribo_law";
+    const VERSION_STRINGS: VersionStrings = VersionStrings::new(CONTRACT_VERSION_STRING);
+}
+
+impl<L: Law> RLawObject for Adapter<L> {
+    fn state_size(&self) -> usize {
+        self.state_size
+    }
+
+    fn evaluate(&self, input: &LawInput, state: RSlice<'_, f64>) -> RResult<LawOutput, RString> {
+        let input = crate::LawInput::from(input);
+        match catch_unwind(AssertUnwindSafe(|| {
+            self.law.evaluate(&input, state.as_slice())
+        })) {
+            Ok(out) => RResult::ROk(out),
+            Err(p) => RResult::RErr(panic_message(&*p).into()),
+        }
+    }
+
+    fn commit(&self, input: &LawInput, mut state: RSliceMut<'_, f64>) -> RResult<(), RString> {
+        let input = crate::LawInput::from(input);
+        match catch_unwind(AssertUnwindSafe(|| {
+            self.law.commit(&input, state.as_mut_slice())
+        })) {
+            Ok(()) => RResult::ROk(()),
+            Err(p) => RResult::RErr(panic_message(&*p).into()),
+        }
+    }
+}
+
+extern "C" fn create_shim<L: Law>(params_toml: RStr<'_>) -> RResult<RLawBox, RCreateError> {
+    create_adapter::<L>(params_toml)
+        .map(|a| RLawObject_TO::from_value(a, abi_stable::sabi_trait::TD_Opaque))
+        .into()
+}
+
+/// The version-1 root module for law `L`: only for the test fixture that stands for a library
+/// built against version 1 (`tests/fixtures/rust-v1-law`).
+#[doc(hidden)]
+pub fn module_for<L: Law>() -> LawModuleRef {
+    LawModule {
+        contract_version: 1,
+        describe: describe_shim::<L>,
+        create: create_shim::<L>,
+    }
+    .leak_into_prefix()
+}
+
+/// Export law `L` as a version-1 library would: the version symbol returns 1 and the root
+/// module is the frozen [`LawModule`]. Only for the compatibility test fixture.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __export_law_v1 {
+    ($law:ty) => {
+        /// Contract version this library stands for (read by the host first).
+        #[unsafe(no_mangle)]
+        pub extern "C" fn tribo_law_contract_version() -> u32 {
+            1
+        }
+
+        #[doc(hidden)]
+        #[unsafe(export_name = "_1as_0lib_1header_0root_bmodule_bloader")]
+        pub static __TRIBO_LAW_LIB_HEADER: $crate::rust_abi::__private::LibHeader = {
+            extern "C" fn erased_module() -> $crate::rust_abi::__private::RootModuleResult {
+                fn module() -> $crate::rust_abi::v1::LawModuleRef {
+                    $crate::rust_abi::v1::module_for::<$law>()
+                }
+                $crate::rust_abi::__private::__call_root_module_loader(module)
+            }
+            // SAFETY: `erased_module` returns the root module of type `v1::LawModuleRef`, the
+            // type the header is declared with.
+            unsafe {
+                $crate::rust_abi::__private::LibHeader::from_constructor::<
+                    $crate::rust_abi::v1::LawModuleRef,
+                >(
+                    erased_module,
+                    $crate::rust_abi::__private::CheckTypeLayout::Yes,
+                )
+            }
+        };
+    };
+}

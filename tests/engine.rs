@@ -328,19 +328,226 @@ fn an_entry_naming_no_joint_of_the_rig_is_refused_at_the_entry() {
 }
 
 #[test]
-fn running_an_engine_rig_says_it_is_not_solved_yet() {
+fn an_engine_runs_in_steady_state_only_and_studies_say_so() {
+    // The transient run and the studies are the single-cylinder solver's: on an engine they
+    // stop with a message naming what works, never a single cylinder's numbers.
+    let rig = fixture("inline4");
+    let rig = rig.to_str().expect("utf-8");
+    for (args, words) in [
+        (vec!["run", rig], ["4-cylinder engine", "--steady"]),
+        (
+            vec!["run", rig, "--steady", "--crank-angle", "ca"],
+            ["4-cylinder engine", "--crank-angle"],
+        ),
+        (
+            vec!["compare", rig],
+            ["4-cylinder engine", "steady state only"],
+        ),
+    ] {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let out = Command::new(common::tribo_exe())
+            .current_dir(dir.path())
+            .args(&args)
+            .output()
+            .expect("tribo runs");
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        for w in words {
+            assert!(err.contains(w), "{args:?}: `{w}` in {err}");
+        }
+        assert!(out.stdout.is_empty(), "{args:?}: no numbers");
+    }
+}
+
+/// The thesis rig written as a one-cylinder engine: one throw midway between the two mains
+/// (so each main carries half, as `load_share = 0.5`), the same bodies, joints and oil.
+fn thesis_as_engine() -> String {
+    let thesis = tribo::bundled::rig("crf250r-motored").expect("bundled");
+    let start = thesis.find("[joints.main_a]").expect("main_a");
+    let end = thesis.find("[joints.big_end]").expect("big_end");
+    let mut text = format!("{}{}", &thesis[..start], &thesis[end..]);
+    text.push_str(
+        "\n[engine]\nfiring_order = [1]\n\
+         [[engine.mains]]\naxial_position_m = 0.0\nradius_m = 0.020\nlength_m = 0.015\n\
+         [[engine.mains]]\naxial_position_m = 0.1\nradius_m = 0.020\nlength_m = 0.015\n\
+         [[engine.throws]]\nangle_deg = 0.0\naxial_position_m = 0.05\n\
+         [[engine.cylinders]]\nthrow = 1\n[[engine.rods]]\ncylinder = 1\n",
+    );
+    text
+}
+
+/// `tribo run ARGS --json` in `dir`: the parsed result (exit 0 required).
+fn run_json(dir: &Path, args: &[&str]) -> serde_json::Value {
     let out = Command::new(common::tribo_exe())
-        .args(["run", fixture("inline4").to_str().expect("utf-8")])
+        .current_dir(dir)
+        .args(args)
+        .arg("--json")
         .output()
         .expect("tribo runs");
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("4-cylinder engine") && err.contains("does not run them yet"),
-        "{err}"
+        out.status.success(),
+        "tribo {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
     );
-    assert!(
-        out.stdout.is_empty(),
-        "no numbers for an engine it cannot solve"
+    serde_json::from_slice(&out.stdout).expect("JSON")
+}
+
+fn torques(v: &serde_json::Value) -> Vec<f64> {
+    v["plateaus"]
+        .as_array()
+        .expect("plateaus")
+        .iter()
+        .map(|p| p["motoring_torque_nm"].as_f64().expect("torque"))
+        .collect()
+}
+
+#[test]
+fn a_one_cylinder_engine_runs_like_the_thesis_rig() {
+    // The engine path (crank train, its own friction iteration, per-joint laws) against the
+    // single-cylinder solver on the same mechanism, law set and steady state. The friction
+    // iteration is tightened so both settle far below the comparison's tolerance.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let rig = dir.path().join("one.toml");
+    std::fs::write(&rig, thesis_as_engine()).expect("write");
+    let tight = ["--set", "solver.friction_tol=1e-12"];
+    for set in ["fedem-baseline", "physical-bearings", "stribeck-duty"] {
+        let mut a = vec!["run", "crf250r-motored", "--steady", "--lawset", set];
+        a.extend(tight);
+        let thesis = torques(&run_json(dir.path(), &a));
+        let mut b = vec![
+            "run",
+            rig.to_str().expect("utf-8"),
+            "--steady",
+            "--lawset",
+            set,
+        ];
+        b.extend(tight);
+        let engine = run_json(dir.path(), &b);
+        let got = torques(&engine);
+        assert_eq!(got.len(), thesis.len());
+        for (g, t) in got.iter().zip(&thesis) {
+            assert!((g - t).abs() <= 1e-9 * t.abs(), "{set}: {g} vs {t}");
+        }
+        // Per-joint names of the engine, and its per-component totals add up.
+        let p = &engine["plateaus"][6];
+        let joints: Vec<&str> = p["joints"]
+            .as_array()
+            .expect("joints")
+            .iter()
+            .map(|j| j["joint"].as_str().expect("name"))
+            .collect();
+        assert!(
+            joints.contains(&"main_1") && joints.contains(&"piston_1"),
+            "{joints:?}"
+        );
+        let groups = p["groups"].as_array().expect("groups");
+        let by = |g: &str| {
+            groups
+                .iter()
+                .find(|x| x["group"] == g)
+                .and_then(|x| x["friction_torque_nm"].as_f64())
+                .expect("group")
+        };
+        let all: f64 = ["main_*", "big_end_*", "small_end_*", "piston_*"]
+            .iter()
+            .map(|g| by(g))
+            .sum();
+        let laws: f64 = p["joints"]
+            .as_array()
+            .expect("joints")
+            .iter()
+            .map(|j| j["friction_torque_nm"].as_f64().expect("torque"))
+            .sum();
+        assert!((all - laws).abs() <= 1e-12 * laws.abs().max(1.0));
+        assert!((by("cylinder 1") + by("main_*") - laws).abs() <= 1e-12 * laws.abs().max(1.0));
+    }
+}
+
+#[test]
+fn frictionless_engines_need_no_mean_torque_with_or_without_compression() {
+    // No laws: the mean drive torque of every plateau is zero (inertia and gravity are
+    // conservative); with a motored 4-stroke head on every cylinder, phased by the firing
+    // order, the reversible compression adds no net work either, and the cycle is 720 degrees
+    // with the displacement of all cylinders in the FMEP.
+    let dir = tempfile::tempdir().expect("temp dir");
+    for name in ["inline4", "vtwin"] {
+        let rig = fixture(name);
+        let rig = rig.to_str().expect("utf-8");
+        let plain = run_json(dir.path(), &["run", rig, "--steady"]);
+        for t in torques(&plain) {
+            assert!(t.abs() < 1e-9, "{name}: {t}");
+        }
+        // Closed cylinders (compression every revolution) on both; the volume follows the
+        // true piston travel, so even the V-twin's offset cylinder does no net work.
+        let closed = "gas.cylinder={kind=\"motored\", compression_ratio=10.0}";
+        let shut = run_json(dir.path(), &["run", rig, "--steady", "--set", closed]);
+        for t in torques(&shut) {
+            assert!(t.abs() < 1e-6, "{name} with closed cylinders: {t}");
+        }
+        let head =
+            "gas.cylinder={kind=\"motored\", compression_ratio=10.0, valves=\"four-stroke\"}";
+        let fired = run_json(dir.path(), &["run", rig, "--steady", "--set", head]);
+        if name == "inline4" {
+            // Ideal valves at the dead centres: exact without offsets (on an offset cylinder
+            // the valves switch at local angles 0 and pi, a little off its dead centres).
+            for t in torques(&fired) {
+                assert!(t.abs() < 1e-6, "{name} with compression: {t}");
+            }
+        }
+        assert_eq!(fired["fmep"]["basis"], "four-stroke");
+        assert_eq!(fired["plateaus"][0]["revolutions"], 2);
+        let loaded = load_rig(&fixture(name), &[]).expect("rig");
+        let n = loaded.file.engine.as_ref().expect("engine").cylinders.len() as f64;
+        let g = &loaded.file.geometry;
+        let vd = n * std::f64::consts::PI / 4.0 * g.bore_m * g.bore_m * 2.0 * g.crank_radius_m;
+        let got = fired["fmep"]["displacement_m3"].as_f64().expect("V_d");
+        assert!((got - vd).abs() < 1e-15, "{got} vs {vd}");
+    }
+}
+
+#[test]
+fn a_law_set_runs_on_every_cylinder_of_the_inline4() {
+    // Coulomb on every piston: the engine's piston friction is the sum over cylinders, and
+    // cylinders 1 and 4 (one throw angle) dissipate what 2 and 3 do (the other), since the
+    // flat-plane crank puts them half a revolution apart on the same slider-crank.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let set = dir.path().join("pistons.toml");
+    std::fs::write(
+        &set,
+        "name = \"pistons\"\n[[laws]]\njoint = \"piston_*\"\nlaw = \"coulomb\"\nparams = { mu = 0.05 }\n",
+    )
+    .expect("write");
+    let rig = fixture("inline4");
+    let v = run_json(
+        dir.path(),
+        &[
+            "run",
+            rig.to_str().expect("utf-8"),
+            "--steady",
+            "--lawset",
+            set.to_str().expect("utf-8"),
+            "--set",
+            "geometry.gravity=false",
+        ],
     );
+    for p in v["plateaus"].as_array().expect("plateaus") {
+        let per: Vec<f64> = (1..=4)
+            .map(|k| {
+                p["joints"]
+                    .as_array()
+                    .expect("joints")
+                    .iter()
+                    .find(|j| j["joint"] == format!("piston_{k}").as_str())
+                    .and_then(|j| j["friction_torque_nm"].as_f64())
+                    .expect("piston")
+            })
+            .collect();
+        assert!(per.iter().all(|t| *t > 0.0), "{per:?}");
+        for k in 1..4 {
+            assert!((per[k] - per[0]).abs() < 1e-6 * per[0], "{per:?}");
+        }
+        let motoring = p["motoring_torque_nm"].as_f64().expect("torque");
+        let sum: f64 = per.iter().sum();
+        assert!((motoring - sum).abs() < 1e-6 * sum, "{motoring} vs {sum}");
+    }
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use tribo_core::cycle::Segment;
 use tribo_core::oil::{ViscosityModel, VALID_RANGE_C};
-use tribo_core::sim::{SimError, Simulation};
+use tribo_core::sim::{EngineSimulation, SimError, Simulation};
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::files::{read_text, ReadError};
@@ -230,6 +230,13 @@ impl Rig {
 pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimError> {
     refuse_unattached(rig)?;
     Simulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+}
+
+/// An engine rig's steady-state simulation (`docs/engines.md`) with its laws bound from
+/// `registry`; errors located as by [`simulation`].
+pub fn engine_simulation(rig: &Rig, registry: &LawRegistry) -> Result<EngineSimulation, SimError> {
+    refuse_unattached(rig)?;
+    EngineSimulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
 }
 
 /// The first law-set entry that names no joint of `rig`, as a setup error at the entry.
@@ -1767,9 +1774,9 @@ pub fn parse_law_arg(arg: &str) -> Result<LawArg, RigError> {
     let (joint, spec) = arg
         .split_once('=')
         .ok_or_else(|| err("expected JOINT=LAW or JOINT=LAW:PARAMS.toml".into()))?;
-    if !JOINT_NAMES.contains(&joint) {
+    if !crate::lawset::is_joint_pattern(joint) {
         return Err(err(format!(
-            "unknown joint `{joint}`; the rig's joints are {}",
+            "unknown joint `{joint}`; the rig's joints are {} (an engine's: main_1 .. main_n, big_end_k, small_end_k, piston_k; groups: main_*, big_end_*, small_end_*, piston_*)",
             JOINT_NAMES.join(", ")
         )));
     }
@@ -1809,17 +1816,42 @@ pub fn attach_laws(rig: &mut Rig, args: &[String]) -> Result<(), RigError> {
     let mut replaced: Vec<String> = Vec::new();
     for arg in args {
         let LawArg { joint, law, origin } = parse_law_arg(arg)?;
-        if let Some(j) = rig.file.joints.get_mut(&joint) {
-            if !replaced.contains(&joint) {
-                j.laws.clear();
-                rig.law_origins.retain(|(name, _), _| *name != joint);
-                replaced.push(joint.clone());
+        // A group or, on an engine, a single-cylinder name: every joint it names.
+        let names = expand_joint(&joint, &rig.file);
+        if names.is_empty() {
+            return Err(RigError {
+                file: PathBuf::from("--law"),
+                line: None,
+                column: None,
+                field: arg.clone(),
+                message: format!(
+                    "the rig `{}` has no joint `{joint}`; its joints are {}",
+                    rig.file.name,
+                    match &rig.file.engine {
+                        Some(e) => e.joint_names().join(", "),
+                        None => JOINT_NAMES.join(", "),
+                    }
+                ),
+            });
+        }
+        for name in names {
+            let laws = match rig.file.engine.as_mut() {
+                Some(e) => e.laws.entry(name.clone()).or_default(),
+                None => match rig.file.joints.get_mut(&name) {
+                    Some(j) => &mut j.laws,
+                    None => continue,
+                },
+            };
+            if !replaced.contains(&name) {
+                laws.clear();
+                rig.law_origins.retain(|(n, _), _| *n != name);
+                replaced.push(name.clone());
             }
             rig.law_origins
-                .insert((joint.clone(), j.laws.len()), origin);
-            j.laws.push(law);
+                .insert((name.clone(), laws.len()), origin.clone());
+            laws.push(law.clone());
+            rig.overridden.push(format!("joints.{name}.laws"));
         }
-        rig.overridden.push(format!("joints.{joint}.laws"));
     }
     Ok(())
 }

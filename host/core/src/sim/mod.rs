@@ -18,6 +18,7 @@ mod adaptive;
 mod bind;
 mod crank_angle;
 mod energy;
+mod engine_run;
 mod error;
 mod evaluate;
 mod joint;
@@ -42,11 +43,12 @@ use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_N
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
 pub use crank_angle::{AngleSample, CrankAngleTrace, LawSample};
+pub use engine_run::EngineSimulation;
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use joint::JointId;
 pub use results::{
-    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, LawResult, LawTime, PlateauFmep,
-    PlateauResult, RegimeShare, RunResult,
+    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
+    PlateauFmep, PlateauResult, RegimeShare, RunResult,
 };
 
 use adaptive::Adaptive;
@@ -147,7 +149,7 @@ fn not_an_engine(f: &RigFile) -> Result<(), SimError> {
             law: None,
             param: None,
             message: format!(
-                "this rig is a {}-cylinder engine; engines are described and validated, but the simulation does not run them yet (docs/engines.md, Status)",
+                "this rig is a {}-cylinder engine; engines run in steady state only so far (`tribo run --steady`, docs/engines.md, Status)",
                 e.cylinders.len()
             ),
         }),

@@ -245,6 +245,7 @@ impl Simulation {
             window_s,
             revolutions: revs,
             joints,
+            groups: Vec::new(),
         }
     }
 }

@@ -551,3 +551,53 @@ fn a_law_set_runs_on_every_cylinder_of_the_inline4() {
         assert!((motoring - sum).abs() < 1e-6 * sum, "{motoring} vs {sum}");
     }
 }
+
+#[test]
+fn the_bundled_engines_and_their_frictionless_references_run() {
+    // The bundled inline-4 and V-twin: their frictionless references need no mean torque at any
+    // plateau; with a law set every joint group carries friction, the motoring torque is the
+    // mains' plus every cylinder's friction, and the inline-4's cylinders dissipate alike (one
+    // slider-crank each, half a revolution apart).
+    let dir = tempfile::tempdir().expect("temp dir");
+    for (rig, cylinders) in [("inline4-4b11", 4), ("vtwin-90", 2)] {
+        let reference = run_json(
+            dir.path(),
+            &["run", &format!("{rig}-frictionless"), "--steady"],
+        );
+        for t in torques(&reference) {
+            assert!(t.abs() < 1e-9, "{rig}: {t}");
+        }
+        let v = run_json(
+            dir.path(),
+            &["run", rig, "--steady", "--lawset", "fedem-baseline"],
+        );
+        assert_eq!(v["fmep"]["basis"], "two-stroke");
+        for p in v["plateaus"].as_array().expect("plateaus") {
+            let groups = p["groups"].as_array().expect("groups");
+            let by = |g: &str| {
+                groups
+                    .iter()
+                    .find(|x| x["group"] == g)
+                    .and_then(|x| x["friction_torque_nm"].as_f64())
+                    .unwrap_or_else(|| panic!("{g} in {groups:?}"))
+            };
+            for g in ["main_*", "big_end_*", "piston_*"] {
+                assert!(by(g) > 0.0, "{rig} {g}");
+            }
+            let per: Vec<f64> = (1..=cylinders)
+                .map(|k| by(&format!("cylinder {k}")))
+                .collect();
+            let motoring = p["motoring_torque_nm"].as_f64().expect("torque");
+            let total = by("main_*") + per.iter().sum::<f64>();
+            assert!(
+                (motoring - total).abs() < 1e-6 * total,
+                "{rig}: {motoring} vs {total}"
+            );
+            if cylinders == 4 {
+                for k in 1..4 {
+                    assert!((per[k] - per[0]).abs() < 1e-6 * per[0], "{per:?}");
+                }
+            }
+        }
+    }
+}

@@ -1,11 +1,17 @@
-//! The cost of the multi-cylinder crank train (issue 18): one revolution of crank-train
-//! evaluations (kinematics, reactions under friction loads, the acceleration for a torque) at
-//! one-degree steps, for the thesis rig as a one-cylinder engine and for the inline-4 fixture.
-//! The issue allows a 4-cylinder cycle at most 4.5 times a single cylinder's
-//! (docs/performance.md); the single-cylinder `Mechanism` (the 9x9 structured solve the thesis
-//! rig runs on) is timed beside them for reference.
+//! The cost of the multi-cylinder crank train (issue 18), for the thesis rig as a one-cylinder
+//! engine and for an inline-4:
 //!
-//! `cargo bench -p tribo --bench engine`
+//! - `revolution_*`: one revolution of crank-train evaluations (kinematics, reactions under
+//!   friction loads, the acceleration for a torque) at one-degree steps; the single-cylinder
+//!   `Mechanism` (the 9x9 structured solve the thesis rig runs on) beside them;
+//! - `steady_*`: the whole steady-state run (every plateau of the thesis cycle, one revolution
+//!   each at one degree, fedem-baseline on every joint group) of the one-cylinder engine and of
+//!   the inline-4 with the same cycle, bodies and joints; the single-cylinder solver's
+//!   `run_steady` on the thesis rig beside them.
+//!
+//! The issue allows a 4-cylinder cycle at most 4.5 times a single cylinder's
+//! (docs/performance.md). Needs the release plugins:
+//! `cargo build --release && cargo bench -p tribo --bench engine`
 // criterion_group! generates an undocumented entry function.
 #![allow(missing_docs)]
 
@@ -114,7 +120,79 @@ fn bench(c: &mut Criterion) {
             black_box(sum)
         })
     });
+    // Whole steady-state runs with a law set on every joint group.
+    let reg = registry();
+    let fedem = tribo::lawset::LawSet::load("fedem-baseline").expect("bundled set");
+    let mut thesis_set = thesis.clone();
+    fedem.apply(&mut thesis_set);
+    let mut single = tribo::rig::simulation(&thesis_set, &reg).expect("thesis simulation");
+    g.bench_function("steady_thesis_solver", |b| {
+        b.iter(|| single.run_steady().expect("run"))
+    });
+    for (name, text) in [
+        ("steady_engine_1_cylinder", one_cylinder_text()),
+        ("steady_engine_4_cylinders", four_cylinder_text()),
+    ] {
+        let mut rig =
+            tribo::rig::load_rig_text(Path::new("bench.toml"), &text, &[]).expect("engine rig");
+        fedem.apply(&mut rig);
+        let mut sim = tribo::rig::engine_simulation(&rig, &reg).expect("engine simulation");
+        g.bench_function(name, |b| b.iter(|| sim.run_steady().expect("run")));
+    }
     g.finish();
+}
+
+fn registry() -> tribo::plugin_api::loader::LawRegistry {
+    let exe = std::env::current_exe().expect("bench executable path");
+    let dir: PathBuf = exe
+        .parent()
+        .and_then(|d| d.parent())
+        .expect("profile directory")
+        .to_path_buf();
+    tribo::plugin_api::loader::load_paths(&[dir])
+        .expect("release plugins: run `cargo build --release` first")
+}
+
+/// The thesis rig's text without its two `[joints.main_*]` tables, plus `engine`.
+fn thesis_with(engine: &str) -> String {
+    let thesis = tribo::bundled::rig("crf250r-motored").expect("bundled");
+    let start = thesis.find("[joints.main_a]").expect("main_a");
+    let end = thesis.find("[joints.big_end]").expect("big_end");
+    format!("{}{}\n{engine}", &thesis[..start], &thesis[end..])
+}
+
+/// The thesis rig as a one-cylinder engine.
+fn one_cylinder_text() -> String {
+    thesis_with(
+        "[engine]\nfiring_order = [1]\n\
+         [[engine.mains]]\naxial_position_m = 0.0\nradius_m = 0.020\nlength_m = 0.015\n\
+         [[engine.mains]]\naxial_position_m = 0.1\nradius_m = 0.020\nlength_m = 0.015\n\
+         [[engine.throws]]\nangle_deg = 0.0\naxial_position_m = 0.05\n\
+         [[engine.cylinders]]\nthrow = 1\n[[engine.rods]]\ncylinder = 1\n",
+    )
+}
+
+/// Four of the thesis rig's cylinders on a flat-plane crank with five mains, firing 1-3-4-2.
+fn four_cylinder_text() -> String {
+    let mut e = String::from("[engine]\nfiring_order = [1, 3, 4, 2]\n");
+    for i in 0..5 {
+        e.push_str(&format!(
+            "[[engine.mains]]\naxial_position_m = {}\nradius_m = 0.020\nlength_m = 0.015\n",
+            0.1 * i as f64
+        ));
+    }
+    for (i, angle) in [0.0, 180.0, 180.0, 0.0].iter().enumerate() {
+        e.push_str(&format!(
+            "[[engine.throws]]\nangle_deg = {angle}\naxial_position_m = {}\n",
+            0.05 + 0.1 * i as f64
+        ));
+    }
+    for k in 1..=4 {
+        e.push_str(&format!(
+            "[[engine.cylinders]]\nthrow = {k}\n[[engine.rods]]\ncylinder = {k}\n"
+        ));
+    }
+    thesis_with(&e)
 }
 
 criterion_group!(benches, bench);

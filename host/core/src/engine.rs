@@ -481,33 +481,17 @@ impl CrankTrain {
         for (ki, (c, ck)) in self.geo.cylinders.iter().zip(&kin.cylinders).enumerate() {
             let fr = self.frames[ki];
             let ld = loads.cylinders.get(ki).copied().unwrap_or_default();
-            let g_loc = fr.to_local(gravity);
-            let (m_r, m_p) = (c.rod.mass_kg, c.piston_mass_kg);
-            let a_g = ck.com_acc[0] + ck.com_acc[1] * alpha;
-            let a_s = Vector2::new(0.0, ck.piston_acc[0] + ck.piston_acc[1] * alpha);
-            let psi_dd = ck.rod_acc[0] + ck.rod_acc[1] * alpha;
-            let axial = ck.piston_force_n + ld.slide_force_n;
-            let fs_y = m_p * (a_s.y - g_loc.y) - axial;
-            let d = ck.small_end - ck.pin;
-            let h = ck.rod_com - ck.pin;
-            let rhs = ld.big_end_torque_nm
-                - ld.small_end_torque_nm
-                - c.rod.inertia_kg_m2 * psi_dd
-                - cross(h, (a_g - g_loc) * m_r);
-            let fs_x = (d.x * fs_y - rhs) / d.y;
-            let f_s = Vector2::new(fs_x, fs_y);
-            let lateral = m_p * (a_s.x - g_loc.x) - fs_x;
-            let f_b = (a_g - g_loc) * m_r + f_s;
-            let f_b_glob = fr.to_global(f_b);
+            let f = self.cylinder_forces(ki, ck, alpha, &ld);
+            let f_b_glob = fr.to_global(f.big_end);
             let pin_glob = fr.to_global(ck.pin);
             drive += ld.big_end_torque_nm + cross(pin_glob, f_b_glob);
             throw_loads[c.throw] += f_b_glob;
-            block -= fr.to_global(Vector2::new(lateral, ld.slide_force_n));
+            block -= fr.to_global(Vector2::new(f.lateral, ld.slide_force_n));
             out.cylinders.push(CylinderReactions {
                 big_end_n: f_b_glob,
-                small_end_n: fr.to_global(f_s),
-                slide_lateral_n: lateral,
-                slide_moment_nm: -ld.small_end_torque_nm + c.pin_offset_m * axial,
+                small_end_n: fr.to_global(f.small_end),
+                slide_lateral_n: f.lateral,
+                slide_moment_nm: -ld.small_end_torque_nm + c.pin_offset_m * f.axial,
             });
         }
         let mut total = Vector2::zeros();
@@ -529,11 +513,79 @@ impl CrankTrain {
 
     /// The crank acceleration at which the drive torque equals `torque` under `loads`.
     pub fn alpha_for_torque(&self, kin: &TrainKinematics, torque: f64, loads: &TrainLoads) -> f64 {
-        let t0 = self.reactions(kin, 0.0, loads).drive_torque_nm;
-        let t1 = self.reactions(kin, 1.0, loads).drive_torque_nm;
+        let t0 = self.drive_torque(kin, 0.0, loads);
+        let t1 = self.drive_torque(kin, 1.0, loads);
         // d(drive torque)/d(alpha) is the train's effective inertia at this angle (> 0).
         (torque - t0) / (t1 - t0)
     }
+
+    /// The drive torque alone at crank acceleration `alpha` under `loads` (what
+    /// [`CrankTrain::reactions_into`] gives as `drive_torque_nm`, without the main split).
+    pub fn drive_torque(&self, kin: &TrainKinematics, alpha: f64, loads: &TrainLoads) -> f64 {
+        let gravity = Vector2::new(0.0, -self.geo.gravity_m_s2);
+        let mut drive = self.j_axis * alpha - loads.main_torque_nm;
+        for t in &self.geo.throws {
+            for cw in &t.counterweights {
+                let (s, c) = (kin.theta + t.angle_rad + cw.angle_rad).sin_cos();
+                drive -= cross(Vector2::new(-s, c) * cw.radius_m, gravity * cw.mass_kg);
+            }
+        }
+        for (ki, ck) in kin.cylinders.iter().enumerate() {
+            let fr = self.frames[ki];
+            let ld = loads.cylinders.get(ki).copied().unwrap_or_default();
+            let f = self.cylinder_forces(ki, ck, alpha, &ld);
+            drive += ld.big_end_torque_nm + cross(fr.to_global(ck.pin), fr.to_global(f.big_end));
+        }
+        drive
+    }
+
+    /// Cylinder `ki`'s joint forces in its own frame at crank acceleration `alpha` under its
+    /// friction loads `ld` (see `docs/engines.md`, Mechanics): the piston's axial balance gives
+    /// the small end's axial force, the rod's moment about the big end its lateral one, then
+    /// the wall's side thrust and the big-end force.
+    #[inline]
+    fn cylinder_forces(
+        &self,
+        ki: usize,
+        ck: &CylinderKinematics,
+        alpha: f64,
+        ld: &CylinderLoads,
+    ) -> CylinderForces {
+        let c = &self.geo.cylinders[ki];
+        let g_loc = self.frames[ki].to_local(Vector2::new(0.0, -self.geo.gravity_m_s2));
+        let (m_r, m_p) = (c.rod.mass_kg, c.piston_mass_kg);
+        let a_g = ck.com_acc[0] + ck.com_acc[1] * alpha;
+        let a_s = Vector2::new(0.0, ck.piston_acc[0] + ck.piston_acc[1] * alpha);
+        let psi_dd = ck.rod_acc[0] + ck.rod_acc[1] * alpha;
+        let axial = ck.piston_force_n + ld.slide_force_n;
+        let fs_y = m_p * (a_s.y - g_loc.y) - axial;
+        let d = ck.small_end - ck.pin;
+        let h = ck.rod_com - ck.pin;
+        let rhs = ld.big_end_torque_nm
+            - ld.small_end_torque_nm
+            - c.rod.inertia_kg_m2 * psi_dd
+            - cross(h, (a_g - g_loc) * m_r);
+        let fs_x = (d.x * fs_y - rhs) / d.y;
+        let small_end = Vector2::new(fs_x, fs_y);
+        CylinderForces {
+            small_end,
+            lateral: m_p * (a_s.x - g_loc.x) - fs_x,
+            big_end: (a_g - g_loc) * m_r + small_end,
+            axial,
+        }
+    }
+}
+
+/// One cylinder's joint forces in its own frame (see `CrankTrain::cylinder_forces`).
+struct CylinderForces {
+    /// From the rod on the piston, N.
+    small_end: Vector2<f64>,
+    /// From the wall on the piston, across the axis, N.
+    lateral: f64,
+    /// From the crank pin on the rod, N.
+    big_end: Vector2<f64>,
+    /// Known axial force on the piston (gas plus slide friction), N.
+    axial: f64,
 }
 
 /// The crank train a rig's `[engine]` describes (`None` for the single-cylinder rig), from the

@@ -189,6 +189,16 @@ fn bad_engine_descriptions_are_refused_naming_the_field() {
             "{what}: {shown}"
         );
     }
+    // A sealed crankcase: the cylinders would each pump their own, not one shared volume.
+    let e = error_of(
+        "inline4",
+        &base.replace(
+            "[drive]",
+            "[gas.crankcase]\nkind = \"sealed\"\nvolume_at_tdc_m3 = 0.004\n\n[drive]",
+        ),
+    );
+    assert_eq!(e.field, "gas.crankcase", "{e}");
+    assert!(e.message.contains("share one crankcase"), "{e}");
     // A cylinder banked beyond 180 degrees (without a V angle).
     let e = error_of(
         "inline4",

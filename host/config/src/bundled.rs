@@ -24,6 +24,10 @@ const RIGS: &[(&str, &str)] = &[
         include_str!("../../../rigs/crf250r-fired.toml"),
     ),
     (
+        "crf250r-vented.toml",
+        include_str!("../../../rigs/crf250r-vented.toml"),
+    ),
+    (
         "inline4-4b11.toml",
         include_str!("../../../rigs/inline4-4b11.toml"),
     ),

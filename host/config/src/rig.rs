@@ -1127,8 +1127,10 @@ impl Check<'_> {
 
     /// The gas pressures: ambient, the motored cylinder's ratio, exponent and intake pressure,
     /// a trace's table (two equal-length columns, angles rising within [0, 720), pressures
-    /// positive), the sealed crankcase's volume (above the displacement) and exponent; the
-    /// 4-stroke phase 0 or 360 degrees (the rig's angle 0 is a top dead centre).
+    /// positive), a sealed or vented crankcase's volume (above the displacement) and exponent,
+    /// a vented one's breather (a diameter or an area, positive), discharge coefficient in
+    /// (0, 1] and gas temperature; the 4-stroke phase 0 or 360 degrees (the rig's angle 0 is a
+    /// top dead centre).
     fn gas(&self) -> Result<(), RigError> {
         let f = &self.rig.file;
         let g = &f.gas;
@@ -1217,43 +1219,101 @@ impl Check<'_> {
                 }
             }
         }
-        if let CrankcasePressure::Sealed {
-            volume_at_tdc_m3,
-            polytropic_exponent,
-            pressure_at_tdc_pa,
-        } = &g.crankcase
-        {
-            self.size(
-                "gas.crankcase.volume_at_tdc_m3",
-                *volume_at_tdc_m3,
-                1.0,
-                "m^3",
-            )?;
-            if *volume_at_tdc_m3 <= 1.05 * displacement {
-                return Err(self.rig.error(
-                    "gas.crankcase.volume_at_tdc_m3",
-                    format!(
-                        "must exceed the displacement ({} m^3) by at least 5%, or the piston squeezes the crankcase to nothing, got {}",
-                        readable(displacement),
-                        readable(*volume_at_tdc_m3)
-                    ),
-                ));
+        match &g.crankcase {
+            CrankcasePressure::Atmospheric => {}
+            CrankcasePressure::Sealed {
+                volume_at_tdc_m3,
+                polytropic_exponent,
+                pressure_at_tdc_pa,
+            } => {
+                self.crankcase_volume(*volume_at_tdc_m3, *polytropic_exponent, displacement)?;
+                self.size(
+                    "gas.crankcase.pressure_at_tdc_pa",
+                    *pressure_at_tdc_pa,
+                    MAX_PRESSURE_PA,
+                    "Pa",
+                )?;
             }
-            self.within(
-                "gas.crankcase.polytropic_exponent",
-                *polytropic_exponent,
-                (1.0, 1.67),
-                "",
-                "isothermal to monatomic adiabatic",
-            )?;
-            self.size(
-                "gas.crankcase.pressure_at_tdc_pa",
-                *pressure_at_tdc_pa,
-                MAX_PRESSURE_PA,
-                "Pa",
-            )?;
+            CrankcasePressure::Vented {
+                volume_at_tdc_m3,
+                polytropic_exponent,
+                breather_diameter_m,
+                breather_area_m2,
+                discharge_coefficient,
+                temperature_c,
+            } => {
+                self.crankcase_volume(*volume_at_tdc_m3, *polytropic_exponent, displacement)?;
+                match (breather_diameter_m, breather_area_m2) {
+                    (Some(_), Some(_)) => {
+                        return Err(self.rig.error(
+                            "gas.crankcase.breather_area_m2",
+                            "give the breather's diameter (`breather_diameter_m`) or its area (`breather_area_m2`), not both",
+                        ))
+                    }
+                    (None, None) => {
+                        return Err(self.rig.error(
+                            "gas.crankcase",
+                            "a vented crankcase needs its breather: `breather_diameter_m` (m) or `breather_area_m2` (m^2)",
+                        ))
+                    }
+                    (Some(d), None) => {
+                        self.size("gas.crankcase.breather_diameter_m", *d, MAX_LENGTH_M, "m")?
+                    }
+                    (None, Some(a)) => self.size(
+                        "gas.crankcase.breather_area_m2",
+                        *a,
+                        MAX_LENGTH_M * MAX_LENGTH_M,
+                        "m^2",
+                    )?,
+                }
+                let cd = *discharge_coefficient;
+                if !(cd.is_finite() && cd > 0.0 && cd <= 1.0) {
+                    return Err(self.rig.error(
+                        "gas.crankcase.discharge_coefficient",
+                        format!(
+                            "must be in (0, 1] (the breather's real flow over that of an ideal nozzle of its area; about 0.6 for a sharp-edged orifice), got {}",
+                            readable(cd)
+                        ),
+                    ));
+                }
+                self.within(
+                    "gas.crankcase.temperature_c",
+                    *temperature_c,
+                    (-50.0, 300.0),
+                    "C",
+                    "a crankcase gas temperature",
+                )?;
+            }
         }
         Ok(())
+    }
+
+    /// A closed crankcase's volume at TDC (5% above the displacement, at most 1 m^3) and its
+    /// polytropic exponent.
+    fn crankcase_volume(
+        &self,
+        volume: f64,
+        exponent: f64,
+        displacement: f64,
+    ) -> Result<(), RigError> {
+        self.size("gas.crankcase.volume_at_tdc_m3", volume, 1.0, "m^3")?;
+        if volume <= 1.05 * displacement {
+            return Err(self.rig.error(
+                "gas.crankcase.volume_at_tdc_m3",
+                format!(
+                    "must exceed the displacement ({} m^3) by at least 5%, or the piston squeezes the crankcase to nothing, got {}",
+                    readable(displacement),
+                    readable(volume)
+                ),
+            ));
+        }
+        self.within(
+            "gas.crankcase.polytropic_exponent",
+            exponent,
+            (1.0, 1.67),
+            "",
+            "isothermal to monatomic adiabatic",
+        )
     }
 
     /// Oil density and the viscosity model's constants (temperatures: [`Self::oil_temperatures`],
@@ -1452,6 +1512,12 @@ impl Check<'_> {
             return Err(self.rig.error(
                 "bodies.crank.unbalance_mass_kg",
                 "an engine's unbalance is its counterweights, one per web: give them as `counterweights` of each [[engine.throws]] and leave the crank's unbalance at 0",
+            ));
+        }
+        if !matches!(f.gas.crankcase, CrankcasePressure::Atmospheric) {
+            return Err(self.rig.error(
+                "gas.crankcase",
+                "an engine's cylinders share one crankcase, which is not modelled yet: an engine rig takes an atmospheric crankcase only (kind = \"atmospheric\"); a sealed or vented crankcase is the single-cylinder rig's",
             ));
         }
         if e.cylinders.is_empty() || e.cylinders.len() > MAX_CYLINDERS {

@@ -1,8 +1,9 @@
 //! Gas pressures on the piston: the cylinder above the crown and the crankcase below it.
 //!
-//! The models, all functions of the crank angle alone (no state, so every evaluation of the
-//! solver sees the same pressure at the same angle and the force enters the multibody solve as
-//! a known applied force on the piston along the cylinder axis):
+//! The models, all functions of the crank angle (and, for a vented crankcase, the crank speed)
+//! with no state, so every evaluation of the solver sees the same pressure at the same angle
+//! and speed and the force enters the multibody solve as a known applied force on the piston
+//! along the cylinder axis:
 //!
 //! - cylinder `none`: the crown sees the ambient pressure (the thesis's head-less rig);
 //! - cylinder `motored`: the trapped charge follows `p V^n = const` with `p = p_in` at BDC, the
@@ -15,13 +16,32 @@
 //!   interpolation;
 //! - crankcase `atmospheric`: ambient pressure;
 //! - crankcase `sealed`: the volume under the piston `V_cc = V_tdc - A x` (x: piston travel
-//!   from TDC) follows `p V^n = const` through `p_tdc` at TDC; no breather flow.
+//!   from TDC) follows `p V^n = const` through `p_tdc` at TDC; no breather flow;
+//! - crankcase `vented`: the same volume, polytropic, breathing through an orifice to the
+//!   ambient (compressible nozzle flow): the pressure is a state over time, and the model
+//!   takes its periodic steady solution at the crank speed ([`vented`] derives the equation
+//!   and states the flow law). **Quasi-steady**: the crankcase is assumed to settle faster
+//!   than the test cycle changes speed. The tables are computed at the cycle's speeds: 0
+//!   (ambient), every ramp's target and hold speed, points in between at most
+//!   [`MAX_SPEED_GAP_RPM`] apart, and 10% above the top speed (higher speeds take the top
+//!   table); between two speeds the pressure is interpolated linearly. The breather's time
+//!   constant for the bundled CRF 250 R numbers is about 0.1 s (`docs/solver.md`), against
+//!   1 s holds and 0.5 s ramps: the plateaus, measured at the end of their hold, are settled;
+//!   on a ramp the real crankcase lags the table by roughly a tenth of a second of speed.
 //!
 //! The force on the piston along +y (towards the head) is `A (p_crankcase - p_cylinder)`.
 
-use std::f64::consts::{PI, TAU};
+pub mod vented;
 
+use std::f64::consts::{PI, TAU};
+use std::sync::{Arc, OnceLock};
+
+use crate::cycle::{rpm_to_rad_s, Segment};
 use crate::model::{CrankcasePressure, CylinderPressure, RigFile, Valves};
+use vented::{Breather, Table, VentedCycle};
+
+/// Largest step between the crank speeds at which a vented crankcase is tabulated, rpm.
+pub const MAX_SPEED_GAP_RPM: f64 = 1000.0;
 
 /// One 4-stroke cycle, rad.
 pub const CYCLE_4: f64 = 2.0 * TAU;
@@ -59,6 +79,96 @@ enum Cylinder {
 enum Crankcase {
     Ambient,
     Sealed { v_tdc_m3: f64, n: f64, p_tdc: f64 },
+    Vented(Box<VentedTables>),
+}
+
+/// A vented crankcase's periodic cycles at rising crank speeds, each computed when first
+/// needed (a steady run needs only its plateaus'; building a simulation to check its laws,
+/// none).
+#[derive(Debug, Clone)]
+struct VentedTables {
+    breather: Breather,
+    /// Crank speeds, rad/s, rising; the first is 0 (no table: the ambient pressure).
+    speeds: Vec<f64>,
+    /// One table per speed after the first.
+    tables: Vec<OnceLock<Arc<Table>>>,
+}
+
+impl VentedTables {
+    /// The tables of `breather` at `speeds` (rising, the first 0), none computed yet.
+    fn new(breather: Breather, speeds: Vec<f64>) -> Self {
+        let tables = speeds[1..].iter().map(|_| OnceLock::new()).collect();
+        Self {
+            breather,
+            speeds,
+            tables,
+        }
+    }
+
+    /// The pressure of speed `i`'s table at crank angle `theta`.
+    fn table_at(&self, i: usize, theta: f64) -> f64 {
+        if i == 0 {
+            return self.breather.ambient_pa;
+        }
+        self.tables[i - 1]
+            .get_or_init(|| vented::table(&self.breather, self.speeds[i]))
+            .at(theta)
+    }
+
+    /// Crankcase pressure at crank angle `theta` and speed `omega`: linear in speed between
+    /// the two tabulated speeds around it; the ambient at or below 0, the top table above it.
+    fn at(&self, theta: f64, omega: f64) -> f64 {
+        if omega.is_nan() || omega <= 0.0 {
+            return self.breather.ambient_pa;
+        }
+        let last = self.speeds.len() - 1;
+        if omega >= self.speeds[last] {
+            return self.table_at(last, theta);
+        }
+        // First speed above omega (>= 1: speeds[0] = 0 < omega).
+        let i = self.speeds.partition_point(|w| *w <= omega);
+        let (w0, w1) = (self.speeds[i - 1], self.speeds[i]);
+        let f = (omega - w0) / (w1 - w0);
+        let low = self.table_at(i - 1, theta);
+        if f == 0.0 {
+            low
+        } else {
+            low + f * (self.table_at(i, theta) - low)
+        }
+    }
+}
+
+/// The crank speeds at which a vented crankcase is tabulated for the cycle `segments`, rad/s:
+/// 0, every ramp's target, points between them at most [`MAX_SPEED_GAP_RPM`] apart, and 10%
+/// above the top speed.
+fn table_speeds(segments: &[Segment]) -> Vec<f64> {
+    let mut rpm: Vec<f64> = segments
+        .iter()
+        .filter_map(|s| match s {
+            Segment::Ramp { to_rpm, .. } if to_rpm.is_finite() && *to_rpm > 0.0 => Some(*to_rpm),
+            _ => None,
+        })
+        .collect();
+    rpm.push(0.0);
+    rpm.sort_by(f64::total_cmp);
+    rpm.dedup();
+    let top = rpm[rpm.len() - 1];
+    if top > 0.0 {
+        rpm.push(1.1 * top);
+    } else {
+        // No speed at all in the cycle: one table, so a run at any speed has one.
+        rpm.push(MAX_SPEED_GAP_RPM);
+    }
+    let mut filled = vec![0.0];
+    for pair in rpm.windows(2) {
+        let gaps = ((pair[1] - pair[0]) / MAX_SPEED_GAP_RPM).ceil().max(1.0) as usize;
+        for k in 1..gaps {
+            filled.push(pair[0] + (pair[1] - pair[0]) * k as f64 / gaps as f64);
+        }
+        filled.push(pair[1]);
+    }
+    // Speeds given exactly (a hold's speed) keep their exact value in rad/s.
+    filled.into_iter().map(rpm_to_rad_s).collect()
 }
 
 /// The gas state at one crank angle: what a law could be handed (contract v2) and the force.
@@ -124,6 +234,29 @@ impl GasModel {
                 n: *polytropic_exponent,
                 p_tdc: *pressure_at_tdc_pa,
             },
+            CrankcasePressure::Vented {
+                volume_at_tdc_m3,
+                polytropic_exponent,
+                discharge_coefficient,
+                temperature_c,
+                ..
+            } => {
+                let breather = Breather {
+                    volume_at_tdc_m3: *volume_at_tdc_m3,
+                    piston_area_m2: area,
+                    crank_radius_m: r,
+                    rod_length_m: f.bodies.rod.length_m,
+                    polytropic_exponent: *polytropic_exponent,
+                    discharge_area_m2: discharge_coefficient
+                        * g.crankcase.breather_area_m2().unwrap_or(0.0),
+                    ambient_pa: g.ambient_pa,
+                    temperature_k: temperature_c + 273.15,
+                };
+                Crankcase::Vented(Box::new(VentedTables::new(
+                    breather,
+                    table_speeds(&f.cycle.segments()),
+                )))
+            }
         };
         Some(GasModel {
             area_m2: area,
@@ -157,15 +290,41 @@ impl GasModel {
         cycle_angle(theta + self.phase_rad)
     }
 
-    /// Pressures and force at crank angle `theta` (accumulated, rad).
-    pub fn at(&self, theta: f64) -> GasState {
-        self.at_travel(theta, self.piston_from_tdc(theta))
+    /// The periodic steady cycle of a vented crankcase at crank speed `omega` (> 0, rad/s),
+    /// computed afresh (not from the tables): pressures over a revolution, pumping work, time
+    /// constant. `None` for other crankcases.
+    pub fn vented_cycle(&self, omega: f64) -> Option<VentedCycle> {
+        match &self.crankcase {
+            Crankcase::Vented(v) if omega > 0.0 => {
+                Some(v.breather.periodic(omega, v.breather.ambient_pa))
+            }
+            _ => None,
+        }
     }
 
-    /// Pressures and force at crank angle `theta` with the piston `x` m from its top dead
-    /// centre: an engine's cylinder with a pin or crank offset, whose travel is not the
-    /// centred slider-crank's (`crate::engine`).
-    pub fn at_travel(&self, theta: f64, x: f64) -> GasState {
+    /// Whether the pressures depend on the crank speed (a vented crankcase).
+    pub fn depends_on_speed(&self) -> bool {
+        matches!(self.crankcase, Crankcase::Vented(_))
+    }
+
+    /// The crank speeds, rad/s, at which a vented crankcase is tabulated (empty for others).
+    pub fn tabulated_speeds(&self) -> &[f64] {
+        match &self.crankcase {
+            Crankcase::Vented(v) => &v.speeds,
+            _ => &[],
+        }
+    }
+
+    /// Pressures and force at crank angle `theta` (accumulated, rad) and crank speed `omega`
+    /// (rad/s; only a vented crankcase depends on it).
+    pub fn at(&self, theta: f64, omega: f64) -> GasState {
+        self.at_travel(theta, omega, self.piston_from_tdc(theta))
+    }
+
+    /// [`GasModel::at`] with the piston `x` m from its top dead centre: an engine's cylinder
+    /// with a pin or crank offset, whose travel is not the centred slider-crank's
+    /// (`crate::engine`).
+    pub fn at_travel(&self, theta: f64, omega: f64, x: f64) -> GasState {
         let phi = self.cycle_angle(theta);
         let cylinder_pa = match &self.cylinder {
             Cylinder::Ambient => self.ambient_pa,
@@ -188,11 +347,12 @@ impl GasModel {
                 pressures_pa,
             } => periodic_linear(angles_rad, pressures_pa, phi, CYCLE_4),
         };
-        let crankcase_pa = match self.crankcase {
+        let crankcase_pa = match &self.crankcase {
             Crankcase::Ambient => self.ambient_pa,
             Crankcase::Sealed { v_tdc_m3, n, p_tdc } => {
-                p_tdc * (v_tdc_m3 / (v_tdc_m3 - self.area_m2 * x)).powf(n)
+                p_tdc * (v_tdc_m3 / (v_tdc_m3 - self.area_m2 * x)).powf(*n)
             }
+            Crankcase::Vented(v) => v.at(theta, omega),
         };
         GasState {
             cylinder_pa,

@@ -355,6 +355,54 @@ pub enum CrankcasePressure {
         #[serde(default = "atmosphere")]
         pressure_at_tdc_pa: f64,
     },
+    /// A crankcase volume pumped by the piston underside, polytropic, breathing to the ambient
+    /// through an orifice (compressible nozzle flow); its pressure is the periodic steady
+    /// solution at the crank speed (`crate::gas` states the model and its assumptions).
+    Vented {
+        /// Crankcase volume with the piston at TDC, m^3 (must exceed the displacement).
+        volume_at_tdc_m3: f64,
+        /// Polytropic exponent of the trapped gas (1.4: adiabatic; 1: isothermal).
+        #[serde(default = "kappa")]
+        polytropic_exponent: f64,
+        /// Inner diameter of the breather orifice, m (give this or `breather_area_m2`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        breather_diameter_m: Option<f64>,
+        /// Flow area of the breather orifice, m^2 (give this or `breather_diameter_m`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        breather_area_m2: Option<f64>,
+        /// Discharge coefficient of the breather, in (0, 1]: the real mass flow over that of
+        /// the ideal isentropic nozzle of the same area.
+        discharge_coefficient: f64,
+        /// Temperature of the crankcase gas at the ambient pressure, C (the polytrope passes
+        /// through it; air breathed in arrives at it).
+        #[serde(default = "room_c")]
+        temperature_c: f64,
+    },
+}
+
+/// Standard room temperature, C: the default crankcase gas temperature.
+pub const ROOM_C: f64 = 20.0;
+
+fn room_c() -> f64 {
+    ROOM_C
+}
+
+impl CrankcasePressure {
+    /// The breather's flow area, m^2, of a vented crankcase (from its diameter or its area;
+    /// `None` for other kinds or when neither is given).
+    pub fn breather_area_m2(&self) -> Option<f64> {
+        match self {
+            CrankcasePressure::Vented {
+                breather_area_m2: Some(a),
+                ..
+            } => Some(*a),
+            CrankcasePressure::Vented {
+                breather_diameter_m: Some(d),
+                ..
+            } => Some(std::f64::consts::PI * 0.25 * d * d),
+            _ => None,
+        }
+    }
 }
 
 impl Default for GasSpec {

@@ -256,6 +256,8 @@ impl Law for MixedFilm {
 
     fn new(p: Params) -> Result<Self, ParamError> {
         // Every value is range-checked by the host against `parameters()`; nothing to combine.
+        // The asperity table is built here (once per process), not inside the first evaluation.
+        log_share_table();
         Ok(Self { p })
     }
 

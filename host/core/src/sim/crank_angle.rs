@@ -119,7 +119,7 @@ impl Simulation {
                     if pass + 1 < passes {
                         continue;
                     }
-                    let (kin, gas) = self.kinematics(theta, omega);
+                    let (kin, gas) = self.kinematics(theta, omega, omega);
                     let rel = relative_velocities(&kin.qd);
                     let instant = Instant {
                         t: at.t,
@@ -127,7 +127,7 @@ impl Simulation {
                         crank_angle: crank_angle(theta),
                         omega,
                         oil,
-                        gas: self.law_gas(theta, gas.as_ref()),
+                        gas: self.law_gas(theta, omega, gas.as_ref()),
                     };
                     let mut law_samples = Vec::with_capacity(laws.len());
                     let mut idx = 0;

@@ -425,7 +425,7 @@ impl EngineSimulation {
             for (k, g) in self.gas.iter().enumerate() {
                 // The volume follows the piston's true travel (with offsets, its dead centres
                 // are not at local angles 0 and pi); the valve events stay at those angles.
-                let state = g.at_travel(locals[k], travel[k]);
+                let state = g.at_travel(locals[k], at.omega, travel[k]);
                 w.gas_forces[k] = state.force_n;
                 w.law_gas.push((&state).into());
             }

@@ -95,11 +95,36 @@ pub enum SimError {
         /// The tolerance in force.
         rel_tol: f64,
     },
+    /// The crank did not turn the whole revolutions a plateau's measurement window needs
+    /// within the recorded end of its hold: there is no plateau value to report (a drive at its
+    /// torque limit against a load it cannot turn, typically compression under a weak PI drive).
+    #[error("the {set_speed_rpm:.0} rpm plateau has no measurement: the crank turned {turned_revs:.2} revolutions over the last {span_s:.3} s of the hold, but the window needs {needed_revs} whole revolutions (the speed stayed far below the set speed){}", saturation_text(*.saturated_s))]
+    Stalled {
+        /// The plateau's set speed, rpm.
+        set_speed_rpm: f64,
+        /// Revolutions turned over the recorded end of the hold.
+        turned_revs: f64,
+        /// Length of that recorded end, s.
+        span_s: f64,
+        /// Whole revolutions the window needs.
+        needed_revs: u32,
+        /// Time the drive sat at its torque limit near the window, s.
+        saturated_s: f64,
+    },
     /// The step observer failed (the CLI's time-series writer, say): the run stops with its
     /// error. Its message is this one's; it is not also given as the cause, which an error
     /// chain (`{:#}`) would print a second time.
     #[error("{0}")]
     Observer(crate::observe::ObserverError),
+}
+
+/// The advice of [`SimError::Stalled`]: the drive's limit when it was the cause.
+fn saturation_text(saturated_s: f64) -> String {
+    if saturated_s > 0.0 {
+        format!("; the drive sat at its torque limit for {saturated_s:.3} s there: raise drive.torque_limit_nm (or use the prescribed drive, drive.kind = \"prescribed\")")
+    } else {
+        String::new()
+    }
 }
 
 /// A law's force (N) or torque (N m) may be at most this many times the largest joint reaction

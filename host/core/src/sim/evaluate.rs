@@ -262,7 +262,7 @@ impl Simulation {
         rates.resize(self.layout().len(), 0.0);
         // Positions, velocities and the factorised constraints do not depend on the loads:
         // computed once, the iteration below only recombines the multipliers.
-        let (kin, gas) = self.kinematics(at.theta, at.omega);
+        let (kin, gas) = self.kinematics(at.theta, at.omega, self.gas_speed(at));
         let rel = relative_velocities(&kin.qd);
         // The power into the gas: the gas force's power on the piston, negated.
         if let Some(g) = &gas {
@@ -274,7 +274,7 @@ impl Simulation {
             crank_angle: crank_angle(at.theta),
             omega: at.omega,
             oil: at.oil,
-            gas: self.law_gas(at.theta, gas.as_ref()),
+            gas: self.law_gas(at.theta, at.omega, gas.as_ref()),
         };
         check_inputs(at, &rel)?;
         let mut inputs: [LawInput; 5] =

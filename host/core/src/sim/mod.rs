@@ -266,17 +266,18 @@ impl Simulation {
     }
 
     /// The load-independent kinematics at `theta`, `omega` with the gas force applied, and the
-    /// gas state (if any).
+    /// gas state (if any), a vented crankcase read at the crank speed `gas_omega`.
     #[inline]
     pub(super) fn kinematics(
         &self,
         theta: f64,
         omega: f64,
+        gas_omega: f64,
     ) -> (crate::mechanics::Kinematics, Option<crate::gas::GasState>) {
         match &self.gas {
             None => (self.mech.kinematics(theta, omega), None),
             Some(g) => {
-                let s = g.at(theta);
+                let s = g.at(theta, gas_omega);
                 (
                     self.mech
                         .kinematics_with_piston_force(theta, omega, s.force_n),
@@ -286,20 +287,38 @@ impl Simulation {
         }
     }
 
+    /// The crank speed a vented crankcase is read at for point `at`: the crank's own when it
+    /// follows the cycle exactly (prescribed crank, steady state); the cycle's reference speed
+    /// under the PI drive, whose speed ripples within a revolution far faster than the
+    /// crankcase breathes (the tables are quasi-steady in the cycle's speed, and the mean
+    /// speed follows the reference).
+    #[inline]
+    fn gas_speed(&self, at: &evaluate::Point) -> f64 {
+        match at.control {
+            evaluate::Control::Torque(_)
+                if self.gas.as_ref().is_some_and(GasModel::depends_on_speed) =>
+            {
+                self.cycle.reference(at.t).1
+            }
+            _ => at.omega,
+        }
+    }
+
     /// The gas state the laws are handed at crank angle `theta` (accumulated): the gas
     /// model's `state` when the rig has one (the same evaluation's, so nothing is computed
     /// twice), else both pressures at the standard atmosphere, the piston travel of the
-    /// slider-crank and the angle modulo one 4-stroke cycle. With a gas model but no `state`
-    /// (a law commit, whose inputs need no force), the model is evaluated here.
+    /// slider-crank and the angle modulo one 4-stroke cycle. With a gas model but no `state`,
+    /// the model is evaluated here (a vented crankcase at the crank speed `omega`).
     #[inline]
     pub(super) fn law_gas(
         &self,
         theta: f64,
+        omega: f64,
         state: Option<&crate::gas::GasState>,
     ) -> crate::gas::LawGas {
         match (state, &self.gas) {
             (Some(s), _) => s.into(),
-            (None, Some(g)) => (&g.at(theta)).into(),
+            (None, Some(g)) => (&g.at(theta, omega)).into(),
             (None, None) => {
                 let geo = self.mech.geometry();
                 let ambient = tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
@@ -381,7 +400,7 @@ impl Simulation {
             dissipated,
             gas_work,
         );
-        let (results, warnings) = plateaus.results(self);
+        let (results, warnings) = plateaus.results(self)?;
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: match self.drive {

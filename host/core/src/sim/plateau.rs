@@ -5,7 +5,7 @@
 use std::f64::consts::TAU;
 
 use super::results::{ComponentFmep, LawResult, PlateauFmep, PlateauResult, RegimeShare};
-use super::Simulation;
+use super::{SimError, Simulation};
 use crate::cycle::{rad_s_to_rpm, Plateau};
 
 /// The steps stored near the end of one hold, for its whole-revolution window: time, crank
@@ -99,11 +99,23 @@ impl Plateaus {
 
     /// Every plateau's result, with the warnings of a drive at its limit or a speed that never
     /// settled.
-    pub(super) fn results(&self, sim: &Simulation) -> (Vec<PlateauResult>, Vec<String>) {
+    /// A plateau whose window cannot be placed (the crank stalled) is [`SimError::Stalled`].
+    pub(super) fn results(
+        &self,
+        sim: &Simulation,
+    ) -> Result<(Vec<PlateauResult>, Vec<String>), SimError> {
         let mut results = Vec::new();
         let mut warnings = Vec::new();
         for (pi, p) in self.plateaus.iter().enumerate() {
-            results.push(sim.measure(pi, p.omega, p.t_end, &self.records[pi]));
+            let measured = sim
+                .measure(pi, p.omega, p.t_end, &self.records[pi])
+                .map_err(|mut e| {
+                    if let SimError::Stalled { saturated_s, .. } = &mut e {
+                        *saturated_s = self.saturated_time[pi];
+                    }
+                    e
+                })?;
+            results.push(measured);
             if self.saturated_time[pi] > 0.5 * sim.window_s {
                 warnings.push(format!(
                     "at the {:.0} rpm plateau the drive sat at its torque limit for {:.3} s near the measurement window; the plateau torque is limited by the drive",
@@ -116,7 +128,7 @@ impl Plateaus {
                 warnings.push(format!("the {:.0} rpm plateau reached only {:.1} rpm on average: the speed never settled", r.set_speed_rpm, r.mean_speed_rpm));
             }
         }
-        (results, warnings)
+        Ok((results, warnings))
     }
 }
 
@@ -134,8 +146,15 @@ impl Simulation {
         TAU * self.revolutions_per_cycle() as f64
     }
 
-    /// Plateau values over the last whole revolutions (whole cycles) of a hold.
-    fn measure(&self, pi: usize, omega_ref: f64, t_end: f64, recs: &Window) -> PlateauResult {
+    /// Plateau values over the last whole revolutions (whole cycles) of a hold;
+    /// [`SimError::Stalled`] when the recorded end of the hold holds fewer revolutions.
+    fn measure(
+        &self,
+        pi: usize,
+        omega_ref: f64,
+        t_end: f64,
+        recs: &Window,
+    ) -> Result<PlateauResult, SimError> {
         let revs = self.window_revs(omega_ref);
         let n = self.layout().len();
         let (t_e, theta_e, acc_e) = match recs.points.len() {
@@ -147,6 +166,19 @@ impl Simulation {
             ),
         };
         let theta_s = theta_e - revs as f64 * TAU;
+        // The window must start inside the recorded end of the hold; otherwise the crank has
+        // not turned enough for a whole-cycle mean and there is no honest value to give.
+        let first = recs.points.first().copied();
+        if first.is_none_or(|(_, theta_0, _)| theta_0 > theta_s) {
+            let (t_0, theta_0) = first.map_or((t_e, theta_e), |(t, th, _)| (t, th));
+            return Err(SimError::Stalled {
+                set_speed_rpm: rad_s_to_rpm(omega_ref),
+                turned_revs: (theta_e - theta_0) / TAU,
+                span_s: t_e - t_0,
+                needed_revs: revs,
+                saturated_s: 0.0,
+            });
+        }
         // Find the interval holding theta_s and interpolate (cubic Hermite in time).
         let (mut t_s, mut acc_s) = (t_e, acc_e.clone());
         for i in 1..recs.points.len() {
@@ -179,7 +211,7 @@ impl Simulation {
         let dt = (t_e - t_s).max(1e-300);
         let dtheta = theta_e - theta_s;
         let delta: Vec<f64> = acc_e.iter().zip(&acc_s).map(|(e, s)| e - s).collect();
-        self.plateau_result(pi, omega_ref, &delta, dt, dtheta, [t_s, t_e], revs)
+        Ok(self.plateau_result(pi, omega_ref, &delta, dt, dtheta, [t_s, t_e], revs))
     }
 
     /// Plateau values from the accumulated quantities `delta` over a window of `dt` seconds

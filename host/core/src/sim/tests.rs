@@ -593,3 +593,60 @@ fn laws_are_handed_the_gas_state_of_contract_v2() {
     // The compression TDC was seen: 10^1.3 bar, about 20 bar.
     assert!(peak > 0.95 * 1e5 * 10f64.powf(1.3), "peak {peak}");
 }
+
+/// Calls of [`SlowStart`] so far (its first one sleeps).
+static SLOW_START_CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// A viscous damper whose first evaluation takes 30 ms, like a law building a table lazily.
+struct SlowStart;
+
+impl Law for SlowStart {
+    type Params = SqrtParams;
+    const NAME: &'static str = "slow-start-unit";
+    const VERSION: &'static str = "0";
+    const SUMMARY: &'static str = "slow first call (unit test)";
+
+    fn parameters() -> Vec<ParamSpec> {
+        vec![ParamSpec::number("c_h", "-", "unused", 0.0, 1e3)]
+    }
+
+    fn new(_: SqrtParams) -> Result<Self, ParamError> {
+        Ok(Self)
+    }
+
+    fn evaluate(&self, input: &LawInput, _state: &[f64]) -> LawOutput {
+        if SLOW_START_CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed) == 0 {
+            std::thread::sleep(std::time::Duration::from_millis(30));
+        }
+        LawOutput::force(-1e-3 * input.sliding_velocity_m_s)
+    }
+}
+
+/// The time-in-laws report estimates a law's cost per call: a one-off 30 ms in the first call
+/// (a lazily built table) must not be scaled by the sampling rate (it was: a 0.1 s run once
+/// reported 30 s in `mixed-film`).
+#[test]
+fn a_slow_first_call_is_not_scaled_into_the_law_time() {
+    let text = include_str!("../../../../rigs/crf250r-motored.toml");
+    let mut model: RigFile = toml::from_str(text).expect("rig parses");
+    model.joints.piston.laws = vec![crate::model::LawRef {
+        law: "slow-start-unit".into(),
+        params: toml::Table::new(),
+    }];
+    let mut registry = LawRegistry::new();
+    registry
+        .insert(LawLibrary::in_process::<SlowStart>().expect("law describes itself"))
+        .expect("one law");
+    let result = Simulation::new(&model, &registry)
+        .expect("simulation builds")
+        .run_steady()
+        .expect("steady run");
+    let t = result
+        .law_time
+        .iter()
+        .find(|l| l.law == "slow-start-unit")
+        .expect("timed");
+    assert!(t.calls > 1000, "{t:?}");
+    let per_call = t.seconds / t.calls as f64;
+    assert!(per_call < 10e-6, "{t:?}: {per_call} s per call");
+}

@@ -35,7 +35,7 @@ pub mod timeseries;
 
 // The layers below the CLI, under the names the binary, tests and benches use.
 pub use tribo_config::{bundled, lawset, rig};
-pub use tribo_core::{cycle, erk, gas, mechanics, model, observe, oil, sim};
+pub use tribo_core::{cycle, engine, erk, gas, mechanics, model, observe, oil, sim};
 pub use tribo_studies::{fit, score, study, uncertainty};
 
 pub use tribo_plugin_api as plugin_api;

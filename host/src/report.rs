@@ -46,6 +46,22 @@ pub fn to_text(r: &RunResult) -> String {
             }
         }
     }
+    if r.plateaus.iter().any(|p| !p.groups.is_empty()) {
+        let _ = writeln!(
+            out,
+            "\nper component and per cylinder (friction torque at the crank, N m; power, W)"
+        );
+        for p in &r.plateaus {
+            let _ = writeln!(out, "  {:.0} rpm", p.set_speed_rpm);
+            for g in &p.groups {
+                let _ = writeln!(
+                    out,
+                    "    {:<12} {:>10.5} {:>10.3}",
+                    g.group, g.friction_torque_nm, g.power_w
+                );
+            }
+        }
+    }
     let e = &r.energy;
     if e.gas_work_j != 0.0 {
         let _ = writeln!(
@@ -939,6 +955,7 @@ mod tests {
                 joints: vec![joint],
                 gas_torque_nm: 0.0,
                 fmep: Default::default(),
+                groups: Vec::new(),
             }],
             fmep: Default::default(),
             energy_residual_j: 0.0,

@@ -27,6 +27,19 @@ const RIGS: &[(&str, &str)] = &[
         "crf250r-vented.toml",
         include_str!("../../../rigs/crf250r-vented.toml"),
     ),
+    (
+        "inline4-4b11.toml",
+        include_str!("../../../rigs/inline4-4b11.toml"),
+    ),
+    (
+        "inline4-4b11-frictionless.toml",
+        include_str!("../../../rigs/inline4-4b11-frictionless.toml"),
+    ),
+    ("vtwin-90.toml", include_str!("../../../rigs/vtwin-90.toml")),
+    (
+        "vtwin-90-frictionless.toml",
+        include_str!("../../../rigs/vtwin-90-frictionless.toml"),
+    ),
 ];
 
 /// Bundled law sets.

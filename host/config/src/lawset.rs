@@ -11,7 +11,8 @@ use tribo_plugin_api::ParamValue;
 
 use crate::files::read_text;
 use crate::rig::{
-    file_error, line_col, LawArg, LawOrigin, LawRef, Rig, RigError, Source, JOINT_NAMES,
+    expand_joint, file_error, line_col, LawArg, LawOrigin, LawRef, Rig, RigError, RigFile, Source,
+    JOINT_KINDS, JOINT_NAMES,
 };
 
 /// A law-set file as written.
@@ -72,6 +73,19 @@ pub struct LawSet {
     /// Where each entry of `file.laws` came from when not from the file: the `--law`
     /// arguments added by [`LawSet::add_law_args`] (`None`: an entry of the file).
     arg_origins: Vec<Option<LawOrigin>>,
+}
+
+/// Whether `name` can name joints of some rig: a single-cylinder joint, an engine joint
+/// (`main_2`, `piston_3`: numbered from 1) or a group (`main_*`, `piston_*`).
+pub fn is_joint_pattern(name: &str) -> bool {
+    if JOINT_NAMES.contains(&name) {
+        return true;
+    }
+    JOINT_KINDS.iter().any(|k| {
+        name.strip_prefix(k)
+            .and_then(|rest| rest.strip_prefix('_'))
+            .is_some_and(|n| n == "*" || n.parse::<usize>().is_ok_and(|n| n >= 1))
+    })
 }
 
 /// A calibration parameter: `JOINT.LAW.PARAM`.
@@ -212,13 +226,13 @@ impl LawSet {
             arg_origins: Vec::new(),
         };
         for (i, e) in set.file.laws.iter().enumerate() {
-            if !JOINT_NAMES.contains(&e.joint.as_str()) {
+            if !is_joint_pattern(&e.joint) {
                 return Err(error(
                     path,
                     text,
                     &format!("laws[{i}].joint"),
                     format!(
-                        "the rig has no joint `{}`; joints are {}",
+                        "the rig has no joint `{}`; joints are {} on the single-cylinder rig, main_1 .. main_n and per cylinder k big_end_k, small_end_k, piston_k on an engine, or a group: main_*, big_end_*, small_end_*, piston_*",
                         e.joint,
                         JOINT_NAMES.join(", ")
                     ),
@@ -271,32 +285,75 @@ impl LawSet {
 
     /// Replace every law of `rig` with this set's laws. Each law remembers its entry (or
     /// `--law` argument), so an error about it is reported there ([`Rig::error`]).
+    ///
+    /// An entry's `joint` may be a group (`main_*`, `piston_*`, ...) or, on an engine, a
+    /// single-cylinder name meaning every cylinder's joint (`docs/engines.md`); each joint it
+    /// names gets the law. An entry naming no joint of this rig (`piston_5` on a twin,
+    /// `main_a` on an engine) is recorded in [`Rig::unattached`] and refused when the rig's
+    /// laws are checked or bound.
     pub fn apply(&self, rig: &mut Rig) {
         for name in JOINT_NAMES {
             if let Some(j) = rig.file.joints.get_mut(name) {
                 j.laws.clear();
             }
         }
+        if let Some(e) = rig.file.engine.as_mut() {
+            e.laws.clear();
+        }
         rig.law_origins.clear();
+        rig.unattached.clear();
         for (i, e) in self.file.laws.iter().enumerate() {
-            if let Some(j) = rig.file.joints.get_mut(&e.joint) {
-                let origin = self
-                    .arg_origins
-                    .get(i)
-                    .cloned()
-                    .flatten()
-                    .unwrap_or_else(|| LawOrigin::LawSet {
-                        file: self.source.clone(),
-                        entry: i,
-                    });
-                rig.law_origins
-                    .insert((e.joint.clone(), j.laws.len()), origin);
-                j.laws.push(LawRef {
-                    law: e.law.clone(),
-                    params: e.params.clone(),
+            let origin = self
+                .arg_origins
+                .get(i)
+                .cloned()
+                .flatten()
+                .unwrap_or_else(|| LawOrigin::LawSet {
+                    file: self.source.clone(),
+                    entry: i,
                 });
+            let law = LawRef {
+                law: e.law.clone(),
+                params: e.params.clone(),
+            };
+            let joints = expand_joint(&e.joint, &rig.file);
+            if joints.is_empty() {
+                rig.unattached.push(self.unattached(i, &e.joint, &rig.file));
+            }
+            for name in joints {
+                let laws = match rig.file.engine.as_mut() {
+                    Some(engine) => engine.laws.entry(name.clone()).or_default(),
+                    None => match rig.file.joints.get_mut(&name) {
+                        Some(j) => &mut j.laws,
+                        None => continue,
+                    },
+                };
+                rig.law_origins
+                    .insert((name.clone(), laws.len()), origin.clone());
+                laws.push(law.clone());
             }
         }
+    }
+
+    /// The error for entry `i`, whose `joint` names no joint of the rig `file`.
+    fn unattached(&self, i: usize, joint: &str, file: &RigFile) -> RigError {
+        let joints = match &file.engine {
+            Some(e) => e.joint_names().join(", "),
+            None => JOINT_NAMES.join(", "),
+        };
+        let why = match &file.engine {
+            Some(_) if joint.starts_with("main_") && !joint.ends_with('*') => {
+                " (an engine's mains are main_1 .. main_n; main_* attaches a law to each)"
+            }
+            _ => "",
+        };
+        self.error(
+            &format!("laws[{i}].joint"),
+            format!(
+                "the rig `{}` has no joint `{joint}`{why}; its joints are {joints}, and the groups main_*, big_end_*, small_end_*, piston_*",
+                file.name
+            ),
+        )
     }
 
     /// Free parameters: those marked in the file, or `ids` (`joint.law.param`) with bounds from

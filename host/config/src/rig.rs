@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use tribo_core::cycle::Segment;
 use tribo_core::oil::{ViscosityModel, VALID_RANGE_C};
-use tribo_core::sim::{SimError, Simulation};
+use tribo_core::sim::{EngineSimulation, SimError, Simulation};
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::files::{read_text, ReadError};
@@ -121,6 +121,9 @@ pub struct Rig {
     /// The laws attached by a law set or `--law`, by (joint, index in the joint's laws);
     /// every other law is the rig file's own.
     pub law_origins: BTreeMap<(String, usize), LawOrigin>,
+    /// Law-set entries that name no joint of this rig (`piston_5` on a twin), located at the
+    /// entry: refused by [`check_laws`] and [`simulation`].
+    pub unattached: Vec<RigError>,
 }
 
 impl Rig {
@@ -225,13 +228,36 @@ impl Rig {
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimError> {
+    refuse_unattached(rig)?;
     Simulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+}
+
+/// An engine rig's steady-state simulation (`docs/engines.md`) with its laws bound from
+/// `registry`; errors located as by [`simulation`].
+pub fn engine_simulation(rig: &Rig, registry: &LawRegistry) -> Result<EngineSimulation, SimError> {
+    refuse_unattached(rig)?;
+    EngineSimulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+}
+
+/// The first law-set entry that names no joint of `rig`, as a setup error at the entry.
+fn refuse_unattached(rig: &Rig) -> Result<(), SimError> {
+    match rig.unattached.first() {
+        None => Ok(()),
+        Some(e) => Err(SimError::Setup {
+            at: Some(location(&e.file, e.line, e.column)),
+            field: e.field.clone(),
+            law: None,
+            param: None,
+            message: e.message.clone(),
+        }),
+    }
 }
 
 /// Check `rig`'s laws against `registry` as [`simulation`] would bind them (each law known, its
 /// parameters' names, types and ranges), errors located the same way, without creating an
 /// instance: no law code beyond its description runs.
 pub fn check_laws(rig: &Rig, registry: &LawRegistry) -> Result<(), SimError> {
+    refuse_unattached(rig)?;
     Simulation::check_laws(rig.model(), registry).map_err(|e| locate_setup(rig, e))
 }
 
@@ -648,6 +674,7 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         sources,
         overridden,
         law_origins: BTreeMap::new(),
+        unattached: Vec::new(),
     };
     read_trace_file(&mut rig)?;
     validate(&rig)?;
@@ -818,6 +845,9 @@ pub fn revalidate(rig: &Rig) -> Result<(), Box<RigError>> {
 
 pub use tribo_core::sim::readable;
 
+/// The most cylinders an engine rig may have.
+pub use tribo_core::engine::MAX_CYLINDERS;
+
 /// The highest speed a test cycle may reach, rpm.
 pub const MAX_SPEED_RPM: f64 = 30_000.0;
 /// The longest test cycle, s.
@@ -862,7 +892,8 @@ fn validate(rig: &Rig) -> Result<(), RigError> {
     check.drive()?;
     check.measurement()?;
     check.solver()?;
-    check.gas()
+    check.gas()?;
+    check.engine()
 }
 
 /// The rig's validators, one per part of the file, run in the order of [`validate`] so the
@@ -1024,7 +1055,26 @@ impl Check<'_> {
 
     /// Each joint's contact radius and length, and no empty law name.
     fn joints(&self) -> Result<(), RigError> {
+        let engine = self.rig.file.engine.is_some();
         for (name, j) in self.rig.file.joints.named() {
+            if name.starts_with("main_") {
+                match (engine, j.is_absent()) {
+                    (true, true) => continue,
+                    (true, false) => {
+                        return Err(self.rig.error(
+                            &format!("joints.{name}"),
+                            "an engine rig gives its main bearings as [[engine.mains]] (joints main_1 .. main_n); leave [joints.main_a] and [joints.main_b] out",
+                        ))
+                    }
+                    (false, true) => {
+                        return Err(self.rig.error(
+                            &format!("joints.{name}"),
+                            format!("missing table [joints.{name}]: the single-cylinder rig has two main bearings, main_a and main_b (an engine rig gives [[engine.mains]] instead)"),
+                        ))
+                    }
+                    (false, false) => {}
+                }
+            }
             self.size(
                 &format!("joints.{name}.radius_m"),
                 j.radius_m,
@@ -1050,6 +1100,10 @@ impl Check<'_> {
     /// The main bearings' load shares: each in [0, 1], together 1.
     fn load_shares(&self) -> Result<(), RigError> {
         let j = &self.rig.file.joints;
+        // An engine splits its main loads by the lever rule (docs/engines.md).
+        if self.rig.file.engine.is_some() {
+            return Ok(());
+        }
         for (name, share) in [
             ("main_a", j.main_a.load_share),
             ("main_b", j.main_b.load_share),
@@ -1442,6 +1496,289 @@ impl Check<'_> {
     }
 
     /// Step sizes, tolerances and the friction iteration's limit.
+    /// A multi-cylinder engine (`docs/engines.md`): mains in axial order, throws between them
+    /// and apart, at most two counterweights per throw, cylinders on existing throws with bank
+    /// angles (or a V angle in [0, 180] and a bank each), offsets the rod can reach, exactly one
+    /// rod per cylinder, a firing order that is a permutation of the cylinders and fits the
+    /// crank, and laws only on the engine's joints.
+    fn engine(&self) -> Result<(), RigError> {
+        let f = &self.rig.file;
+        let Some(e) = &f.engine else {
+            return Ok(());
+        };
+        let l = MAX_LENGTH_M;
+        let c = &f.bodies.crank;
+        if c.unbalance_mass_kg != 0.0 {
+            return Err(self.rig.error(
+                "bodies.crank.unbalance_mass_kg",
+                "an engine's unbalance is its counterweights, one per web: give them as `counterweights` of each [[engine.throws]] and leave the crank's unbalance at 0",
+            ));
+        }
+        if !matches!(f.gas.crankcase, CrankcasePressure::Atmospheric) {
+            return Err(self.rig.error(
+                "gas.crankcase",
+                "an engine's cylinders share one crankcase, which is not modelled yet: an engine rig takes an atmospheric crankcase only (kind = \"atmospheric\"); a sealed or vented crankcase is the single-cylinder rig's",
+            ));
+        }
+        if e.cylinders.is_empty() || e.cylinders.len() > MAX_CYLINDERS {
+            return Err(self.rig.error(
+                "engine.cylinders",
+                format!(
+                    "an engine has 1 to {MAX_CYLINDERS} cylinders ([[engine.cylinders]]), got {}",
+                    e.cylinders.len()
+                ),
+            ));
+        }
+        if e.mains.len() < 2 {
+            return Err(self.rig.error(
+                "engine.mains",
+                format!(
+                    "a crank runs in at least two main bearings ([[engine.mains]]), got {}",
+                    e.mains.len()
+                ),
+            ));
+        }
+        for (i, m) in e.mains.iter().enumerate() {
+            let at = |k: &str| format!("engine.mains[{i}].{k}");
+            self.within(
+                &at("axial_position_m"),
+                m.axial_position_m,
+                (-l, l),
+                "m",
+                SIZE_WHY,
+            )?;
+            self.size(&at("radius_m"), m.radius_m, l, "m")?;
+            self.size(&at("length_m"), m.length_m, l, "m")?;
+            if i > 0 && m.axial_position_m <= e.mains[i - 1].axial_position_m {
+                return Err(self.rig.error(
+                    &at("axial_position_m"),
+                    format!(
+                        "main bearings are listed in axial order: main_{} at {} m must lie beyond main_{i} at {} m",
+                        i + 1,
+                        m.axial_position_m,
+                        e.mains[i - 1].axial_position_m
+                    ),
+                ));
+            }
+        }
+        if e.throws.is_empty() {
+            return Err(self.rig.error(
+                "engine.throws",
+                "the crank needs at least one throw ([[engine.throws]])",
+            ));
+        }
+        let (first, last) = (
+            e.mains[0].axial_position_m,
+            e.mains[e.mains.len() - 1].axial_position_m,
+        );
+        for (j, t) in e.throws.iter().enumerate() {
+            let at = |k: &str| format!("engine.throws[{j}].{k}");
+            self.within(
+                &at("angle_deg"),
+                t.angle_deg,
+                (-720.0, 720.0),
+                "degrees",
+                "a pin angle",
+            )?;
+            let z = t.axial_position_m;
+            if !(z.is_finite() && z > first && z < last) {
+                return Err(self.rig.error(
+                    &at("axial_position_m"),
+                    format!(
+                        "a throw lies between two main bearings, strictly inside ({first}, {last}) m, got {}",
+                        readable(z)
+                    ),
+                ));
+            }
+            if let Some(i) = e.throws[..j].iter().position(|o| o.axial_position_m == z) {
+                return Err(self.rig.error(
+                    &at("axial_position_m"),
+                    format!(
+                        "throw {} is at {z} m like throw {}: a throw listed twice? Rods sharing a pin (a V engine) name the same throw in [[engine.cylinders]]",
+                        j + 1,
+                        i + 1
+                    ),
+                ));
+            }
+            if t.counterweights.len() > 2 {
+                return Err(self.rig.error(
+                    &at("counterweights"),
+                    format!(
+                        "a throw has two webs, so at most two counterweights, got {}",
+                        t.counterweights.len()
+                    ),
+                ));
+            }
+            for (w, cw) in t.counterweights.iter().enumerate() {
+                let at = |k: &str| format!("engine.throws[{j}].counterweights[{w}].{k}");
+                self.size_or_zero(&at("mass_kg"), cw.mass_kg, MAX_MASS_KG, "kg")?;
+                self.size_or_zero(&at("radius_m"), cw.radius_m, l, "m")?;
+                self.within(
+                    &at("angle_deg"),
+                    cw.angle_deg,
+                    (-360.0, 360.0),
+                    "degrees",
+                    "an angle from the pin",
+                )?;
+            }
+        }
+        if let Some(v) = e.v_angle_deg {
+            if !(v.is_finite() && (0.0..=180.0).contains(&v)) {
+                return Err(self.rig.error(
+                    "engine.v_angle_deg",
+                    format!(
+                        "the V angle is the angle between the two banks, in [0, 180] degrees (0: inline, 180: a boxer or 180-degree V), got {}",
+                        readable(v)
+                    ),
+                ));
+            }
+        }
+        let r = f.geometry.crank_radius_m;
+        for (k, cyl) in e.cylinders.iter().enumerate() {
+            let at = |f: &str| format!("engine.cylinders[{k}].{f}");
+            if !(1..=e.throws.len()).contains(&cyl.throw) {
+                return Err(self.rig.error(
+                    &at("throw"),
+                    format!(
+                        "cylinder {} runs on throw {}, but the crank has throws 1 to {}",
+                        k + 1,
+                        cyl.throw,
+                        e.throws.len()
+                    ),
+                ));
+            }
+            match (e.v_angle_deg, cyl.bank, cyl.bank_deg) {
+                (Some(_), None, _) => {
+                    return Err(self.rig.error(
+                        &at("throw"),
+                        format!("cylinder {}: a V engine (engine.v_angle_deg) names each cylinder's `bank`, \"left\" or \"right\"", k + 1),
+                    ))
+                }
+                (Some(_), Some(_), Some(_)) => {
+                    return Err(self.rig.error(
+                        &at("bank_deg"),
+                        "give either `bank` (with engine.v_angle_deg) or `bank_deg`, not both",
+                    ))
+                }
+                (None, Some(_), _) => {
+                    return Err(self.rig.error(
+                        &at("bank"),
+                        "`bank` (left or right) needs the engine's V angle, engine.v_angle_deg; or give the cylinder's `bank_deg`",
+                    ))
+                }
+                (None, None, Some(b)) => self.within(
+                    &at("bank_deg"),
+                    b,
+                    (-180.0, 180.0),
+                    "degrees",
+                    "the cylinder axis from the vertical; two banks are at most 180 degrees apart, a V angle in [0, 180]",
+                )?,
+                _ => {}
+            }
+            self.within(
+                &at("pin_offset_m"),
+                cyl.pin_offset_m,
+                (-l, l),
+                "m",
+                SIZE_WHY,
+            )?;
+            self.within(
+                &at("crank_offset_m"),
+                cyl.crank_offset_m,
+                (-l, l),
+                "m",
+                SIZE_WHY,
+            )?;
+        }
+        let mut rod_of: Vec<Option<usize>> = vec![None; e.cylinders.len()];
+        for (i, rod) in e.rods.iter().enumerate() {
+            let at = |f: &str| format!("engine.rods[{i}].{f}");
+            if !(1..=e.cylinders.len()).contains(&rod.cylinder) {
+                return Err(self.rig.error(
+                    &at("cylinder"),
+                    format!(
+                        "rod {} names cylinder {}, but the engine has cylinders 1 to {}",
+                        i + 1,
+                        rod.cylinder,
+                        e.cylinders.len()
+                    ),
+                ));
+            }
+            if let Some(other) = rod_of[rod.cylinder - 1].replace(i) {
+                return Err(self.rig.error(
+                    &at("cylinder"),
+                    format!(
+                        "cylinder {} has two rods, engine.rods[{other}] and engine.rods[{i}]: one rod per cylinder (rods sharing a pin belong to different cylinders on one throw)",
+                        rod.cylinder
+                    ),
+                ));
+            }
+            let base = &f.bodies.rod;
+            if let Some(m) = rod.mass_kg {
+                self.size(&at("mass_kg"), m, MAX_MASS_KG, "kg")?;
+            }
+            if let Some(j) = rod.inertia_kg_m2 {
+                self.size(&at("inertia_kg_m2"), j, MAX_INERTIA_KG_M2, "kg m^2")?;
+            }
+            if let Some(len) = rod.length_m {
+                self.size(&at("length_m"), len, l, "m")?;
+            }
+            let len = rod.length_m.unwrap_or(base.length_m);
+            let com = rod.com_from_big_end_m.unwrap_or(base.com_from_big_end_m);
+            if !(com.is_finite() && (0.0..=len).contains(&com)) {
+                return Err(self.rig.error(
+                    &at("com_from_big_end_m"),
+                    format!("must lie between the pin centres, [0, {len}] m, got {com}"),
+                ));
+            }
+            let cyl = &e.cylinders[rod.cylinder - 1];
+            let reach = r + (cyl.pin_offset_m + cyl.crank_offset_m).abs();
+            if len <= reach {
+                return Err(self.rig.error(
+                    &at("length_m"),
+                    format!(
+                        "the rod ({len} m) must be longer than the crank radius plus the cylinder's offsets ({reach} m), or the mechanism locks"
+                    ),
+                ));
+            }
+        }
+        if let Some(k) = rod_of.iter().position(Option::is_none) {
+            return Err(self.rig.error(
+                &format!("engine.cylinders[{k}]"),
+                format!(
+                    "cylinder {} has no rod: add [[engine.rods]] with cylinder = {} (its mass, inertia and length default to [bodies.rod])",
+                    k + 1,
+                    k + 1
+                ),
+            ));
+        }
+        // The firing order: a permutation that fits the crank.
+        let geo =
+            tribo_core::engine::geometry(f).ok_or_else(|| self.rig.error("engine", "no engine"))?;
+        let phase0 = f.gas.cycle_angle_at_zero_deg.to_radians();
+        tribo_core::engine::cylinder_phases(
+            &tribo_core::engine::top_dead_centres(&geo),
+            &e.firing_order,
+            phase0,
+        )
+        .map_err(|err| self.rig.error("engine.firing_order", err.to_string()))?;
+        // The core's own checks (the same as above): a backstop, named at the engine table.
+        tribo_core::engine::CrankTrain::new(geo)
+            .map_err(|err| self.rig.error("engine", err.to_string()))?;
+        let names = e.joint_names();
+        if let Some(k) = e.laws.keys().find(|k| !names.contains(k)) {
+            return Err(self.rig.error(
+                &format!("engine.laws.{k}"),
+                format!(
+                    "the engine has no joint `{k}`; its joints are {} .. {}",
+                    names[0],
+                    names[names.len() - 1]
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     fn solver(&self) -> Result<(), RigError> {
         let s = &self.rig.file.solver;
         self.within(
@@ -1503,9 +1840,9 @@ pub fn parse_law_arg(arg: &str) -> Result<LawArg, RigError> {
     let (joint, spec) = arg
         .split_once('=')
         .ok_or_else(|| err("expected JOINT=LAW or JOINT=LAW:PARAMS.toml".into()))?;
-    if !JOINT_NAMES.contains(&joint) {
+    if !crate::lawset::is_joint_pattern(joint) {
         return Err(err(format!(
-            "unknown joint `{joint}`; the rig's joints are {}",
+            "unknown joint `{joint}`; the rig's joints are {} (an engine's: main_1 .. main_n, big_end_k, small_end_k, piston_k; groups: main_*, big_end_*, small_end_*, piston_*)",
             JOINT_NAMES.join(", ")
         )));
     }
@@ -1545,17 +1882,42 @@ pub fn attach_laws(rig: &mut Rig, args: &[String]) -> Result<(), RigError> {
     let mut replaced: Vec<String> = Vec::new();
     for arg in args {
         let LawArg { joint, law, origin } = parse_law_arg(arg)?;
-        if let Some(j) = rig.file.joints.get_mut(&joint) {
-            if !replaced.contains(&joint) {
-                j.laws.clear();
-                rig.law_origins.retain(|(name, _), _| *name != joint);
-                replaced.push(joint.clone());
+        // A group or, on an engine, a single-cylinder name: every joint it names.
+        let names = expand_joint(&joint, &rig.file);
+        if names.is_empty() {
+            return Err(RigError {
+                file: PathBuf::from("--law"),
+                line: None,
+                column: None,
+                field: arg.clone(),
+                message: format!(
+                    "the rig `{}` has no joint `{joint}`; its joints are {}",
+                    rig.file.name,
+                    match &rig.file.engine {
+                        Some(e) => e.joint_names().join(", "),
+                        None => JOINT_NAMES.join(", "),
+                    }
+                ),
+            });
+        }
+        for name in names {
+            let laws = match rig.file.engine.as_mut() {
+                Some(e) => e.laws.entry(name.clone()).or_default(),
+                None => match rig.file.joints.get_mut(&name) {
+                    Some(j) => &mut j.laws,
+                    None => continue,
+                },
+            };
+            if !replaced.contains(&name) {
+                laws.clear();
+                rig.law_origins.retain(|(n, _), _| *n != name);
+                replaced.push(name.clone());
             }
             rig.law_origins
-                .insert((joint.clone(), j.laws.len()), origin);
-            j.laws.push(law);
+                .insert((name.clone(), laws.len()), origin.clone());
+            laws.push(law.clone());
+            rig.overridden.push(format!("joints.{name}.laws"));
         }
-        rig.overridden.push(format!("joints.{joint}.laws"));
     }
     Ok(())
 }

@@ -318,7 +318,13 @@ impl GasModel {
     /// Pressures and force at crank angle `theta` (accumulated, rad) and crank speed `omega`
     /// (rad/s; only a vented crankcase depends on it).
     pub fn at(&self, theta: f64, omega: f64) -> GasState {
-        let x = self.piston_from_tdc(theta);
+        self.at_travel(theta, omega, self.piston_from_tdc(theta))
+    }
+
+    /// [`GasModel::at`] with the piston `x` m from its top dead centre: an engine's cylinder
+    /// with a pin or crank offset, whose travel is not the centred slider-crank's
+    /// (`crate::engine`).
+    pub fn at_travel(&self, theta: f64, omega: f64, x: f64) -> GasState {
         let phi = self.cycle_angle(theta);
         let cylinder_pa = match &self.cylinder {
             Cylinder::Ambient => self.ambient_pa,

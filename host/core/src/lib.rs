@@ -7,6 +7,7 @@
 //! it; progress is reported through [`observe`]. Laws come through `tribo_plugin_api`.
 
 pub mod cycle;
+pub mod engine;
 pub mod erk;
 pub mod gas;
 pub mod mechanics;

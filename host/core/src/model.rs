@@ -43,6 +43,213 @@ pub struct RigFile {
     /// thesis's head-less rig with an atmospheric crankcase).
     #[serde(default)]
     pub gas: GasSpec,
+    /// A multi-cylinder engine (`docs/engines.md`); absent: the single-cylinder rig.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub engine: Option<EngineSpec>,
+}
+
+/// A multi-cylinder crank train: throws, main bearings, cylinders, rods and firing order
+/// (`docs/engines.md`). The rig's `[bodies.crank]` is the crank's balanced part, `[bodies.rod]`
+/// and `[bodies.piston]` every cylinder's unless a rod says otherwise, and `[joints.big_end]`,
+/// `[joints.small_end]`, `[joints.piston]` every cylinder's joint geometry and laws.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct EngineSpec {
+    /// Cylinder numbers (1-based) in firing order: a permutation of 1..n.
+    pub firing_order: Vec<usize>,
+    /// A V engine's included angle, degrees, in [0, 180]; its cylinders then name their
+    /// `bank` (`left` at -V/2, `right` at +V/2) instead of a `bank_deg`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub v_angle_deg: Option<f64>,
+    /// Main bearings in axial order.
+    pub mains: Vec<MainSpec>,
+    /// Crank throws.
+    pub throws: Vec<ThrowSpec>,
+    /// Cylinders; cylinder k is the k-th entry.
+    pub cylinders: Vec<CylinderSpec>,
+    /// One rod per cylinder.
+    pub rods: Vec<RodSpec>,
+    /// Laws per engine joint (`main_2`, `piston_3`, ...): what a law set attaches. A cylinder
+    /// joint not listed takes the laws of its `[joints.*]` table.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub laws: std::collections::BTreeMap<String, Vec<LawRef>>,
+}
+
+/// A main bearing of an engine.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct MainSpec {
+    /// Position along the crank axis, m (strictly increasing from main to main).
+    pub axial_position_m: f64,
+    /// Journal radius, m.
+    pub radius_m: f64,
+    /// Bearing length, m.
+    pub length_m: f64,
+}
+
+/// A crank throw (pin and its two webs).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct ThrowSpec {
+    /// Pin angle added to the crank angle, degrees, in the direction of rotation.
+    pub angle_deg: f64,
+    /// Position along the crank axis, m: strictly between the first and last main.
+    pub axial_position_m: f64,
+    /// Counterweights, one per web (at most two).
+    #[serde(default)]
+    pub counterweights: Vec<CounterweightSpec>,
+}
+
+/// A web's counterweight as a point mass.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct CounterweightSpec {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// Radius of its centre of mass, m.
+    pub radius_m: f64,
+    /// Angle from the throw's pin, degrees (180: opposite).
+    #[serde(default = "deg180")]
+    pub angle_deg: f64,
+}
+
+/// Which bank of a V engine a cylinder is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(rename_all = "lowercase")]
+pub enum Bank {
+    /// At -V/2 from the vertical.
+    Left,
+    /// At +V/2.
+    Right,
+}
+
+/// A cylinder of an engine.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct CylinderSpec {
+    /// The throw its rod runs on (1-based).
+    pub throw: usize,
+    /// Cylinder axis from the vertical, degrees, in the direction of rotation (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bank_deg: Option<f64>,
+    /// The bank of a V engine (`engine.v_angle_deg`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bank: Option<Bank>,
+    /// Piston-pin offset from the bore axis, m.
+    #[serde(default)]
+    pub pin_offset_m: f64,
+    /// Bore axis offset from the crank centre, m.
+    #[serde(default)]
+    pub crank_offset_m: f64,
+}
+
+impl CylinderSpec {
+    /// The bank angle, degrees, given the engine's V angle.
+    pub fn bank_angle_deg(&self, v_angle_deg: Option<f64>) -> f64 {
+        match (self.bank, v_angle_deg) {
+            (Some(Bank::Left), Some(v)) => -0.5 * v,
+            (Some(Bank::Right), Some(v)) => 0.5 * v,
+            _ => self.bank_deg.unwrap_or(0.0),
+        }
+    }
+}
+
+/// A connecting rod of an engine: its cylinder, and anything that differs from `[bodies.rod]`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct RodSpec {
+    /// The cylinder (1-based).
+    pub cylinder: usize,
+    /// Mass, kg (default `[bodies.rod]`'s, scaled).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_kg: Option<f64>,
+    /// In-plane moment of inertia, kg m^2.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inertia_kg_m2: Option<f64>,
+    /// Length between pin centres, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length_m: Option<f64>,
+    /// Centre of mass from the big-end centre, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub com_from_big_end_m: Option<f64>,
+}
+
+/// The joint groups of law sets: `main_*`, `big_end_*`, `small_end_*`, `piston_*`.
+pub const JOINT_KINDS: [&str; 4] = ["main", "big_end", "small_end", "piston"];
+
+impl EngineSpec {
+    /// The engine's joint names in order: `main_1..main_n`, then per cylinder `big_end_k`,
+    /// `small_end_k`, `piston_k`.
+    pub fn joint_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = (1..=self.mains.len())
+            .map(|i| format!("main_{i}"))
+            .collect();
+        for k in 1..=self.cylinders.len() {
+            for kind in &JOINT_KINDS[1..] {
+                names.push(format!("{kind}_{k}"));
+            }
+        }
+        names
+    }
+}
+
+/// The joints a law-set entry's `joint` names on a rig: a joint, a group (`piston_*`), or on an
+/// engine rig a single-cylinder name meaning every cylinder's (`big_end`). Empty if none.
+/// `main_a`/`main_b` on an engine and numbered names beyond the rig's count match nothing.
+pub fn expand_joint(pattern: &str, rig: &RigFile) -> Vec<String> {
+    let kind_of = |name: &str| -> Option<(&'static str, Option<usize>)> {
+        JOINT_KINDS.iter().find_map(|k| {
+            let rest = name.strip_prefix(k)?;
+            if rest.is_empty() {
+                return Some((*k, None));
+            }
+            let n = rest.strip_prefix('_')?;
+            if n == "*" {
+                Some((*k, Some(0)))
+            } else {
+                n.parse::<usize>()
+                    .ok()
+                    .filter(|n| *n >= 1)
+                    .map(|n| (*k, Some(n)))
+            }
+        })
+    };
+    match &rig.engine {
+        None => {
+            if JOINT_NAMES.contains(&pattern) {
+                return vec![pattern.to_string()];
+            }
+            match kind_of(pattern) {
+                Some(("main", Some(0))) => vec!["main_a".into(), "main_b".into()],
+                Some(("main", Some(1))) => vec!["main_a".into()],
+                Some(("main", Some(2))) => vec!["main_b".into()],
+                Some((k, Some(0 | 1))) if k != "main" => vec![k.to_string()],
+                _ => Vec::new(),
+            }
+        }
+        Some(e) => {
+            let names = e.joint_names();
+            match kind_of(pattern) {
+                Some((k, None)) if k != "main" => names
+                    .into_iter()
+                    .filter(|n| kind_of(n).is_some_and(|(nk, _)| nk == k))
+                    .collect(),
+                Some((k, Some(0))) => names
+                    .into_iter()
+                    .filter(|n| kind_of(n).is_some_and(|(nk, _)| nk == k))
+                    .collect(),
+                Some(_) if names.iter().any(|n| n == pattern) => vec![pattern.to_string()],
+                _ => Vec::new(),
+            }
+        }
+    }
 }
 
 /// Standard atmospheric pressure, Pa.
@@ -340,9 +547,12 @@ pub struct Piston {
 #[serde(crate = "tribo_plugin_api::serde")]
 #[serde(deny_unknown_fields)]
 pub struct Joints {
-    /// First main bearing (crank to block).
+    /// First main bearing (crank to block). Absent in an engine rig (its mains are
+    /// `[[engine.mains]]`); a single-cylinder rig must give it (validation says so).
+    #[serde(default = "Joint::absent", skip_serializing_if = "Joint::is_absent")]
     pub main_a: Joint,
-    /// Second main bearing.
+    /// Second main bearing (see `main_a`).
+    #[serde(default = "Joint::absent", skip_serializing_if = "Joint::is_absent")]
     pub main_b: Joint,
     /// Big end (crank pin to rod).
     pub big_end: Joint,
@@ -395,6 +605,23 @@ pub struct Joint {
     /// Friction and damping laws, summed.
     #[serde(default)]
     pub laws: Vec<LawRef>,
+}
+
+impl Joint {
+    /// A main bearing the file does not give (an engine rig's `main_a`, `main_b`): no size.
+    pub fn absent() -> Joint {
+        Joint {
+            radius_m: f64::NAN,
+            length_m: f64::NAN,
+            load_share: 0.5,
+            laws: Vec::new(),
+        }
+    }
+
+    /// Whether this is [`Joint::absent`] (not written in the file).
+    pub fn is_absent(&self) -> bool {
+        self.radius_m.is_nan() && self.length_m.is_nan() && self.laws.is_empty()
+    }
 }
 
 /// A law attached to a joint.

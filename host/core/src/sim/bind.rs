@@ -83,6 +83,47 @@ impl BoundLaw {
     pub(super) fn is_stateful(&self) -> bool {
         !self.state.is_empty()
     }
+
+    /// Bind law `l` (the model's field `field`, `joints.J.laws[i]`) from `registry`: its
+    /// library, an instance with checked parameters, and its zero state.
+    pub(super) fn bind(
+        registry: &LawRegistry,
+        l: &crate::model::LawRef,
+        field: &str,
+    ) -> Result<BoundLaw, SimError> {
+        let lib = registry
+            .get(&l.law)
+            .map_err(|e| setup_error(format!("{field}.law"), e))?;
+        let instance = lib
+            .create(&l.params)
+            .map_err(|e| setup_error(format!("{field}.params"), e))?;
+        let state = instance
+            .new_state()
+            .map_err(|e| setup_error(format!("{field}.law"), e))?;
+        Ok(BoundLaw {
+            name: l.law.clone(),
+            instance,
+            state,
+            calls: AtomicU64::new(0),
+            timed: AtomicU64::new(0),
+            sampled_ns: (0..TIMING_KEPT).map(|_| AtomicU32::new(0)).collect(),
+        })
+    }
+
+    /// Advance the law's state over an accepted step ending at `input`.
+    pub(super) fn commit(&mut self, input: &LawInput) -> Result<(), LawError> {
+        self.instance.commit(input, &mut self.state)
+    }
+
+    /// Calls and estimated time so far, as on joint `joint`.
+    pub(super) fn time(&self, joint: &str) -> LawTime {
+        LawTime {
+            joint: joint.into(),
+            law: self.name.clone(),
+            calls: self.calls.load(Ordering::Relaxed),
+            seconds: self.ns_per_call() * self.calls.load(Ordering::Relaxed) as f64 * 1e-9,
+        }
+    }
 }
 
 /// The cost of reading the clock twice, ns, measured once: subtracted from every timed call.
@@ -167,23 +208,37 @@ impl BoundJoint {
         out: &LawOutput,
         reaction_n: f64,
     ) -> Result<f64, SimError> {
-        if !out.force.is_finite() {
-            return Err(unusable(self.id, law, input, out.force));
-        }
-        // Below the bound at the floor load and without optional outputs, nothing more to
-        // check: one comparison on the usual path.
-        if out.force.abs() > MAX_FORCE_PER_REACTION * REACTION_FLOOR_N
-            || out.flags & (HAS_COEFFICIENT | HAS_DERIVATIVE) != 0
-        {
-            implausible(self.id, law, input, out, reaction_n)?;
-        }
-        let power = out.force * input.relative_velocity;
-        let adds = power > 0.0 && !law.is_stateful() && power > 1e-9 * (1.0 + power.abs().sqrt());
-        if adds {
-            return Err(unusable(self.id, law, input, out.force));
-        }
-        Ok(power)
+        checked_power_named(self.id.name(), self.id.kind(), law, input, out, reaction_n)
     }
+}
+
+/// [`BoundJoint::checked_power`] for a law on the joint named `joint` of kind `kind` (an
+/// engine's joints are named at run time).
+#[inline(always)]
+pub(super) fn checked_power_named(
+    joint: &str,
+    kind: JointKind,
+    law: &BoundLaw,
+    input: &LawInput,
+    out: &LawOutput,
+    reaction_n: f64,
+) -> Result<f64, SimError> {
+    if !out.force.is_finite() {
+        return Err(unusable(joint, law, input, out.force));
+    }
+    // Below the bound at the floor load and without optional outputs, nothing more to
+    // check: one comparison on the usual path.
+    if out.force.abs() > MAX_FORCE_PER_REACTION * REACTION_FLOOR_N
+        || out.flags & (HAS_COEFFICIENT | HAS_DERIVATIVE) != 0
+    {
+        implausible(joint, kind, law, input, out, reaction_n)?;
+    }
+    let power = out.force * input.relative_velocity;
+    let adds = power > 0.0 && !law.is_stateful() && power > 1e-9 * (1.0 + power.abs().sqrt());
+    if adds {
+        return Err(unusable(joint, law, input, out.force));
+    }
+    Ok(power)
 }
 
 /// The error for an output no law may give, if `out` is one: a finite force or torque of more
@@ -192,13 +247,14 @@ impl BoundJoint {
 /// marked present.
 #[cold]
 fn implausible(
-    joint: JointId,
+    joint: &str,
+    kind: JointKind,
     law: &BoundLaw,
     input: &LawInput,
     out: &LawOutput,
     reaction_n: f64,
 ) -> Result<(), SimError> {
-    let (noun, unit) = match joint.kind() {
+    let (noun, unit) = match kind {
         JointKind::Prismatic => ("force", "N"),
         JointKind::Revolute => ("torque", "N m"),
     };
@@ -238,23 +294,31 @@ fn implausible(
 pub(super) fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), SimError> {
     for (name, j) in model.joints.named() {
         for (i, l) in j.laws.iter().enumerate() {
-            let field = format!("joints.{name}.laws[{i}]");
-            let lib = registry
-                .get(&l.law)
-                .map_err(|e| setup_error(format!("{field}.law"), e))?;
-            tribo_plugin_api::describe::check_params(lib.description(), &l.params).map_err(
-                |source| {
-                    setup_error(
-                        format!("{field}.params"),
-                        LawError::Param {
-                            error: source,
-                            path: lib.path().to_path_buf(),
-                        },
-                    )
-                },
-            )?;
+            check_law(registry, l, &format!("joints.{name}.laws[{i}]"))?;
         }
     }
+    Ok(())
+}
+
+/// Check one law (the model's field `field`) against `registry` without creating it: the law
+/// exists and its parameters have the declared names, types and ranges.
+pub(super) fn check_law(
+    registry: &LawRegistry,
+    l: &crate::model::LawRef,
+    field: &str,
+) -> Result<(), SimError> {
+    let lib = registry
+        .get(&l.law)
+        .map_err(|e| setup_error(format!("{field}.law"), e))?;
+    tribo_plugin_api::describe::check_params(lib.description(), &l.params).map_err(|source| {
+        setup_error(
+            format!("{field}.params"),
+            LawError::Param {
+                error: source,
+                path: lib.path().to_path_buf(),
+            },
+        )
+    })?;
     Ok(())
 }
 
@@ -289,30 +353,16 @@ pub(super) fn bind_joints(
     model: &RigFile,
     registry: &LawRegistry,
 ) -> Result<(Vec<BoundJoint>, usize), SimError> {
-    let setup = setup_error;
     let mut joints = Vec::with_capacity(JointId::ALL.len());
     let mut n_laws = 0;
     for (id, (name, j)) in JointId::ALL.into_iter().zip(model.joints.named()) {
         let mut laws = Vec::new();
         for (i, l) in j.laws.iter().enumerate() {
-            let field = format!("joints.{name}.laws[{i}]");
-            let lib = registry
-                .get(&l.law)
-                .map_err(|e| setup(format!("{field}.law"), e))?;
-            let instance = lib
-                .create(&l.params)
-                .map_err(|e| setup(format!("{field}.params"), e))?;
-            let state = instance
-                .new_state()
-                .map_err(|e| setup(format!("{field}.law"), e))?;
-            laws.push(BoundLaw {
-                name: l.law.clone(),
-                instance,
-                state,
-                calls: AtomicU64::new(0),
-                timed: AtomicU64::new(0),
-                sampled_ns: (0..TIMING_KEPT).map(|_| AtomicU32::new(0)).collect(),
-            });
+            laws.push(BoundLaw::bind(
+                registry,
+                l,
+                &format!("joints.{name}.laws[{i}]"),
+            )?);
             n_laws += 1;
         }
         joints.push(BoundJoint {
@@ -336,22 +386,21 @@ pub(super) fn reset_states(joints: &mut [BoundJoint]) {
 pub(super) fn law_time(joints: &[BoundJoint]) -> Vec<LawTime> {
     joints
         .iter()
-        .flat_map(|j| {
-            j.laws.iter().map(move |l| LawTime {
-                joint: j.id.name().into(),
-                law: l.name.clone(),
-                calls: l.calls.load(Ordering::Relaxed),
-                seconds: l.ns_per_call() * l.calls.load(Ordering::Relaxed) as f64 * 1e-9,
-            })
-        })
+        .flat_map(|j| j.laws.iter().map(move |l| l.time(j.id.name())))
         .collect()
 }
 
 /// A law that failed (panicked or returned an error code) at `input`.
 #[cold]
 pub(super) fn law_failed(joint: JointId, input: &LawInput, e: LawError) -> SimError {
+    law_failed_named(joint.name(), input, e)
+}
+
+/// [`law_failed`] on the joint named `joint`.
+#[cold]
+pub(super) fn law_failed_named(joint: &str, input: &LawInput, e: LawError) -> SimError {
     SimError::Law {
-        joint: joint.name().into(),
+        joint: joint.into(),
         time_s: input.time_s,
         velocity: input.relative_velocity,
         load_n: input.normal_load_n,
@@ -360,9 +409,9 @@ pub(super) fn law_failed(joint: JointId, input: &LawInput, e: LawError) -> SimEr
 }
 
 /// Where, when and with which inputs `law` on `joint` returned `force`.
-fn fault(joint: JointId, law: &BoundLaw, input: &LawInput, force: f64) -> Box<Fault> {
+fn fault(joint: &str, law: &BoundLaw, input: &LawInput, force: f64) -> Box<Fault> {
     Box::new(Fault {
-        joint: joint.name().into(),
+        joint: joint.into(),
         law: law.name.clone(),
         file: law.instance.path().display().to_string(),
         time_s: input.time_s,
@@ -374,7 +423,7 @@ fn fault(joint: JointId, law: &BoundLaw, input: &LawInput, force: f64) -> Box<Fa
 
 /// A law that returned a non-finite force, or (stateless) one that adds energy.
 #[cold]
-fn unusable(joint: JointId, law: &BoundLaw, input: &LawInput, force: f64) -> SimError {
+fn unusable(joint: &str, law: &BoundLaw, input: &LawInput, force: f64) -> SimError {
     let fault = fault(joint, law, input, force);
     if force.is_finite() {
         SimError::AddsEnergy(fault)

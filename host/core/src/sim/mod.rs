@@ -18,6 +18,7 @@ mod adaptive;
 mod bind;
 mod crank_angle;
 mod energy;
+mod engine_run;
 mod error;
 mod evaluate;
 mod joint;
@@ -42,11 +43,12 @@ use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_N
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
 pub use crank_angle::{AngleSample, CrankAngleTrace, LawSample};
+pub use engine_run::EngineSimulation;
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use joint::JointId;
 pub use results::{
-    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, LawResult, LawTime, PlateauFmep,
-    PlateauResult, RegimeShare, RunResult,
+    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
+    PlateauFmep, PlateauResult, RegimeShare, RunResult,
 };
 
 use adaptive::Adaptive;
@@ -135,6 +137,25 @@ fn rig_geometry(f: &RigFile) -> RigGeometry {
     }
 }
 
+/// A multi-cylinder engine rig is described and validated (`tribo_core::engine` solves its
+/// crank train at one instant) but not yet run by the simulation: an error saying so, rather
+/// than a single cylinder's answer.
+fn not_an_engine(f: &RigFile) -> Result<(), SimError> {
+    match &f.engine {
+        None => Ok(()),
+        Some(e) => Err(SimError::Setup {
+            at: None,
+            field: "engine".into(),
+            law: None,
+            param: None,
+            message: format!(
+                "this rig is a {}-cylinder engine; engines run in steady state only so far (`tribo run --steady`, docs/engines.md, Status)",
+                e.cylinders.len()
+            ),
+        }),
+    }
+}
+
 /// Which step method a transient run uses.
 enum Method {
     /// Prescribed crank: Simpson quadrature of the exact reference motion.
@@ -149,12 +170,14 @@ impl Simulation {
     /// Check `model`'s laws against `registry` (each law known, its parameters' names, types
     /// and ranges) without creating an instance: no law code beyond its description runs.
     pub fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), SimError> {
+        not_an_engine(model)?;
         bind::check_laws(model, registry)
     }
 
     /// Bind the model's laws (from `registry`) and prepare the mechanism and cycle.
     pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
         let f = model;
+        not_an_engine(f)?;
         let (joints, n_laws) = bind::bind_joints(f, registry)?;
         let mut switch_mask = [false; SWITCHES];
         for j in &joints {

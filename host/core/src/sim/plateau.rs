@@ -277,6 +277,7 @@ impl Simulation {
             window_s,
             revolutions: revs,
             joints,
+            groups: Vec::new(),
         }
     }
 }

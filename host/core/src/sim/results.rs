@@ -92,6 +92,23 @@ pub struct PlateauResult {
     /// Friction mean effective pressure, total and per component (basis: [`RunResult::fmep`]).
     #[serde(default)]
     pub fmep: PlateauFmep,
+    /// An engine's totals per component (`main_*`, `big_end_*`, ...) and per cylinder; empty
+    /// (and left out of the JSON) for the single-cylinder rig.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub groups: Vec<GroupTotal>,
+}
+
+/// The friction of a group of an engine's joints: a component over every cylinder
+/// (`piston_*`) or one cylinder's joints (`cylinder 2`: big end, small end, piston).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct GroupTotal {
+    /// `main_*`, `big_end_*`, `small_end_*`, `piston_*` or `cylinder K`.
+    pub group: String,
+    /// Mean friction torque at the crank, N m.
+    pub friction_torque_nm: f64,
+    /// Mean dissipated power, W.
+    pub power_w: f64,
 }
 
 /// How FMEP is defined for a run: the work per cycle over the displacement.

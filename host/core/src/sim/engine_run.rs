@@ -1,0 +1,910 @@
+//! A multi-cylinder engine's steady state (issue 18, `docs/engines.md`): each plateau speed
+//! computed directly, the crank turning at exactly that speed, over one cycle (two
+//! revolutions for a 4-stroke pressure), with the crank train of `crate::engine`, a law set's
+//! laws on every main bearing and every cylinder's big end, small end and piston, and each
+//! cylinder's gas pressure phase-shifted by the firing order.
+//!
+//! The friction/reaction iteration is the plain fixed-point iteration of the single-cylinder
+//! rig (`evaluate`): reactions, normal loads, laws, friction loads, until the normal loads
+//! settle. The single-cylinder rig's phase-2 Newton iteration and its transient runs are not
+//! available here yet: an iteration that does not settle ends the run naming the joints.
+
+use std::f64::consts::TAU;
+
+use nalgebra::Vector2;
+use tribo_plugin_api::loader::LawRegistry;
+use tribo_plugin_api::{JointKind, LawInput, Regime};
+
+use super::bind::{check_law, BoundLaw};
+use super::error::{SimError, Unsettled};
+use super::evaluate::crank_angle;
+use super::results::{
+    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
+    PlateauFmep, PlateauResult, RegimeShare, RunResult,
+};
+use crate::cycle::{rad_s_to_rpm, Cycle};
+use crate::engine::{
+    cylinder_phases, geometry, top_dead_centres, CrankTrain, CylinderLoads, TrainKinematics,
+    TrainLoads, TrainReactions,
+};
+use crate::gas::{cycle_angle, GasModel, LawGas};
+use crate::model::{RigFile, Temperature};
+
+/// What a joint of an engine is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Role {
+    /// Main bearing `i` (0-based).
+    Main(usize),
+    /// Cylinder `k`'s big end.
+    BigEnd(usize),
+    /// Cylinder `k`'s small end.
+    SmallEnd(usize),
+    /// Cylinder `k`'s piston slide.
+    Piston(usize),
+}
+
+impl Role {
+    /// The joint's group, naming it in a model error.
+    fn group(self) -> &'static str {
+        match self {
+            Role::Main(_) => "main_*",
+            Role::BigEnd(_) => "big_end_*",
+            Role::SmallEnd(_) => "small_end_*",
+            Role::Piston(_) => "piston_*",
+        }
+    }
+
+    /// The cylinder whose gas state the joint's laws see (the mains: cylinder 1).
+    fn cylinder(self) -> usize {
+        match self {
+            Role::Main(_) => 0,
+            Role::BigEnd(k) | Role::SmallEnd(k) | Role::Piston(k) => k,
+        }
+    }
+
+    fn kind(self) -> JointKind {
+        match self {
+            Role::Piston(_) => JointKind::Prismatic,
+            _ => JointKind::Revolute,
+        }
+    }
+}
+
+/// One joint of the engine with its contact geometry and laws.
+struct EngineJoint {
+    name: String,
+    role: Role,
+    radius_m: f64,
+    length_m: f64,
+    laws: Vec<BoundLaw>,
+}
+
+/// A multi-cylinder engine ready for its steady state.
+pub struct EngineSimulation {
+    rig_name: String,
+    train: CrankTrain,
+    joints: Vec<EngineJoint>,
+    cycle: Cycle,
+    temps: Vec<f64>,
+    viscosities: Vec<f64>,
+    step_rad: f64,
+    tol: f64,
+    max_iter: u32,
+    /// Each cylinder's gas model with its own 4-stroke phase (none without `[gas]`).
+    gas: Vec<GasModel>,
+    /// Each cylinder's 4-stroke phase from the firing order, rad.
+    phases: Vec<f64>,
+    /// Each cylinder's piston position at its top dead centre, from the crank centre along
+    /// its axis, m: `sqrt((l + r)^2 - e^2)` for the offset `e`.
+    tdc_position: Vec<f64>,
+    four_stroke: bool,
+    displacement_m3: f64,
+    n_laws: usize,
+    stateful: bool,
+}
+
+/// Where each accumulated quantity sits: motor power, the gas power, then per law its
+/// dissipated power, four regime indicators and its normal load.
+const MOTOR: usize = 0;
+const GAS: usize = 1;
+const PER_LAW: usize = 6;
+fn power_at(k: usize) -> usize {
+    2 + PER_LAW * k
+}
+fn regime_at(k: usize, r: usize) -> usize {
+    3 + PER_LAW * k + r
+}
+fn normal_at(k: usize) -> usize {
+    7 + PER_LAW * k
+}
+
+impl EngineSimulation {
+    /// Check an engine rig's laws against `registry` (each law known, its parameters' names,
+    /// types and ranges) without creating an instance.
+    pub fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), SimError> {
+        for (name, _, laws) in joint_laws(model)? {
+            for (i, l) in laws.iter().enumerate() {
+                check_law(registry, l, &law_field(model, &name, i))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Bind an engine rig's laws (from `registry`) and prepare its crank train, cycle and gas.
+    pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
+        let f = model;
+        let setup = |message: String| SimError::Setup {
+            at: None,
+            field: "engine".into(),
+            law: None,
+            param: None,
+            message,
+        };
+        let e = f
+            .engine
+            .as_ref()
+            .ok_or_else(|| setup("not an engine rig: it has no [engine] table".into()))?;
+        let geo = geometry(f).ok_or_else(|| setup("no engine".into()))?;
+        let phases = cylinder_phases(
+            &top_dead_centres(&geo),
+            &e.firing_order,
+            f.gas.cycle_angle_at_zero_deg.to_radians(),
+        )
+        .map_err(|err| setup(err.to_string()))?;
+        let train = CrankTrain::new(geo).map_err(|err| setup(err.to_string()))?;
+        let tdc_position = train
+            .geometry()
+            .cylinders
+            .iter()
+            .map(|c| {
+                let reach = c.rod.length_m + train.geometry().crank_radius_m;
+                let e = c.pin_offset_m + c.crank_offset_m;
+                (reach * reach - e * e).sqrt()
+            })
+            .collect();
+        let mut joints = Vec::new();
+        let mut n_laws = 0;
+        for (name, role, laws) in joint_laws(f)? {
+            let (radius_m, length_m) = match role {
+                Role::Main(i) => (e.mains[i].radius_m, e.mains[i].length_m),
+                Role::BigEnd(_) => (f.joints.big_end.radius_m, f.joints.big_end.length_m),
+                Role::SmallEnd(_) => (f.joints.small_end.radius_m, f.joints.small_end.length_m),
+                Role::Piston(_) => (f.joints.piston.radius_m, f.joints.piston.length_m),
+            };
+            let laws = laws
+                .iter()
+                .enumerate()
+                .map(|(i, l)| BoundLaw::bind(registry, l, &law_field(f, &name, i)))
+                .collect::<Result<Vec<_>, _>>()?;
+            n_laws += laws.len();
+            joints.push(EngineJoint {
+                name,
+                role,
+                radius_m,
+                length_m,
+                laws,
+            });
+        }
+        // Each cylinder's gas: the rig's model with the cylinder's own 4-stroke phase,
+        // evaluated at the cylinder's own crank angle.
+        let gas: Vec<GasModel> = phases
+            .iter()
+            .filter_map(|phase| {
+                let mut fk = f.clone();
+                fk.gas.cycle_angle_at_zero_deg = phase.to_degrees();
+                GasModel::from_rig(&fk)
+            })
+            .collect();
+        let four_stroke = gas.iter().any(GasModel::four_stroke);
+        let cycle = Cycle::new(&f.cycle.segments());
+        let temps: Vec<f64> = match &f.oil.temperature_c {
+            Temperature::Constant(t) => vec![*t; cycle.plateaus().len()],
+            Temperature::PerPlateau(v) => v.clone(),
+        };
+        let viscosities = temps
+            .iter()
+            .map(|t| f.oil.viscosity.kinematic_cst(*t) * 1e-6 * f.oil.density_kg_m3)
+            .collect();
+        let stateful = joints
+            .iter()
+            .any(|j| j.laws.iter().any(BoundLaw::is_stateful));
+        let n_cyl = e.cylinders.len() as f64;
+        Ok(Self {
+            rig_name: f.name.clone(),
+            train,
+            joints,
+            cycle,
+            temps,
+            viscosities,
+            step_rad: f.solver.step_deg.to_radians(),
+            tol: f.solver.friction_tol,
+            max_iter: f.solver.friction_max_iter,
+            tdc_position,
+            gas,
+            phases,
+            four_stroke,
+            displacement_m3: n_cyl
+                * std::f64::consts::PI
+                * 0.25
+                * f.geometry.bore_m
+                * f.geometry.bore_m
+                * 2.0
+                * f.geometry.crank_radius_m,
+            n_laws,
+            stateful,
+        })
+    }
+
+    /// The crank train.
+    pub fn train(&self) -> &CrankTrain {
+        &self.train
+    }
+
+    /// The engine's joint names in order (mains, then per cylinder big end, small end, piston).
+    pub fn joint_names(&self) -> Vec<String> {
+        self.joints.iter().map(|j| j.name.clone()).collect()
+    }
+
+    /// The run's FMEP definition: the displacement of all cylinders, 4-stroke when the gas
+    /// pressure makes the cycle 4-stroke.
+    pub fn fmep(&self) -> Fmep {
+        Fmep {
+            basis: if self.four_stroke {
+                FmepBasis::FourStroke
+            } else {
+                FmepBasis::TwoStroke
+            },
+            displacement_m3: self.displacement_m3,
+        }
+    }
+
+    fn cycle_angle(&self) -> f64 {
+        if self.four_stroke {
+            2.0 * TAU
+        } else {
+            TAU
+        }
+    }
+
+    fn len(&self) -> usize {
+        2 + PER_LAW * self.n_laws
+    }
+
+    /// Steady state at every plateau speed (see the module): one cycle per plateau with
+    /// stateless laws; with stateful laws cycles repeat until the mean torque repeats to 1e-9
+    /// (at most 200). Every law's state starts from zero at every plateau.
+    pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
+        let n_plateaus = self.cycle.plateaus().len();
+        let mut results = Vec::with_capacity(n_plateaus);
+        let (mut motor, mut dissipated, mut gas_work) = (0.0, 0.0, 0.0);
+        let mut work = Work::new(self);
+        let mut steps = 0_u64;
+        for pi in 0..n_plateaus {
+            let omega = self.cycle.plateaus()[pi].omega;
+            for l in self.joints.iter_mut().flat_map(|j| j.laws.iter_mut()) {
+                l.state.iter_mut().for_each(|x| *x = 0.0);
+            }
+            let (delta, t) = self.plateau(pi, omega, &mut work, &mut steps)?;
+            motor += delta[MOTOR];
+            gas_work += delta[GAS];
+            dissipated += (0..self.n_laws).map(|k| delta[power_at(k)]).sum::<f64>();
+            let cycle = self.cycle_angle();
+            results.push(self.plateau_result(
+                pi,
+                omega,
+                &delta,
+                cycle / omega,
+                [t - cycle / omega, t],
+            ));
+        }
+        let energy = EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas_work);
+        Ok(RunResult {
+            rig: self.rig_name.clone(),
+            drive: DriveKind::Steady,
+            plateaus: results,
+            fmep: self.fmep(),
+            energy_residual_j: energy.residual_j,
+            energy,
+            steps,
+            rejected_steps: 0,
+            max_friction_iterations: work.max_it,
+            warnings: Vec::new(),
+            law_time: self
+                .joints
+                .iter()
+                .flat_map(|j| j.laws.iter().map(|l| l.time(&j.name)))
+                .collect::<Vec<LawTime>>(),
+        })
+    }
+
+    /// One plateau: the accumulated quantities over its last cycle and the time at its end.
+    fn plateau(
+        &mut self,
+        pi: usize,
+        omega: f64,
+        w: &mut Work,
+        steps: &mut u64,
+    ) -> Result<(Vec<f64>, f64), SimError> {
+        let oil = (self.temps[pi], self.viscosities[pi]);
+        let cycle = self.cycle_angle();
+        let m = ((cycle / self.step_rad).ceil() as usize).max(16);
+        let h = cycle / omega / m as f64;
+        w.loads = TrainLoads {
+            main_torque_nm: 0.0,
+            cylinders: vec![CylinderLoads::default(); self.train.geometry().cylinders.len()],
+        };
+        let mut delta = vec![0.0; self.len()];
+        let mut last = f64::NAN;
+        let mut t = 0.0;
+        let max_cycles = if self.stateful { 200 } else { 1 };
+        for _ in 0..max_cycles {
+            delta.iter_mut().for_each(|x| *x = 0.0);
+            // The periodic trapezoid rule on equally spaced samples (as the single-cylinder
+            // steady state).
+            for _ in 0..m {
+                t += h;
+                let at = At {
+                    t,
+                    dt: h,
+                    crank_angle: crank_angle(omega * t),
+                    omega,
+                    oil,
+                };
+                self.evaluate(omega * t, &at, w)?;
+                for (d, r) in delta.iter_mut().zip(&w.rates) {
+                    *d += h * r;
+                }
+                if self.stateful {
+                    self.commit(w)?;
+                }
+                *steps += 1;
+            }
+            let torque = delta[MOTOR] / cycle;
+            if !self.stateful || (torque - last).abs() <= 1e-9 * torque.abs().max(1e-12) {
+                break;
+            }
+            last = torque;
+        }
+        Ok((delta, t))
+    }
+
+    /// The relative velocity of each joint (rad/s for bearings and pins, m/s for a slide).
+    fn relative_velocity(role: Role, kin: &TrainKinematics) -> f64 {
+        match role {
+            Role::Main(_) => kin.omega,
+            Role::BigEnd(k) => kin.cylinders[k].rod_rate_rad_s - kin.omega,
+            Role::SmallEnd(k) => -kin.cylinders[k].rod_rate_rad_s,
+            Role::Piston(k) => kin.cylinders[k].piston_speed_m_s,
+        }
+    }
+
+    /// The reaction a joint's laws see: its force (components, global frame) and moment.
+    fn reaction(role: Role, re: &TrainReactions) -> (Vector2<f64>, f64) {
+        match role {
+            Role::Main(i) => (re.mains_n[i], 0.0),
+            Role::BigEnd(k) => (re.cylinders[k].big_end_n, 0.0),
+            Role::SmallEnd(k) => (re.cylinders[k].small_end_n, 0.0),
+            // As on the single-cylinder rig: the side thrust as the y component.
+            Role::Piston(k) => (
+                Vector2::new(0.0, re.cylinders[k].slide_lateral_n),
+                re.cylinders[k].slide_moment_nm,
+            ),
+        }
+    }
+
+    /// One instant at crank angle `theta`: kinematics with the gas forces, then the plain
+    /// friction/reaction iteration from `w.loads`; the rates, reactions and settled loads are
+    /// left in `w`.
+    fn evaluate(&self, theta: f64, at: &At, w: &mut Work) -> Result<(), SimError> {
+        let n_cyl = self.train.geometry().cylinders.len();
+        w.gas_forces.clear();
+        w.gas_forces.resize(n_cyl, 0.0);
+        // Each cylinder's local angle: its gas model is evaluated there.
+        let mut locals = [0.0; crate::engine::MAX_CYLINDERS];
+        self.train.kinematics_into(theta, at.omega, &[], &mut w.kin);
+        let mut travel = [0.0; crate::engine::MAX_CYLINDERS];
+        for (k, c) in w.kin.cylinders.iter().enumerate() {
+            locals[k] = c.local_angle_rad;
+            travel[k] = self.tdc_position[k] - c.piston_position_m;
+        }
+        // What each cylinder's laws are handed (contract version 2): its gas state, or the
+        // atmosphere, its piston travel and its own 4-stroke angle without a gas model.
+        w.law_gas.clear();
+        if self.gas.is_empty() {
+            let geo = self.train.geometry();
+            let ambient = tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
+            for k in 0..geo.cylinders.len() {
+                w.law_gas.push(LawGas {
+                    cylinder_pa: ambient,
+                    crankcase_pa: ambient,
+                    piston_from_tdc_m: travel[k],
+                    cycle_angle_rad: cycle_angle(locals[k] + self.phases[k]),
+                });
+            }
+        } else {
+            for (k, g) in self.gas.iter().enumerate() {
+                // The volume follows the piston's true travel (with offsets, its dead centres
+                // are not at local angles 0 and pi); the valve events stay at those angles.
+                let state = g.at_travel(locals[k], at.omega, travel[k]);
+                w.gas_forces[k] = state.force_n;
+                w.law_gas.push((&state).into());
+            }
+            self.train
+                .kinematics_into(theta, at.omega, &w.gas_forces, &mut w.kin);
+        }
+        w.rates.clear();
+        w.rates.resize(self.len(), 0.0);
+        w.rates[GAS] = -w
+            .gas_forces
+            .iter()
+            .zip(&w.kin.cylinders)
+            .map(|(f, c)| f * c.piston_speed_m_s)
+            .sum::<f64>();
+        for it in 1..=self.max_iter {
+            self.train.reactions_into(&w.kin, 0.0, &w.loads, &mut w.re);
+            w.normals.clear();
+            w.normals.extend(
+                self.joints
+                    .iter()
+                    .map(|j| Self::reaction(j.role, &w.re).0.norm()),
+            );
+            if let Some((j, n)) = self
+                .joints
+                .iter()
+                .zip(&w.normals)
+                .find(|(_, n)| !n.is_finite())
+            {
+                return Err(SimError::Model {
+                    time_s: at.t,
+                    quantity: "normal load",
+                    joint: Some(j.role.group()),
+                    value: *n,
+                });
+            }
+            let scale = w.normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+            let change = (it > 1).then(|| {
+                w.prev
+                    .iter()
+                    .zip(&w.normals)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+            });
+            if self.n_laws == 0 || change.is_some_and(|d| d <= self.tol * scale) {
+                w.max_it = w.max_it.max(it);
+                w.rates[MOTOR] = w.re.drive_torque_nm * at.omega;
+                return Ok(());
+            }
+            if it == self.max_iter {
+                let before = if it > 1 { &w.prev } else { &w.normals };
+                return Err(self.no_convergence(at.t, it, before, &w.normals, scale));
+            }
+            // A round of laws at these normal loads.
+            let reaction_n = w.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
+            let mut loads = TrainLoads {
+                main_torque_nm: 0.0,
+                cylinders: std::mem::take(&mut w.loads.cylinders),
+            };
+            loads
+                .cylinders
+                .iter_mut()
+                .for_each(|c| *c = CylinderLoads::default());
+            let mut k = 0;
+            w.inputs.clear();
+            for (j, normal) in self.joints.iter().zip(&w.normals) {
+                let (comp, moment) = Self::reaction(j.role, &w.re);
+                let mut input = LawInput::at_rest(j.role.kind());
+                input.contact_radius_m = j.radius_m;
+                input.contact_length_m = j.length_m;
+                input.oil_temp_c = at.oil.0;
+                input.viscosity_pa_s = at.oil.1;
+                input.engine_speed_rad_s = at.omega;
+                input.crank_angle_rad = at.crank_angle;
+                input.time_s = at.t;
+                input.dt_s = at.dt;
+                // A cylinder's joints see its own gas state; the mains, cylinder 1's.
+                let gas = &w.law_gas[j.role.cylinder()];
+                input.cylinder_pressure_pa = gas.cylinder_pa;
+                input.crankcase_pressure_pa = gas.crankcase_pa;
+                input.piston_from_tdc_m = gas.piston_from_tdc_m;
+                input.cycle_angle_rad = gas.cycle_angle_rad;
+                let mut input = input.with_velocity(Self::relative_velocity(j.role, &w.kin));
+                input.normal_load_n = *normal;
+                input.reaction_x_n = comp.x;
+                input.reaction_y_n = comp.y;
+                input.reaction_moment_nm = moment;
+                let mut total = 0.0;
+                for law in &j.laws {
+                    let out = law
+                        .call(&input)
+                        .map_err(|e| super::bind::law_failed_named(&j.name, &input, e))?;
+                    let power = super::bind::checked_power_named(
+                        &j.name,
+                        j.role.kind(),
+                        law,
+                        &input,
+                        &out,
+                        reaction_n,
+                    )?;
+                    total += out.force;
+                    let regime = out.regime().unwrap_or(Regime::None) as usize;
+                    w.rates[power_at(k)] = -power;
+                    for r in 0..4 {
+                        w.rates[regime_at(k, r)] = if r == regime { 1.0 } else { 0.0 };
+                    }
+                    w.rates[normal_at(k)] = *normal;
+                    k += 1;
+                }
+                w.inputs.push(input);
+                match j.role {
+                    Role::Main(_) => loads.main_torque_nm += total,
+                    Role::BigEnd(c) => loads.cylinders[c].big_end_torque_nm = total,
+                    Role::SmallEnd(c) => loads.cylinders[c].small_end_torque_nm = total,
+                    Role::Piston(c) => loads.cylinders[c].slide_force_n = total,
+                }
+            }
+            w.loads = loads;
+            std::mem::swap(&mut w.prev, &mut w.normals);
+        }
+        Err(self.no_convergence(at.t, self.max_iter, &[], &[], 1.0))
+    }
+
+    /// Commit every stateful law over the accepted step, at the inputs of the step's settled
+    /// evaluation.
+    fn commit(&mut self, w: &Work) -> Result<(), SimError> {
+        for (j, input) in self.joints.iter_mut().zip(&w.inputs) {
+            for law in j.laws.iter_mut().filter(|l| l.is_stateful()) {
+                law.commit(input)
+                    .map_err(|e| super::bind::law_failed_named(&j.name, input, e))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The error for an iteration that did not settle: the joints with laws whose normal load
+    /// still moved by more than the tolerance.
+    fn no_convergence(
+        &self,
+        t: f64,
+        iterations: u32,
+        before: &[f64],
+        after: &[f64],
+        scale: f64,
+    ) -> SimError {
+        let changes: Vec<f64> = before
+            .iter()
+            .zip(after)
+            .map(|(a, b)| (a - b).abs())
+            .collect();
+        let unsettled = self
+            .joints
+            .iter()
+            .zip(&changes)
+            .filter(|(j, c)| !j.laws.is_empty() && **c > self.tol * scale)
+            .map(|(j, c)| Unsettled {
+                joint: j.name.clone(),
+                laws: j.laws.iter().map(|l| l.name.clone()).collect(),
+                change_n: *c,
+            })
+            .collect();
+        SimError::NoConvergence {
+            time_s: t,
+            iterations,
+            change_n: changes.iter().fold(0.0, |m: f64, c| m.max(*c)),
+            tol: self.tol,
+            unsettled,
+        }
+    }
+
+    /// A plateau's result from its accumulated quantities over `dt` seconds of one cycle.
+    fn plateau_result(
+        &self,
+        pi: usize,
+        omega: f64,
+        delta: &[f64],
+        dt: f64,
+        window_s: [f64; 2],
+    ) -> PlateauResult {
+        let dtheta = self.cycle_angle();
+        let mut joints = Vec::new();
+        let mut k = 0;
+        for j in &self.joints {
+            for law in &j.laws {
+                let share = |r: usize| delta[regime_at(k, r)] / dt;
+                joints.push(LawResult {
+                    joint: j.name.clone(),
+                    law: law.name.clone(),
+                    friction_torque_nm: delta[power_at(k)] / dtheta,
+                    power_w: delta[power_at(k)] / dt,
+                    mean_normal_load_n: delta[normal_at(k)] / dt,
+                    regime_share: RegimeShare {
+                        none: share(0),
+                        boundary: share(1),
+                        mixed: share(2),
+                        hydrodynamic: share(3),
+                    },
+                });
+                k += 1;
+            }
+        }
+        let fmep = self.fmep();
+        let mut components: Vec<ComponentFmep> = Vec::new();
+        for l in &joints {
+            match components.iter_mut().find(|c| c.joint == l.joint) {
+                Some(c) => c.kpa += fmep.kpa(l.friction_torque_nm),
+                None => components.push(ComponentFmep {
+                    joint: l.joint.clone(),
+                    kpa: fmep.kpa(l.friction_torque_nm),
+                }),
+            }
+        }
+        let groups = group_totals(&joints, self.train.geometry().cylinders.len());
+        PlateauResult {
+            fmep: PlateauFmep {
+                total_kpa: fmep.kpa(joints.iter().map(|l| l.friction_torque_nm).sum()),
+                motoring_kpa: fmep.kpa(delta[MOTOR] / dtheta),
+                components,
+            },
+            set_speed_rpm: rad_s_to_rpm(omega),
+            mean_speed_rpm: rad_s_to_rpm(omega),
+            motoring_torque_nm: delta[MOTOR] / dtheta,
+            gas_torque_nm: delta[GAS] / dtheta,
+            oil_temp_c: self.temps[pi],
+            viscosity_pa_s: self.viscosities[pi],
+            window_s,
+            revolutions: if self.four_stroke { 2 } else { 1 },
+            joints,
+            groups,
+        }
+    }
+}
+
+/// Per-component (all mains, every cylinder's big ends, ...) and per-cylinder totals of the
+/// friction torque and power.
+fn group_totals(joints: &[LawResult], cylinders: usize) -> Vec<GroupTotal> {
+    let total = |name: String, pick: &dyn Fn(&str) -> bool| {
+        let (t, p) = joints
+            .iter()
+            .filter(|l| pick(&l.joint))
+            .fold((0.0, 0.0), |(t, p), l| {
+                (t + l.friction_torque_nm, p + l.power_w)
+            });
+        GroupTotal {
+            group: name,
+            friction_torque_nm: t,
+            power_w: p,
+        }
+    };
+    let mut out = Vec::new();
+    for kind in crate::model::JOINT_KINDS {
+        let prefix = format!("{kind}_");
+        out.push(total(format!("{kind}_*"), &|j: &str| {
+            j.starts_with(&prefix)
+        }));
+    }
+    for k in 1..=cylinders {
+        let suffix = format!("_{k}");
+        out.push(total(format!("cylinder {k}"), &|j: &str| {
+            !j.starts_with("main_") && j.ends_with(&suffix)
+        }));
+    }
+    out
+}
+
+/// The engine's joints with their laws, in order: mains (`engine.laws`), then per cylinder
+/// big end, small end, piston (`engine.laws`, else the `[joints.*]` table's laws).
+fn joint_laws(f: &RigFile) -> Result<Vec<(String, Role, Vec<crate::model::LawRef>)>, SimError> {
+    let Some(e) = &f.engine else {
+        return Ok(Vec::new());
+    };
+    let mut out = Vec::new();
+    for i in 0..e.mains.len() {
+        let name = format!("main_{}", i + 1);
+        let laws = e.laws.get(&name).cloned().unwrap_or_default();
+        out.push((name, Role::Main(i), laws));
+    }
+    for k in 0..e.cylinders.len() {
+        for (kind, role, template) in [
+            ("big_end", Role::BigEnd(k), &f.joints.big_end),
+            ("small_end", Role::SmallEnd(k), &f.joints.small_end),
+            ("piston", Role::Piston(k), &f.joints.piston),
+        ] {
+            let name = format!("{kind}_{}", k + 1);
+            let laws = e
+                .laws
+                .get(&name)
+                .cloned()
+                .unwrap_or_else(|| template.laws.clone());
+            out.push((name, role, laws));
+        }
+    }
+    Ok(out)
+}
+
+/// The dotted field of law `i` on engine joint `name`: where a law set put it
+/// (`joints.NAME.laws[i]`, located by the configuration layer through the law's origin), or
+/// the `[joints.*]` table whose laws a cylinder joint took.
+fn law_field(f: &RigFile, name: &str, i: usize) -> String {
+    let from_engine = f.engine.as_ref().is_some_and(|e| e.laws.contains_key(name));
+    if from_engine {
+        format!("joints.{name}.laws[{i}]")
+    } else {
+        let kind = name.rsplit_once('_').map_or(name, |(k, _)| k);
+        format!("joints.{kind}.laws[{i}]")
+    }
+}
+
+/// Where an evaluation is: time, the step the laws are told, crank angle within the
+/// revolution, speed, oil temperature and viscosity.
+struct At {
+    t: f64,
+    dt: f64,
+    crank_angle: f64,
+    omega: f64,
+    oil: (f64, f64),
+}
+
+/// The recycled state of the run: kinematics, reactions, loads, rates.
+struct Work {
+    kin: TrainKinematics,
+    re: TrainReactions,
+    loads: TrainLoads,
+    gas_forces: Vec<f64>,
+    /// Each cylinder's gas state for its laws.
+    law_gas: Vec<LawGas>,
+    rates: Vec<f64>,
+    /// Normal loads of this solve and the previous one, per joint.
+    normals: Vec<f64>,
+    prev: Vec<f64>,
+    /// The law inputs of the last round of laws, per joint (what a commit is given).
+    inputs: Vec<LawInput>,
+    max_it: u32,
+}
+
+impl Work {
+    fn new(sim: &EngineSimulation) -> Self {
+        Self {
+            kin: TrainKinematics::default(),
+            re: TrainReactions::default(),
+            loads: TrainLoads::default(),
+            gas_forces: Vec::new(),
+            law_gas: Vec::new(),
+            rates: vec![0.0; sim.len()],
+            normals: Vec::with_capacity(sim.joints.len()),
+            prev: Vec::with_capacity(sim.joints.len()),
+            inputs: Vec::with_capacity(sim.joints.len()),
+            max_it: 0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::{PI, TAU};
+    use std::sync::Mutex;
+
+    use serde::{Deserialize, Serialize};
+    use tribo_plugin_api::loader::{LawLibrary, LawRegistry};
+    use tribo_plugin_api::{Law, LawInput, LawOutput, ParamError, ParamSpec};
+
+    use super::EngineSimulation;
+    use crate::model::{LawRef, RigFile};
+
+    /// (tag, input) of every evaluation of the `tag-unit` law.
+    static SEEN: Mutex<Vec<(f64, LawInput)>> = Mutex::new(Vec::new());
+
+    #[derive(Serialize, Deserialize, Default)]
+    #[serde(deny_unknown_fields, default)]
+    struct TagParams {
+        tag: f64,
+    }
+
+    /// A light viscous damper that records its inputs under its `tag` (the cylinder).
+    struct Tagged {
+        tag: f64,
+    }
+
+    impl Law for Tagged {
+        type Params = TagParams;
+        const NAME: &'static str = "tag-unit";
+        const VERSION: &'static str = "0";
+        const SUMMARY: &'static str = "records its inputs under a tag (unit test)";
+
+        fn parameters() -> Vec<ParamSpec> {
+            vec![ParamSpec::number("tag", "-", "which cylinder", 0.0, 100.0)]
+        }
+
+        fn new(p: TagParams) -> Result<Self, ParamError> {
+            Ok(Self { tag: p.tag })
+        }
+
+        fn evaluate(&self, input: &LawInput, _state: &[f64]) -> LawOutput {
+            if let Ok(mut seen) = SEEN.lock() {
+                seen.push((self.tag, *input));
+            }
+            LawOutput::force(-1e-4 * input.sliding_velocity_m_s)
+        }
+    }
+
+    /// The inline-4 test fixture with a motored 4-stroke head on every cylinder, the tagged law
+    /// on each piston, one 3000 rpm plateau.
+    fn fixture() -> RigFile {
+        let text = include_str!("../../../../tests/fixtures/engines/inline4.toml");
+        let mut model: RigFile = toml::from_str(text).expect("fixture parses");
+        model.gas.cylinder = crate::model::CylinderPressure::Motored {
+            compression_ratio: 10.0,
+            polytropic_exponent: 1.3,
+            intake_pressure_pa: 1e5,
+            valves: crate::model::Valves::FourStroke,
+        };
+        model.cycle.segments = Some(vec![
+            crate::cycle::Segment::Ramp {
+                to_rpm: 3000.0,
+                duration_s: 0.1,
+            },
+            crate::cycle::Segment::Hold { duration_s: 0.1 },
+        ]);
+        let engine = model.engine.as_mut().expect("an engine");
+        for k in 1..=4 {
+            let mut params = toml::Table::new();
+            params.insert("tag".into(), toml::Value::Float(k as f64));
+            engine.laws.insert(
+                format!("piston_{k}"),
+                vec![LawRef {
+                    law: "tag-unit".into(),
+                    params,
+                }],
+            );
+        }
+        model
+    }
+
+    #[test]
+    fn each_cylinder_is_handed_its_own_four_stroke_phase_from_the_firing_order() {
+        let model = fixture();
+        let mut registry = LawRegistry::new();
+        registry
+            .insert(LawLibrary::in_process::<Tagged>().expect("law describes itself"))
+            .expect("one law");
+        SEEN.lock().expect("not poisoned").clear();
+        let result = EngineSimulation::new(&model, &registry)
+            .expect("engine simulation")
+            .run_steady()
+            .expect("steady run");
+        assert_eq!(result.plateaus[0].revolutions, 2);
+        let seen = std::mem::take(&mut *SEEN.lock().expect("not poisoned"));
+        // Firing 1-3-4-2 on throws 0-180-180-0: at engine angle theta (accumulated), cylinder
+        // k's 4-stroke angle is theta + its throw angle + its phase (0 for 1 and 2, 360 for 3
+        // and 4), so they fire (4-stroke angle 360) at 360, 540, 720 and 900 degrees, in order.
+        let offset = |k: usize| match k {
+            1 => 0.0,
+            2 => PI,
+            3 => PI + TAU,
+            _ => TAU,
+        };
+        let wrap = |a: f64| a.rem_euclid(2.0 * TAU);
+        let mut checked = [0; 5];
+        for (tag, input) in &seen {
+            let k = *tag as usize;
+            let theta = input.engine_speed_rad_s * input.time_s;
+            let want = wrap(theta + offset(k));
+            let got = input.cycle_angle_rad;
+            let d = (got - want).abs().min(2.0 * TAU - (got - want).abs());
+            assert!(d < 1e-6, "cylinder {k} at theta {theta}: {got} vs {want}");
+            // Its own compression: the pressure handed is the polytropic law at its own piston
+            // travel, highest near its own firing TDC.
+            if d < 1e-6 && (got - TAU).abs() < 0.02 {
+                assert!(
+                    input.cylinder_pressure_pa > 1.5e6,
+                    "{k}: {}",
+                    input.cylinder_pressure_pa
+                );
+                checked[k] += 1;
+            }
+        }
+        assert!(checked[1..].iter().all(|n| *n > 0), "{checked:?}");
+        // The motored, reversible compression does no net work; the laws' damping only.
+        let p = &result.plateaus[0];
+        let friction: f64 = p.joints.iter().map(|l| l.friction_torque_nm).sum();
+        assert!((p.motoring_torque_nm - friction).abs() < 1e-6 * (1.0 + friction.abs()));
+    }
+}

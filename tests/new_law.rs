@@ -340,7 +340,10 @@ fn every_language_template_builds_loads_and_gives_the_same_torques() {
     let tmp = tempfile::tempdir().expect("temp dir");
     let ws = tmp.path().join("tribo");
     copy_tree(&workspace(), &ws);
-    let target = workspace().join("target/e2e-new-law");
+    // Its own target directory: the other end-to-end test builds another copy of the
+    // workspace at another path at the same time, and one directory shared by the two copies
+    // made this test fail once in a parallel run.
+    let target = workspace().join("target/e2e-new-law-languages");
     let laws_dir = tmp.path().join("laws");
     let params = tmp.path().join("params.toml");
     std::fs::write(&params, PARAMS_TOML).expect("write params");

@@ -728,3 +728,47 @@ fn pi_step_control_agrees_with_integral_control_and_takes_fewer_attempts() {
         );
     }
 }
+
+/// A rejected step is always retried shorter. With the PI drive at 3.8 N m the thesis ramp to
+/// 3000 rpm once put a switch crossing near the end of a step cut to land on the hold's end;
+/// the retry went back to the same step, and `tribo run` looped for ever at t = 0.5996 s. The
+/// run must finish (here: within 60 s, it takes well under one) with the speed held.
+#[test]
+fn a_step_rejected_at_a_hold_end_is_retried_shorter_and_the_run_ends() {
+    ensure_plugins_built();
+    let mut child = std::process::Command::new(tribo_exe())
+        .args([
+            "run",
+            "reference-frictionless",
+            "--lawset",
+            "fedem-baseline",
+            "--set",
+            "drive={kind=\"pi\", torque_limit_nm=3.8}",
+            "--set",
+            "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.3}, {kind=\"hold\", duration_s=0.3}]",
+            "--quiet",
+            "--json",
+        ])
+        .env_remove("TRIBO_PLUGIN_PATH")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("tribo starts");
+    let start = std::time::Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            break;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("tribo run did not finish in 60 s: the step retry loops");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().expect("output");
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let j: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    let rpm = j["plateaus"][0]["mean_speed_rpm"].as_f64().expect("speed");
+    assert!((rpm - 3000.0).abs() < 0.02 * 3000.0, "{rpm}");
+}

@@ -141,10 +141,14 @@ impl Stepper for Adaptive {
                     h = f * h_try;
                 }
             }
-            // Every retry is shorter than the step that failed: a crossing near the end of a
-            // step cut to land on the breakpoint once gave back the same step for ever (the
-            // PI drive at 3.8 N m, a step ending 0.41 ms before a hold's end, retried in a loop).
-            h = h.min(0.9 * h_try);
+            // A failed step that landed on the breakpoint is retried short of it: otherwise a
+            // retry within 10% of it is snapped back by the landing rule above to the very
+            // step that failed, for ever (the PI drive at 3.8 N m: a crossing at 91-95% of a
+            // step ending 0.41 ms before a hold's end). Only that case changes: any run that
+            // ended before never met it.
+            if h_try == remaining {
+                h = h.min(0.9 * remaining / 1.1);
+            }
             if h <= 1e-12 * t.abs().max(1e-3) {
                 return Err(SimError::StepTooSmall {
                     time_s: t,

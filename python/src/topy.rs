@@ -326,49 +326,29 @@ impl<'a, 'py> ser::Serializer for Builder<'a, 'py> {
     }
 }
 
-impl<'a, 'py> ser::SerializeSeq for ListBuilder<'a, 'py> {
-    type Ok = Bound<'py, PyAny>;
-    type Error = ToPyError;
-    fn serialize_element<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
-        self.push(value)
-    }
-    fn end(self) -> Result<Self::Ok, Self::Error> {
-        self.finish()
-    }
+/// serde's four sequence-like serializers (a list, a tuple, a tuple struct, a tuple variant)
+/// all become a Python list: one body, written once.
+macro_rules! list_serializer {
+    ($($trait:ident :: $method:ident),+) => {$(
+        impl<'a, 'py> ser::$trait for ListBuilder<'a, 'py> {
+            type Ok = Bound<'py, PyAny>;
+            type Error = ToPyError;
+            fn $method<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
+                self.push(value)
+            }
+            fn end(self) -> Result<Self::Ok, Self::Error> {
+                self.finish()
+            }
+        }
+    )+};
 }
 
-impl<'a, 'py> ser::SerializeTuple for ListBuilder<'a, 'py> {
-    type Ok = Bound<'py, PyAny>;
-    type Error = ToPyError;
-    fn serialize_element<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
-        self.push(value)
-    }
-    fn end(self) -> Result<Self::Ok, Self::Error> {
-        self.finish()
-    }
-}
-
-impl<'a, 'py> ser::SerializeTupleStruct for ListBuilder<'a, 'py> {
-    type Ok = Bound<'py, PyAny>;
-    type Error = ToPyError;
-    fn serialize_field<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
-        self.push(value)
-    }
-    fn end(self) -> Result<Self::Ok, Self::Error> {
-        self.finish()
-    }
-}
-
-impl<'a, 'py> ser::SerializeTupleVariant for ListBuilder<'a, 'py> {
-    type Ok = Bound<'py, PyAny>;
-    type Error = ToPyError;
-    fn serialize_field<T: Serialize + ?Sized>(&mut self, value: &T) -> Result<(), Self::Error> {
-        self.push(value)
-    }
-    fn end(self) -> Result<Self::Ok, Self::Error> {
-        self.finish()
-    }
-}
+list_serializer!(
+    SerializeSeq::serialize_element,
+    SerializeTuple::serialize_element,
+    SerializeTupleStruct::serialize_field,
+    SerializeTupleVariant::serialize_field
+);
 
 impl<'a, 'py> ser::SerializeMap for DictBuilder<'a, 'py> {
     type Ok = Bound<'py, PyAny>;

@@ -203,6 +203,14 @@ impl Mechanism {
         &self.geo
     }
 
+    /// Piston travel from top dead centre, m, in positions `q` (the piston pin's height
+    /// below its TDC height `r + l`): what the laws are handed, read from the positions the
+    /// solve has already computed.
+    #[inline]
+    pub fn piston_travel(&self, q: &Q) -> f64 {
+        self.geo.crank_radius_m + self.geo.rod_length_m - q[3 * Body::Piston as usize + 1]
+    }
+
     /// Exact positions for crank angle `theta` (closed form of the slider-crank).
     pub fn positions(&self, theta: f64) -> Q {
         let r = self.geo.crank_radius_m;

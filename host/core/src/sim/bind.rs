@@ -446,8 +446,8 @@ impl super::Simulation {
         if !self.stateful {
             return Ok(());
         }
-        let qd = self.mech.kinematics(theta, e.omega).qd;
-        let rel = super::evaluate::relative_velocities(&qd);
+        let kin = self.mech.kinematics(theta, e.omega);
+        let rel = super::evaluate::relative_velocities(&kin.qd);
         let at = Instant {
             t,
             dt,
@@ -456,7 +456,7 @@ impl super::Simulation {
             oil,
             // The end evaluation's own gas state (a vented crankcase read at the speed that
             // evaluation used).
-            gas: self.law_gas(theta, e.omega, e.gas.as_ref()),
+            gas: self.law_gas(theta, e.omega, &kin.q, e.gas.as_ref()),
         };
         for joint in self.joints.iter_mut().filter(|j| j.is_stateful()) {
             let id = joint.id;

@@ -127,7 +127,7 @@ impl Simulation {
                         crank_angle: crank_angle(theta),
                         omega,
                         oil,
-                        gas: self.law_gas(theta, omega, gas.as_ref()),
+                        gas: self.law_gas(theta, omega, &kin.q, gas.as_ref()),
                     };
                     let mut law_samples = Vec::with_capacity(laws.len());
                     let mut idx = 0;

@@ -274,7 +274,7 @@ impl Simulation {
             crank_angle: crank_angle(at.theta),
             omega: at.omega,
             oil: at.oil,
-            gas: self.law_gas(at.theta, at.omega, gas.as_ref()),
+            gas: self.law_gas(at.theta, at.omega, &kin.q, gas.as_ref()),
         };
         check_inputs(at, &rel)?;
         let mut inputs: [LawInput; 5] =

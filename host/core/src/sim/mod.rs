@@ -306,30 +306,27 @@ impl Simulation {
 
     /// The gas state the laws are handed at crank angle `theta` (accumulated): the gas
     /// model's `state` when the rig has one (the same evaluation's, so nothing is computed
-    /// twice), else both pressures at the standard atmosphere, the piston travel of the
-    /// slider-crank and the angle modulo one 4-stroke cycle. With a gas model but no `state`,
-    /// the model is evaluated here (a vented crankcase at the crank speed `omega`).
+    /// twice), else both pressures at the standard atmosphere, the piston travel read from the
+    /// solve's positions `q` and the angle modulo one 4-stroke cycle. With a gas model but no
+    /// `state`, the model is evaluated here (a vented crankcase at the crank speed `omega`).
     #[inline]
     pub(super) fn law_gas(
         &self,
         theta: f64,
         omega: f64,
+        q: &crate::mechanics::Q,
         state: Option<&crate::gas::GasState>,
     ) -> crate::gas::LawGas {
+        let travel = self.mech.piston_travel(q);
         match (state, &self.gas) {
             (Some(s), _) => s.into(),
-            (None, Some(g)) => (&g.at(theta, omega)).into(),
+            (None, Some(g)) => (&g.at_travel(theta, omega, travel)).into(),
             (None, None) => {
-                let geo = self.mech.geometry();
                 let ambient = tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
                 crate::gas::LawGas {
                     cylinder_pa: ambient,
                     crankcase_pa: ambient,
-                    piston_from_tdc_m: crate::gas::piston_from_tdc(
-                        geo.crank_radius_m,
-                        geo.rod_length_m,
-                        theta,
-                    ),
+                    piston_from_tdc_m: travel,
                     cycle_angle_rad: crate::gas::cycle_angle(theta),
                 }
             }

@@ -144,7 +144,9 @@ struct RunArgs {
     timeseries: Option<PathBuf>,
     /// Also write crank-angle-resolved results into this directory: per plateau, one cycle at
     /// the plateau speed (CSV of friction torque, power, normal load, sliding speed and regime
-    /// per joint and law; bearing loads and pressures; friction-vs-angle and polar load plots).
+    /// per joint and law; bearing loads and pressures; friction-vs-angle and polar load plots;
+    /// on an engine also each cylinder's big-end load, side thrust and pressures, and each
+    /// main bearing's load).
     #[arg(long = "crank-angle", value_name = "DIR")]
     crank_angle: Option<PathBuf>,
     /// Also write the FMEP breakdown (fmep.csv, stacked bars fmep.svg) into this directory.
@@ -507,19 +509,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     }
     tribo::rig::attach_laws(&mut rig, &law_args)?;
     let registry = g.registry()?;
-    if rig.file.engine.is_some() {
-        return run_engine(
-            g,
-            &rig,
-            &registry,
-            steady,
-            json,
-            csv,
-            fmep,
-            timeseries.is_some() || crank_angle.is_some(),
-        );
-    }
-    let mut sim = tribo::rig::simulation(&rig, &registry)?;
+    let mut sim = tribo::rig::any_simulation(&rig, &registry)?;
     if let Some(dir) = &csv {
         tribo::output::check_result_dir(dir, "--csv")
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
@@ -563,54 +553,6 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         tribo::report::write_crank_angle(&traces, dir)
             .with_context(|| format!("writing crank-angle results into {}", dir.display()))?;
     }
-    if json {
-        writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
-    } else {
-        writeln!(out_text, "oil: {}", rig.file.oil.describe())?;
-        write!(out_text, "{}", tribo::report::to_text(&result))?;
-    }
-    emit(&out_text)
-}
-
-/// `tribo run` on an engine rig: its steady state (`--steady`, the one mode engines have so
-/// far), reported like the single-cylinder rig's with per-component and per-cylinder totals.
-#[allow(clippy::too_many_arguments)]
-fn run_engine(
-    g: &Globals,
-    rig: &tribo::rig::Rig,
-    registry: &tribo::plugin_api::loader::LawRegistry,
-    steady: bool,
-    json: bool,
-    csv: Option<PathBuf>,
-    fmep: Option<PathBuf>,
-    traces: bool,
-) -> anyhow::Result<()> {
-    let cylinders = rig.file.engine.as_ref().map_or(0, |e| e.cylinders.len());
-    if !steady || traces {
-        anyhow::bail!(
-            "{}: a {cylinders}-cylinder engine runs in steady state only so far: use `tribo run --steady` (no --timeseries, no --crank-angle yet; docs/engines.md, Status)",
-            rig.path().display()
-        );
-    }
-    let mut sim = tribo::rig::engine_simulation(rig, registry)?;
-    for (dir, what) in [(&csv, "--csv"), (&fmep, "--fmep")] {
-        if let Some(dir) = dir {
-            tribo::output::check_result_dir(dir, what)
-                .with_context(|| format!("writing {what} results into {}", dir.display()))?;
-        }
-    }
-    let progress = Progress::start("simulating the plateaus", None, g.quiet);
-    let result = sim.run_steady()?;
-    drop(progress);
-    if let Some(dir) = &csv {
-        tribo::report::write_csv(&result, dir)
-            .with_context(|| format!("writing CSV into {}", dir.display()))?;
-    }
-    if let Some(dir) = &fmep {
-        tribo::report::write_fmep(&result, dir)
-            .with_context(|| format!("writing FMEP into {}", dir.display()))?;
-    }
-    let mut out_text = String::new();
     if json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {

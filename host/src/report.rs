@@ -302,6 +302,55 @@ pub fn write_crank_angle(
     ];
     let text = csv_text(&header, loads).map_err(|e| render("crank_angle_loads.csv", e))?;
     out.write("crank_angle_loads.csv", text.as_bytes())?;
+    // An engine's loads per cylinder and per main bearing (the file above has cylinder 1's
+    // big end and pressures and the mains' total).
+    if traces
+        .iter()
+        .any(|t| t.samples.iter().any(|s| !s.cylinders.is_empty()))
+    {
+        let (mut cylinders, mut mains) = (Vec::new(), Vec::new());
+        for t in traces {
+            for s in &t.samples {
+                for (k, c) in s.cylinders.iter().enumerate() {
+                    cylinders.push(vec![
+                        t.speed_rpm.to_string(),
+                        s.crank_angle_deg.to_string(),
+                        (k + 1).to_string(),
+                        c.big_end_n[0].to_string(),
+                        c.big_end_n[1].to_string(),
+                        c.side_thrust_n.to_string(),
+                        c.pressures_pa[0].to_string(),
+                        c.pressures_pa[1].to_string(),
+                    ]);
+                }
+                for (i, m) in s.mains_n.iter().enumerate() {
+                    mains.push(vec![
+                        t.speed_rpm.to_string(),
+                        s.crank_angle_deg.to_string(),
+                        format!("main_{}", i + 1),
+                        m[0].to_string(),
+                        m[1].to_string(),
+                    ]);
+                }
+            }
+        }
+        let header = [
+            "speed_rpm",
+            "crank_angle_deg",
+            "cylinder",
+            "big_end_x_n",
+            "big_end_y_n",
+            "side_thrust_n",
+            "cylinder_pa",
+            "crankcase_pa",
+        ];
+        let text =
+            csv_text(&header, cylinders).map_err(|e| render("crank_angle_cylinders.csv", e))?;
+        out.write("crank_angle_cylinders.csv", text.as_bytes())?;
+        let header = ["speed_rpm", "crank_angle_deg", "main", "x_n", "y_n"];
+        let text = csv_text(&header, mains).map_err(|e| render("crank_angle_mains.csv", e))?;
+        out.write("crank_angle_mains.csv", text.as_bytes())?;
+    }
     for t in traces {
         let name = format!("friction_vs_angle_{:.0}.svg", t.speed_rpm);
         let svg = crate::plots::friction_vs_angle_svg(t).map_err(|e| render(&name, e))?;

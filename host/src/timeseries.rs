@@ -28,7 +28,7 @@ impl<W: Write> TimeSeries<W> {
         self.out
     }
 
-    fn header(&mut self, joints: &[&'static str]) -> std::io::Result<()> {
+    fn header(&mut self, joints: &[&str]) -> std::io::Result<()> {
         write!(
             self.out,
             "time_s,theta_rad,speed_rpm,motoring_torque_nm,motoring_torque_filtered_nm"
@@ -57,7 +57,7 @@ impl<W: Write> TimeSeries<W> {
 }
 
 impl<W: Write> StepObserver for TimeSeries<W> {
-    fn start(&mut self, joints: &[&'static str]) -> Result<(), ObserverError> {
+    fn start(&mut self, joints: &[&str]) -> Result<(), ObserverError> {
         self.header(joints)
             .map_err(|e| Box::new(TimeSeriesError(e)) as ObserverError)
     }

@@ -312,28 +312,32 @@ fn detached_value<'py, T: serde::Serialize + Send>(
     to_python(py, &value)
 }
 
-/// The time series of a transient run, row after row of [`SERIES_COLUMNS`] values.
+/// The time series of a transient run: its column names ([`SERIES_COLUMNS`], then each
+/// joint's normal load, named when the run starts) and the values row after row.
 #[derive(Default)]
 struct Series {
+    columns: Vec<String>,
     values: Vec<f64>,
 }
 
-/// The columns of a time series, in the order [`Series`] stores them.
-/// The names and units are those of the CLI's `--timeseries` CSV.
-const SERIES_COLUMNS: [&str; 10] = [
+/// The columns of a time series before the joints' normal loads, in the order [`Series`]
+/// stores them. The names and units are those of the CLI's `--timeseries` CSV.
+const SERIES_COLUMNS: [&str; 5] = [
     "time_s",
     "theta_rad",
     "speed_rpm",
     "motoring_torque_nm",
     "motoring_torque_filtered_nm",
-    "main_a_normal_load_n",
-    "main_b_normal_load_n",
-    "big_end_normal_load_n",
-    "small_end_normal_load_n",
-    "piston_normal_load_n",
 ];
 
 impl StepObserver for Series {
+    fn start(&mut self, joints: &[&str]) -> Result<(), ObserverError> {
+        self.columns = SERIES_COLUMNS.iter().map(|c| c.to_string()).collect();
+        self.columns
+            .extend(joints.iter().map(|j| format!("{j}_normal_load_n")));
+        Ok(())
+    }
+
     fn step(&mut self, s: &StepSample<'_>) -> Result<(), ObserverError> {
         self.values.extend_from_slice(&[
             s.time_s,
@@ -462,7 +466,7 @@ struct RunJob {
 /// A run's result and, with a time series, its column names and samples.
 type RunOutput<'py> = (
     Bound<'py, PyAny>,
-    Option<(Vec<&'static str>, Bound<'py, PyBytes>)>,
+    Option<(Vec<String>, Bound<'py, PyBytes>)>,
 );
 
 /// `run(job_json)`: one rig through its cycle (or steady state), as `tribo run --json`.
@@ -484,7 +488,7 @@ fn run<'py>(py: Python<'py>, job: &str) -> PyResult<RunOutput<'py>> {
         }
         rig::attach_laws(&mut rig, &job.laws)?;
         let registry = registry(&job.plugin_paths)?;
-        let mut sim = rig::simulation(&rig, &registry)?;
+        let mut sim = rig::any_simulation(&rig, &registry)?;
         let (result, series) = if job.steady {
             (sim.run_steady()?, None)
         } else if job.timeseries {
@@ -498,7 +502,7 @@ fn run<'py>(py: Python<'py>, job: &str) -> PyResult<RunOutput<'py>> {
     let result = to_python(py, &result)?;
     let series = series.map(|s| {
         let bytes: Vec<u8> = s.values.iter().flat_map(|v| v.to_ne_bytes()).collect();
-        (SERIES_COLUMNS.to_vec(), PyBytes::new(py, &bytes))
+        (s.columns, PyBytes::new(py, &bytes))
     });
     Ok((result, series))
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use tribo_core::cycle::Segment;
 use tribo_core::oil::{ViscosityModel, VALID_RANGE_C};
-use tribo_core::sim::{EngineSimulation, SimError, Simulation};
+use tribo_core::sim::{EngineSimulation, RigSimulation, SimError, Simulation};
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::files::{read_text, ReadError};
@@ -232,7 +232,14 @@ pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimEr
     Simulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
 }
 
-/// An engine rig's steady-state simulation (`docs/engines.md`) with its laws bound from
+/// Any rig's simulation: the single-cylinder rig's or an engine's ([`RigSimulation`]), with
+/// its laws bound from `registry`; errors located as by [`simulation`].
+pub fn any_simulation(rig: &Rig, registry: &LawRegistry) -> Result<RigSimulation, SimError> {
+    refuse_unattached(rig)?;
+    RigSimulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+}
+
+/// An engine rig's simulation (`docs/engines.md`) with its laws bound from
 /// `registry`; errors located as by [`simulation`].
 pub fn engine_simulation(rig: &Rig, registry: &LawRegistry) -> Result<EngineSimulation, SimError> {
     refuse_unattached(rig)?;
@@ -258,7 +265,7 @@ fn refuse_unattached(rig: &Rig) -> Result<(), SimError> {
 /// instance: no law code beyond its description runs.
 pub fn check_laws(rig: &Rig, registry: &LawRegistry) -> Result<(), SimError> {
     refuse_unattached(rig)?;
-    Simulation::check_laws(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+    RigSimulation::check_laws(rig.model(), registry).map_err(|e| locate_setup(rig, e))
 }
 
 /// A setup error of `rig`'s laws located in the file, law-set entry or `--law` argument that

@@ -359,6 +359,41 @@ impl CrankTrain {
         &self.split
     }
 
+    /// Kinetic plus potential energy of the moving parts at crank angle `theta` and speed
+    /// `omega`, J (heights from the crank centre): what the motor's work changes over a
+    /// transient run, for its energy balance.
+    pub fn mechanical_energy(&self, theta: f64, omega: f64) -> f64 {
+        let g = self.geo.gravity_m_s2;
+        let mut energy = 0.5 * self.j_axis * omega * omega;
+        for t in &self.geo.throws {
+            for cw in &t.counterweights {
+                energy += cw.mass_kg * g * cw.radius_m * (theta + t.angle_rad + cw.angle_rad).cos();
+            }
+        }
+        let kin = self.kinematics(theta, omega, &[]);
+        let r = self.geo.crank_radius_m;
+        for ((c, ck), fr) in self
+            .geo
+            .cylinders
+            .iter()
+            .zip(&kin.cylinders)
+            .zip(&self.frames)
+        {
+            let (s, co) = ck.local_angle_rad.sin_cos();
+            let (sp, cp) = ck.rod_angle_rad.sin_cos();
+            let rate = ck.rod_rate_rad_s;
+            // The rod centre moves with the pin and turns about it.
+            let v_pin = Vector2::new(-r * co * omega, -r * s * omega);
+            let v_com = v_pin + Vector2::new(-cp * rate, -sp * rate) * c.rod.com_from_big_end_m;
+            energy += 0.5 * c.rod.mass_kg * v_com.norm_squared()
+                + 0.5 * c.rod.inertia_kg_m2 * rate * rate
+                + 0.5 * c.piston_mass_kg * ck.piston_speed_m_s * ck.piston_speed_m_s
+                + g * (c.rod.mass_kg * fr.to_global(ck.rod_com).y
+                    + c.piston_mass_kg * fr.to_global(ck.small_end).y);
+        }
+        energy
+    }
+
     /// Kinematics at crank angle `theta` and speed `omega`, with the known axial force
     /// `piston_forces_n[k]` on each piston (gas; missing entries are zero).
     pub fn kinematics(&self, theta: f64, omega: f64, piston_forces_n: &[f64]) -> TrainKinematics {

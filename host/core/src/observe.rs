@@ -44,15 +44,17 @@ pub struct StepSample<'a> {
     /// The motoring torque through the rig's first-order low-pass filter
     /// (`measurement.lowpass_hz`), N m.
     pub filtered_torque_nm: f64,
-    /// Normal load per joint, in `JOINT_NAMES` order, N.
-    pub normal_loads_n: &'a [f64; 5],
+    /// Normal load per joint, in the order of the names [`StepObserver::start`] was given, N.
+    pub normal_loads_n: &'a [f64],
 }
 
 /// Per-step output of a run (time series, live plots, progress), so the solver core itself
 /// does no I/O. Every method may fail; a failure stops the run with that error.
 pub trait StepObserver {
-    /// Called once before the first step with the joints' names (`JOINT_NAMES` order).
-    fn start(&mut self, joints: &[&'static str]) -> Result<(), ObserverError> {
+    /// Called once before the first step with the joints' names: `JOINT_NAMES` on the
+    /// single-cylinder rig, an engine's `main_1 .. main_n`, then each cylinder's big end,
+    /// small end and piston.
+    fn start(&mut self, joints: &[&str]) -> Result<(), ObserverError> {
         let _ = joints;
         Ok(())
     }

@@ -7,6 +7,7 @@ use tribo_plugin_api::serde::{Deserialize, Serialize};
 use tribo_plugin_api::Regime;
 
 use super::bind::{reset_states, Instant};
+use super::engine_run::{power_at, regime_at, At, EngineSimulation, Work as EngineWork};
 use super::error::SimError;
 use super::evaluate::{crank_angle, relative_velocities, Control, Point};
 use super::Simulation;
@@ -45,6 +46,27 @@ pub struct AngleSample {
     pub pressures_pa: [f64; 2],
     /// Drive torque, N m.
     pub drive_torque_nm: f64,
+    /// An engine's cylinders, in order (empty on the single-cylinder rig, whose one cylinder
+    /// is the fields above; on an engine those are cylinder 1's big end and pressures and the
+    /// mains' total).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub cylinders: Vec<CylinderSample>,
+    /// An engine's main bearings, in axial order: force from the ground on the crank (x, y),
+    /// N (empty on the single-cylinder rig).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mains_n: Vec<[f64; 2]>,
+}
+
+/// One cylinder of an engine at one crank angle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct CylinderSample {
+    /// Force from the crank on the rod at the big end (x, y, global frame), N.
+    pub big_end_n: [f64; 2],
+    /// Side thrust of the piston on the cylinder wall, across the bore, N.
+    pub side_thrust_n: f64,
+    /// Cylinder and crankcase pressure, Pa.
+    pub pressures_pa: [f64; 2],
 }
 
 /// One plateau's cycle, resolved in crank angle.
@@ -159,6 +181,8 @@ impl Simulation {
                         main_n: [e.reactions.main_n.x, e.reactions.main_n.y],
                         pressures_pa,
                         drive_torque_nm: e.drive_torque,
+                        cylinders: Vec::new(),
+                        mains_n: Vec::new(),
                     });
                 }
             }
@@ -170,5 +194,103 @@ impl Simulation {
         }
         reset_states(&mut self.joints);
         Ok(traces)
+    }
+}
+
+impl EngineSimulation {
+    /// Every plateau's cycle at the plateau's speed (the steady state), sampled every
+    /// `resolution_deg` degrees, as [`Simulation::crank_angle_traces`] with every joint of
+    /// the engine and each cylinder's and main bearing's loads. Laws start from zero state; a
+    /// stateful law runs one cycle first so the sampled one is settled.
+    pub fn crank_angle_traces(
+        &mut self,
+        resolution_deg: f64,
+    ) -> Result<Vec<CrankAngleTrace>, SimError> {
+        let cycle = self.window_spec().cycle_angle();
+        let n = ((cycle / resolution_deg.to_radians()).round() as usize).max(4);
+        let h_angle = cycle / n as f64;
+        let laws: Vec<(String, String)> = self
+            .joints
+            .iter()
+            .flat_map(|j| j.laws.iter().map(move |l| (j.name.clone(), l.name.clone())))
+            .collect();
+        let mut w = EngineWork::new(self);
+        let mut traces = Vec::new();
+        for pi in 0..self.cycle.plateaus().len() {
+            let omega = self.cycle.plateaus()[pi].omega;
+            let oil = (self.temps[pi], self.viscosities[pi]);
+            let h = h_angle / omega;
+            self.reset_states();
+            let mut samples = Vec::with_capacity(n);
+            let passes = if self.stateful { 2 } else { 1 };
+            for pass in 0..passes {
+                for k in 0..n {
+                    let theta = k as f64 * h_angle;
+                    let at = At {
+                        t: (pass * n + k) as f64 * h,
+                        dt: h,
+                        crank_angle: crank_angle(theta),
+                        omega,
+                        oil,
+                        control: Control::Acceleration(0.0),
+                    };
+                    self.evaluate(theta, &at, &mut w)?;
+                    if self.stateful {
+                        self.commit(&w)?;
+                    }
+                    if pass + 1 == passes {
+                        samples.push(self.angle_sample(theta, omega, &w));
+                    }
+                }
+            }
+            traces.push(CrankAngleTrace {
+                speed_rpm: rad_s_to_rpm(omega),
+                laws: laws.clone(),
+                samples,
+            });
+        }
+        self.reset_states();
+        Ok(traces)
+    }
+
+    /// The sample at crank angle `theta` and speed `omega` from the settled evaluation `w`.
+    fn angle_sample(&self, theta: f64, omega: f64, w: &EngineWork) -> AngleSample {
+        let mut law_samples = Vec::new();
+        let mut idx = 0;
+        for (ji, j) in self.joints.iter().enumerate() {
+            for _ in &j.laws {
+                let power = w.rates[power_at(idx)];
+                let regimes: Vec<f64> = (0..4).map(|r| w.rates[regime_at(idx, r)]).collect();
+                law_samples.push(LawSample {
+                    friction_torque_nm: power / omega,
+                    power_w: power,
+                    normal_load_n: w.normals[ji],
+                    sliding_speed_m_s: w.inputs.get(ji).map_or(0.0, |i| i.sliding_velocity_m_s),
+                    regime: regime_name(&regimes).to_string(),
+                });
+                idx += 1;
+            }
+        }
+        let cylinders: Vec<CylinderSample> =
+            w.re.cylinders
+                .iter()
+                .zip(&w.law_gas)
+                .map(|(c, g)| CylinderSample {
+                    big_end_n: [c.big_end_n.x, c.big_end_n.y],
+                    side_thrust_n: c.slide_lateral_n,
+                    pressures_pa: [g.cylinder_pa, g.crankcase_pa],
+                })
+                .collect();
+        let first = cylinders.first();
+        AngleSample {
+            crank_angle_deg: theta.to_degrees(),
+            laws: law_samples,
+            big_end_n: first.map_or([0.0; 2], |c| c.big_end_n),
+            main_n: [w.re.main_total_n.x, w.re.main_total_n.y],
+            pressures_pa: first.map_or([crate::model::ATMOSPHERE_PA; 2], |c| c.pressures_pa),
+            drive_torque_nm: w.re.drive_torque_nm,
+            mains_n: w.re.mains_n.iter().map(|m| [m.x, m.y]).collect(),
+            cylinders,
+        }
     }
 }

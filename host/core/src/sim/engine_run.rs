@@ -17,7 +17,8 @@ use tribo_plugin_api::{JointKind, LawInput, Regime};
 
 use super::bind::{check_law, BoundLaw};
 use super::error::{SimError, Unsettled};
-use super::evaluate::crank_angle;
+use super::evaluate::{crank_angle, Control};
+use super::plateau::Measured;
 use super::results::{
     ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
     PlateauFmep, PlateauResult, RegimeShare, RunResult,
@@ -28,7 +29,7 @@ use crate::engine::{
     TrainLoads, TrainReactions,
 };
 use crate::gas::{cycle_angle, GasModel, LawGas};
-use crate::model::{RigFile, Temperature};
+use crate::model::{Drive, RigFile, Temperature};
 
 /// What a joint of an engine is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,47 +72,55 @@ impl Role {
 }
 
 /// One joint of the engine with its contact geometry and laws.
-struct EngineJoint {
-    name: String,
+pub(super) struct EngineJoint {
+    pub(super) name: String,
     role: Role,
     radius_m: f64,
     length_m: f64,
-    laws: Vec<BoundLaw>,
+    pub(super) laws: Vec<BoundLaw>,
 }
 
 /// A multi-cylinder engine ready for its steady state.
 pub struct EngineSimulation {
-    rig_name: String,
-    train: CrankTrain,
-    joints: Vec<EngineJoint>,
-    cycle: Cycle,
-    temps: Vec<f64>,
-    viscosities: Vec<f64>,
-    step_rad: f64,
-    tol: f64,
-    max_iter: u32,
+    pub(super) rig_name: String,
+    pub(super) train: CrankTrain,
+    pub(super) joints: Vec<EngineJoint>,
+    pub(super) cycle: Cycle,
+    pub(super) temps: Vec<f64>,
+    pub(super) viscosities: Vec<f64>,
+    pub(super) step_rad: f64,
+    pub(super) tol: f64,
+    pub(super) max_iter: u32,
     /// Each cylinder's gas model with its own 4-stroke phase (none without `[gas]`).
-    gas: Vec<GasModel>,
+    pub(super) gas: Vec<GasModel>,
     /// Each cylinder's 4-stroke phase from the firing order, rad.
-    phases: Vec<f64>,
+    pub(super) phases: Vec<f64>,
     /// Each cylinder's piston position at its top dead centre, from the crank centre along
     /// its axis, m: `sqrt((l + r)^2 - e^2)` for the offset `e`.
-    tdc_position: Vec<f64>,
-    four_stroke: bool,
+    pub(super) tdc_position: Vec<f64>,
+    pub(super) four_stroke: bool,
     displacement_m3: f64,
-    n_laws: usize,
-    stateful: bool,
+    pub(super) n_laws: usize,
+    pub(super) stateful: bool,
+    /// The drive of a transient run, its measurement window (s), the motoring torque's
+    /// low-pass filter (Hz) and the largest step (s).
+    pub(super) drive: Drive,
+    pub(super) window_s: f64,
+    pub(super) lowpass_hz: f64,
+    pub(super) max_step_s: f64,
+    /// Crank speed, rad/s, from which the progress of a run is reported.
+    pub(super) progress: Option<crate::observe::Position>,
 }
 
 /// Where each accumulated quantity sits: motor power, the gas power, then per law its
 /// dissipated power, four regime indicators and its normal load.
-const MOTOR: usize = 0;
-const GAS: usize = 1;
+pub(super) const MOTOR: usize = 0;
+pub(super) const GAS: usize = 1;
 const PER_LAW: usize = 6;
-fn power_at(k: usize) -> usize {
+pub(super) fn power_at(k: usize) -> usize {
     2 + PER_LAW * k
 }
-fn regime_at(k: usize, r: usize) -> usize {
+pub(super) fn regime_at(k: usize, r: usize) -> usize {
     3 + PER_LAW * k + r
 }
 fn normal_at(k: usize) -> usize {
@@ -232,6 +241,11 @@ impl EngineSimulation {
                 * f.geometry.crank_radius_m,
             n_laws,
             stateful,
+            drive: f.drive.clone(),
+            window_s: f.measurement.window_s,
+            lowpass_hz: f.measurement.lowpass_hz,
+            max_step_s: f.solver.max_step_s,
+            progress: None,
         })
     }
 
@@ -266,7 +280,7 @@ impl EngineSimulation {
         }
     }
 
-    fn len(&self) -> usize {
+    pub(super) fn len(&self) -> usize {
         2 + PER_LAW * self.n_laws
     }
 
@@ -281,21 +295,20 @@ impl EngineSimulation {
         let mut steps = 0_u64;
         for pi in 0..n_plateaus {
             let omega = self.cycle.plateaus()[pi].omega;
-            for l in self.joints.iter_mut().flat_map(|j| j.laws.iter_mut()) {
-                l.state.iter_mut().for_each(|x| *x = 0.0);
-            }
+            self.reset_states();
             let (delta, t) = self.plateau(pi, omega, &mut work, &mut steps)?;
             motor += delta[MOTOR];
             gas_work += delta[GAS];
             dissipated += (0..self.n_laws).map(|k| delta[power_at(k)]).sum::<f64>();
             let cycle = self.cycle_angle();
-            results.push(self.plateau_result(
-                pi,
-                omega,
-                &delta,
-                cycle / omega,
-                [t - cycle / omega, t],
-            ));
+            let window = Measured {
+                delta,
+                dt: cycle / omega,
+                dtheta: cycle,
+                window_s: [t - cycle / omega, t],
+                revs: if self.four_stroke { 2 } else { 1 },
+            };
+            results.push(self.plateau_result(pi, omega, omega, &window));
         }
         let energy = EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas_work);
         Ok(RunResult {
@@ -309,12 +322,23 @@ impl EngineSimulation {
             rejected_steps: 0,
             max_friction_iterations: work.max_it,
             warnings: Vec::new(),
-            law_time: self
-                .joints
-                .iter()
-                .flat_map(|j| j.laws.iter().map(|l| l.time(&j.name)))
-                .collect::<Vec<LawTime>>(),
+            law_time: self.law_time(),
         })
+    }
+
+    /// Every law's state back to zero (each run, and each steady plateau, starts there).
+    pub(super) fn reset_states(&mut self) {
+        for l in self.joints.iter_mut().flat_map(|j| j.laws.iter_mut()) {
+            l.state.iter_mut().for_each(|x| *x = 0.0);
+        }
+    }
+
+    /// Calls and estimated time of every law so far.
+    pub(super) fn law_time(&self) -> Vec<LawTime> {
+        self.joints
+            .iter()
+            .flat_map(|j| j.laws.iter().map(|l| l.time(&j.name)))
+            .collect()
     }
 
     /// One plateau: the accumulated quantities over its last cycle and the time at its end.
@@ -349,6 +373,7 @@ impl EngineSimulation {
                     crank_angle: crank_angle(omega * t),
                     omega,
                     oil,
+                    control: Control::Acceleration(0.0),
                 };
                 self.evaluate(omega * t, &at, w)?;
                 for (d, r) in delta.iter_mut().zip(&w.rates) {
@@ -395,7 +420,7 @@ impl EngineSimulation {
     /// One instant at crank angle `theta`: kinematics with the gas forces, then the plain
     /// friction/reaction iteration from `w.loads`; the rates, reactions and settled loads are
     /// left in `w`.
-    fn evaluate(&self, theta: f64, at: &At, w: &mut Work) -> Result<(), SimError> {
+    pub(super) fn evaluate(&self, theta: f64, at: &At, w: &mut Work) -> Result<(), SimError> {
         let n_cyl = self.train.geometry().cylinders.len();
         w.gas_forces.clear();
         w.gas_forces.resize(n_cyl, 0.0);
@@ -441,7 +466,12 @@ impl EngineSimulation {
             .map(|(f, c)| f * c.piston_speed_m_s)
             .sum::<f64>();
         for it in 1..=self.max_iter {
-            self.train.reactions_into(&w.kin, 0.0, &w.loads, &mut w.re);
+            w.alpha = match at.control {
+                Control::Acceleration(alpha) => alpha,
+                Control::Torque(torque) => self.train.alpha_for_torque(&w.kin, torque, &w.loads),
+            };
+            self.train
+                .reactions_into(&w.kin, w.alpha, &w.loads, &mut w.re);
             w.normals.clear();
             w.normals.extend(
                 self.joints
@@ -550,7 +580,7 @@ impl EngineSimulation {
 
     /// Commit every stateful law over the accepted step, at the inputs of the step's settled
     /// evaluation.
-    fn commit(&mut self, w: &Work) -> Result<(), SimError> {
+    pub(super) fn commit(&mut self, w: &Work) -> Result<(), SimError> {
         for (j, input) in self.joints.iter_mut().zip(&w.inputs) {
             for law in j.laws.iter_mut().filter(|l| l.is_stateful()) {
                 law.commit(input)
@@ -595,16 +625,16 @@ impl EngineSimulation {
         }
     }
 
-    /// A plateau's result from its accumulated quantities over `dt` seconds of one cycle.
-    fn plateau_result(
+    /// Plateau `pi`'s result (set speed `omega`, mean speed `mean_omega`, rad/s) from the
+    /// change of its accumulated quantities over the measured `window`.
+    pub(super) fn plateau_result(
         &self,
         pi: usize,
         omega: f64,
-        delta: &[f64],
-        dt: f64,
-        window_s: [f64; 2],
+        mean_omega: f64,
+        window: &Measured,
     ) -> PlateauResult {
-        let dtheta = self.cycle_angle();
+        let (delta, dt, dtheta) = (&window.delta, window.dt, window.dtheta);
         let mut joints = Vec::new();
         let mut k = 0;
         for j in &self.joints {
@@ -645,13 +675,13 @@ impl EngineSimulation {
                 components,
             },
             set_speed_rpm: rad_s_to_rpm(omega),
-            mean_speed_rpm: rad_s_to_rpm(omega),
+            mean_speed_rpm: rad_s_to_rpm(mean_omega),
             motoring_torque_nm: delta[MOTOR] / dtheta,
             gas_torque_nm: delta[GAS] / dtheta,
             oil_temp_c: self.temps[pi],
             viscosity_pa_s: self.viscosities[pi],
-            window_s,
-            revolutions: if self.four_stroke { 2 } else { 1 },
+            window_s: window.window_s,
+            revolutions: window.revs,
             joints,
             groups,
         }
@@ -735,37 +765,45 @@ fn law_field(f: &RigFile, name: &str, i: usize) -> String {
 
 /// Where an evaluation is: time, the step the laws are told, crank angle within the
 /// revolution, speed, oil temperature and viscosity.
-struct At {
-    t: f64,
-    dt: f64,
-    crank_angle: f64,
-    omega: f64,
-    oil: (f64, f64),
+pub(super) struct At {
+    pub(super) t: f64,
+    pub(super) dt: f64,
+    pub(super) crank_angle: f64,
+    pub(super) omega: f64,
+    pub(super) oil: (f64, f64),
+    /// The crank's acceleration, or the torque that drives it.
+    pub(super) control: Control,
 }
 
 /// The recycled state of the run: kinematics, reactions, loads, rates.
-struct Work {
+pub(super) struct Work {
     kin: TrainKinematics,
-    re: TrainReactions,
+    pub(super) re: TrainReactions,
     loads: TrainLoads,
+    /// The crank acceleration of the settled solve, rad/s^2.
+    pub(super) alpha: f64,
     gas_forces: Vec<f64>,
     /// Each cylinder's gas state for its laws.
-    law_gas: Vec<LawGas>,
-    rates: Vec<f64>,
+    pub(super) law_gas: Vec<LawGas>,
+    pub(super) rates: Vec<f64>,
     /// Normal loads of this solve and the previous one, per joint.
-    normals: Vec<f64>,
+    pub(super) normals: Vec<f64>,
     prev: Vec<f64>,
     /// The law inputs of the last round of laws, per joint (what a commit is given).
-    inputs: Vec<LawInput>,
-    max_it: u32,
+    pub(super) inputs: Vec<LawInput>,
+    pub(super) max_it: u32,
 }
 
 impl Work {
-    fn new(sim: &EngineSimulation) -> Self {
+    pub(super) fn new(sim: &EngineSimulation) -> Self {
         Self {
             kin: TrainKinematics::default(),
             re: TrainReactions::default(),
-            loads: TrainLoads::default(),
+            loads: TrainLoads {
+                main_torque_nm: 0.0,
+                cylinders: vec![CylinderLoads::default(); sim.train.geometry().cylinders.len()],
+            },
+            alpha: 0.0,
             gas_forces: Vec::new(),
             law_gas: Vec::new(),
             rates: vec![0.0; sim.len()],

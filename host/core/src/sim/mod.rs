@@ -15,10 +15,12 @@
 //! [`StepObserver`].
 
 mod adaptive;
+mod any;
 mod bind;
 mod crank_angle;
 mod energy;
 mod engine_run;
+mod engine_transient;
 mod error;
 mod evaluate;
 mod joint;
@@ -42,7 +44,8 @@ use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
 use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
-pub use crank_angle::{AngleSample, CrankAngleTrace, LawSample};
+pub use any::RigSimulation;
+pub use crank_angle::{AngleSample, CrankAngleTrace, CylinderSample, LawSample};
 pub use engine_run::EngineSimulation;
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use joint::JointId;
@@ -137,9 +140,8 @@ fn rig_geometry(f: &RigFile) -> RigGeometry {
     }
 }
 
-/// A multi-cylinder engine rig is described and validated (`tribo_core::engine` solves its
-/// crank train at one instant) but not yet run by the simulation: an error saying so, rather
-/// than a single cylinder's answer.
+/// A multi-cylinder engine rig is run by [`EngineSimulation`] (or [`RigSimulation`], which
+/// picks either): the single-cylinder solver refuses it rather than give one cylinder's answer.
 fn not_an_engine(f: &RigFile) -> Result<(), SimError> {
     match &f.engine {
         None => Ok(()),
@@ -149,7 +151,7 @@ fn not_an_engine(f: &RigFile) -> Result<(), SimError> {
             law: None,
             param: None,
             message: format!(
-                "this rig is a {}-cylinder engine; engines run in steady state only so far (`tribo run --steady`, docs/engines.md, Status)",
+                "this rig is a {}-cylinder engine: the single-cylinder solver cannot run it; use EngineSimulation or RigSimulation (tribo_config::rig::any_simulation)",
                 e.cylinders.len()
             ),
         }),
@@ -337,13 +339,7 @@ impl Simulation {
     /// and the ramp leading to it; after the last plateau, the last value.
     #[inline]
     fn oil_at(&self, t: f64) -> (f64, f64) {
-        let i = self
-            .cycle
-            .plateaus()
-            .iter()
-            .position(|p| t <= p.t_end)
-            .unwrap_or(self.temps.len().saturating_sub(1));
-        (self.temps[i], self.viscosities[i])
+        oil_at(&self.cycle, &self.temps, &self.viscosities, t)
     }
 
     #[inline]
@@ -397,7 +393,9 @@ impl Simulation {
             dissipated,
             gas_work,
         );
-        let (results, warnings) = plateaus.results(self)?;
+        let (results, warnings) = plateaus.results(|pi, omega, m| {
+            self.plateau_result(pi, omega, &m.delta, m.dt, m.dtheta, m.window_s, m.revs)
+        })?;
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: match self.drive {
@@ -419,18 +417,7 @@ impl Simulation {
     /// The run's grid: segment ends, and for a prescribed crank the exact window starts, so
     /// every window begins and ends on a step.
     fn grid(&self) -> Vec<f64> {
-        let duration = self.cycle.duration();
-        let mut breaks: Vec<f64> = self.cycle.breakpoints();
-        if matches!(self.drive, Drive::Prescribed) {
-            for p in self.cycle.plateaus() {
-                let revs = self.window_revs(p.omega);
-                breaks.push(p.t_end - revs as f64 * TAU / p.omega);
-            }
-        }
-        breaks.retain(|b| *b > 0.0 && *b <= duration);
-        breaks.sort_by(f64::total_cmp);
-        breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
-        breaks
+        grid(&self.cycle, &self.window_spec(), &self.drive)
     }
 
     /// The transient run with `stepper` over the grid: every accepted step is committed,
@@ -443,7 +430,11 @@ impl Simulation {
         observer: &mut dyn StepObserver,
     ) -> Result<(Work, u64, Plateaus), SimError> {
         let duration = self.cycle.duration();
-        let mut plateaus = Plateaus::new(self, self.layout().len());
+        let mut plateaus = Plateaus::new(
+            self.cycle.plateaus(),
+            self.window_spec(),
+            self.layout().len(),
+        );
         let (mut filtered, mut steps) = (0.0, 0_u64);
         for b in self.grid() {
             let (_, w_end, _) = self.cycle.reference(b);
@@ -474,21 +465,43 @@ impl Simulation {
                 observe(observer, &step, w.y, filtered)?;
                 let crank = (w.y.0, w.y.1);
                 let sat = step.end.saturated();
-                plateaus.record(
-                    self.window_s,
-                    step.t1,
-                    step.h,
-                    crank,
-                    sat,
-                    &w.acc,
-                    &w.last_rates,
-                );
+                plateaus.record(step.t1, step.h, crank, sat, &w.acc, &w.last_rates);
                 stepper.recycle(step.end, step.h, &mut w);
                 w.t = step.t1;
             }
         }
         Ok((w, steps, plateaus))
     }
+}
+
+/// Oil temperature and viscosity in force at time `t` of `cycle` (per plateau `temps`,
+/// `viscosities`): the plateau's value during a hold and the ramp leading to it; after the
+/// last plateau, the last value.
+#[inline]
+fn oil_at(cycle: &Cycle, temps: &[f64], viscosities: &[f64], t: f64) -> (f64, f64) {
+    let i = cycle
+        .plateaus()
+        .iter()
+        .position(|p| t <= p.t_end)
+        .unwrap_or(temps.len().saturating_sub(1));
+    (temps[i], viscosities[i])
+}
+
+/// A transient run's grid over `cycle`: segment ends, and for a prescribed crank the exact
+/// window starts (`spec`), so every window begins and ends on a step.
+fn grid(cycle: &Cycle, spec: &plateau::WindowSpec, drive: &Drive) -> Vec<f64> {
+    let duration = cycle.duration();
+    let mut breaks: Vec<f64> = cycle.breakpoints();
+    if matches!(drive, Drive::Prescribed) {
+        for p in cycle.plateaus() {
+            let revs = spec.window_revs(p.omega);
+            breaks.push(p.t_end - revs as f64 * TAU / p.omega);
+        }
+    }
+    breaks.retain(|b| *b > 0.0 && *b <= duration);
+    breaks.sort_by(f64::total_cmp);
+    breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+    breaks
 }
 
 /// Hand the accepted `step` (crank state `y` at its end, filtered torque) to the observer.

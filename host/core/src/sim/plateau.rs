@@ -41,44 +41,89 @@ impl Window {
     }
 }
 
+/// What the plateau windows need of a run: the measurement window, the revolutions of one
+/// cycle and the step length (to size each window's storage before the run). Plain data, so
+/// the single-cylinder rig and the engine measure their plateaus alike.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct WindowSpec {
+    /// The measurement window at the end of each hold, s (whole cycles within it are used).
+    pub(super) window_s: f64,
+    /// Crank revolutions per cycle: 2 for a 4-stroke pressure, else 1.
+    pub(super) revs_per_cycle: u32,
+    /// The step's crank angle, rad, and its cap in time, s.
+    pub(super) step_rad: f64,
+    pub(super) max_step_s: f64,
+}
+
+impl WindowSpec {
+    /// One cycle's crank angle, rad: 2 pi, or 4 pi for a 4-stroke cycle.
+    pub(super) fn cycle_angle(&self) -> f64 {
+        TAU * self.revs_per_cycle as f64
+    }
+
+    /// Whole revolutions in the measurement window at speed `omega`: whole cycles (at least
+    /// one).
+    pub(super) fn window_revs(&self, omega: f64) -> u32 {
+        let cycles = ((self.window_s * omega / self.cycle_angle()).floor() as u32).max(1);
+        cycles * self.revs_per_cycle
+    }
+
+    /// The time the crank needs to turn `angle_rad` at `omega`, capped by the largest step.
+    pub(super) fn time_step(&self, angle_rad: f64, omega: f64) -> f64 {
+        if omega > 0.0 {
+            (angle_rad / omega).min(self.max_step_s)
+        } else {
+            self.max_step_s
+        }
+    }
+}
+
+/// A plateau's measurement window: the change of every accumulated quantity over it, its
+/// length in time (s) and crank angle (rad), its bounds (s) and whole revolutions.
+pub(super) struct Measured {
+    pub(super) delta: Vec<f64>,
+    pub(super) dt: f64,
+    pub(super) dtheta: f64,
+    pub(super) window_s: [f64; 2],
+    pub(super) revs: u32,
+}
+
 /// The recorder of every plateau's window, and the time the drive sat at its limit near it.
 pub(super) struct Plateaus {
     plateaus: Vec<Plateau>,
     records: Vec<Window>,
     saturated_time: Vec<f64>,
-    /// One cycle's crank angle, rad (2 pi, or 4 pi for a 4-stroke cycle).
-    cycle: f64,
+    spec: WindowSpec,
+    /// Accumulated quantities per step.
+    n: usize,
 }
 
 impl Plateaus {
-    /// Storage for the cycle's plateaus, each sized for the steps its measurement margin will
-    /// hold, for `n` accumulated quantities.
-    pub(super) fn new(sim: &Simulation, n: usize) -> Self {
-        let plateaus = sim.cycle.plateaus().to_vec();
+    /// Storage for the cycle's `plateaus`, each sized for the steps its measurement margin
+    /// will hold, for `n` accumulated quantities.
+    pub(super) fn new(plateaus: &[Plateau], spec: WindowSpec, n: usize) -> Self {
         let records = plateaus
             .iter()
             .map(|p| {
                 let w = p.omega.max(1e-9);
-                let h = sim.time_step(sim.step_rad, w);
-                let margin = sim.window_s + (sim.cycle_angle() + TAU) / w;
+                let h = spec.time_step(spec.step_rad, w);
+                let margin = spec.window_s + (spec.cycle_angle() + TAU) / w;
                 Window::with_capacity((margin / h).ceil() as usize + 16, n)
             })
             .collect();
-        let saturated_time = vec![0.0; plateaus.len()];
         Self {
-            plateaus,
+            plateaus: plateaus.to_vec(),
             records,
-            saturated_time,
-            cycle: sim.cycle_angle(),
+            saturated_time: vec![0.0; plateaus.len()],
+            spec,
+            n,
         }
     }
 
     /// Record the accepted step of length `h` ending at `t1` (crank `theta`, `omega`; the
     /// accumulated quantities `acc` and their `rates` there) in every window it falls in.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn record(
         &mut self,
-        window_s: f64,
         t1: f64,
         h: f64,
         (theta, omega): (f64, f64),
@@ -86,8 +131,9 @@ impl Plateaus {
         acc: &[f64],
         rates: &[f64],
     ) {
+        let cycle = self.spec.cycle_angle();
         for (pi, p) in self.plateaus.iter().enumerate() {
-            let margin = window_s + (self.cycle + TAU) / p.omega.max(1e-9) + 2.0 * h;
+            let margin = self.spec.window_s + (cycle + TAU) / p.omega.max(1e-9) + 2.0 * h;
             if t1 >= p.t_end - margin && t1 <= p.t_end + 1e-12 {
                 if saturated {
                     self.saturated_time[pi] += h;
@@ -97,26 +143,26 @@ impl Plateaus {
         }
     }
 
-    /// Every plateau's result, with the warnings of a drive at its limit or a speed that never
-    /// settled.
+    /// Every plateau's result (`result` turns plateau `pi` at set speed `omega`, measured
+    /// `m`, into a [`PlateauResult`]), with the warnings of a drive at its limit or a speed
+    /// that never settled.
     /// A plateau whose window cannot be placed (the crank stalled) is [`SimError::Stalled`].
     pub(super) fn results(
         &self,
-        sim: &Simulation,
+        result: impl Fn(usize, f64, &Measured) -> PlateauResult,
     ) -> Result<(Vec<PlateauResult>, Vec<String>), SimError> {
         let mut results = Vec::new();
         let mut warnings = Vec::new();
         for (pi, p) in self.plateaus.iter().enumerate() {
-            let measured = sim
-                .measure(pi, p.omega, p.t_end, &self.records[pi])
+            let measured = measure(&self.spec, self.n, p.omega, p.t_end, &self.records[pi])
                 .map_err(|mut e| {
                     if let SimError::Stalled { saturated_s, .. } = &mut e {
                         *saturated_s = self.saturated_time[pi];
                     }
                     e
                 })?;
-            results.push(measured);
-            if self.saturated_time[pi] > 0.5 * sim.window_s {
+            results.push(result(pi, p.omega, &measured));
+            if self.saturated_time[pi] > 0.5 * self.spec.window_s {
                 warnings.push(format!(
                     "at the {:.0} rpm plateau the drive sat at its torque limit for {:.3} s near the measurement window; the plateau torque is limited by the drive",
                     rad_s_to_rpm(p.omega),
@@ -132,86 +178,91 @@ impl Plateaus {
     }
 }
 
+/// The window over the last whole revolutions (whole cycles) of a hold at set speed
+/// `omega_ref` ending at `t_end`, from the recorded steps `recs` (`n` accumulated quantities);
+/// [`SimError::Stalled`] when the recorded end of the hold holds fewer revolutions.
+fn measure(
+    spec: &WindowSpec,
+    n: usize,
+    omega_ref: f64,
+    t_end: f64,
+    recs: &Window,
+) -> Result<Measured, SimError> {
+    let revs = spec.window_revs(omega_ref);
+    let (t_e, theta_e, acc_e) = match recs.points.len() {
+        0 => (t_end, 0.0, vec![0.0; n]),
+        len => (
+            recs.points[len - 1].0,
+            recs.points[len - 1].1,
+            recs.acc(len - 1).to_vec(),
+        ),
+    };
+    let theta_s = theta_e - revs as f64 * TAU;
+    // The window must start inside the recorded end of the hold; otherwise the crank has
+    // not turned enough for a whole-cycle mean and there is no honest value to give.
+    let first = recs.points.first().copied();
+    if first.is_none_or(|(_, theta_0, _)| theta_0 > theta_s) {
+        let (t_0, theta_0) = first.map_or((t_e, theta_e), |(t, th, _)| (t, th));
+        return Err(SimError::Stalled {
+            set_speed_rpm: rad_s_to_rpm(omega_ref),
+            turned_revs: (theta_e - theta_0) / TAU,
+            span_s: t_e - t_0,
+            needed_revs: revs,
+            saturated_s: 0.0,
+        });
+    }
+    // Find the interval holding theta_s and interpolate (cubic Hermite in time).
+    let (mut t_s, mut acc_s) = (t_e, acc_e.clone());
+    for i in 1..recs.points.len() {
+        let ((ta, tha, wa), (tb, thb, wb)) = (recs.points[i - 1], recs.points[i]);
+        if tha <= theta_s && theta_s <= thb {
+            let h = tb - ta;
+            // The accumulated quantities at s (cubic Hermite in time, rates as slopes).
+            let herm = |y0: f64, y1: f64, d0: f64, d1: f64, s: f64| {
+                let (s2, s3) = (s * s, s * s * s);
+                (2.0 * s3 - 3.0 * s2 + 1.0) * y0
+                    + (s3 - 2.0 * s2 + s) * h * d0
+                    + (-2.0 * s3 + 3.0 * s2) * y1
+                    + (s3 - s2) * h * d1
+            };
+            // The window's start: where the crank angle's cubic reaches theta_s.
+            let s = hermite_root((tha, thb), (h * wa, h * wb), theta_s);
+            t_s = ta + s * h;
+            let (aa, ab, ra, rb) = (
+                recs.acc(i - 1),
+                recs.acc(i),
+                recs.rates(i - 1),
+                recs.rates(i),
+            );
+            acc_s = (0..n)
+                .map(|k| herm(aa[k], ab[k], ra[k], rb[k], s))
+                .collect();
+            break;
+        }
+    }
+    Ok(Measured {
+        delta: acc_e.iter().zip(&acc_s).map(|(e, s)| e - s).collect(),
+        dt: (t_e - t_s).max(1e-300),
+        dtheta: theta_e - theta_s,
+        window_s: [t_s, t_e],
+        revs,
+    })
+}
+
 impl Simulation {
-    /// Whole revolutions in the measurement window at speed `omega`: whole cycles, so a
-    /// multiple of [`Simulation::revolutions_per_cycle`] (at least one cycle).
-    pub(super) fn window_revs(&self, omega: f64) -> u32 {
-        let per = self.revolutions_per_cycle();
-        let cycles = ((self.window_s * omega / self.cycle_angle()).floor() as u32).max(1);
-        cycles * per
+    /// What the plateau windows need of this run.
+    pub(super) fn window_spec(&self) -> WindowSpec {
+        WindowSpec {
+            window_s: self.window_s,
+            revs_per_cycle: self.revolutions_per_cycle(),
+            step_rad: self.step_rad,
+            max_step_s: self.max_step_s,
+        }
     }
 
     /// One cycle's crank angle, rad: 2 pi, or 4 pi for a 4-stroke cycle.
     pub(super) fn cycle_angle(&self) -> f64 {
         TAU * self.revolutions_per_cycle() as f64
-    }
-
-    /// Plateau values over the last whole revolutions (whole cycles) of a hold;
-    /// [`SimError::Stalled`] when the recorded end of the hold holds fewer revolutions.
-    fn measure(
-        &self,
-        pi: usize,
-        omega_ref: f64,
-        t_end: f64,
-        recs: &Window,
-    ) -> Result<PlateauResult, SimError> {
-        let revs = self.window_revs(omega_ref);
-        let n = self.layout().len();
-        let (t_e, theta_e, acc_e) = match recs.points.len() {
-            0 => (t_end, 0.0, vec![0.0; n]),
-            len => (
-                recs.points[len - 1].0,
-                recs.points[len - 1].1,
-                recs.acc(len - 1).to_vec(),
-            ),
-        };
-        let theta_s = theta_e - revs as f64 * TAU;
-        // The window must start inside the recorded end of the hold; otherwise the crank has
-        // not turned enough for a whole-cycle mean and there is no honest value to give.
-        let first = recs.points.first().copied();
-        if first.is_none_or(|(_, theta_0, _)| theta_0 > theta_s) {
-            let (t_0, theta_0) = first.map_or((t_e, theta_e), |(t, th, _)| (t, th));
-            return Err(SimError::Stalled {
-                set_speed_rpm: rad_s_to_rpm(omega_ref),
-                turned_revs: (theta_e - theta_0) / TAU,
-                span_s: t_e - t_0,
-                needed_revs: revs,
-                saturated_s: 0.0,
-            });
-        }
-        // Find the interval holding theta_s and interpolate (cubic Hermite in time).
-        let (mut t_s, mut acc_s) = (t_e, acc_e.clone());
-        for i in 1..recs.points.len() {
-            let ((ta, tha, wa), (tb, thb, wb)) = (recs.points[i - 1], recs.points[i]);
-            if tha <= theta_s && theta_s <= thb {
-                let h = tb - ta;
-                // The accumulated quantities at s (cubic Hermite in time, rates as slopes).
-                let herm = |y0: f64, y1: f64, d0: f64, d1: f64, s: f64| {
-                    let (s2, s3) = (s * s, s * s * s);
-                    (2.0 * s3 - 3.0 * s2 + 1.0) * y0
-                        + (s3 - 2.0 * s2 + s) * h * d0
-                        + (-2.0 * s3 + 3.0 * s2) * y1
-                        + (s3 - s2) * h * d1
-                };
-                // The window's start: where the crank angle's cubic reaches theta_s.
-                let s = hermite_root((tha, thb), (h * wa, h * wb), theta_s);
-                t_s = ta + s * h;
-                let (aa, ab, ra, rb) = (
-                    recs.acc(i - 1),
-                    recs.acc(i),
-                    recs.rates(i - 1),
-                    recs.rates(i),
-                );
-                acc_s = (0..n)
-                    .map(|k| herm(aa[k], ab[k], ra[k], rb[k], s))
-                    .collect();
-                break;
-            }
-        }
-        let dt = (t_e - t_s).max(1e-300);
-        let dtheta = theta_e - theta_s;
-        let delta: Vec<f64> = acc_e.iter().zip(&acc_s).map(|(e, s)| e - s).collect();
-        Ok(self.plateau_result(pi, omega_ref, &delta, dt, dtheta, [t_s, t_e], revs))
     }
 
     /// Plateau values from the accumulated quantities `delta` over a window of `dt` seconds

@@ -193,29 +193,7 @@ impl Simulation {
     /// (negative while saturated) for a PI drive.
     #[inline]
     pub(super) fn pi_torque(&self, t: f64, omega: f64, z: f64) -> (f64, f64, f64) {
-        match self.drive {
-            Drive::Pi {
-                kp,
-                ki,
-                torque_limit_nm,
-                belt_ratio,
-                ..
-            } => {
-                let e = self.cycle.reference(t).1 - omega;
-                let raw = kp * e + ki * z;
-                let motor = raw.clamp(-torque_limit_nm, torque_limit_nm);
-                let margin = torque_limit_nm - raw.abs();
-                // Conditional integration: stop integrating while saturated in the direction
-                // the error pushes, so the integral cannot wind up.
-                let dz = if margin < 0.0 && raw.signum() == e.signum() {
-                    0.0
-                } else {
-                    e
-                };
-                (motor * belt_ratio, dz, margin)
-            }
-            Drive::Prescribed => (0.0, 0.0, f64::INFINITY),
-        }
+        pi_drive(&self.drive, self.cycle.reference(t).1, omega, z)
     }
 
     /// The evaluation at the end of a step (or the run's start) in state `y`: the reference
@@ -283,5 +261,36 @@ impl Simulation {
         w.guess = lend;
         w.max_it = w.max_it.max(end.iterations);
         Ok((end, lend, (th1, w1, z1)))
+    }
+}
+
+/// The PI drive `drive` at crank speed `omega` against the reference speed `reference`, with
+/// controller integral `z`: the torque on the crank (through the belt), the integral's rate
+/// and the margin to the torque limit (negative while saturated). A prescribed crank has no
+/// drive torque of its own (0, 0, infinite margin).
+#[inline]
+pub(super) fn pi_drive(drive: &Drive, reference: f64, omega: f64, z: f64) -> (f64, f64, f64) {
+    match *drive {
+        Drive::Pi {
+            kp,
+            ki,
+            torque_limit_nm,
+            belt_ratio,
+            ..
+        } => {
+            let e = reference - omega;
+            let raw = kp * e + ki * z;
+            let motor = raw.clamp(-torque_limit_nm, torque_limit_nm);
+            let margin = torque_limit_nm - raw.abs();
+            // Conditional integration: stop integrating while saturated in the direction
+            // the error pushes, so the integral cannot wind up.
+            let dz = if margin < 0.0 && raw.signum() == e.signum() {
+                0.0
+            } else {
+                e
+            };
+            (motor * belt_ratio, dz, margin)
+        }
+        Drive::Prescribed => (0.0, 0.0, f64::INFINITY),
     }
 }

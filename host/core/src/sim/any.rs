@@ -1,0 +1,104 @@
+//! Any rig behind one type: the single-cylinder rig of the thesis ([`Simulation`]) or a
+//! multi-cylinder engine ([`EngineSimulation`]), chosen by whether the model has an
+//! `[engine]` table. Studies, the CLI and the Python package run rigs through it, so every
+//! command works on every rig; each variant keeps its own solver (the thesis rig's numbers do
+//! not move).
+
+use tribo_plugin_api::loader::LawRegistry;
+
+use super::{CrankAngleTrace, EngineSimulation, Fmep, RunResult, SimError, Simulation};
+use crate::model::{RigFile, JOINT_NAMES};
+use crate::observe::{Position, StepObserver};
+
+/// A rig ready to run, whatever its crank train.
+pub enum RigSimulation {
+    /// The single-cylinder rig (five joints).
+    Single(Box<Simulation>),
+    /// A multi-cylinder engine (`docs/engines.md`).
+    Engine(Box<EngineSimulation>),
+}
+
+impl RigSimulation {
+    /// Check `model`'s laws against `registry` (each law known, its parameters' names, types
+    /// and ranges) without creating an instance.
+    pub fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), SimError> {
+        if model.engine.is_some() {
+            EngineSimulation::check_laws(model, registry)
+        } else {
+            Simulation::check_laws(model, registry)
+        }
+    }
+
+    /// Bind the model's laws (from `registry`) and prepare its crank train and cycle.
+    pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
+        Ok(if model.engine.is_some() {
+            Self::Engine(Box::new(EngineSimulation::new(model, registry)?))
+        } else {
+            Self::Single(Box::new(Simulation::new(model, registry)?))
+        })
+    }
+
+    /// Whether the rig is a multi-cylinder engine.
+    pub fn is_engine(&self) -> bool {
+        matches!(self, Self::Engine(_))
+    }
+
+    /// The joints' names, in the order of a time series' normal loads.
+    pub fn joint_names(&self) -> Vec<String> {
+        match self {
+            Self::Single(_) => JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+            Self::Engine(e) => e.joint_names(),
+        }
+    }
+
+    /// Report progress (permille of the simulated cycle) to `p`.
+    pub fn report_progress(&mut self, p: Position) {
+        match self {
+            Self::Single(s) => s.report_progress(p),
+            Self::Engine(e) => e.report_progress(p),
+        }
+    }
+
+    /// The run's FMEP definition.
+    pub fn fmep(&self) -> Fmep {
+        match self {
+            Self::Single(s) => s.fmep(),
+            Self::Engine(e) => e.fmep(),
+        }
+    }
+
+    /// Run the whole test cycle without per-step output.
+    pub fn run(&mut self) -> Result<RunResult, SimError> {
+        match self {
+            Self::Single(s) => s.run(),
+            Self::Engine(e) => e.run(),
+        }
+    }
+
+    /// Run the whole test cycle, handing every accepted step to `observer`.
+    pub fn run_with(&mut self, observer: &mut dyn StepObserver) -> Result<RunResult, SimError> {
+        match self {
+            Self::Single(s) => s.run_with(observer),
+            Self::Engine(e) => e.run_with(observer),
+        }
+    }
+
+    /// Each plateau's periodic steady state, computed directly.
+    pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
+        match self {
+            Self::Single(s) => s.run_steady(),
+            Self::Engine(e) => e.run_steady(),
+        }
+    }
+
+    /// Every plateau's cycle in steady state, sampled every `resolution_deg` degrees.
+    pub fn crank_angle_traces(
+        &mut self,
+        resolution_deg: f64,
+    ) -> Result<Vec<CrankAngleTrace>, SimError> {
+        match self {
+            Self::Single(s) => s.crank_angle_traces(resolution_deg),
+            Self::Engine(e) => e.crank_angle_traces(resolution_deg),
+        }
+    }
+}

@@ -1,7 +1,7 @@
 //! Multi-cylinder engines (issue 18, docs/engines.md): the `[engine]` description read and
 //! validated with errors naming file, line, column and field; law sets attaching to joint
-//! groups on engines and on the single-cylinder rig; an engine rig refused by the simulation
-//! with a clear message rather than solved as one cylinder.
+//! groups on engines and on the single-cylinder rig; engines through the transient run, the
+//! time series, the crank-angle results and every study.
 
 mod common;
 
@@ -337,35 +337,431 @@ fn an_entry_naming_no_joint_of_the_rig_is_refused_at_the_entry() {
     assert!(e.message.contains("piston_*"), "{e}");
 }
 
+/// The `tribo` command in `dir` with `args`: its output (exit 0 required).
+fn tribo_ok(dir: &Path, args: &[&str]) -> std::process::Output {
+    let out = Command::new(common::tribo_exe())
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("tribo runs");
+    assert!(
+        out.status.success(),
+        "tribo {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 #[test]
-fn an_engine_runs_in_steady_state_only_and_studies_say_so() {
-    // The transient run and the studies are the single-cylinder solver's: on an engine they
-    // stop with a message naming what works, never a single cylinder's numbers.
+fn a_one_cylinder_engine_runs_the_cycle_like_the_thesis_rig() {
+    // The transient run of the engine path (crank train, its own stepping, the shared plateau
+    // windows) against the single-cylinder solver on the same mechanism: the prescribed crank
+    // (Simpson's rule on both) and the PI drive (fixed-step RK4 on both: the single-cylinder
+    // rig's `solver.integrator = "rk4"`). Same steps, same plateaus, to 1e-9.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let rig = dir.path().join("one.toml");
+    std::fs::write(&rig, thesis_as_engine()).expect("write");
+    let rig = rig.to_str().expect("utf-8");
+    let tight = ["--set", "solver.friction_tol=1e-12"];
+    let pi = ["--set", "drive.kind=pi", "--set", "solver.integrator=rk4"];
+    for (set, drive) in [
+        ("fedem-baseline", &[][..]),
+        ("stribeck-duty", &[][..]),
+        ("stribeck-duty", &pi[..]),
+    ] {
+        let run = |r: &str| {
+            let mut a = vec!["run", r, "--lawset", set];
+            a.extend(tight);
+            a.extend(drive);
+            run_json(dir.path(), &a)
+        };
+        let (thesis, engine) = (run("crf250r-motored"), run(rig));
+        assert_eq!(engine["steps"], thesis["steps"], "{set} {drive:?}");
+        assert_eq!(engine["drive"], thesis["drive"]);
+        for (g, t) in torques(&engine).iter().zip(&torques(&thesis)) {
+            assert!(
+                (g - t).abs() <= 1e-9 * t.abs(),
+                "{set} {drive:?}: {g} vs {t}"
+            );
+        }
+        for (pe, pt) in engine["plateaus"]
+            .as_array()
+            .expect("plateaus")
+            .iter()
+            .zip(thesis["plateaus"].as_array().expect("plateaus"))
+        {
+            let (me, mt) = (
+                pe["mean_speed_rpm"].as_f64().expect("speed"),
+                pt["mean_speed_rpm"].as_f64().expect("speed"),
+            );
+            assert!((me - mt).abs() <= 1e-9 * mt, "{set}: {me} vs {mt} rpm");
+        }
+        let residual = engine["energy"]["relative_residual"]
+            .as_f64()
+            .expect("residual");
+        assert!(
+            residual < 1e-8,
+            "{set} {drive:?}: energy residual {residual}"
+        );
+    }
+}
+
+#[test]
+fn an_engine_runs_the_whole_cycle_and_keeps_its_energy_balance() {
+    // Inline-4 and V-twin, prescribed crank and PI drive. Without laws: the motor's work is the
+    // change of the train's kinetic and potential energy (written out independently of the
+    // crank equation, `CrankTrain::mechanical_energy`), to 1e-8; every plateau's mean torque
+    // over whole revolutions is zero to 1e-9 of the peak. With a law set: the motor's work is
+    // the energy change plus the laws' dissipation, and the prescribed plateaus, measured after
+    // a second of hold, are the steady state's to 1e-4.
+    let dir = tempfile::tempdir().expect("temp dir");
+    for name in ["inline4", "vtwin"] {
+        let rig = fixture(name);
+        let rig = rig.to_str().expect("utf-8");
+        for drive in [
+            &[][..],
+            &[
+                "--set",
+                "drive.kind=pi",
+                "--set",
+                "drive.torque_limit_nm=500",
+            ][..],
+        ] {
+            let mut a = vec!["run", rig];
+            a.extend(drive);
+            let r = run_json(dir.path(), &a);
+            let residual = r["energy"]["relative_residual"].as_f64().expect("residual");
+            assert!(residual < 1e-8, "{name} {drive:?}: {residual}");
+            let motor = r["energy"]["motor_work_j"].as_f64().expect("work");
+            assert!(
+                motor > 1.0,
+                "{name}: the run spins the train up ({motor} J)"
+            );
+            if drive.is_empty() {
+                for p in r["plateaus"].as_array().expect("plateaus") {
+                    let t = p["motoring_torque_nm"].as_f64().expect("torque");
+                    assert!(t.abs() < 1e-6, "{name}: frictionless mean torque {t}");
+                }
+            } else {
+                for p in r["plateaus"].as_array().expect("plateaus") {
+                    let (set, mean) = (
+                        p["set_speed_rpm"].as_f64().expect("set"),
+                        p["mean_speed_rpm"].as_f64().expect("mean"),
+                    );
+                    assert!(
+                        (mean - set).abs() < 0.01 * set,
+                        "{name}: {mean} rpm at {set}"
+                    );
+                }
+            }
+        }
+        let tight = ["--set", "solver.friction_tol=1e-12"];
+        let mut a = vec!["run", rig, "--lawset", "stribeck-duty"];
+        a.extend(tight);
+        let transient = run_json(dir.path(), &a);
+        let e = &transient["energy"];
+        let (motor, change, lost) = (
+            e["motor_work_j"].as_f64().expect("work"),
+            e["mechanical_energy_change_j"].as_f64().expect("change"),
+            e["dissipated_j"].as_f64().expect("dissipated"),
+        );
+        assert!(
+            lost > 0.1 * motor,
+            "{name}: the laws dissipate ({lost} of {motor} J)"
+        );
+        assert!((motor - change - lost).abs() < 1e-8 * motor, "{name}: {e}");
+        a.push("--steady");
+        let steady = run_json(dir.path(), &a);
+        for (t, s) in torques(&transient).iter().zip(&torques(&steady)) {
+            assert!(
+                (t - s).abs() < 1e-4 * s.abs(),
+                "{name}: transient {t} vs steady {s}"
+            );
+        }
+    }
+}
+
+#[test]
+fn an_engines_time_series_and_crank_angle_results_cover_every_joint_and_cylinder() {
+    let dir = tempfile::tempdir().expect("temp dir");
     let rig = fixture("inline4");
     let rig = rig.to_str().expect("utf-8");
-    for (args, words) in [
-        (vec!["run", rig], ["4-cylinder engine", "--steady"]),
-        (
-            vec!["run", rig, "--steady", "--crank-angle", "ca"],
-            ["4-cylinder engine", "--crank-angle"],
-        ),
-        (
-            vec!["compare", rig],
-            ["4-cylinder engine", "steady state only"],
-        ),
-    ] {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let out = Command::new(common::tribo_exe())
-            .current_dir(dir.path())
-            .args(&args)
-            .output()
-            .expect("tribo runs");
-        assert_eq!(out.status.code(), Some(1), "{args:?}");
-        let err = String::from_utf8_lossy(&out.stderr);
-        for w in words {
-            assert!(err.contains(w), "{args:?}: `{w}` in {err}");
+    // The time series: a column per joint of the engine, a line per step.
+    let out = tribo_ok(
+        dir.path(),
+        &[
+            "run",
+            rig,
+            "--lawset",
+            "stribeck-duty",
+            "--timeseries",
+            "ts.csv",
+            "--json",
+        ],
+    );
+    let result: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let series = std::fs::read_to_string(dir.path().join("ts.csv")).expect("time series");
+    let header: Vec<&str> = series.lines().next().expect("header").split(',').collect();
+    for j in ["main_1", "main_5", "big_end_1", "small_end_4", "piston_4"] {
+        assert!(
+            header.contains(&format!("{j}_normal_load_n").as_str()),
+            "{header:?}"
+        );
+    }
+    assert_eq!(header.len(), 5 + 5 + 3 * 4);
+    let lines = series.lines().count() as u64 - 1;
+    assert_eq!(Some(lines), result["steps"].as_u64());
+
+    // Crank-angle results in steady state at 1 degree. The flat-plane crank has throws at 0,
+    // 180, 180 and 0 degrees and every cylinder upright: cylinder 2's (and 3's) big-end load
+    // and side thrust at theta are cylinder 1's at theta + 180 degrees, cylinder 4's are
+    // cylinder 1's at theta. The cycle mean of the drive torque is the steady plateau torque
+    // (the same angles, the same periodic rule).
+    let tight = [
+        "--set",
+        "solver.friction_tol=1e-12",
+        "--set",
+        "solver.step_deg=1",
+    ];
+    let mut a = vec![
+        "run",
+        rig,
+        "--lawset",
+        "stribeck-duty",
+        "--steady",
+        "--resolution-deg",
+        "1",
+    ];
+    a.extend(tight);
+    a.extend(["--crank-angle", "ca"]);
+    let steady = run_json(dir.path(), &a);
+    let read = |f: &str| -> Vec<Vec<String>> {
+        let mut r = csv::Reader::from_path(dir.path().join("ca").join(f)).expect(f);
+        r.records()
+            .map(|x| x.expect("row").iter().map(str::to_string).collect())
+            .collect()
+    };
+    let num = |s: &str| s.parse::<f64>().expect("number");
+    let cylinders = read("crank_angle_cylinders.csv");
+    let first_speed = &cylinders[0][0];
+    let at = |cyl: usize, deg: usize| -> [f64; 3] {
+        let row = cylinders
+            .iter()
+            .filter(|r| &r[0] == first_speed && r[2] == cyl.to_string())
+            .nth(deg % 360)
+            .expect("sample");
+        assert_eq!(num(&row[1]).round() as usize, deg % 360);
+        [num(&row[3]), num(&row[4]), num(&row[5])]
+    };
+    let mut peak = 0.0_f64;
+    for deg in 0..360 {
+        let one = at(1, deg);
+        peak = peak.max(one[1].abs());
+        for (cyl, shift) in [(2, 180), (3, 180), (4, 0)] {
+            let other = at(cyl, deg + 360 - shift);
+            for c in 0..3 {
+                assert!(
+                    (other[c] - one[c]).abs() <= 1e-6 * (1.0 + one[c].abs().max(peak)),
+                    "cylinder {cyl} at {}: {other:?} vs cylinder 1 at {deg}: {one:?}",
+                    (deg + 360 - shift) % 360
+                );
+            }
         }
-        assert!(out.stdout.is_empty(), "{args:?}: no numbers");
+    }
+    let mains = read("crank_angle_mains.csv");
+    assert_eq!(
+        mains.len(),
+        cylinders.len() / 4 * 5,
+        "one row per main and angle"
+    );
+    let loads = read("crank_angle_loads.csv");
+    let torque: Vec<f64> = loads
+        .iter()
+        .filter(|r| &r[0] == first_speed)
+        .map(|r| num(&r[8]))
+        .collect();
+    assert_eq!(torque.len(), 360);
+    let mean = torque.iter().sum::<f64>() / 360.0;
+    let plateau = torques(&steady)[0];
+    assert!(
+        (mean - plateau).abs() < 1e-8 * plateau.abs(),
+        "{mean} vs {plateau}"
+    );
+}
+
+#[test]
+fn the_studies_run_on_an_engine() {
+    // Data made by the model itself at a known Coulomb coefficient on every piston (steady
+    // state at the rig's plateau speeds): `fit` started elsewhere recovers it, `compare` gives
+    // the true set zero error and ranks it first, `sweep` and `mass-response` run with the
+    // engine's joints, and the mass response's torques are the steady runs' of the rig and of
+    // the rig with the lighter rods.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let rig = fixture("inline4");
+    let rig = rig.to_str().expect("utf-8");
+    let set = |name: &str, mu: f64| {
+        format!(
+            "name = \"{name}\"\n[[laws]]\njoint = \"main_*\"\nlaw = \"rolling-bearing\"\nparams = {{ mu = 0.0011 }}\n[[laws]]\njoint = \"piston_*\"\nlaw = \"coulomb\"\nparams = {{ mu = {mu} }}\nfree = {{ mu = [0.01, 0.3] }}\n"
+        )
+    };
+    std::fs::write(dir.path().join("truth.toml"), set("truth", 0.08)).expect("write");
+    std::fs::write(dir.path().join("start.toml"), set("start", 0.03)).expect("write");
+    let truth = run_json(
+        dir.path(),
+        &["run", rig, "--steady", "--lawset", "truth.toml"],
+    );
+    let mut data =
+        String::from("# made by the model at mu = 0.08\nspeed_rpm,torque_nm,oil_temp_c\n");
+    for p in truth["plateaus"].as_array().expect("plateaus") {
+        data.push_str(&format!(
+            "{},{},{}\n",
+            p["set_speed_rpm"].as_f64().expect("speed").round(),
+            p["motoring_torque_nm"].as_f64().expect("torque"),
+            p["oil_temp_c"].as_f64().expect("oil"),
+        ));
+    }
+    std::fs::write(dir.path().join("data.csv"), data).expect("write");
+
+    let out = tribo_ok(
+        dir.path(),
+        &[
+            "fit",
+            rig,
+            "--lawset",
+            "start.toml",
+            "--data",
+            "data.csv",
+            "--json",
+            "--out",
+            "fitted.toml",
+        ],
+    );
+    let fit: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let mu = fit["values"][0].as_f64().expect("fitted mu");
+    assert!((mu - 0.08).abs() < 1e-5, "fitted mu {mu}: {fit}");
+
+    let out = tribo_ok(
+        dir.path(),
+        &[
+            "compare",
+            rig,
+            "--steady",
+            "--lawset",
+            "start.toml",
+            "--lawset",
+            "truth.toml",
+            "--data",
+            "data.csv",
+            "--no-cv",
+            "--json",
+        ],
+    );
+    let cmp: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let sets = cmp["sets"].as_array().expect("sets");
+    let truth_set = sets.iter().find(|s| s["lawset"] == "truth").expect("truth");
+    let rmse = truth_set["rmse_nm"].as_f64().expect("rmse");
+    assert!(rmse < 1e-9, "the true set reproduces the data: {rmse}");
+    assert_eq!(truth_set["rank"], 1);
+    let joints: Vec<&str> = truth_set["run"]["plateaus"][0]["joints"]
+        .as_array()
+        .expect("joints")
+        .iter()
+        .map(|j| j["joint"].as_str().expect("joint"))
+        .collect();
+    assert!(
+        joints.contains(&"piston_4") && joints.contains(&"main_5"),
+        "{joints:?}"
+    );
+
+    let out = tribo_ok(
+        dir.path(),
+        &["sweep", rig, "--lawset", "truth.toml", "--json"],
+    );
+    let sweep: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    // Every point lists the engine's joints; at the rig's oil temperature the sweep's torque is
+    // the steady run's.
+    let points = sweep["sets"][0]["points"].as_array().expect("points");
+    let names: Vec<&str> = points[0]["joints"]
+        .as_array()
+        .expect("joints")
+        .iter()
+        .map(|j| j["joint"].as_str().expect("joint"))
+        .collect();
+    assert_eq!(names.len(), 5 + 3 * 4, "{names:?}");
+    assert!(
+        names.contains(&"main_5") && names.contains(&"piston_4"),
+        "{names:?}"
+    );
+    let oil = truth["plateaus"][0]["oil_temp_c"].as_f64().expect("oil");
+    for p in points
+        .iter()
+        .filter(|p| p["oil_temp_c"].as_f64() == Some(oil))
+    {
+        let speed = p["speed_rpm"].as_f64().expect("speed");
+        let run = truth["plateaus"]
+            .as_array()
+            .expect("plateaus")
+            .iter()
+            .find(|q| (q["set_speed_rpm"].as_f64().expect("speed") - speed).abs() < 1e-6)
+            .map(|q| q["motoring_torque_nm"].as_f64().expect("torque"));
+        if let Some(t) = run {
+            let s = p["torque_nm"].as_f64().expect("torque");
+            assert!(
+                (s - t).abs() < 1e-9 * t.abs(),
+                "sweep {s} vs run {t} at {speed} rpm"
+            );
+        }
+    }
+    let piston: f64 = points[0]["joints"]
+        .as_array()
+        .expect("joints")
+        .iter()
+        .filter(|j| {
+            j["joint"]
+                .as_str()
+                .is_some_and(|n| n.starts_with("piston_"))
+        })
+        .map(|j| j["friction_torque_nm"].as_f64().expect("torque"))
+        .sum();
+    assert!(
+        piston > 0.0,
+        "the pistons' Coulomb friction is in the sweep's joints"
+    );
+
+    let out = tribo_ok(
+        dir.path(),
+        &[
+            "mass-response",
+            rig,
+            "--steady",
+            "--lawset",
+            "truth.toml",
+            "--json",
+        ],
+    );
+    let mr: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let light = run_json(
+        dir.path(),
+        &[
+            "run",
+            rig,
+            "--steady",
+            "--lawset",
+            "truth.toml",
+            "--set",
+            "bodies.rod.mass_scale=0.6",
+            "--set",
+            "bodies.rod.inertia_scale=0.6",
+        ],
+    );
+    let changes = mr[0]["changes"].as_array().expect("changes");
+    for ((c, t), l) in changes.iter().zip(torques(&truth)).zip(torques(&light)) {
+        let (o, s) = (
+            c["original_nm"].as_f64().expect("original"),
+            c["scaled_nm"].as_f64().expect("scaled"),
+        );
+        assert!((o - t).abs() < 1e-9 * t.abs(), "original {o} vs run {t}");
+        assert!((s - l).abs() < 1e-9 * l.abs(), "scaled {s} vs run {l}");
     }
 }
 

@@ -946,11 +946,21 @@ pub fn sweep_csv(s: &crate::study::Sweep) -> Result<String, csv::Error> {
     .iter()
     .map(|h| h.to_string())
     .collect();
-    header.extend(
-        crate::rig::JOINT_NAMES
-            .iter()
-            .map(|j| format!("{j}_friction_nm")),
-    );
+    // The rig's joints, as every point lists them (the single-cylinder rig's five when the
+    // sweep has no point).
+    let joints: Vec<String> = s
+        .sets
+        .iter()
+        .flat_map(|set| set.points.first())
+        .map(|p| p.joints.iter().map(|j| j.joint.clone()).collect())
+        .next()
+        .unwrap_or_else(|| {
+            crate::rig::JOINT_NAMES
+                .iter()
+                .map(|j| j.to_string())
+                .collect()
+        });
+    header.extend(joints.iter().map(|j| format!("{j}_friction_nm")));
     w.write_record(&header)?;
     for set in &s.sets {
         for p in &set.points {

@@ -200,6 +200,17 @@ impl EngineSpec {
     }
 }
 
+impl RigFile {
+    /// The rig's joint names in report order: [`JOINT_NAMES`] on the single-cylinder rig, an
+    /// engine's [`EngineSpec::joint_names`].
+    pub fn joint_names(&self) -> Vec<String> {
+        match &self.engine {
+            Some(e) => e.joint_names(),
+            None => JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+        }
+    }
+}
+
 /// The joints a law-set entry's `joint` names on a rig: a joint, a group (`piston_*`), or on an
 /// engine rig a single-cylinder name meaning every cylinder's (`big_end`). Empty if none.
 /// `main_a`/`main_b` on an engine and numbered names beyond the rig's count match nothing.

@@ -955,7 +955,8 @@ pub struct SweepPoint {
     pub viscosity_pa_s: f64,
     /// Mean motoring torque over the steady revolution, N m.
     pub torque_nm: f64,
-    /// Per joint in [`tribo_config::rig::JOINT_NAMES`] order (joints without a law give zero).
+    /// Per joint of the rig, in its report order (`RigFile::joint_names`: the single-cylinder
+    /// rig's five, or an engine's mains and cylinder joints); joints without a law give zero.
     pub joints: Vec<JointTorque>,
 }
 
@@ -1130,6 +1131,7 @@ pub fn sweep(
         })
         .collect::<Result<Vec<RunResult>, StudyError>>()?;
     let oil = OilInfo::of(rig);
+    let joint_names = rig.model().joint_names();
     let mut sets = Vec::with_capacity(lawsets.len());
     for (i, ls) in lawsets.iter().enumerate() {
         let mut points = Vec::with_capacity(temps_c.len() * speeds_rpm.len());
@@ -1138,10 +1140,10 @@ pub fn sweep(
             let run = &runs[i * temps_c.len() + k];
             warnings.extend(run.warnings.iter().map(|w| format!("{t} C: {w}")));
             for p in &run.plateaus {
-                let joints = tribo_config::rig::JOINT_NAMES
+                let joints = joint_names
                     .iter()
                     .map(|name| JointTorque {
-                        joint: (*name).into(),
+                        joint: name.clone(),
                         friction_torque_nm: p
                             .joints
                             .iter()

@@ -46,7 +46,7 @@ impl RigSimulation {
     /// The joints' names, in the order of a time series' normal loads.
     pub fn joint_names(&self) -> Vec<String> {
         match self {
-            Self::Single(_) => JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+            Self::Single(_) => JOINT_NAMES.iter().map(|s| (*s).to_string()).collect(),
             Self::Engine(e) => e.joint_names(),
         }
     }

@@ -140,7 +140,43 @@ fn bench(c: &mut Criterion) {
         g.bench_function(name, |b| b.iter(|| sim.run_steady().expect("run")));
     }
     g.finish();
+    // Whole transient cycles (prescribed crank, Simpson's rule): a short cycle, ramp to 3000
+    // rpm in 0.2 s and hold 0.3 s, about 11000 steps of 0.5 degree.
+    let mut g = c.benchmark_group("engine_cycle");
+    g.sample_size(10);
+    let mut thesis_cycle = tribo::rig::load_rig_text(
+        Path::new("bench.toml"),
+        &format!(
+            "{}\n{SHORT_CYCLE}",
+            tribo::bundled::rig("crf250r-motored").expect("bundled")
+        ),
+        &[],
+    )
+    .expect("thesis rig");
+    fedem.apply(&mut thesis_cycle);
+    let mut single = tribo::rig::simulation(&thesis_cycle, &reg).expect("thesis simulation");
+    g.bench_function("cycle_thesis_solver", |b| {
+        b.iter(|| single.run().expect("run"))
+    });
+    for (name, text) in [
+        ("cycle_engine_1_cylinder", one_cylinder_text()),
+        ("cycle_engine_4_cylinders", four_cylinder_text()),
+    ] {
+        let mut rig = tribo::rig::load_rig_text(
+            Path::new("bench.toml"),
+            &format!("{text}\n{SHORT_CYCLE}"),
+            &[],
+        )
+        .expect("engine rig");
+        fedem.apply(&mut rig);
+        let mut sim = tribo::rig::engine_simulation(&rig, &reg).expect("engine simulation");
+        g.bench_function(name, |b| b.iter(|| sim.run().expect("run")));
+    }
+    g.finish();
 }
+
+/// A short test cycle for the transient benchmarks.
+const SHORT_CYCLE: &str = "[cycle]\nsegments = [\n  { kind = \"ramp\", to_rpm = 3000.0, duration_s = 0.2 },\n  { kind = \"hold\", duration_s = 0.3 },\n]\n";
 
 fn registry() -> tribo::plugin_api::loader::LawRegistry {
     let exe = std::env::current_exe().expect("bench executable path");

@@ -192,3 +192,37 @@ def test_rig_and_lawset_from_dicts_run_like_their_files(cli, tmp_path):
     lo = tribo.run(lawset=smaller, steady=True).plateaus["motoring_torque_nm"]
     assert (hi != lo).all()
     assert piston["law"]
+
+
+def test_an_engine_runs_from_python_like_the_cli(cli, tmp_path):
+    # A multi-cylinder engine through the same call: the transient cycle with its time series
+    # (one normal-load column per joint of the engine) and the steady state, as the CLI's.
+    args = ["run", "vtwin-90-frictionless", "--law", "piston=coulomb", "--json"]
+    want = cli(*args)
+    got = tribo.run("vtwin-90-frictionless", laws=["piston=coulomb"], timeseries=True)
+    same(got.raw, want)
+    ts = got.timeseries
+    assert ts is not None and len(ts["time_s"]) == want["steps"]
+    loads = [n for n in ts if n.endswith("_normal_load_n")]
+    assert loads == [
+        "main_1_normal_load_n",
+        "main_2_normal_load_n",
+        "big_end_1_normal_load_n",
+        "small_end_1_normal_load_n",
+        "piston_1_normal_load_n",
+        "big_end_2_normal_load_n",
+        "small_end_2_normal_load_n",
+        "piston_2_normal_load_n",
+    ]
+    csv = tmp_path / "ts.csv"
+    cli(*args[:-1], "--timeseries", str(csv), "--json")
+    assert list(pd.read_csv(csv, comment="#").columns) == list(ts)
+    steady = cli(*args, "--steady")
+    same(tribo.run("vtwin-90-frictionless", laws=["piston=coulomb"], steady=True).raw, steady)
+    # Both pistons carry the law, and the plateau friction is the motoring torque (steady).
+    names = {l["joint"] for l in steady["plateaus"][0]["joints"]}
+    assert names == {"piston_1", "piston_2"}
+    for q in steady["plateaus"]:
+        assert math.isclose(
+            sum(l["friction_torque_nm"] for l in q["joints"]), q["motoring_torque_nm"], rel_tol=1e-6
+        )

@@ -144,13 +144,15 @@ fn bench(c: &mut Criterion) {
     // rpm in 0.2 s and hold 0.3 s, about 11000 steps of 0.5 degree.
     let mut g = c.benchmark_group("engine_cycle");
     g.sample_size(10);
+    // The thesis rig's seven per-plateau oil temperatures become one for the one plateau.
+    let one_temperature = ["oil.temperature_c=80".to_string()];
     let mut thesis_cycle = tribo::rig::load_rig_text(
         Path::new("bench.toml"),
         &format!(
             "{}\n{SHORT_CYCLE}",
             tribo::bundled::rig("crf250r-motored").expect("bundled")
         ),
-        &[],
+        &one_temperature,
     )
     .expect("thesis rig");
     fedem.apply(&mut thesis_cycle);
@@ -165,7 +167,7 @@ fn bench(c: &mut Criterion) {
         let mut rig = tribo::rig::load_rig_text(
             Path::new("bench.toml"),
             &format!("{text}\n{SHORT_CYCLE}"),
-            &[],
+            &one_temperature,
         )
         .expect("engine rig");
         fedem.apply(&mut rig);

@@ -465,6 +465,29 @@ impl EngineSimulation {
             .zip(&w.kin.cylinders)
             .map(|(f, c)| f * c.piston_speed_m_s)
             .sum::<f64>();
+        // The law inputs but for the loads: built once, each round of laws sets only the loads.
+        w.inputs.clear();
+        if self.n_laws > 0 {
+            for j in &self.joints {
+                let mut input = LawInput::at_rest(j.role.kind());
+                input.contact_radius_m = j.radius_m;
+                input.contact_length_m = j.length_m;
+                input.oil_temp_c = at.oil.0;
+                input.viscosity_pa_s = at.oil.1;
+                input.engine_speed_rad_s = at.omega;
+                input.crank_angle_rad = at.crank_angle;
+                input.time_s = at.t;
+                input.dt_s = at.dt;
+                // A cylinder's joints see its own gas state; the mains, cylinder 1's.
+                let gas = &w.law_gas[j.role.cylinder()];
+                input.cylinder_pressure_pa = gas.cylinder_pa;
+                input.crankcase_pressure_pa = gas.crankcase_pa;
+                input.piston_from_tdc_m = gas.piston_from_tdc_m;
+                input.cycle_angle_rad = gas.cycle_angle_rad;
+                w.inputs
+                    .push(input.with_velocity(Self::relative_velocity(j.role, &w.kin)));
+            }
+        }
         for it in 1..=self.max_iter {
             w.alpha = match at.control {
                 Control::Acceleration(alpha) => alpha,
@@ -519,39 +542,23 @@ impl EngineSimulation {
                 .iter_mut()
                 .for_each(|c| *c = CylinderLoads::default());
             let mut k = 0;
-            w.inputs.clear();
-            for (j, normal) in self.joints.iter().zip(&w.normals) {
+            for ((j, normal), input) in self.joints.iter().zip(&w.normals).zip(&mut w.inputs) {
                 let (comp, moment) = Self::reaction(j.role, &w.re);
-                let mut input = LawInput::at_rest(j.role.kind());
-                input.contact_radius_m = j.radius_m;
-                input.contact_length_m = j.length_m;
-                input.oil_temp_c = at.oil.0;
-                input.viscosity_pa_s = at.oil.1;
-                input.engine_speed_rad_s = at.omega;
-                input.crank_angle_rad = at.crank_angle;
-                input.time_s = at.t;
-                input.dt_s = at.dt;
-                // A cylinder's joints see its own gas state; the mains, cylinder 1's.
-                let gas = &w.law_gas[j.role.cylinder()];
-                input.cylinder_pressure_pa = gas.cylinder_pa;
-                input.crankcase_pressure_pa = gas.crankcase_pa;
-                input.piston_from_tdc_m = gas.piston_from_tdc_m;
-                input.cycle_angle_rad = gas.cycle_angle_rad;
-                let mut input = input.with_velocity(Self::relative_velocity(j.role, &w.kin));
                 input.normal_load_n = *normal;
                 input.reaction_x_n = comp.x;
                 input.reaction_y_n = comp.y;
                 input.reaction_moment_nm = moment;
+                let input = &*input;
                 let mut total = 0.0;
                 for law in &j.laws {
                     let out = law
-                        .call(&input)
-                        .map_err(|e| super::bind::law_failed_named(&j.name, &input, e))?;
+                        .call(input)
+                        .map_err(|e| super::bind::law_failed_named(&j.name, input, e))?;
                     let power = super::bind::checked_power_named(
                         &j.name,
                         j.role.kind(),
                         law,
-                        &input,
+                        input,
                         &out,
                         reaction_n,
                     )?;
@@ -564,7 +571,6 @@ impl EngineSimulation {
                     w.rates[normal_at(k)] = *normal;
                     k += 1;
                 }
-                w.inputs.push(input);
                 match j.role {
                     Role::Main(_) => loads.main_torque_nm += total,
                     Role::BigEnd(c) => loads.cylinders[c].big_end_torque_nm = total,

@@ -4,10 +4,11 @@
 //! laws on every main bearing and every cylinder's big end, small end and piston, and each
 //! cylinder's gas pressure phase-shifted by the firing order.
 //!
-//! The friction/reaction iteration is the plain fixed-point iteration of the single-cylinder
-//! rig (`evaluate`): reactions, normal loads, laws, friction loads, until the normal loads
-//! settle. The single-cylinder rig's phase-2 Newton iteration and its transient runs are not
-//! available here yet: an iteration that does not settle ends the run naming the joints.
+//! The friction/reaction iteration is the single-cylinder rig's (`evaluate`): the plain
+//! fixed-point iteration (reactions, normal loads, laws, friction loads, until the normal
+//! loads settle) and, where it is seen not to contract, phase 2's damped Newton iteration on
+//! the square roots of the loads (`engine_newton.rs`). An iteration that does not settle ends
+//! the run naming the joints.
 
 use std::f64::consts::TAU;
 
@@ -18,6 +19,7 @@ use tribo_plugin_api::{JointKind, LawInput, Regime};
 use super::bind::{check_law, BoundLaw};
 use super::error::{SimError, Unsettled};
 use super::evaluate::{crank_angle, Control};
+use super::newton::{Distance, Trend, Verdict};
 use super::plateau::Measured;
 use super::results::{
     ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
@@ -403,6 +405,11 @@ impl EngineSimulation {
         }
     }
 
+    /// The reaction joint `ji`'s laws see in `re`: its force and moment.
+    pub(super) fn joint_reaction(&self, ji: usize, re: &TrainReactions) -> (Vector2<f64>, f64) {
+        Self::reaction(self.joints[ji].role, re)
+    }
+
     /// The reaction a joint's laws see: its force (components, global frame) and moment.
     fn reaction(role: Role, re: &TrainReactions) -> (Vector2<f64>, f64) {
         match role {
@@ -417,10 +424,11 @@ impl EngineSimulation {
         }
     }
 
-    /// One instant at crank angle `theta`: kinematics with the gas forces, then the plain
-    /// friction/reaction iteration from `w.loads`; the rates, reactions and settled loads are
-    /// left in `w`.
-    pub(super) fn evaluate(&self, theta: f64, at: &At, w: &mut Work) -> Result<(), SimError> {
+    /// One instant at crank angle `theta`: kinematics with the gas forces, then the
+    /// friction/reaction iteration from `w.loads` (phase 1, and phase 2 when phase 1 stalls);
+    /// the rates, law inputs, reactions, normal loads and settled loads of its final round are
+    /// left in `w`. Whether phase 2 settled it.
+    pub(super) fn evaluate(&self, theta: f64, at: &At, w: &mut Work) -> Result<bool, SimError> {
         let n_cyl = self.train.geometry().cylinders.len();
         w.gas_forces.clear();
         w.gas_forces.resize(n_cyl, 0.0);
@@ -488,32 +496,14 @@ impl EngineSimulation {
                     .push(input.with_velocity(Self::relative_velocity(j.role, &w.kin)));
             }
         }
+        // Phase 1: the plain fixed-point iteration (solve, evaluate the laws at the resulting
+        // normal loads, repeat), abandoned for phase 2 (`engine_newton.rs`) when it is seen
+        // not to contract, by the single-cylinder rig's rule.
+        let mut trend = Trend::default();
         for it in 1..=self.max_iter {
-            w.alpha = match at.control {
-                Control::Acceleration(alpha) => alpha,
-                Control::Torque(torque) => self.train.alpha_for_torque(&w.kin, torque, &w.loads),
-            };
-            self.train
-                .reactions_into(&w.kin, w.alpha, &w.loads, &mut w.re);
-            w.normals.clear();
-            w.normals.extend(
-                self.joints
-                    .iter()
-                    .map(|j| Self::reaction(j.role, &w.re).0.norm()),
-            );
-            if let Some((j, n)) = self
-                .joints
-                .iter()
-                .zip(&w.normals)
-                .find(|(_, n)| !n.is_finite())
-            {
-                return Err(SimError::Model {
-                    time_s: at.t,
-                    quantity: "normal load",
-                    joint: Some(j.role.group()),
-                    value: *n,
-                });
-            }
+            w.alpha = self.solve(&w.kin, at.control, &w.loads, &mut w.re);
+            self.normals_into(&w.re, &mut w.normals);
+            self.check_normals(at.t, &w.normals)?;
             let scale = w.normals.iter().fold(1.0_f64, |m, n| m.max(*n));
             let change = (it > 1).then(|| {
                 w.prev
@@ -522,14 +512,31 @@ impl EngineSimulation {
                     .map(|(a, b)| (a - b).abs())
                     .fold(0.0, f64::max)
             });
-            if self.n_laws == 0 || change.is_some_and(|d| d <= self.tol * scale) {
+            // The last change, not its geometric estimate: the engine's results stay those of
+            // the single-phase iteration wherever phase 1 settles.
+            let verdict = trend.judge(
+                change,
+                Distance::LastChange,
+                self.tol * scale,
+                self.max_iter - it,
+            );
+            if self.n_laws == 0 || matches!(verdict, Verdict::Converged) {
                 w.max_it = w.max_it.max(it);
                 w.rates[MOTOR] = w.re.drive_torque_nm * at.omega;
-                return Ok(());
+                return Ok(false);
+            }
+            if matches!(verdict, Verdict::Stalls) {
+                self.settle_by_newton(at, w, it)?;
+                return Ok(true);
             }
             if it == self.max_iter {
                 let before = if it > 1 { &w.prev } else { &w.normals };
-                return Err(self.no_convergence(at.t, it, before, &w.normals, scale));
+                let changes: Vec<f64> = before
+                    .iter()
+                    .zip(&w.normals)
+                    .map(|(a, b)| (a - b).abs())
+                    .collect();
+                return Err(self.no_convergence(at.t, it, &changes, scale));
             }
             // A round of laws at these normal loads.
             let reaction_n = w.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
@@ -548,40 +555,113 @@ impl EngineSimulation {
                 input.reaction_x_n = comp.x;
                 input.reaction_y_n = comp.y;
                 input.reaction_moment_nm = moment;
-                let input = &*input;
-                let mut total = 0.0;
-                for law in &j.laws {
-                    let out = law
-                        .call(input)
-                        .map_err(|e| super::bind::law_failed_named(&j.name, input, e))?;
-                    let power = super::bind::checked_power_named(
-                        &j.name,
-                        j.role.kind(),
-                        law,
-                        input,
-                        &out,
-                        reaction_n,
-                    )?;
-                    total += out.force;
-                    let regime = out.regime().unwrap_or(Regime::None) as usize;
-                    w.rates[power_at(k)] = -power;
-                    for r in 0..4 {
-                        w.rates[regime_at(k, r)] = if r == regime { 1.0 } else { 0.0 };
-                    }
-                    w.rates[normal_at(k)] = *normal;
-                    k += 1;
-                }
-                match j.role {
-                    Role::Main(_) => loads.main_torque_nm += total,
-                    Role::BigEnd(c) => loads.cylinders[c].big_end_torque_nm = total,
-                    Role::SmallEnd(c) => loads.cylinders[c].small_end_torque_nm = total,
-                    Role::Piston(c) => loads.cylinders[c].slide_force_n = total,
-                }
+                let total = Self::joint_force(j, input, reaction_n, Some((&mut w.rates, k)))?;
+                add_load(&mut loads, j.role, total);
+                k += j.laws.len();
             }
             w.loads = loads;
             std::mem::swap(&mut w.prev, &mut w.normals);
         }
-        Err(self.no_convergence(at.t, self.max_iter, &[], &[], 1.0))
+        Err(self.no_convergence(at.t, self.max_iter, &[], 1.0))
+    }
+
+    /// The crank acceleration under the friction `loads` (the control's, or the one the
+    /// drive torque causes) and the reactions `re` there; returns the acceleration.
+    #[inline]
+    pub(super) fn solve(
+        &self,
+        kin: &TrainKinematics,
+        control: Control,
+        loads: &TrainLoads,
+        re: &mut TrainReactions,
+    ) -> f64 {
+        let alpha = match control {
+            Control::Acceleration(alpha) => alpha,
+            Control::Torque(torque) => self.train.alpha_for_torque(kin, torque, loads),
+        };
+        self.train.reactions_into(kin, alpha, loads, re);
+        alpha
+    }
+
+    /// Each joint's normal load from the reactions `re`, into `out`.
+    #[inline]
+    pub(super) fn normals_into(&self, re: &TrainReactions, out: &mut Vec<f64>) {
+        out.clear();
+        out.extend(
+            self.joints
+                .iter()
+                .map(|j| Self::reaction(j.role, re).0.norm()),
+        );
+    }
+
+    /// A solve's normal loads must be finite (the laws are given them next): a non-finite one
+    /// is the model's fault, named with its joint group.
+    #[inline]
+    pub(super) fn check_normals(&self, t: f64, normals: &[f64]) -> Result<(), SimError> {
+        match self
+            .joints
+            .iter()
+            .zip(normals)
+            .find(|(_, n)| !n.is_finite())
+        {
+            Some((j, n)) => Err(SimError::Model {
+                time_s: t,
+                quantity: "normal load",
+                joint: Some(j.role.group()),
+                value: *n,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// The friction force (piston) or torque (bearings, pins) of all laws on joint `j` at
+    /// `input`, checked (finite, bounded by `reaction_n`, a stateless law not adding energy).
+    /// With `record`, each law's power, regime and load are written into the rates from law
+    /// index `k` on.
+    #[inline]
+    pub(super) fn joint_force(
+        j: &EngineJoint,
+        input: &LawInput,
+        reaction_n: f64,
+        mut record: Option<(&mut [f64], usize)>,
+    ) -> Result<f64, SimError> {
+        let mut total = 0.0;
+        for (i, law) in j.laws.iter().enumerate() {
+            let out = law
+                .call(input)
+                .map_err(|e| super::bind::law_failed_named(&j.name, input, e))?;
+            let power = super::bind::checked_power_named(
+                &j.name,
+                j.role.kind(),
+                law,
+                input,
+                &out,
+                reaction_n,
+            )?;
+            total += out.force;
+            if let Some((rates, k)) = record.as_mut() {
+                let regime = out.regime().unwrap_or(Regime::None) as usize;
+                rates[power_at(*k + i)] = -power;
+                for r in 0..4 {
+                    rates[regime_at(*k + i, r)] = if r == regime { 1.0 } else { 0.0 };
+                }
+                rates[normal_at(*k + i)] = input.normal_load_n;
+            }
+        }
+        Ok(total)
+    }
+
+    /// The friction loads from each joint's law total `totals` (the mains' summed), into
+    /// `loads`.
+    pub(super) fn loads_from_totals(&self, totals: &[f64], loads: &mut TrainLoads) {
+        loads.main_torque_nm = 0.0;
+        loads
+            .cylinders
+            .iter_mut()
+            .for_each(|c| *c = CylinderLoads::default());
+        for (j, total) in self.joints.iter().zip(totals) {
+            add_load(loads, j.role, *total);
+        }
     }
 
     /// Commit every stateful law over the accepted step, at the inputs of the step's settled
@@ -597,25 +677,20 @@ impl EngineSimulation {
     }
 
     /// The error for an iteration that did not settle: the joints with laws whose normal load
-    /// still moved by more than the tolerance.
-    fn no_convergence(
+    /// still moved by more than the tolerance (`changes` per joint, N).
+    pub(super) fn no_convergence(
         &self,
         t: f64,
         iterations: u32,
-        before: &[f64],
-        after: &[f64],
+        changes: &[f64],
         scale: f64,
     ) -> SimError {
-        let changes: Vec<f64> = before
-            .iter()
-            .zip(after)
-            .map(|(a, b)| (a - b).abs())
-            .collect();
         let unsettled = self
             .joints
             .iter()
-            .zip(&changes)
-            .filter(|(j, c)| !j.laws.is_empty() && **c > self.tol * scale)
+            .zip(changes)
+            // A NaN change (loads that ran off to infinity) is unsettled too.
+            .filter(|(j, c)| !j.laws.is_empty() && (c.is_nan() || **c > self.tol * scale))
             .map(|(j, c)| Unsettled {
                 joint: j.name.clone(),
                 laws: j.laws.iter().map(|l| l.name.clone()).collect(),
@@ -691,6 +766,17 @@ impl EngineSimulation {
             joints,
             groups,
         }
+    }
+}
+
+/// Add joint `role`'s law total to the friction loads (the mains' torques add up).
+#[inline]
+fn add_load(loads: &mut TrainLoads, role: Role, total: f64) {
+    match role {
+        Role::Main(_) => loads.main_torque_nm += total,
+        Role::BigEnd(c) => loads.cylinders[c].big_end_torque_nm = total,
+        Role::SmallEnd(c) => loads.cylinders[c].small_end_torque_nm = total,
+        Role::Piston(c) => loads.cylinders[c].slide_force_n = total,
     }
 }
 
@@ -783,9 +869,9 @@ pub(super) struct At {
 
 /// The recycled state of the run: kinematics, reactions, loads, rates.
 pub(super) struct Work {
-    kin: TrainKinematics,
+    pub(super) kin: TrainKinematics,
     pub(super) re: TrainReactions,
-    loads: TrainLoads,
+    pub(super) loads: TrainLoads,
     /// The crank acceleration of the settled solve, rad/s^2.
     pub(super) alpha: f64,
     gas_forces: Vec<f64>,

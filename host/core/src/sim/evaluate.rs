@@ -10,7 +10,7 @@ use tribo_plugin_api::{LawInput, Regime};
 use super::bind::{law_failed, Instant};
 use super::error::{SimError, Unsettled};
 use super::joint::JointId;
-use super::newton::plain_iteration_stalls;
+use super::newton::{Distance, Trend, Verdict};
 use super::rates::RateLayout;
 use super::Simulation;
 use crate::gas::GasState;
@@ -165,20 +165,12 @@ pub(super) struct Settled {
     pub(super) iterations: u32,
 }
 
-/// Phase 1's view of its own progress: the normal loads of the last solve and the last two
-/// changes, from which convergence (the geometric remainder) and stalling are judged.
+/// Phase 1's view of its own progress: the normal loads of the last solve and the trend of
+/// its changes, from which convergence (the geometric remainder) and stalling are judged.
 #[derive(Default)]
 struct Progress {
     prev: Option<[f64; 5]>,
-    last_change: Option<f64>,
-    older_change: Option<f64>,
-}
-
-/// What phase 1 decides after a solve.
-enum Verdict {
-    Converged,
-    Stalls,
-    Continue,
+    trend: Trend,
 }
 
 impl Progress {
@@ -193,28 +185,8 @@ impl Progress {
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max)
         });
-        let converged = change.is_some_and(|d| {
-            let remainder = match self.last_change {
-                Some(d0) if d < 0.5 * d0 => d * (d / d0) / (1.0 - d / d0),
-                _ => d,
-            };
-            remainder <= tol * scale
-        });
-        let stalls = match (change, self.older_change) {
-            (Some(d), Some(d2)) if !converged => {
-                plain_iteration_stalls(d, d2, tol * scale, remaining)
-            }
-            _ => false,
-        };
-        self.older_change = self.last_change;
-        self.last_change = change;
-        if converged {
-            Verdict::Converged
-        } else if stalls {
-            Verdict::Stalls
-        } else {
-            Verdict::Continue
-        }
+        self.trend
+            .judge(change, Distance::Geometric, tol * scale, remaining)
     }
 }
 

@@ -19,6 +19,7 @@ mod any;
 mod bind;
 mod crank_angle;
 mod energy;
+mod engine_newton;
 mod engine_run;
 mod engine_transient;
 mod error;

@@ -650,3 +650,167 @@ fn a_slow_first_call_is_not_scaled_into_the_law_time() {
     let per_call = t.seconds / t.calls as f64;
     assert!(per_call < 10e-6, "{t:?}: {per_call} s per call");
 }
+
+/// The inline-4 test fixture with the sqrt law (c_h = 5) on every piston and no other law.
+fn sqrt_engine() -> super::EngineSimulation {
+    let text = include_str!("../../../../tests/fixtures/engines/inline4.toml");
+    let mut model: RigFile = toml::from_str(text).expect("fixture parses");
+    let params: toml::Table = toml::from_str("c_h = 5.0").expect("params");
+    model.joints.piston.laws = vec![crate::model::LawRef {
+        law: "sqrt-unit".into(),
+        params,
+    }];
+    let mut registry = LawRegistry::new();
+    registry
+        .insert(LawLibrary::in_process::<SqrtLoad>().expect("law describes itself"))
+        .expect("one law");
+    super::EngineSimulation::new(&model, &registry).expect("engine builds")
+}
+
+/// The engine's plain fixed-point iteration alone, from the frictionless loads, written out
+/// with the law's formula on the pistons (joints `pistons`, law inputs `inputs`) of the
+/// kinematics `kin`: whether every load settles within `tol * scale` in 500 iterations.
+fn engine_plain_iteration_settles(
+    sim: &super::EngineSimulation,
+    kin: &crate::engine::TrainKinematics,
+    pistons: &[usize],
+    inputs: &[LawInput],
+) -> bool {
+    let mut loads = crate::engine::TrainLoads {
+        main_torque_nm: 0.0,
+        cylinders: vec![Default::default(); pistons.len()],
+    };
+    let mut re = crate::engine::TrainReactions::default();
+    let mut normals = Vec::new();
+    sim.train.reactions_into(kin, 0.0, &loads, &mut re);
+    sim.normals_into(&re, &mut normals);
+    for _ in 0..500 {
+        for (k, &ji) in pistons.iter().enumerate() {
+            loads.cylinders[k].slide_force_n = sqrt_force(5.0, &inputs[ji], normals[ji]);
+        }
+        let before = std::mem::take(&mut normals);
+        sim.train.reactions_into(kin, 0.0, &loads, &mut re);
+        sim.normals_into(&re, &mut normals);
+        let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+        let change = before
+            .iter()
+            .zip(&normals)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if change <= sim.tol * scale {
+            return true;
+        }
+    }
+    false
+}
+
+#[test]
+fn an_engine_settles_by_phase_2_where_its_plain_iteration_cannot() {
+    use super::engine_run::{power_at, At, Work};
+    let sim = sqrt_engine();
+    let names = sim.joint_names();
+    let pistons: Vec<usize> = (1..=4)
+        .map(|k| {
+            let name = format!("piston_{k}");
+            names.iter().position(|n| *n == name).expect("piston")
+        })
+        .collect();
+    let oil = (sim.temps[0], sim.viscosities[0]);
+    let (mut checked, mut phase2, mut plain_failures) = (0, 0, 0);
+    // The early ramp's speed (where the single-cylinder rig's plain iteration failed first),
+    // 3000 and 9000 rpm, steady crank.
+    for omega in [15.9, 314.159, 942.478] {
+        let eval = |theta: f64| {
+            let at = At {
+                t: 0.5,
+                dt: 0.0,
+                crank_angle: crank_angle(theta),
+                omega,
+                oil,
+                control: Control::Acceleration(0.0),
+            };
+            let mut w = Work::new(&sim);
+            let newton = sim
+                .evaluate(theta, &at, &mut w)
+                .expect("the iteration converges");
+            (newton, w)
+        };
+        // Every sign change of each piston's side thrust over a revolution, bisected down to
+        // the rounding of the angle: the load its law sees there is as close to 0 as it gets.
+        let n = 360;
+        let mut angles: Vec<f64> = (0..n).map(|i| TAU * i as f64 / n as f64).collect();
+        for k in 0..4 {
+            let lateral = |theta: f64| eval(theta).1.re.cylinders[k].slide_lateral_n;
+            for i in 0..n {
+                let (mut a, mut b) = (TAU * i as f64 / n as f64, TAU * (i + 1) as f64 / n as f64);
+                let fa = lateral(a);
+                if fa * lateral(b) >= 0.0 {
+                    continue;
+                }
+                for _ in 0..60 {
+                    let m = 0.5 * (a + b);
+                    if lateral(m) * fa > 0.0 {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                angles.extend([a, b]);
+            }
+        }
+        assert!(
+            angles.len() >= n + 16,
+            "two crossings per piston at {omega}"
+        );
+        for theta in angles {
+            let (newton, w) = eval(theta);
+            // The final solve: the reactions under the settled friction loads.
+            let mut re = crate::engine::TrainReactions::default();
+            let mut normals = Vec::new();
+            sim.train.reactions_into(&w.kin, 0.0, &w.loads, &mut re);
+            sim.normals_into(&re, &mut normals);
+            assert_eq!(
+                w.normals, normals,
+                "the reported loads are the final solve's"
+            );
+            let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+            for (k, &ji) in pistons.iter().enumerate() {
+                // The load the law saw, its force there (written out) and the booked power.
+                let input = &w.inputs[ji];
+                let load = input.normal_load_n;
+                let f = sqrt_force(5.0, input, load);
+                let applied = w.loads.cylinders[k].slide_force_n;
+                assert!(
+                    (f - applied).abs() <= 1e-12 * (1.0 + f.abs()),
+                    "{f} vs {applied}"
+                );
+                assert_eq!(w.rates[power_at(k)], -(f * input.relative_velocity));
+                if newton {
+                    // Phase 2's test: the load each law saw reproduces itself to tolerance.
+                    assert!(
+                        (normals[ji] - load).abs() <= sim.tol * scale,
+                        "{omega} rad/s, theta = {theta}, piston {}: the law saw {load} N, \
+                         the solve gives {} N",
+                        k + 1,
+                        normals[ji]
+                    );
+                }
+            }
+            if !engine_plain_iteration_settles(&sim, &w.kin, &pistons, &w.inputs) {
+                plain_failures += 1;
+                assert!(
+                    newton,
+                    "{omega} rad/s, theta = {theta}: settled without phase 2"
+                );
+            }
+            phase2 += usize::from(newton);
+            checked += 1;
+        }
+    }
+    assert!(checked > 3 * 360);
+    assert!(phase2 > 0, "phase 2 was exercised");
+    assert!(
+        plain_failures > 0,
+        "{checked} instants, all settled by the plain iteration"
+    );
+}

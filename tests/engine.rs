@@ -740,6 +740,37 @@ fn the_studies_run_on_an_engine() {
         ],
     );
     let mr: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    // The comparison's plots on an engine: every joint in the contributions, the pistons'
+    // regimes (a law that reports them, averaged over the four pistons) in the regime plot.
+    tribo_ok(
+        dir.path(),
+        &[
+            "compare",
+            rig,
+            "--steady",
+            "--lawset",
+            "stribeck-duty",
+            "--data",
+            "data.csv",
+            "--no-cv",
+            "--out",
+            "plots",
+        ],
+    );
+    let svg = |f: &str| std::fs::read_to_string(dir.path().join("plots").join(f)).expect(f);
+    let contrib = svg("contributions_stribeck-duty.svg");
+    for j in ["main_1", "main_5", "big_end_4", "piston_1", "piston_4"] {
+        assert!(contrib.contains(j), "contributions plot lacks {j}");
+    }
+    let regimes = svg("piston_regimes.svg");
+    assert!(
+        regimes.contains("stribeck-duty: mixed"),
+        "regime plot legend"
+    );
+    assert!(
+        !regimes.contains("no law set reports"),
+        "the pistons' regimes are plotted"
+    );
     let light = run_json(
         dir.path(),
         &[

@@ -496,6 +496,8 @@ fn an_engines_time_series_and_crank_angle_results_cover_every_joint_and_cylinder
             "stribeck-duty",
             "--timeseries",
             "ts.csv",
+            "--csv",
+            "cs",
             "--json",
         ],
     );
@@ -511,6 +513,42 @@ fn an_engines_time_series_and_crank_angle_results_cover_every_joint_and_cylinder
     assert_eq!(header.len(), 5 + 5 + 3 * 4);
     let lines = series.lines().count() as u64 - 1;
     assert_eq!(Some(lines), result["steps"].as_u64());
+    // The CSV's per-component and per-cylinder totals recombine the per-law rows: the four
+    // components, and the mains plus the four cylinders, each add up to all the laws.
+    let rows = |f: &str| -> Vec<Vec<String>> {
+        let mut r = csv::Reader::from_path(dir.path().join("cs").join(f)).expect(f);
+        r.records()
+            .map(|x| x.expect("row").iter().map(str::to_string).collect())
+            .collect()
+    };
+    let (laws, groups) = (rows("joints.csv"), rows("groups.csv"));
+    let speed = &laws[0][0];
+    let all: f64 = laws
+        .iter()
+        .filter(|r| &r[0] == speed)
+        .map(|r| r[3].parse::<f64>().expect("torque"))
+        .sum();
+    let group = |g: &str| {
+        groups
+            .iter()
+            .find(|r| &r[0] == speed && r[1] == g)
+            .map(|r| r[2].parse::<f64>().expect("torque"))
+            .unwrap_or_else(|| panic!("group {g} in groups.csv"))
+    };
+    let components: f64 = ["main_*", "big_end_*", "small_end_*", "piston_*"]
+        .iter()
+        .map(|g| group(g))
+        .sum();
+    let cylinders: f64 = (1..=4).map(|k| group(&format!("cylinder {k}"))).sum();
+    assert!(all > 0.0);
+    assert!(
+        (components - all).abs() < 1e-9 * all,
+        "{components} vs {all}"
+    );
+    assert!(
+        (cylinders + group("main_*") - all).abs() < 1e-9 * all,
+        "{cylinders} vs {all}"
+    );
 
     // Crank-angle results in steady state at 1 degree. The flat-plane crank has throws at 0,
     // 180, 180 and 0 degrees and every cylinder upright: cylinder 2's (and 3's) big-end load

@@ -455,6 +455,21 @@ fn an_engine_runs_the_whole_cycle_and_keeps_its_energy_balance() {
                 }
             }
         }
+        if name == "inline4" {
+            // A motored 4-stroke head on every cylinder, phased by the firing order: the gas
+            // work over the run is reversible, the plateaus are whole 4-stroke cycles.
+            let head =
+                "gas.cylinder={kind=\"motored\", compression_ratio=10.0, valves=\"four-stroke\"}";
+            let r = run_json(dir.path(), &["run", rig, "--set", head]);
+            let residual = r["energy"]["relative_residual"].as_f64().expect("residual");
+            assert!(residual < 1e-8, "{name} with compression: {residual}");
+            for p in r["plateaus"].as_array().expect("plateaus") {
+                let t = p["motoring_torque_nm"].as_f64().expect("torque");
+                assert!(t.abs() < 1e-6, "{name} with compression: mean torque {t}");
+                let revs = p["revolutions"].as_u64().expect("revolutions");
+                assert!(revs % 2 == 0, "whole 4-stroke cycles: {revs}");
+            }
+        }
         let tight = ["--set", "solver.friction_tol=1e-12"];
         let mut a = vec!["run", rig, "--lawset", "stribeck-duty"];
         a.extend(tight);
@@ -496,6 +511,8 @@ fn an_engines_time_series_and_crank_angle_results_cover_every_joint_and_cylinder
             "stribeck-duty",
             "--timeseries",
             "ts.csv",
+            "--csv",
+            "cs",
             "--json",
         ],
     );
@@ -511,6 +528,42 @@ fn an_engines_time_series_and_crank_angle_results_cover_every_joint_and_cylinder
     assert_eq!(header.len(), 5 + 5 + 3 * 4);
     let lines = series.lines().count() as u64 - 1;
     assert_eq!(Some(lines), result["steps"].as_u64());
+    // The CSV's per-component and per-cylinder totals recombine the per-law rows: the four
+    // components, and the mains plus the four cylinders, each add up to all the laws.
+    let rows = |f: &str| -> Vec<Vec<String>> {
+        let mut r = csv::Reader::from_path(dir.path().join("cs").join(f)).expect(f);
+        r.records()
+            .map(|x| x.expect("row").iter().map(str::to_string).collect())
+            .collect()
+    };
+    let (laws, groups) = (rows("joints.csv"), rows("groups.csv"));
+    let speed = &laws[0][0];
+    let all: f64 = laws
+        .iter()
+        .filter(|r| &r[0] == speed)
+        .map(|r| r[3].parse::<f64>().expect("torque"))
+        .sum();
+    let group = |g: &str| {
+        groups
+            .iter()
+            .find(|r| &r[0] == speed && r[1] == g)
+            .map(|r| r[2].parse::<f64>().expect("torque"))
+            .unwrap_or_else(|| panic!("group {g} in groups.csv"))
+    };
+    let components: f64 = ["main_*", "big_end_*", "small_end_*", "piston_*"]
+        .iter()
+        .map(|g| group(g))
+        .sum();
+    let cylinders: f64 = (1..=4).map(|k| group(&format!("cylinder {k}"))).sum();
+    assert!(all > 0.0);
+    assert!(
+        (components - all).abs() < 1e-9 * all,
+        "{components} vs {all}"
+    );
+    assert!(
+        (cylinders + group("main_*") - all).abs() < 1e-9 * all,
+        "{cylinders} vs {all}"
+    );
 
     // Crank-angle results in steady state at 1 degree. The flat-plane crank has throws at 0,
     // 180, 180 and 0 degrees and every cylinder upright: cylinder 2's (and 3's) big-end load
@@ -740,6 +793,37 @@ fn the_studies_run_on_an_engine() {
         ],
     );
     let mr: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    // The comparison's plots on an engine: every joint in the contributions, the pistons'
+    // regimes (a law that reports them, averaged over the four pistons) in the regime plot.
+    tribo_ok(
+        dir.path(),
+        &[
+            "compare",
+            rig,
+            "--steady",
+            "--lawset",
+            "stribeck-duty",
+            "--data",
+            "data.csv",
+            "--no-cv",
+            "--out",
+            "plots",
+        ],
+    );
+    let svg = |f: &str| std::fs::read_to_string(dir.path().join("plots").join(f)).expect(f);
+    let contrib = svg("contributions_stribeck-duty.svg");
+    for j in ["main_1", "main_5", "big_end_4", "piston_1", "piston_4"] {
+        assert!(contrib.contains(j), "contributions plot lacks {j}");
+    }
+    let regimes = svg("piston_regimes.svg");
+    assert!(
+        regimes.contains("stribeck-duty: mixed"),
+        "regime plot legend"
+    );
+    assert!(
+        !regimes.contains("no law set reports"),
+        "the pistons' regimes are plotted"
+    );
     let light = run_json(
         dir.path(),
         &[

@@ -288,7 +288,7 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
     let (x0, x1) = range(speeds.iter().copied(), 0.02);
     let mut chart = frame(
         &root,
-        "Lubrication regime of the piston (time share)",
+        "Lubrication regime of the piston (time share; an engine: mean over its pistons)",
         x0..x1,
         0.0..1.05,
         "engine speed (rpm)",
@@ -296,15 +296,32 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
     )?;
     let mut any = false;
     for (i, s) in c.sets.iter().enumerate() {
+        // The single cylinder's piston, or the mean over an engine's pistons (`piston_k`).
         let piston: Vec<_> = s
             .run
             .plateaus
             .iter()
             .filter_map(|p| {
-                p.joints
+                let shares: Vec<_> = p
+                    .joints
                     .iter()
-                    .find(|j| j.joint == "piston" && j.regime_share.none < 0.5)
-                    .map(|j| (p.set_speed_rpm, j.regime_share))
+                    .filter(|j| j.joint == "piston" || j.joint.starts_with("piston_"))
+                    .filter(|j| j.regime_share.none < 0.5)
+                    .map(|j| j.regime_share)
+                    .collect();
+                let n = shares.len() as f64;
+                (n > 0.0).then(|| {
+                    let mean = |f: fn(&crate::sim::RegimeShare) -> f64| {
+                        shares.iter().map(f).sum::<f64>() / n
+                    };
+                    let share = crate::sim::RegimeShare {
+                        none: mean(|r| r.none),
+                        boundary: mean(|r| r.boundary),
+                        mixed: mean(|r| r.mixed),
+                        hydrodynamic: mean(|r| r.hydrodynamic),
+                    };
+                    (p.set_speed_rpm, share)
+                })
             })
             .collect();
         if piston.is_empty() {

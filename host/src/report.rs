@@ -222,6 +222,26 @@ pub fn write_csv(r: &RunResult, dir: &Path) -> Result<(), crate::output::OutputE
     }
     let j = csv_text(&JOINTS_CSV_HEADER, joints).map_err(|source| render("joints.csv", source))?;
     out.write("joints.csv", j.as_bytes())?;
+    // An engine's totals per component (`main_*`, ...) and per cylinder.
+    if r.plateaus.iter().any(|p| !p.groups.is_empty()) {
+        let groups = r
+            .plateaus
+            .iter()
+            .flat_map(|x| {
+                x.groups.iter().map(|g| {
+                    vec![
+                        x.set_speed_rpm.to_string(),
+                        g.group.clone(),
+                        g.friction_torque_nm.to_string(),
+                        g.power_w.to_string(),
+                    ]
+                })
+            })
+            .collect();
+        let header = ["set_speed_rpm", "group", "friction_torque_nm", "power_w"];
+        let g = csv_text(&header, groups).map_err(|source| render("groups.csv", source))?;
+        out.write("groups.csv", g.as_bytes())?;
+    }
     out.commit()
 }
 

@@ -84,6 +84,9 @@ pub struct Plateau {
     pub t_end: f64,
     /// Reference speed, rad/s.
     pub omega: f64,
+    /// The same speed in rpm as the cycle gives it (exact: reports show the set speed as
+    /// written, not its round trip through rad/s).
+    pub speed_rpm: f64,
 }
 
 /// The reference speed profile as exact piecewise-quadratic crank angle.
@@ -106,13 +109,13 @@ pub fn rad_s_to_rpm(w: f64) -> f64 {
 impl Cycle {
     /// Compile segments (already validated: positive durations, finite speeds).
     pub fn new(segments: &[Segment]) -> Self {
-        let (mut t, mut w, mut th) = (0.0_f64, 0.0_f64, 0.0_f64);
+        let (mut t, mut w, mut th, mut rpm) = (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
         let mut pieces = Vec::new();
         let mut plateaus = Vec::new();
         for s in segments {
-            let (dur, w1) = match *s {
-                Segment::Ramp { to_rpm, duration_s } => (duration_s, rpm_to_rad_s(to_rpm)),
-                Segment::Hold { duration_s } => (duration_s, w),
+            let (dur, w1, rpm1) = match *s {
+                Segment::Ramp { to_rpm, duration_s } => (duration_s, rpm_to_rad_s(to_rpm), to_rpm),
+                Segment::Hold { duration_s } => (duration_s, w, rpm),
             };
             let alpha = (w1 - w) / dur;
             pieces.push(Piece {
@@ -127,11 +130,13 @@ impl Cycle {
                     t_start: t,
                     t_end: t + dur,
                     omega: w,
+                    speed_rpm: rpm,
                 });
             }
             th += w * dur + 0.5 * alpha * dur * dur;
             t += dur;
             w = w1;
+            rpm = rpm1;
         }
         Self { pieces, plateaus }
     }

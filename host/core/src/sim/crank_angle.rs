@@ -11,7 +11,6 @@ use super::engine_run::{power_at, regime_at, At, EngineSimulation, Work as Engin
 use super::error::SimError;
 use super::evaluate::{crank_angle, relative_velocities, Control, Point};
 use super::Simulation;
-use crate::cycle::rad_s_to_rpm;
 use crate::mechanics::JointLoads;
 
 /// One law at one crank angle.
@@ -187,7 +186,7 @@ impl Simulation {
                 }
             }
             traces.push(CrankAngleTrace {
-                speed_rpm: rad_s_to_rpm(omega),
+                speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
                 laws: laws.clone(),
                 samples,
             });
@@ -244,7 +243,7 @@ impl EngineSimulation {
                 }
             }
             traces.push(CrankAngleTrace {
-                speed_rpm: rad_s_to_rpm(omega),
+                speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
                 laws: laws.clone(),
                 samples,
             });

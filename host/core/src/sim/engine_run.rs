@@ -310,7 +310,7 @@ impl EngineSimulation {
                 window_s: [t - cycle / omega, t],
                 revs: if self.four_stroke { 2 } else { 1 },
             };
-            results.push(self.plateau_result(pi, omega, omega, &window));
+            results.push(self.plateau_result(pi, omega, &window));
         }
         let energy = EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas_work);
         Ok(RunResult {
@@ -706,12 +706,11 @@ impl EngineSimulation {
         }
     }
 
-    /// Plateau `pi`'s result (set speed `omega`, mean speed `mean_omega`, rad/s) from the
-    /// change of its accumulated quantities over the measured `window`.
+    /// Plateau `pi`'s result (mean speed `mean_omega`, rad/s) from the change of its
+    /// accumulated quantities over the measured `window`.
     pub(super) fn plateau_result(
         &self,
         pi: usize,
-        omega: f64,
         mean_omega: f64,
         window: &Measured,
     ) -> PlateauResult {
@@ -755,7 +754,7 @@ impl EngineSimulation {
                 motoring_kpa: fmep.kpa(delta[MOTOR] / dtheta),
                 components,
             },
-            set_speed_rpm: rad_s_to_rpm(omega),
+            set_speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
             mean_speed_rpm: rad_s_to_rpm(mean_omega),
             motoring_torque_nm: delta[MOTOR] / dtheta,
             gas_torque_nm: delta[GAS] / dtheta,

@@ -154,7 +154,7 @@ impl EngineSimulation {
             run.acc[super::engine_run::GAS],
         );
         let (results, warnings) =
-            plateaus.results(|pi, omega, m| self.plateau_result(pi, omega, m.dtheta / m.dt, m))?;
+            plateaus.results(|pi, m| self.plateau_result(pi, m.dtheta / m.dt, m))?;
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: if prescribed {

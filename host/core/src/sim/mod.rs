@@ -394,9 +394,7 @@ impl Simulation {
             dissipated,
             gas_work,
         );
-        let (results, warnings) = plateaus.results(|pi, omega, m| {
-            self.plateau_result(pi, omega, &m.delta, m.dt, m.dtheta, m.window_s, m.revs)
-        })?;
+        let (results, warnings) = plateaus.results(|pi, m| self.plateau_result(pi, m))?;
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: match self.drive {

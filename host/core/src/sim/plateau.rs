@@ -143,29 +143,28 @@ impl Plateaus {
         }
     }
 
-    /// Every plateau's result (`result` turns plateau `pi` at set speed `omega`, measured
-    /// `m`, into a [`PlateauResult`]), with the warnings of a drive at its limit or a speed
+    /// Every plateau's result (`result` turns plateau `pi`, measured `m`, into a
+    /// [`PlateauResult`]), with the warnings of a drive at its limit or a speed
     /// that never settled.
     /// A plateau whose window cannot be placed (the crank stalled) is [`SimError::Stalled`].
     pub(super) fn results(
         &self,
-        result: impl Fn(usize, f64, &Measured) -> PlateauResult,
+        result: impl Fn(usize, &Measured) -> PlateauResult,
     ) -> Result<(Vec<PlateauResult>, Vec<String>), SimError> {
         let mut results = Vec::new();
         let mut warnings = Vec::new();
         for (pi, p) in self.plateaus.iter().enumerate() {
-            let measured = measure(&self.spec, self.n, p.omega, p.t_end, &self.records[pi])
-                .map_err(|mut e| {
-                    if let SimError::Stalled { saturated_s, .. } = &mut e {
-                        *saturated_s = self.saturated_time[pi];
-                    }
-                    e
-                })?;
-            results.push(result(pi, p.omega, &measured));
+            let measured = measure(&self.spec, self.n, p, &self.records[pi]).map_err(|mut e| {
+                if let SimError::Stalled { saturated_s, .. } = &mut e {
+                    *saturated_s = self.saturated_time[pi];
+                }
+                e
+            })?;
+            results.push(result(pi, &measured));
             if self.saturated_time[pi] > 0.5 * self.spec.window_s {
                 warnings.push(format!(
                     "at the {:.0} rpm plateau the drive sat at its torque limit for {:.3} s near the measurement window; the plateau torque is limited by the drive",
-                    rad_s_to_rpm(p.omega),
+                    p.speed_rpm,
                     self.saturated_time[pi]
                 ));
             }
@@ -178,16 +177,11 @@ impl Plateaus {
     }
 }
 
-/// The window over the last whole revolutions (whole cycles) of a hold at set speed
-/// `omega_ref` ending at `t_end`, from the recorded steps `recs` (`n` accumulated quantities);
-/// [`SimError::Stalled`] when the recorded end of the hold holds fewer revolutions.
-fn measure(
-    spec: &WindowSpec,
-    n: usize,
-    omega_ref: f64,
-    t_end: f64,
-    recs: &Window,
-) -> Result<Measured, SimError> {
+/// The window over the last whole revolutions (whole cycles) of the hold `p`, from the
+/// recorded steps `recs` (`n` accumulated quantities); [`SimError::Stalled`] when the recorded
+/// end of the hold holds fewer revolutions.
+fn measure(spec: &WindowSpec, n: usize, p: &Plateau, recs: &Window) -> Result<Measured, SimError> {
+    let (omega_ref, t_end) = (p.omega, p.t_end);
     let revs = spec.window_revs(omega_ref);
     let (t_e, theta_e, acc_e) = match recs.points.len() {
         0 => (t_end, 0.0, vec![0.0; n]),
@@ -204,7 +198,7 @@ fn measure(
     if first.is_none_or(|(_, theta_0, _)| theta_0 > theta_s) {
         let (t_0, theta_0) = first.map_or((t_e, theta_e), |(t, th, _)| (t, th));
         return Err(SimError::Stalled {
-            set_speed_rpm: rad_s_to_rpm(omega_ref),
+            set_speed_rpm: p.speed_rpm,
             turned_revs: (theta_e - theta_0) / TAU,
             span_s: t_e - t_0,
             needed_revs: revs,
@@ -265,19 +259,11 @@ impl Simulation {
         TAU * self.revolutions_per_cycle() as f64
     }
 
-    /// Plateau values from the accumulated quantities `delta` over a window of `dt` seconds
-    /// and `dtheta` radians.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn plateau_result(
-        &self,
-        pi: usize,
-        omega_ref: f64,
-        delta: &[f64],
-        dt: f64,
-        dtheta: f64,
-        window_s: [f64; 2],
-        revs: u32,
-    ) -> PlateauResult {
+    /// Plateau `pi`'s values from the change of the accumulated quantities over its measured
+    /// `window`.
+    pub(super) fn plateau_result(&self, pi: usize, window: &Measured) -> PlateauResult {
+        let (delta, dt, dtheta) = (&window.delta, window.dt, window.dtheta);
+        let (window_s, revs) = (window.window_s, window.revs);
         let d = |k: usize| delta[k];
         let layout = self.layout();
         let mut joints = Vec::new();
@@ -319,7 +305,7 @@ impl Simulation {
         };
         PlateauResult {
             fmep: plateau_fmep,
-            set_speed_rpm: rad_s_to_rpm(omega_ref),
+            set_speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
             mean_speed_rpm: rad_s_to_rpm(dtheta / dt),
             motoring_torque_nm: d(0) / dtheta,
             gas_torque_nm: d(layout.gas()) / dtheta,

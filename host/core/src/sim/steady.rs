@@ -31,15 +31,14 @@ impl Simulation {
             let cycle = self.cycle_angle();
             let window = [t - cycle / omega, t];
             let revs = self.revolutions_per_cycle();
-            results.push(self.plateau_result(
-                pi,
-                omega,
-                &delta,
-                cycle / omega,
-                cycle,
-                window,
+            let measured = super::plateau::Measured {
+                delta,
+                dt: cycle / omega,
+                dtheta: cycle,
+                window_s: window,
                 revs,
-            ));
+            };
+            results.push(self.plateau_result(pi, &measured));
         }
         // Over a periodic revolution the mechanical energy returns to its start value, so the
         // balance is motor work = dissipation + gas work.

@@ -1095,14 +1095,21 @@ fn the_bundled_engines_and_their_frictionless_references_run() {
 // ---- phase 2 of the friction/reaction iteration on engines (docs/solver.md) ----
 
 /// The sqrt-load fixture law set written with joint groups (every piston, main and big end)
-/// and the fixture library's `--plugin` arguments.
-fn sqrt_load_args() -> (String, Vec<String>) {
+/// and the fixture library holding its piston law.
+fn sqrt_load_files() -> (String, String) {
     let set = common::workspace().join("tests/fixtures/lawsets/sqrt-load-every-piston.toml");
     let lib = common::built_library("tribo_fixture_sqrt_load_law");
     (
         set.to_string_lossy().into_owned(),
-        vec!["--plugin".into(), lib.to_string_lossy().into_owned()],
+        lib.to_string_lossy().into_owned(),
     )
+}
+
+/// `tribo run RIG --lawset SET EXTRA` with `--plugin LIB` (fixtures are not found by name).
+fn plugged_run<'a>(lib: &'a str, rig: &'a str, set: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["--plugin", lib, "run", rig, "--lawset", set];
+    a.extend_from_slice(extra);
+    a
 }
 
 /// `tribo --quiet ARGS` in `dir`, expected to fail with exit code 1: its stderr.
@@ -1141,21 +1148,13 @@ fn a_one_cylinder_engine_settles_a_sqrt_load_piston_law_like_the_thesis_rig() {
     let rig = dir.path().join("one.toml");
     std::fs::write(&rig, thesis_as_engine()).expect("write");
     let rig = rig.to_str().expect("utf-8");
-    let (set, plugin) = sqrt_load_args();
+    let (set, lib) = sqrt_load_files();
     let pi = ["--set", "drive.kind=pi", "--set", "solver.integrator=rk4"];
     for drive in [&["--steady"][..], &[][..], &pi[..]] {
         let run = |r: &str| {
-            let mut a: Vec<&str> = plugin.iter().map(String::as_str).collect();
-            a.extend([
-                "run",
-                r,
-                "--lawset",
-                &set,
-                "--set",
-                "solver.friction_tol=1e-12",
-            ]);
-            a.extend(drive);
-            run_json(dir.path(), &a)
+            let mut extra = vec!["--set", "solver.friction_tol=1e-12"];
+            extra.extend(drive);
+            run_json(dir.path(), &plugged_run(&lib, r, &set, &extra))
         };
         let (thesis, engine) = (run("crf250r-motored"), run(rig));
         assert_eq!(engine["steps"], thesis["steps"], "{drive:?}");
@@ -1243,17 +1242,9 @@ fn an_engine_whose_laws_admit_no_consistent_load_fails_in_phase_2_naming_the_joi
     );
 
     // The sqrt-load set with an iteration limit too low to settle: the joints named.
-    let (sqrt, plugin) = sqrt_load_args();
-    let mut a: Vec<&str> = plugin.iter().map(String::as_str).collect();
+    let (sqrt, lib) = sqrt_load_files();
     let rig = rig.to_str().expect("utf-8");
-    a.extend([
-        "run",
-        rig,
-        "--lawset",
-        &sqrt,
-        "--set",
-        "solver.friction_max_iter=2",
-    ]);
+    let a = plugged_run(&lib, rig, &sqrt, &["--set", "solver.friction_max_iter=2"]);
     let low = tribo_fails(dir.path(), &a);
     assert!(
         low.contains("after 2 iterations") && low.contains("`piston_1` (law `sqrt-load-test`)"),
@@ -1274,13 +1265,8 @@ fn the_inline4_with_a_sqrt_load_law_on_every_piston_runs_steady_and_transient() 
     let dir = tempfile::tempdir().expect("temp dir");
     let rig = fixture("inline4");
     let rig = rig.to_str().expect("utf-8");
-    let (set, plugin) = sqrt_load_args();
-    let run = |extra: &[&str]| {
-        let mut a: Vec<&str> = plugin.iter().map(String::as_str).collect();
-        a.extend(["run", rig, "--lawset", &set]);
-        a.extend(extra);
-        run_json(dir.path(), &a)
-    };
+    let (set, lib) = sqrt_load_files();
+    let run = |extra: &[&str]| run_json(dir.path(), &plugged_run(&lib, rig, &set, extra));
     let steady = run(&["--steady", "--set", "solver.friction_tol=1e-12"]);
     let transient = run(&[]);
     for (r, across) in [(&steady, 1e-9), (&transient, 2e-5)] {

@@ -69,9 +69,9 @@ impl Law for SqrtLoad {
     }
 }
 
-fn sqrt_simulation() -> Simulation {
-    // The bundled rig as plain data (the configuration layer's defaults are serde's).
-    let text = include_str!("../../../../rigs/crf250r-motored.toml");
+/// The rig file `text` with the sqrt law (c_h = 5) on its piston (an engine's: on every
+/// piston) and no other law, and a registry holding the law.
+fn with_sqrt_piston(text: &str) -> (RigFile, LawRegistry) {
     let mut model: RigFile = toml::from_str(text).expect("rig parses");
     let params: toml::Table = toml::from_str("c_h = 5.0").expect("params");
     model.joints.piston.laws = vec![crate::model::LawRef {
@@ -82,6 +82,12 @@ fn sqrt_simulation() -> Simulation {
     registry
         .insert(LawLibrary::in_process::<SqrtLoad>().expect("law describes itself"))
         .expect("one law");
+    (model, registry)
+}
+
+fn sqrt_simulation() -> Simulation {
+    // The bundled rig as plain data (the configuration layer's defaults are serde's).
+    let (model, registry) = with_sqrt_piston(include_str!("../../../../rigs/crf250r-motored.toml"));
     Simulation::new(&model, &registry).expect("simulation builds")
 }
 
@@ -106,6 +112,29 @@ fn plain_iteration_settles(
         w = next;
     }
     false
+}
+
+/// The sign changes of `f` over a revolution sampled at `n` equal steps, each bisected down
+/// to the rounding of the angle: both ends of every bracket, in order.
+fn sign_changes(n: usize, f: impl Fn(f64) -> f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    for i in 0..n {
+        let (mut a, mut b) = (TAU * i as f64 / n as f64, TAU * (i + 1) as f64 / n as f64);
+        let fa = f(a);
+        if fa * f(b) >= 0.0 {
+            continue;
+        }
+        for _ in 0..60 {
+            let m = 0.5 * (a + b);
+            if f(m) * fa > 0.0 {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        out.extend([a, b]);
+    }
+    out
 }
 
 #[test]
@@ -136,23 +165,7 @@ fn evaluate_holds_the_fixed_point_where_the_plain_iteration_cannot() {
         // rounding of the angle: the load the law sees there is as close to 0 as it gets.
         let n = 360;
         let mut angles: Vec<f64> = (0..n).map(|i| TAU * i as f64 / n as f64).collect();
-        let lateral = |theta: f64| eval(theta).0.switches[5];
-        for i in 0..n {
-            let (mut a, mut b) = (TAU * i as f64 / n as f64, TAU * (i + 1) as f64 / n as f64);
-            let fa = lateral(a);
-            if fa * lateral(b) >= 0.0 {
-                continue;
-            }
-            for _ in 0..60 {
-                let m = 0.5 * (a + b);
-                if lateral(m) * fa > 0.0 {
-                    a = m;
-                } else {
-                    b = m;
-                }
-            }
-            angles.extend([a, b]);
-        }
+        angles.extend(sign_changes(n, |theta| eval(theta).0.switches[5]));
         assert!(
             angles.len() >= n + 4,
             "two crossings a revolution at t = {t}"
@@ -654,16 +667,7 @@ fn a_slow_first_call_is_not_scaled_into_the_law_time() {
 /// The inline-4 test fixture with the sqrt law (c_h = 5) on every piston and no other law.
 fn sqrt_engine() -> super::EngineSimulation {
     let text = include_str!("../../../../tests/fixtures/engines/inline4.toml");
-    let mut model: RigFile = toml::from_str(text).expect("fixture parses");
-    let params: toml::Table = toml::from_str("c_h = 5.0").expect("params");
-    model.joints.piston.laws = vec![crate::model::LawRef {
-        law: "sqrt-unit".into(),
-        params,
-    }];
-    let mut registry = LawRegistry::new();
-    registry
-        .insert(LawLibrary::in_process::<SqrtLoad>().expect("law describes itself"))
-        .expect("one law");
+    let (model, registry) = with_sqrt_piston(text);
     super::EngineSimulation::new(&model, &registry).expect("engine builds")
 }
 
@@ -740,23 +744,9 @@ fn an_engine_settles_by_phase_2_where_its_plain_iteration_cannot() {
         let n = 360;
         let mut angles: Vec<f64> = (0..n).map(|i| TAU * i as f64 / n as f64).collect();
         for k in 0..4 {
-            let lateral = |theta: f64| eval(theta).1.re.cylinders[k].slide_lateral_n;
-            for i in 0..n {
-                let (mut a, mut b) = (TAU * i as f64 / n as f64, TAU * (i + 1) as f64 / n as f64);
-                let fa = lateral(a);
-                if fa * lateral(b) >= 0.0 {
-                    continue;
-                }
-                for _ in 0..60 {
-                    let m = 0.5 * (a + b);
-                    if lateral(m) * fa > 0.0 {
-                        a = m;
-                    } else {
-                        b = m;
-                    }
-                }
-                angles.extend([a, b]);
-            }
+            angles.extend(sign_changes(n, |theta| {
+                eval(theta).1.re.cylinders[k].slide_lateral_n
+            }));
         }
         assert!(
             angles.len() >= n + 16,

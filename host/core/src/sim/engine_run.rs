@@ -110,7 +110,7 @@ pub struct EngineSimulation {
     pub(super) window_s: f64,
     pub(super) lowpass_hz: f64,
     pub(super) max_step_s: f64,
-    /// Crank speed, rad/s, from which the progress of a run is reported.
+    /// Where a transient run reports its progress (permille of the cycle), if anyone reads it.
     pub(super) progress: Option<crate::observe::Position>,
 }
 

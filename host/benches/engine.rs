@@ -26,6 +26,9 @@ use tribo::mechanics::{JointLoads, Mechanism};
 use tribo::rig::load_rig;
 
 /// The thesis rig's crank train described as a one-throw, one-cylinder engine.
+mod common;
+use common::registry;
+
 fn thesis_as_engine(mech: &Mechanism) -> CrankTrain {
     let g = mech.geometry();
     CrankTrain::new(EngineGeometry {
@@ -179,17 +182,6 @@ fn bench(c: &mut Criterion) {
 
 /// A short test cycle for the transient benchmarks.
 const SHORT_CYCLE: &str = "[cycle]\nsegments = [\n  { kind = \"ramp\", to_rpm = 3000.0, duration_s = 0.2 },\n  { kind = \"hold\", duration_s = 0.3 },\n]\n";
-
-fn registry() -> tribo::plugin_api::loader::LawRegistry {
-    let exe = std::env::current_exe().expect("bench executable path");
-    let dir: PathBuf = exe
-        .parent()
-        .and_then(|d| d.parent())
-        .expect("profile directory")
-        .to_path_buf();
-    tribo::plugin_api::loader::load_paths(&[dir])
-        .expect("release plugins: run `cargo build --release` first")
-}
 
 /// The thesis rig's text without its two `[joints.main_*]` tables, plus `engine`.
 fn thesis_with(engine: &str) -> String {

@@ -14,18 +14,10 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use tribo::lawset::LawSet;
-use tribo::plugin_api::loader::{load_paths, LawRegistry};
 use tribo::rig::load_rig;
 
-fn registry() -> LawRegistry {
-    let exe = std::env::current_exe().expect("bench executable path");
-    let dir: PathBuf = exe
-        .parent()
-        .and_then(|d| d.parent())
-        .expect("profile directory")
-        .to_path_buf();
-    load_paths(&[dir]).expect("release plugins: run `cargo build --release` first")
-}
+mod common;
+use common::registry;
 
 fn bench(c: &mut Criterion) {
     let reg = registry();

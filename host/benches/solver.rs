@@ -12,19 +12,11 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion};
 use tribo::lawset::LawSet;
 use tribo::mechanics::JointLoads;
-use tribo::plugin_api::loader::{load_paths, LawRegistry};
 use tribo::rig::{load_rig, LawRef, Rig};
 use tribo::study::{compare, mass_response, CompareOptions, DataRun, ScaledBody};
 
-fn registry() -> LawRegistry {
-    let exe = std::env::current_exe().expect("bench executable path");
-    let dir: PathBuf = exe
-        .parent()
-        .and_then(|d| d.parent())
-        .expect("profile directory")
-        .to_path_buf();
-    load_paths(&[dir]).expect("release plugins: run `cargo build --release` first")
-}
+mod common;
+use common::registry;
 
 fn rig_with(set: &str, sets: &[&str]) -> Rig {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

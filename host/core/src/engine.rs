@@ -628,7 +628,6 @@ struct CylinderForces {
 /// `[bodies.rod]` with its own overrides, the piston from `[bodies.piston]`, the PI drive's
 /// motor inertia reflected through the belt.
 pub fn geometry(f: &crate::model::RigFile) -> Option<EngineGeometry> {
-    use crate::model::Drive;
     let e = f.engine.as_ref()?;
     let c = &f.bodies.crank;
     let r = &f.bodies.rod;
@@ -649,19 +648,11 @@ pub fn geometry(f: &crate::model::RigFile) -> Option<EngineGeometry> {
             com_from_big_end_m: s.com_from_big_end_m.unwrap_or(base_rod.com_from_big_end_m),
         })
     };
-    let drive_inertia = match f.drive {
-        Drive::Pi {
-            belt_ratio,
-            motor_inertia_kg_m2,
-            ..
-        } => motor_inertia_kg_m2 * belt_ratio * belt_ratio,
-        Drive::Prescribed => 0.0,
-    };
     Some(EngineGeometry {
         crank_radius_m: f.geometry.crank_radius_m,
         crank_mass_kg: c.mass_kg * c.mass_scale,
         crank_inertia_kg_m2: c.inertia_kg_m2 * c.inertia_scale,
-        drive_inertia_kg_m2: drive_inertia,
+        drive_inertia_kg_m2: f.drive.reflected_inertia_kg_m2(),
         gravity_m_s2: if f.geometry.gravity {
             crate::sim::GRAVITY_M_S2
         } else {

@@ -731,6 +731,21 @@ pub enum Drive {
     },
 }
 
+impl Drive {
+    /// The drive's rotor inertia as the crank feels it, kg m^2: the PI drive's motor inertia
+    /// times the belt ratio squared; none for a prescribed crank.
+    pub fn reflected_inertia_kg_m2(&self) -> f64 {
+        match *self {
+            Drive::Pi {
+                belt_ratio,
+                motor_inertia_kg_m2,
+                ..
+            } => motor_inertia_kg_m2 * belt_ratio * belt_ratio,
+            Drive::Prescribed => 0.0,
+        }
+    }
+}
+
 // Default PI gains: the speed error decays at kp / (2 J) ~ 22 1/s on the CRF 250 R rig
 // (J ~ 0.0046 kg m^2) with damping ratio ~ 0.8, so a 1 s hold settles to ~1e-9 of its initial
 // error, while the proportional reaction to the once-per-revolution speed ripple stays under

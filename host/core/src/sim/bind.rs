@@ -165,20 +165,7 @@ pub(super) struct Instant {
 impl BoundJoint {
     /// The joint's law input at instant `at` with relative velocity `rel`, unloaded.
     pub(super) fn input(&self, at: &Instant, rel: f64) -> LawInput {
-        let mut input = LawInput::at_rest(self.id.kind());
-        input.contact_radius_m = self.radius_m;
-        input.contact_length_m = self.length_m;
-        input.oil_temp_c = at.oil.0;
-        input.viscosity_pa_s = at.oil.1;
-        input.engine_speed_rad_s = at.omega;
-        input.crank_angle_rad = at.crank_angle;
-        input.time_s = at.t;
-        input.dt_s = at.dt;
-        input.cylinder_pressure_pa = at.gas.cylinder_pa;
-        input.crankcase_pressure_pa = at.gas.crankcase_pa;
-        input.piston_from_tdc_m = at.gas.piston_from_tdc_m;
-        input.cycle_angle_rad = at.gas.cycle_angle_rad;
-        input.with_velocity(rel)
+        law_input(self.id.kind(), (self.radius_m, self.length_m), at, rel)
     }
 
     /// Whether any of the joint's laws keeps state.
@@ -210,6 +197,27 @@ impl BoundJoint {
     ) -> Result<f64, SimError> {
         checked_power_named(self.id.name(), self.id.kind(), law, input, out, reaction_n)
     }
+}
+
+/// The law input of a joint of `kind` with contact radius and length `contact` (m) at
+/// instant `at` with relative velocity `rel`, unloaded: what every law call of an instant
+/// starts from, on the single-cylinder rig and on an engine.
+pub(super) fn law_input(kind: JointKind, contact: (f64, f64), at: &Instant, rel: f64) -> LawInput {
+    let mut input = LawInput::at_rest(kind);
+    input.contact_radius_m = contact.0;
+    input.contact_length_m = contact.1;
+
+    input.oil_temp_c = at.oil.0;
+    input.viscosity_pa_s = at.oil.1;
+    input.engine_speed_rad_s = at.omega;
+    input.crank_angle_rad = at.crank_angle;
+    input.time_s = at.t;
+    input.dt_s = at.dt;
+    input.cylinder_pressure_pa = at.gas.cylinder_pa;
+    input.crankcase_pressure_pa = at.gas.crankcase_pa;
+    input.piston_from_tdc_m = at.gas.piston_from_tdc_m;
+    input.cycle_angle_rad = at.gas.cycle_angle_rad;
+    input.with_velocity(rel)
 }
 
 /// [`BoundJoint::checked_power`] for a law on the joint named `joint` of kind `kind` (an

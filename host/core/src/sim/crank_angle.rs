@@ -7,9 +7,9 @@ use tribo_plugin_api::serde::{Deserialize, Serialize};
 use tribo_plugin_api::Regime;
 
 use super::bind::{reset_states, Instant};
-use super::engine_run::{power_at, regime_at, At, EngineSimulation, Work as EngineWork};
+use super::engine_run::{EngineSimulation, Work as EngineWork};
 use super::error::SimError;
-use super::evaluate::{crank_angle, relative_velocities, Control, Point};
+use super::evaluate::{crank_angle, relative_velocities, Point};
 use super::Simulation;
 use crate::mechanics::JointLoads;
 
@@ -125,15 +125,7 @@ impl Simulation {
             for pass in 0..passes {
                 for k in 0..n {
                     let theta = k as f64 * h_angle;
-                    let at = Point {
-                        t: (pass * n + k) as f64 * h,
-                        dt: h,
-                        theta,
-                        omega,
-                        control: Control::Acceleration(0.0),
-                        margin: f64::INFINITY,
-                        oil,
-                    };
+                    let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
                     let (e, loads) = self.evaluate(&at, &guess, Vec::new())?;
                     guess = loads;
                     self.commit(at.t, h, theta, &e, oil)?;
@@ -225,15 +217,8 @@ impl EngineSimulation {
             for pass in 0..passes {
                 for k in 0..n {
                     let theta = k as f64 * h_angle;
-                    let at = At {
-                        t: (pass * n + k) as f64 * h,
-                        dt: h,
-                        crank_angle: crank_angle(theta),
-                        omega,
-                        oil,
-                        control: Control::Acceleration(0.0),
-                    };
-                    self.evaluate(theta, &at, &mut w)?;
+                    let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
+                    self.evaluate(&at, &mut w)?;
                     if self.stateful {
                         self.commit(&w)?;
                     }
@@ -254,12 +239,13 @@ impl EngineSimulation {
 
     /// The sample at crank angle `theta` and speed `omega` from the settled evaluation `w`.
     fn angle_sample(&self, theta: f64, omega: f64, w: &EngineWork) -> AngleSample {
+        let layout = self.layout();
         let mut law_samples = Vec::new();
         let mut idx = 0;
         for (ji, j) in self.joints.iter().enumerate() {
             for _ in &j.laws {
-                let power = w.rates[power_at(idx)];
-                let regimes: Vec<f64> = (0..4).map(|r| w.rates[regime_at(idx, r)]).collect();
+                let power = w.rates[layout.power(idx)];
+                let regimes: Vec<f64> = (0..4).map(|r| w.rates[layout.regime(idx, r)]).collect();
                 law_samples.push(LawSample {
                     friction_torque_nm: power / omega,
                     power_w: power,

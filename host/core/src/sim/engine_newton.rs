@@ -8,9 +8,11 @@
 
 use nalgebra::{DMatrix, DVector, Vector2};
 
-use super::engine_run::{At, EngineSimulation, Work, MOTOR};
+use super::engine_run::{EngineSimulation, Work};
 use super::error::SimError;
+use super::evaluate::Point;
 use super::newton::{scaled_input, settle, SquareRoots, NEWTON_FD_STEP};
+use super::rates::RateLayout;
 use crate::engine::{TrainLoads, TrainReactions};
 
 /// One round's values per joint: the unknowns `u = sqrt(W)` the laws were evaluated at, the
@@ -29,7 +31,7 @@ struct Round {
 struct EngineIterate<'s> {
     sim: &'s EngineSimulation,
     w: &'s mut Work,
-    at: &'s At,
+    at: &'s Point,
     /// The largest normal load where phase 2 began: the bound on a law's force.
     reaction_n: f64,
     /// Per joint: the reaction's direction (components), normal load and moment at entry.
@@ -71,7 +73,7 @@ impl EngineIterate<'_> {
                     load,
                 );
                 let record = Some((&mut w.rates[..], k));
-                r.totals[ji] = EngineSimulation::joint_force(j, input, self.reaction_n, record)?;
+                r.totals[ji] = self.sim.joint_force(j, input, self.reaction_n, record)?;
             }
             k += j.laws.len();
         }
@@ -93,8 +95,9 @@ impl EngineIterate<'_> {
             load,
         );
         self.totals.clone_from(&self.cur.totals);
-        self.totals[j] =
-            EngineSimulation::joint_force(&self.sim.joints[j], input, self.reaction_n, None)?;
+        self.totals[j] = self
+            .sim
+            .joint_force(&self.sim.joints[j], input, self.reaction_n, None)?;
         self.sim.loads_from_totals(&self.totals, &mut self.loads);
         self.sim
             .solve(&self.w.kin, self.at.control, &self.loads, &mut self.re);
@@ -201,7 +204,12 @@ impl EngineSimulation {
     /// On return `w` holds the final round, as after phase 1: the law inputs at the loads the
     /// laws saw, their rates, the friction loads, the reactions and normal loads of the solve
     /// under them, and the motor power.
-    pub(super) fn settle_by_newton(&self, at: &At, w: &mut Work, it: u32) -> Result<(), SimError> {
+    pub(super) fn settle_by_newton(
+        &self,
+        at: &Point,
+        w: &mut Work,
+        it: u32,
+    ) -> Result<(), SimError> {
         let n = self.joints.len();
         let (comps, moments): (Vec<_>, Vec<_>) =
             (0..n).map(|ji| self.joint_reaction(ji, &w.re)).unzip();
@@ -241,7 +249,7 @@ impl EngineSimulation {
         let EngineIterate { w, cur, .. } = x;
         w.normals = cur.normals;
         w.max_it = w.max_it.max(iterations);
-        w.rates[MOTOR] = w.re.drive_torque_nm * at.omega;
+        w.rates[RateLayout::MOTOR] = w.re.drive_torque_nm * at.omega;
         Ok(())
     }
 }

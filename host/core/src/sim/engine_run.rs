@@ -16,22 +16,23 @@ use nalgebra::Vector2;
 use tribo_plugin_api::loader::LawRegistry;
 use tribo_plugin_api::{JointKind, LawInput, Regime};
 
-use super::bind::{check_law, BoundLaw};
+use super::bind::{check_law, law_input, BoundLaw, Instant};
 use super::error::{SimError, Unsettled};
-use super::evaluate::{crank_angle, Control};
+use super::evaluate::{crank_angle, Control, Point};
 use super::newton::{Distance, Trend, Verdict};
-use super::plateau::Measured;
+use super::plateau::{plateau_values, Measured};
+use super::rates::RateLayout;
 use super::results::{
-    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
-    PlateauFmep, PlateauResult, RegimeShare, RunResult,
+    DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime, PlateauResult,
+    RunResult,
 };
-use crate::cycle::{rad_s_to_rpm, Cycle};
+use crate::cycle::Cycle;
 use crate::engine::{
     cylinder_phases, geometry, top_dead_centres, CrankTrain, CylinderLoads, TrainKinematics,
     TrainLoads, TrainReactions,
 };
 use crate::gas::{cycle_angle, GasModel, LawGas};
-use crate::model::{Drive, RigFile, Temperature};
+use crate::model::{Drive, RigFile};
 
 /// What a joint of an engine is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -114,21 +115,6 @@ pub struct EngineSimulation {
     pub(super) progress: Option<crate::observe::Position>,
 }
 
-/// Where each accumulated quantity sits: motor power, the gas power, then per law its
-/// dissipated power, four regime indicators and its normal load.
-pub(super) const MOTOR: usize = 0;
-pub(super) const GAS: usize = 1;
-const PER_LAW: usize = 6;
-pub(super) fn power_at(k: usize) -> usize {
-    2 + PER_LAW * k
-}
-pub(super) fn regime_at(k: usize, r: usize) -> usize {
-    3 + PER_LAW * k + r
-}
-fn normal_at(k: usize) -> usize {
-    7 + PER_LAW * k
-}
-
 impl EngineSimulation {
     /// Check an engine rig's laws against `registry` (each law known, its parameters' names,
     /// types and ranges) without creating an instance.
@@ -208,14 +194,7 @@ impl EngineSimulation {
             .collect();
         let four_stroke = gas.iter().any(GasModel::four_stroke);
         let cycle = Cycle::new(&f.cycle.segments());
-        let temps: Vec<f64> = match &f.oil.temperature_c {
-            Temperature::Constant(t) => vec![*t; cycle.plateaus().len()],
-            Temperature::PerPlateau(v) => v.clone(),
-        };
-        let viscosities = temps
-            .iter()
-            .map(|t| f.oil.viscosity.kinematic_cst(*t) * 1e-6 * f.oil.density_kg_m3)
-            .collect();
+        let (temps, viscosities) = super::oil_schedule(f, &cycle);
         let stateful = joints
             .iter()
             .any(|j| j.laws.iter().any(BoundLaw::is_stateful));
@@ -282,8 +261,10 @@ impl EngineSimulation {
         }
     }
 
-    pub(super) fn len(&self) -> usize {
-        2 + PER_LAW * self.n_laws
+    /// Where each accumulated quantity sits: the single-cylinder rig's layout over the
+    /// engine's laws.
+    pub(super) fn layout(&self) -> RateLayout {
+        RateLayout { n: self.n_laws }
     }
 
     /// Steady state at every plateau speed (see the module): one cycle per plateau with
@@ -299,9 +280,9 @@ impl EngineSimulation {
             let omega = self.cycle.plateaus()[pi].omega;
             self.reset_states();
             let (delta, t) = self.plateau(pi, omega, &mut work, &mut steps)?;
-            motor += delta[MOTOR];
-            gas_work += delta[GAS];
-            dissipated += (0..self.n_laws).map(|k| delta[power_at(k)]).sum::<f64>();
+            motor += delta[RateLayout::MOTOR];
+            gas_work += delta[self.layout().gas()];
+            dissipated += delta[self.layout().powers()].iter().sum::<f64>();
             let cycle = self.cycle_angle();
             let window = Measured {
                 delta,
@@ -359,7 +340,7 @@ impl EngineSimulation {
             main_torque_nm: 0.0,
             cylinders: vec![CylinderLoads::default(); self.train.geometry().cylinders.len()],
         };
-        let mut delta = vec![0.0; self.len()];
+        let mut delta = vec![0.0; self.layout().len()];
         let mut last = f64::NAN;
         let mut t = 0.0;
         let max_cycles = if self.stateful { 200 } else { 1 };
@@ -369,15 +350,8 @@ impl EngineSimulation {
             // steady state).
             for _ in 0..m {
                 t += h;
-                let at = At {
-                    t,
-                    dt: h,
-                    crank_angle: crank_angle(omega * t),
-                    omega,
-                    oil,
-                    control: Control::Acceleration(0.0),
-                };
-                self.evaluate(omega * t, &at, w)?;
+                let at = Point::steady(t, h, omega * t, omega, oil);
+                self.evaluate(&at, w)?;
                 for (d, r) in delta.iter_mut().zip(&w.rates) {
                     *d += h * r;
                 }
@@ -386,7 +360,7 @@ impl EngineSimulation {
                 }
                 *steps += 1;
             }
-            let torque = delta[MOTOR] / cycle;
+            let torque = delta[RateLayout::MOTOR] / cycle;
             if !self.stateful || (torque - last).abs() <= 1e-9 * torque.abs().max(1e-12) {
                 break;
             }
@@ -428,7 +402,8 @@ impl EngineSimulation {
     /// friction/reaction iteration from `w.loads` (phase 1, and phase 2 when phase 1 stalls);
     /// the rates, law inputs, reactions, normal loads and settled loads of its final round are
     /// left in `w`. Whether phase 2 settled it.
-    pub(super) fn evaluate(&self, theta: f64, at: &At, w: &mut Work) -> Result<bool, SimError> {
+    pub(super) fn evaluate(&self, at: &Point, w: &mut Work) -> Result<bool, SimError> {
+        let theta = at.theta;
         let n_cyl = self.train.geometry().cylinders.len();
         w.gas_forces.clear();
         w.gas_forces.resize(n_cyl, 0.0);
@@ -466,8 +441,8 @@ impl EngineSimulation {
                 .kinematics_into(theta, at.omega, &w.gas_forces, &mut w.kin);
         }
         w.rates.clear();
-        w.rates.resize(self.len(), 0.0);
-        w.rates[GAS] = -w
+        w.rates.resize(self.layout().len(), 0.0);
+        w.rates[self.layout().gas()] = -w
             .gas_forces
             .iter()
             .zip(&w.kin.cylinders)
@@ -477,23 +452,22 @@ impl EngineSimulation {
         w.inputs.clear();
         if self.n_laws > 0 {
             for j in &self.joints {
-                let mut input = LawInput::at_rest(j.role.kind());
-                input.contact_radius_m = j.radius_m;
-                input.contact_length_m = j.length_m;
-                input.oil_temp_c = at.oil.0;
-                input.viscosity_pa_s = at.oil.1;
-                input.engine_speed_rad_s = at.omega;
-                input.crank_angle_rad = at.crank_angle;
-                input.time_s = at.t;
-                input.dt_s = at.dt;
                 // A cylinder's joints see its own gas state; the mains, cylinder 1's.
-                let gas = &w.law_gas[j.role.cylinder()];
-                input.cylinder_pressure_pa = gas.cylinder_pa;
-                input.crankcase_pressure_pa = gas.crankcase_pa;
-                input.piston_from_tdc_m = gas.piston_from_tdc_m;
-                input.cycle_angle_rad = gas.cycle_angle_rad;
-                w.inputs
-                    .push(input.with_velocity(Self::relative_velocity(j.role, &w.kin)));
+                let instant = Instant {
+                    t: at.t,
+                    dt: at.dt,
+                    crank_angle: crank_angle(theta),
+                    omega: at.omega,
+                    oil: at.oil,
+                    gas: w.law_gas[j.role.cylinder()],
+                };
+                let rel = Self::relative_velocity(j.role, &w.kin);
+                w.inputs.push(law_input(
+                    j.role.kind(),
+                    (j.radius_m, j.length_m),
+                    &instant,
+                    rel,
+                ));
             }
         }
         // Phase 1: the plain fixed-point iteration (solve, evaluate the laws at the resulting
@@ -522,7 +496,7 @@ impl EngineSimulation {
             );
             if self.n_laws == 0 || matches!(verdict, Verdict::Converged) {
                 w.max_it = w.max_it.max(it);
-                w.rates[MOTOR] = w.re.drive_torque_nm * at.omega;
+                w.rates[RateLayout::MOTOR] = w.re.drive_torque_nm * at.omega;
                 return Ok(false);
             }
             if matches!(verdict, Verdict::Stalls) {
@@ -555,7 +529,7 @@ impl EngineSimulation {
                 input.reaction_x_n = comp.x;
                 input.reaction_y_n = comp.y;
                 input.reaction_moment_nm = moment;
-                let total = Self::joint_force(j, input, reaction_n, Some((&mut w.rates, k)))?;
+                let total = self.joint_force(j, input, reaction_n, Some((&mut w.rates, k)))?;
                 add_load(&mut loads, j.role, total);
                 k += j.laws.len();
             }
@@ -620,11 +594,13 @@ impl EngineSimulation {
     /// index `k` on.
     #[inline]
     pub(super) fn joint_force(
+        &self,
         j: &EngineJoint,
         input: &LawInput,
         reaction_n: f64,
         mut record: Option<(&mut [f64], usize)>,
     ) -> Result<f64, SimError> {
+        let layout = self.layout();
         let mut total = 0.0;
         for (i, law) in j.laws.iter().enumerate() {
             let out = law
@@ -641,11 +617,11 @@ impl EngineSimulation {
             total += out.force;
             if let Some((rates, k)) = record.as_mut() {
                 let regime = out.regime().unwrap_or(Regime::None) as usize;
-                rates[power_at(*k + i)] = -power;
+                rates[layout.power(*k + i)] = -power;
                 for r in 0..4 {
-                    rates[regime_at(*k + i, r)] = if r == regime { 1.0 } else { 0.0 };
+                    rates[layout.regime(*k + i, r)] = if r == regime { 1.0 } else { 0.0 };
                 }
-                rates[normal_at(*k + i)] = input.normal_load_n;
+                rates[layout.normal(*k + i)] = input.normal_load_n;
             }
         }
         Ok(total)
@@ -707,64 +683,29 @@ impl EngineSimulation {
     }
 
     /// Plateau `pi`'s result (mean speed `mean_omega`, rad/s) from the change of its
-    /// accumulated quantities over the measured `window`.
+    /// accumulated quantities over the measured `window`, with the engine's groups.
     pub(super) fn plateau_result(
         &self,
         pi: usize,
         mean_omega: f64,
         window: &Measured,
     ) -> PlateauResult {
-        let (delta, dt, dtheta) = (&window.delta, window.dt, window.dtheta);
-        let mut joints = Vec::new();
-        let mut k = 0;
-        for j in &self.joints {
-            for law in &j.laws {
-                let share = |r: usize| delta[regime_at(k, r)] / dt;
-                joints.push(LawResult {
-                    joint: j.name.clone(),
-                    law: law.name.clone(),
-                    friction_torque_nm: delta[power_at(k)] / dtheta,
-                    power_w: delta[power_at(k)] / dt,
-                    mean_normal_load_n: delta[normal_at(k)] / dt,
-                    regime_share: RegimeShare {
-                        none: share(0),
-                        boundary: share(1),
-                        mixed: share(2),
-                        hydrodynamic: share(3),
-                    },
-                });
-                k += 1;
-            }
-        }
-        let fmep = self.fmep();
-        let mut components: Vec<ComponentFmep> = Vec::new();
-        for l in &joints {
-            match components.iter_mut().find(|c| c.joint == l.joint) {
-                Some(c) => c.kpa += fmep.kpa(l.friction_torque_nm),
-                None => components.push(ComponentFmep {
-                    joint: l.joint.clone(),
-                    kpa: fmep.kpa(l.friction_torque_nm),
-                }),
-            }
-        }
-        let groups = group_totals(&joints, self.train.geometry().cylinders.len());
-        PlateauResult {
-            fmep: PlateauFmep {
-                total_kpa: fmep.kpa(joints.iter().map(|l| l.friction_torque_nm).sum()),
-                motoring_kpa: fmep.kpa(delta[MOTOR] / dtheta),
-                components,
-            },
-            set_speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
-            mean_speed_rpm: rad_s_to_rpm(mean_omega),
-            motoring_torque_nm: delta[MOTOR] / dtheta,
-            gas_torque_nm: delta[GAS] / dtheta,
-            oil_temp_c: self.temps[pi],
-            viscosity_pa_s: self.viscosities[pi],
-            window_s: window.window_s,
-            revolutions: window.revs,
-            joints,
-            groups,
-        }
+        let laws = self.joints.iter().flat_map(|j| {
+            j.laws
+                .iter()
+                .map(move |l| (j.name.as_str(), l.name.as_str()))
+        });
+        let mut result = plateau_values(
+            laws,
+            self.layout(),
+            &self.fmep(),
+            window,
+            self.cycle.plateaus()[pi].speed_rpm,
+            mean_omega,
+            (self.temps[pi], self.viscosities[pi]),
+        );
+        result.groups = group_totals(&result.joints, self.train.geometry().cylinders.len());
+        result
     }
 }
 
@@ -854,18 +795,6 @@ fn law_field(f: &RigFile, name: &str, i: usize) -> String {
     }
 }
 
-/// Where an evaluation is: time, the step the laws are told, crank angle within the
-/// revolution, speed, oil temperature and viscosity.
-pub(super) struct At {
-    pub(super) t: f64,
-    pub(super) dt: f64,
-    pub(super) crank_angle: f64,
-    pub(super) omega: f64,
-    pub(super) oil: (f64, f64),
-    /// The crank's acceleration, or the torque that drives it.
-    pub(super) control: Control,
-}
-
 /// The recycled state of the run: kinematics, reactions, loads, rates.
 pub(super) struct Work {
     pub(super) kin: TrainKinematics,
@@ -897,7 +826,7 @@ impl Work {
             alpha: 0.0,
             gas_forces: Vec::new(),
             law_gas: Vec::new(),
-            rates: vec![0.0; sim.len()],
+            rates: vec![0.0; sim.layout().len()],
             normals: Vec::with_capacity(sim.joints.len()),
             prev: Vec::with_capacity(sim.joints.len()),
             inputs: Vec::with_capacity(sim.joints.len()),

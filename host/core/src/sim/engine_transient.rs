@@ -10,9 +10,9 @@
 
 use std::f64::consts::TAU;
 
-use super::engine_run::{At, EngineSimulation, Work};
+use super::engine_run::{EngineSimulation, Work};
 use super::error::SimError;
-use super::evaluate::{crank_angle, Control};
+use super::evaluate::{Control, Point};
 use super::plateau::{Plateaus, WindowSpec};
 use super::results::{DriveKind, EnergyBalance, RunResult};
 use super::stepper::{pi_drive, CrankState};
@@ -69,7 +69,7 @@ impl EngineSimulation {
         observer.start(&refs).map_err(SimError::Observer)?;
         self.reset_states();
         let spec = self.window_spec();
-        let n = self.len();
+        let n = self.layout().len();
         let prescribed = matches!(self.drive, Drive::Prescribed);
         let mut plateaus = Plateaus::new(self.cycle.plateaus(), spec, n);
         let mut run = Run {
@@ -144,14 +144,13 @@ impl EngineSimulation {
             }
         }
         let change = self.train.mechanical_energy(y.0, y.1) - e0;
-        let dissipated: f64 = (0..self.n_laws)
-            .map(|k| run.acc[super::engine_run::power_at(k)])
-            .sum();
+        let layout = self.layout();
+        let dissipated: f64 = run.acc[layout.powers()].iter().sum();
         let energy = EnergyBalance::from_terms_with_gas(
-            run.acc[super::engine_run::MOTOR],
+            run.acc[super::rates::RateLayout::MOTOR],
             change,
             dissipated,
-            run.acc[super::engine_run::GAS],
+            run.acc[layout.gas()],
         );
         let (results, warnings) =
             plateaus.results(|pi, m| self.plateau_result(pi, m.dtheta / m.dt, m))?;
@@ -201,16 +200,17 @@ impl EngineSimulation {
                 (Control::Torque(torque), dz, margin)
             }
         };
-        let at = At {
+        let at = Point {
             t,
             dt,
-            crank_angle: crank_angle(y.0),
+            theta: y.0,
             omega: y.1,
-            oil: super::oil_at(&self.cycle, &self.temps, &self.viscosities, t),
             control,
+            margin,
+            oil: super::oil_at(&self.cycle, &self.temps, &self.viscosities, t),
         };
         run.w.rates = run.pool.pop().unwrap_or_default();
-        self.evaluate(y.0, &at, &mut run.w)?;
+        self.evaluate(&at, &mut run.w)?;
         Ok(Stage {
             rates: std::mem::take(&mut run.w.rates),
             alpha: run.w.alpha,

@@ -44,6 +44,22 @@ pub(super) struct Point {
     pub(super) oil: (f64, f64),
 }
 
+impl Point {
+    /// A crank at constant speed `omega` at accumulated angle `theta`, time `t`, the laws told
+    /// step `dt`, with oil `oil`: the steady state's and the crank-angle traces' points.
+    pub(super) fn steady(t: f64, dt: f64, theta: f64, omega: f64, oil: (f64, f64)) -> Self {
+        Self {
+            t,
+            dt,
+            theta,
+            omega,
+            control: Control::Acceleration(0.0),
+            margin: f64::INFINITY,
+            oil,
+        }
+    }
+}
+
 /// Number of switching functions in an evaluation.
 pub(super) const SWITCHES: usize = 7;
 /// The switching function of the piston's lateral reaction (after the five joints').

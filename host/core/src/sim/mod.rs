@@ -112,14 +112,6 @@ fn rig_geometry(f: &RigFile) -> RigGeometry {
         0.0
     };
     let j_axis = c.inertia_kg_m2 * c.inertia_scale + mu * ru * ru;
-    let drive_inertia = match f.drive {
-        Drive::Pi {
-            belt_ratio,
-            motor_inertia_kg_m2,
-            ..
-        } => motor_inertia_kg_m2 * belt_ratio * belt_ratio,
-        Drive::Prescribed => 0.0,
-    };
     let r = &f.bodies.rod;
     RigGeometry {
         crank_radius_m: f.geometry.crank_radius_m,
@@ -137,7 +129,7 @@ fn rig_geometry(f: &RigFile) -> RigGeometry {
         } else {
             0.0
         },
-        drive_inertia_kg_m2: drive_inertia,
+        drive_inertia_kg_m2: f.drive.reflected_inertia_kg_m2(),
     }
 }
 
@@ -190,14 +182,7 @@ impl Simulation {
         switch_mask[SWITCH_DRIVE] = matches!(f.drive, Drive::Pi { .. });
         let stateful = joints.iter().any(BoundJoint::is_stateful);
         let cycle = Cycle::new(&f.cycle.segments());
-        let temps: Vec<f64> = match &f.oil.temperature_c {
-            Temperature::Constant(t) => vec![*t; cycle.plateaus().len()],
-            Temperature::PerPlateau(v) => v.clone(),
-        };
-        let viscosities = temps
-            .iter()
-            .map(|t| f.oil.viscosity.kinematic_cst(*t) * 1e-6 * f.oil.density_kg_m3)
-            .collect();
+        let (temps, viscosities) = oil_schedule(f, &cycle);
         Ok(Self {
             rig_name: f.name.clone(),
             mech: Mechanism::new(rig_geometry(f)),
@@ -471,6 +456,19 @@ impl Simulation {
         }
         Ok((w, steps, plateaus))
     }
+}
+
+/// Each plateau's oil temperature (C) and dynamic viscosity (Pa s) from the rig's `[oil]`.
+fn oil_schedule(f: &RigFile, cycle: &Cycle) -> (Vec<f64>, Vec<f64>) {
+    let temps: Vec<f64> = match &f.oil.temperature_c {
+        Temperature::Constant(t) => vec![*t; cycle.plateaus().len()],
+        Temperature::PerPlateau(v) => v.clone(),
+    };
+    let viscosities = temps
+        .iter()
+        .map(|t| f.oil.viscosity.kinematic_cst(*t) * 1e-6 * f.oil.density_kg_m3)
+        .collect();
+    (temps, viscosities)
 }
 
 /// Oil temperature and viscosity in force at time `t` of `cycle` (per plateau `temps`,

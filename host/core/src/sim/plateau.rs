@@ -4,7 +4,8 @@
 
 use std::f64::consts::TAU;
 
-use super::results::{ComponentFmep, LawResult, PlateauFmep, PlateauResult, RegimeShare};
+use super::rates::RateLayout;
+use super::results::{ComponentFmep, Fmep, LawResult, PlateauFmep, PlateauResult, RegimeShare};
 use super::{SimError, Simulation};
 use crate::cycle::{rad_s_to_rpm, Plateau};
 
@@ -262,60 +263,82 @@ impl Simulation {
     /// Plateau `pi`'s values from the change of the accumulated quantities over its measured
     /// `window`.
     pub(super) fn plateau_result(&self, pi: usize, window: &Measured) -> PlateauResult {
-        let (delta, dt, dtheta) = (&window.delta, window.dt, window.dtheta);
-        let (window_s, revs) = (window.window_s, window.revs);
-        let d = |k: usize| delta[k];
-        let layout = self.layout();
-        let mut joints = Vec::new();
-        let mut k = 0;
-        for joint in &self.joints {
-            for law in &joint.laws {
-                let share = |r: usize| d(layout.regime(k, r)) / dt;
-                joints.push(LawResult {
-                    joint: joint.id.name().into(),
-                    law: law.name.clone(),
-                    friction_torque_nm: d(layout.power(k)) / dtheta,
-                    power_w: d(layout.power(k)) / dt,
-                    mean_normal_load_n: d(layout.normal(k)) / dt,
-                    regime_share: RegimeShare {
-                        none: share(0),
-                        boundary: share(1),
-                        mixed: share(2),
-                        hydrodynamic: share(3),
-                    },
-                });
-                k += 1;
+        let laws = self
+            .joints
+            .iter()
+            .flat_map(|j| j.laws.iter().map(move |l| (j.id.name(), l.name.as_str())));
+        plateau_values(
+            laws,
+            self.layout(),
+            &self.fmep(),
+            window,
+            self.cycle.plateaus()[pi].speed_rpm,
+            window.dtheta / window.dt,
+            (self.temps[pi], self.viscosities[pi]),
+        )
+    }
+}
+
+/// A plateau's result from the change of the accumulated quantities (in `layout`) over its
+/// measured `window`: each law's values (`laws`: joint and law names in rate order), the FMEP
+/// breakdown by `fmep`, the set speed (rpm), the mean speed `mean_omega` (rad/s) and the oil
+/// (C, Pa s). Both solvers read their plateaus through it; an engine adds its groups.
+pub(super) fn plateau_values<'a>(
+    laws: impl Iterator<Item = (&'a str, &'a str)>,
+    layout: RateLayout,
+    fmep: &Fmep,
+    window: &Measured,
+    set_speed_rpm: f64,
+    mean_omega: f64,
+    (oil_temp_c, viscosity_pa_s): (f64, f64),
+) -> PlateauResult {
+    let (d, dt, dtheta) = (&window.delta, window.dt, window.dtheta);
+    let joints: Vec<LawResult> = laws
+        .enumerate()
+        .map(|(k, (joint, law))| {
+            let share = |r: usize| d[layout.regime(k, r)] / dt;
+            LawResult {
+                joint: joint.into(),
+                law: law.into(),
+                friction_torque_nm: d[layout.power(k)] / dtheta,
+                power_w: d[layout.power(k)] / dt,
+                mean_normal_load_n: d[layout.normal(k)] / dt,
+                regime_share: RegimeShare {
+                    none: share(0),
+                    boundary: share(1),
+                    mixed: share(2),
+                    hydrodynamic: share(3),
+                },
             }
+        })
+        .collect();
+    let mut components: Vec<ComponentFmep> = Vec::new();
+    for l in &joints {
+        match components.iter_mut().find(|c| c.joint == l.joint) {
+            Some(c) => c.kpa += fmep.kpa(l.friction_torque_nm),
+            None => components.push(ComponentFmep {
+                joint: l.joint.clone(),
+                kpa: fmep.kpa(l.friction_torque_nm),
+            }),
         }
-        let fmep = self.fmep();
-        let mut components: Vec<ComponentFmep> = Vec::new();
-        for l in &joints {
-            match components.iter_mut().find(|c| c.joint == l.joint) {
-                Some(c) => c.kpa += fmep.kpa(l.friction_torque_nm),
-                None => components.push(ComponentFmep {
-                    joint: l.joint.clone(),
-                    kpa: fmep.kpa(l.friction_torque_nm),
-                }),
-            }
-        }
-        let plateau_fmep = PlateauFmep {
+    }
+    let motoring_torque_nm = d[RateLayout::MOTOR] / dtheta;
+    PlateauResult {
+        fmep: PlateauFmep {
             total_kpa: fmep.kpa(joints.iter().map(|l| l.friction_torque_nm).sum()),
-            motoring_kpa: fmep.kpa(d(0) / dtheta),
+            motoring_kpa: fmep.kpa(motoring_torque_nm),
             components,
-        };
-        PlateauResult {
-            fmep: plateau_fmep,
-            set_speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
-            mean_speed_rpm: rad_s_to_rpm(dtheta / dt),
-            motoring_torque_nm: d(0) / dtheta,
-            gas_torque_nm: d(layout.gas()) / dtheta,
-            oil_temp_c: self.temps[pi],
-            viscosity_pa_s: self.viscosities[pi],
-            window_s,
-            revolutions: revs,
-            joints,
-            groups: Vec::new(),
-        }
+        },
+        set_speed_rpm,
+        mean_speed_rpm: rad_s_to_rpm(mean_omega),
+        motoring_torque_nm,
+        gas_torque_nm: d[layout.gas()] / dtheta,
+        oil_temp_c,
+        viscosity_pa_s,
+        window_s: window.window_s,
+        revolutions: window.revs,
+        joints,
+        groups: Vec::new(),
     }
 }
 

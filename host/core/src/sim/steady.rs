@@ -3,7 +3,7 @@
 
 use super::bind::reset_states;
 use super::error::SimError;
-use super::evaluate::{Control, Point};
+use super::evaluate::Point;
 use super::results::{DriveKind, EnergyBalance, RunResult};
 use super::stepper::Work;
 use super::Simulation;
@@ -83,15 +83,7 @@ impl Simulation {
             // equally spaced samples converges spectrally for smooth laws (and like Simpson's
             // for kinked ones) with one evaluation per step instead of two.
             for _ in 0..m {
-                let at = Point {
-                    t: t + h,
-                    dt: h,
-                    theta: omega * (t + h),
-                    omega,
-                    control: Control::Acceleration(0.0),
-                    margin: f64::INFINITY,
-                    oil,
-                };
+                let at = Point::steady(t + h, h, omega * (t + h), omega, oil);
                 let buffer = w.buffer();
                 let (e1, l1) = self.evaluate(&at, &w.guess, buffer)?;
                 for (d, r) in delta.iter_mut().zip(&e1.rates) {

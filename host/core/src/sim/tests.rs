@@ -710,7 +710,7 @@ fn engine_plain_iteration_settles(
 
 #[test]
 fn an_engine_settles_by_phase_2_where_its_plain_iteration_cannot() {
-    use super::engine_run::{power_at, At, Work};
+    use super::engine_run::Work;
     let sim = sqrt_engine();
     let names = sim.joint_names();
     let pistons: Vec<usize> = (1..=4)
@@ -725,18 +725,9 @@ fn an_engine_settles_by_phase_2_where_its_plain_iteration_cannot() {
     // 3000 and 9000 rpm, steady crank.
     for omega in [15.9, 314.159, 942.478] {
         let eval = |theta: f64| {
-            let at = At {
-                t: 0.5,
-                dt: 0.0,
-                crank_angle: crank_angle(theta),
-                omega,
-                oil,
-                control: Control::Acceleration(0.0),
-            };
+            let at = super::evaluate::Point::steady(0.5, 0.0, theta, omega, oil);
             let mut w = Work::new(&sim);
-            let newton = sim
-                .evaluate(theta, &at, &mut w)
-                .expect("the iteration converges");
+            let newton = sim.evaluate(&at, &mut w).expect("the iteration converges");
             (newton, w)
         };
         // Every sign change of each piston's side thrust over a revolution, bisected down to
@@ -774,7 +765,10 @@ fn an_engine_settles_by_phase_2_where_its_plain_iteration_cannot() {
                     (f - applied).abs() <= 1e-12 * (1.0 + f.abs()),
                     "{f} vs {applied}"
                 );
-                assert_eq!(w.rates[power_at(k)], -(f * input.relative_velocity));
+                assert_eq!(
+                    w.rates[sim.layout().power(k)],
+                    -(f * input.relative_velocity)
+                );
                 if newton {
                     // Phase 2's test: the load each law saw reproduces itself to tolerance.
                     assert!(

@@ -1061,7 +1061,7 @@ fn the_bundled_engines_and_their_frictionless_references_run() {
             dir.path(),
             &["run", rig, "--steady", "--lawset", "fedem-baseline"],
         );
-        assert_eq!(v["fmep"]["basis"], "two-stroke");
+        assert_eq!(v["fmep"]["basis"], "four-stroke"); // issue 25: a four-stroke engine, head-less
         for p in v["plateaus"].as_array().expect("plateaus") {
             let groups = p["groups"].as_array().expect("groups");
             let by = |g: &str| {

@@ -23,6 +23,7 @@
 //! [`score`], [`uncertainty`] from `tribo_studies`. Laws are never linked in; they are found and
 //! loaded through `tribo_plugin_api::loader`.
 
+pub mod beside;
 pub mod check;
 pub mod isolate;
 pub mod laws;

@@ -558,6 +558,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     } else {
         writeln!(out_text, "oil: {}", rig.file.oil.describe())?;
         write!(out_text, "{}", tribo::report::to_text(&result))?;
+        write!(out_text, "{}", tribo::beside::run_text(&result))?;
     }
     emit(&out_text)
 }
@@ -759,9 +760,10 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&cmp)?)?;
     } else {
         write!(out_text, "{}", tribo::report::comparison_text(&cmp))?;
+        write!(out_text, "{}", tribo::beside::comparison_text(&cmp))?;
         writeln!(
             out_text,
-            "\nwrote into {}: comparison.csv, scores.csv, validation.csv, comparison.json,\n  torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg",
+            "\nwrote into {}: comparison.csv, scores.csv, validation.csv, comparison.json,\n  torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg, correlation.csv,\n  correlation_*.svg",
             out.display()
         )?;
     }
@@ -1084,6 +1086,7 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
         write!(out_text, "{}", tribo::report::sweep_text(&result))?;
+        write!(out_text, "{}", tribo::beside::sweep_text(&result))?;
         writeln!(out_text, "\nwrote {}/{}", out.display(), files.join(", "))?;
     }
     emit(&out_text)?;

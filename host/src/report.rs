@@ -252,6 +252,7 @@ pub fn write_fmep(r: &RunResult, dir: &Path) -> Result<(), crate::output::Output
     out.write("fmep.csv", f.as_bytes())?;
     let svg = crate::plots::fmep_svg(r).map_err(|source| render("fmep.svg", source))?;
     out.write("fmep.svg", svg.as_bytes())?;
+    crate::beside::write_run(r, &mut out)?;
     out.commit()
 }
 
@@ -1035,6 +1036,7 @@ mod tests {
                 gas_torque_nm: 0.0,
                 fmep: Default::default(),
                 groups: Vec::new(),
+                correlation: None,
             }],
             fmep: Default::default(),
             energy_residual_j: 0.0,

@@ -1151,6 +1151,12 @@ impl Check<'_> {
                 ),
             ));
         }
+        if f.geometry.engine_cycle == tribo_core::model::EngineCycle::TwoStroke && g.four_stroke() {
+            return Err(self.rig.error(
+                "geometry.engine_cycle",
+                "a two-stroke engine cannot have a 4-stroke cylinder pressure (four-stroke valves or a 720-degree trace in [gas.cylinder])",
+            ));
+        }
         let displacement = std::f64::consts::PI
             * 0.25
             * f.geometry.bore_m.powi(2)

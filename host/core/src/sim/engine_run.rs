@@ -103,6 +103,10 @@ pub struct EngineSimulation {
     pub(super) tdc_position: Vec<f64>,
     pub(super) four_stroke: bool,
     displacement_m3: f64,
+    /// The engine's working cycle (the FMEP basis).
+    engine_cycle: crate::model::EngineCycle,
+    /// The correlation's view of the engine (`crate::correlation`).
+    correlation: crate::correlation::EngineData,
     pub(super) n_laws: usize,
     pub(super) stateful: bool,
     /// The drive of a transient run, its measurement window (s), the motoring torque's
@@ -220,6 +224,8 @@ impl EngineSimulation {
                 * f.geometry.bore_m
                 * 2.0
                 * f.geometry.crank_radius_m,
+            engine_cycle: f.geometry.engine_cycle,
+            correlation: crate::correlation::EngineData::from_rig(f),
             n_laws,
             stateful,
             drive: f.drive.clone(),
@@ -240,15 +246,11 @@ impl EngineSimulation {
         self.joints.iter().map(|j| j.name.clone()).collect()
     }
 
-    /// The run's FMEP definition: the displacement of all cylinders, 4-stroke when the gas
-    /// pressure makes the cycle 4-stroke.
+    /// The run's FMEP definition: the displacement of all cylinders, the basis of the rig's
+    /// engine cycle (`geometry.engine_cycle`).
     pub fn fmep(&self) -> Fmep {
         Fmep {
-            basis: if self.four_stroke {
-                FmepBasis::FourStroke
-            } else {
-                FmepBasis::TwoStroke
-            },
+            basis: FmepBasis::from(self.engine_cycle),
             displacement_m3: self.displacement_m3,
         }
     }
@@ -705,6 +707,10 @@ impl EngineSimulation {
             (self.temps[pi], self.viscosities[pi]),
         );
         result.groups = group_totals(&result.joints, self.train.geometry().cylinders.len());
+        result.correlation = Some(
+            self.correlation
+                .at(self.cycle.plateaus()[pi].speed_rpm, self.viscosities[pi]),
+        );
         result
     }
 }

@@ -97,6 +97,10 @@ pub struct Simulation {
     gas: Option<GasModel>,
     /// Displacement (swept volume), m^3.
     displacement_m3: f64,
+    /// The engine's working cycle (the FMEP basis).
+    engine_cycle: crate::model::EngineCycle,
+    /// The correlation's view of the engine (`crate::correlation`).
+    correlation: crate::correlation::EngineData,
 }
 
 /// The mechanism of the model: its bodies reduced to the rig's geometry (the crank's
@@ -213,6 +217,8 @@ impl Simulation {
                 * f.geometry.bore_m
                 * 2.0
                 * f.geometry.crank_radius_m,
+            engine_cycle: f.geometry.engine_cycle,
+            correlation: crate::correlation::EngineData::from_rig(f),
         })
     }
 
@@ -240,15 +246,11 @@ impl Simulation {
         }
     }
 
-    /// The run's FMEP definition: 4-stroke when the gas pressure makes the cycle 4-stroke,
-    /// else per revolution.
+    /// The run's FMEP definition: the basis of the rig's engine cycle (`geometry.engine_cycle`),
+    /// whatever the gas model.
     pub fn fmep(&self) -> Fmep {
         Fmep {
-            basis: if self.revolutions_per_cycle() == 2 {
-                FmepBasis::FourStroke
-            } else {
-                FmepBasis::TwoStroke
-            },
+            basis: FmepBasis::from(self.engine_cycle),
             displacement_m3: self.displacement_m3,
         }
     }

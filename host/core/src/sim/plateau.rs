@@ -267,7 +267,7 @@ impl Simulation {
             .joints
             .iter()
             .flat_map(|j| j.laws.iter().map(move |l| (j.id.name(), l.name.as_str())));
-        plateau_values(
+        let mut result = plateau_values(
             laws,
             self.layout(),
             &self.fmep(),
@@ -275,7 +275,12 @@ impl Simulation {
             self.cycle.plateaus()[pi].speed_rpm,
             window.dtheta / window.dt,
             (self.temps[pi], self.viscosities[pi]),
-        )
+        );
+        result.correlation = Some(
+            self.correlation
+                .at(self.cycle.plateaus()[pi].speed_rpm, self.viscosities[pi]),
+        );
+        result
     }
 }
 
@@ -339,6 +344,7 @@ pub(super) fn plateau_values<'a>(
         revolutions: window.revs,
         joints,
         groups: Vec::new(),
+        correlation: None,
     }
 }
 

@@ -16,7 +16,7 @@ use tribo::plugin_api::{JointKind, Law, LawInput, LawOutput, ParamError, ParamSp
 const SHORT_CYCLE: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.5}, {kind=\"hold\", duration_s=0.8}]";
 
 /// (law, joint, parameter TOML)
-const CASES: [(&str, &str, &str); 9] = [
+const CASES: [(&str, &str, &str); 10] = [
     ("coulomb", "piston", "mu = 0.08"),
     ("c-coulomb", "piston", "mu = 0.08"),
     ("fedem-friction", "big_end", "mu = 0.0025"),

@@ -1,7 +1,7 @@
 //! Rig files: the TOML description of a motored rig, its overrides (`--set`), and validation
 //! with errors that name the file, line, column and field.
 //!
-//! Split by concern: [`error`] (where a problem is: file, line, column, field), `load`
+//! Split by concern: `error` (where a problem is: file, line, column, field), `load`
 //! (`extends` chains, `--set`, deserialisation), `trace` (a cylinder-pressure CSV), `validate`
 //! (physical ranges and sizes, one validator per part of the file), `laws` (`--law`) and
 //! `oil_file` (`--oil`). This module holds the loaded [`Rig`] and binds its laws.

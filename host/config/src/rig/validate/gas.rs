@@ -20,8 +20,7 @@ impl Check<'_> {
                 ),
             ));
         }
-        if f.geometry.engine_cycle == tribo_core::model::EngineCycle::TwoStroke && g.four_stroke()
-        {
+        if f.geometry.engine_cycle == tribo_core::model::EngineCycle::TwoStroke && g.four_stroke() {
             return Err(self.rig.error(
                 "geometry.engine_cycle",
                 "a two-stroke engine cannot have a 4-stroke cylinder pressure (four-stroke valves or a 720-degree trace in [gas.cylinder])",

@@ -5,20 +5,28 @@
 //!
 //! Every term is an FMEP in kPa on the four-stroke basis, with bore `B`, stroke `S`, bearing
 //! diameters `D_b` and lengths `L_b` in mm, speed `N` in rpm, mean piston speed `Sp` in m/s,
-//! `n_c` cylinders and `n_b` bearings (constants as published in SAE 2003-01-0725; the
-//! crankshaft terms are PNH's, the hydrodynamic ones scaled by `(mu / mu0)^0.5`):
+//! `n_c` cylinders and `n_b` bearings (the hydrodynamic terms scaled by `(mu / mu0)^0.5`):
 //!
 //! ```text
 //! crankshaft   main bearing seals     1.22e5  D_b / (B^2 S n_c)
 //!              main bearings          3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c)
 //!              turbulent dissipation  1.35e-10 D_b^2 N^2 n_b / n_c
 //! reciprocating piston skirt          2.94e2  (mu/mu0)^0.5 Sp / B
-//!              piston rings           4.06e4  (1 + 500 / N) / B^2
+//!              piston rings           4.06e4  (1 + 1000 / N) / B^2
 //!              rod bearings           3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c)
-//!              gas loading            6.89 (p_i / p_a) (0.088 r_c + 0.182 r_c^(1.33 - 2 K Sp)),
+//!              gas loading            6.89 (p_i / p_a) (0.088 r_c + 0.182 r_c^(1.33 - K Sp)),
 //!                                     K = 2.38e-2 s/m (a rig with a head only)
 //! valvetrain, pumping                 not on a rig without a valvetrain or intake system
 //! ```
+//!
+//! What could be checked here: the SAE papers themselves were not reachable from this
+//! repository's sources. The constants are transcribed as published in PNH (SAE 890836) and
+//! kept by Sandoval and Heywood for the crankshaft; the reciprocating terms (skirt, rings, gas
+//! loading) are PNH's form, which an independent public implementation of the PNH model agrees
+//! with (ring term `(1 + 1000/N)`, gas exponent `1.33 - K Sp`); Sandoval and Heywood's own
+//! revisions of the ring and gas-loading terms are not applied, because their constants could
+//! not be checked. Their viscosity scaling `(mu/mu0)^0.5` is applied to the hydrodynamic terms
+//! (bearings, skirt).
 //!
 //! `mu0` is the viscosity of the correlation's reference oil. Sandoval and Heywood scale the
 //! hydrodynamic terms by the square root of the oil's viscosity over that of the oil the PNH
@@ -32,7 +40,7 @@ use crate::model::{CylinderPressure, RigFile};
 use crate::oil::ViscosityModel;
 
 /// Source of every constant below.
-pub const SOURCE: &str = "Sandoval & Heywood, SAE 2003-01-0725 (PNH, SAE 890836, revised)";
+pub const SOURCE: &str = "PNH (SAE 890836) with Sandoval & Heywood's viscosity scaling (SAE 2003-01-0725)";
 
 /// Which part of the engine a term belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -209,8 +217,8 @@ impl EngineData {
                 "piston rings",
                 Group::Reciprocating,
                 "piston_*",
-                Some(4.06e4 * (1.0 + 500.0 / n.max(1.0)) / (b * b)),
-                "4.06e4 (1 + 500/N) / B^2 (ring tension, without gas loading)",
+                Some(4.06e4 * (1.0 + 1000.0 / n.max(1.0)) / (b * b)),
+                "4.06e4 (1 + 1000/N) / B^2 (ring tension, without gas loading; PNH's form)",
             ),
             term(
                 "rod bearings",
@@ -225,8 +233,8 @@ impl EngineData {
                 "gas loading",
                 Group::Reciprocating,
                 "piston_*",
-                Some(6.89 * pi_pa * (0.088 * rc + 0.182 * rc.powf(1.33 - 2.0 * 2.38e-2 * sp))),
-                "6.89 (p_i/p_a) (0.088 r_c + 0.182 r_c^(1.33 - 2 K Sp)), K = 2.38e-2 s/m",
+                Some(6.89 * pi_pa * (0.088 * rc + 0.182 * rc.powf(1.33 - 2.38e-2 * sp))),
+                "6.89 (p_i/p_a) (0.088 r_c + 0.182 r_c^(1.33 - K Sp)), K = 2.38e-2 s/m (PNH's form)",
             ),
             None => term(
                 "gas loading",
@@ -288,7 +296,7 @@ mod tests {
         assert!((get("turbulent dissipation") - 3.796875).abs() < 1e-9);
         // Sp = 2 * 0.086 * 50 = 8.6 m/s: 294 * 8.6 / 86 = 29.4 kPa
         assert!((get("piston skirt") - 29.4).abs() < 1e-9);
-        assert!((get("piston rings") - 4.06e4 * (1.0 + 500.0 / 3000.0) / 7396.0).abs() < 1e-9);
+        assert!((get("piston rings") - 4.06e4 * (1.0 + 1000.0 / 3000.0) / 7396.0).abs() < 1e-9);
         assert!(c
             .terms
             .iter()
@@ -398,7 +406,7 @@ pub fn beside<'a>(fmep_kpa: impl Iterator<Item = (&'a str, f64)>, c: &Correlatio
             correlation_kpa,
             note: if names.is_empty() {
                 "no term in the correlation".into()
-            } else if joints.is_empty() {
+            } else if joints.is_empty() && correlation_kpa.is_some() {
                 format!("{note}; no law on this rig models it")
             } else {
                 note

@@ -40,7 +40,8 @@ use crate::model::{CylinderPressure, RigFile};
 use crate::oil::ViscosityModel;
 
 /// Source of every constant below.
-pub const SOURCE: &str = "PNH (SAE 890836) with Sandoval & Heywood's viscosity scaling (SAE 2003-01-0725)";
+pub const SOURCE: &str =
+    "PNH (SAE 890836) with Sandoval & Heywood's viscosity scaling (SAE 2003-01-0725)";
 
 /// Which part of the engine a term belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -153,6 +153,67 @@ impl Bearing {
     }
 }
 
+/// Largest `|omega_bar / w|` the relative-rotation torque follows exactly ([`relative_torque`]).
+pub const RATIO_MAX: f64 = 100.0;
+
+/// The torque on the joint's relative rotation `w = omega_a - omega_b` whose power is the
+/// film's rotational power `K w^2 + M omega_bar`:
+/// `T = -(K w + M omega_bar w / (w^2 + (omega_bar / RATIO_MAX)^2))` (docs/laws/plain-journal.md).
+pub fn relative_torque(
+    b: &Bearing,
+    eps: [f64; 2],
+    force: [f64; 2],
+    w: f64,
+    omega_bar: f64,
+    mu: f64,
+) -> f64 {
+    let e = eps[0].hypot(eps[1]);
+    let scale = if e > EPS_CAP { EPS_CAP / e } else { 1.0 };
+    let m = b.clearance_m * scale * (eps[0] * force[1] - eps[1] * force[0]);
+    let k = b.couette(e, mu);
+    let den = w * w + (omega_bar / RATIO_MAX).powi(2);
+    let ratio = if den > 0.0 { omega_bar * w / den } else { 0.0 };
+    -(k * w + m * ratio)
+}
+
+impl Bearing {
+    /// Advance `eps` over `dt` under `force` at mean speed `omega_bar`: midpoint steps, as many
+    /// as the squeeze film's relaxation rate needs (it grows about as `(1 - eps)^-2.5`), the
+    /// eccentricity held at or inside [`EPS_CAP`].
+    pub fn advance(
+        &self,
+        eps: [f64; 2],
+        force: [f64; 2],
+        omega_bar: f64,
+        mu: f64,
+        dt: f64,
+    ) -> [f64; 2] {
+        let rate = |e: [f64; 2]| self.motion(e, force, omega_bar, mu).eps_rate;
+        let cap = |e: [f64; 2]| {
+            let m = e[0].hypot(e[1]);
+            if m > EPS_CAP {
+                [e[0] * EPS_CAP / m, e[1] * EPS_CAP / m]
+            } else {
+                e
+            }
+        };
+        let r0 = rate(eps);
+        let e = eps[0].hypot(eps[1]);
+        let speed = r0[0].hypot(r0[1]);
+        let stiff = speed * 2.5 / (1.0 - e).max(1.0 - EPS_CAP) + omega_bar.abs();
+        let n = ((stiff * dt / 0.25).ceil() as usize).clamp(1, 4000);
+        let h = dt / n as f64;
+        let mut x = eps;
+        for i in 0..n {
+            let k1 = if i == 0 { r0 } else { rate(x) };
+            let mid = cap([x[0] + 0.5 * h * k1[0], x[1] + 0.5 * h * k1[1]]);
+            let k2 = rate(mid);
+            x = cap([x[0] + h * k2[0], x[1] + h * k2[1]]);
+        }
+        x
+    }
+}
+
 /// The film's torques on both members and the rotational power it absorbs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Torques {

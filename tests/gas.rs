@@ -1147,3 +1147,98 @@ fn every_bundled_rigs_fmep_csv_is_on_the_four_stroke_basis() {
         assert!(rows >= 4, "{name}: {rows} rows");
     }
 }
+
+/// Issue 25: the Sandoval-Heywood correlation beside the laws. `run --fmep` writes
+/// `fmep_correlation.csv` and `.svg`: the main-bearing row's correlation is PNH's
+/// `3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c)` written out here for the 4B11's five
+/// 50 x 20 mm mains, and Tribo's value is the mains' rows of `fmep.csv` summed; `compare` and
+/// `sweep` write theirs, and the JSON carries the terms.
+#[test]
+fn the_correlation_stands_beside_the_laws_in_run_compare_and_sweep() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fmep_dir = dir.path().join("fmep");
+    let out = common::run_tribo(
+        &[
+            "run",
+            "inline4-4b11",
+            "--steady",
+            "--lawset",
+            "physical-bearings",
+            "--json",
+            "--set",
+            SHORT_CYCLE,
+            "--fmep",
+            fmep_dir.to_str().expect("utf-8"),
+        ],
+        None,
+    );
+    let (stdout, stderr) = common::text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    let mu0 = tribo::correlation::reference_viscosity_pa_s();
+    let fmep = std::fs::read_to_string(fmep_dir.join("fmep.csv")).expect("fmep.csv");
+    let beside =
+        std::fs::read_to_string(fmep_dir.join("fmep_correlation.csv")).expect("correlation csv");
+    assert!(fmep_dir.join("fmep_correlation.svg").is_file());
+    for p in v["plateaus"].as_array().expect("plateaus") {
+        let rpm = p["set_speed_rpm"].as_f64().expect("rpm");
+        let mu = p["viscosity_pa_s"].as_f64().expect("mu");
+        let by_hand = 3.03e-4 * (mu / mu0).sqrt() * rpm * 50f64.powi(3) * 20.0 * 5.0
+            / (86.0 * 86.0 * 86.0 * 4.0);
+        let mains: f64 = fmep
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|c| c[0].parse::<f64>().ok() == Some(rpm) && c[1].starts_with("main_"))
+            .map(|c| c[2].parse::<f64>().expect("kPa"))
+            .sum();
+        let row: Vec<String> = beside
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(String::from).collect::<Vec<_>>())
+            .find(|c| c[0].parse::<f64>().ok() == Some(rpm) && c[1] == "main bearings")
+            .expect("a main-bearing row");
+        let corr: f64 = row[4].parse().expect("correlation kPa");
+        let tribo_kpa: f64 = row[3].parse().expect("Tribo kPa");
+        assert!(
+            (corr - by_hand).abs() <= 1e-9 * by_hand,
+            "{rpm}: {corr} vs {by_hand}"
+        );
+        assert!(
+            (tribo_kpa - mains).abs() <= 1e-9 * mains,
+            "{rpm}: {tribo_kpa} vs {mains}"
+        );
+        let terms = p["correlation"]["terms"].as_array().expect("terms");
+        assert!(terms
+            .iter()
+            .any(|t| t["term"] == "valvetrain" && t["kpa"].is_null()));
+    }
+    for (cmd, file) in [
+        ("compare", "correlation.csv"),
+        ("sweep", "sweep_correlation.csv"),
+    ] {
+        let out_dir = dir.path().join(cmd);
+        // The thesis rig (its measured data for compare), one law set, few points.
+        let mut args = vec![
+            cmd,
+            "--lawset",
+            "physical-bearings",
+            "--out",
+            out_dir.to_str().expect("utf-8"),
+        ];
+        if cmd == "compare" {
+            args.extend(["--steady", "--no-cv"]);
+        } else {
+            args.extend(["--temps", "80", "--speeds", "3000"]);
+        }
+        let out = common::run_tribo(&args, None);
+        let (stdout, stderr) = common::text(&out);
+        assert!(out.status.success(), "{cmd}: {stderr}");
+        assert!(stdout.contains("Beside the correlation"), "{cmd}: {stdout}");
+        let csv = std::fs::read_to_string(out_dir.join(file)).expect("csv");
+        assert!(
+            csv.lines().any(|l| l.contains("main bearings")),
+            "{cmd}: {csv}"
+        );
+    }
+}

@@ -92,20 +92,24 @@ pub fn run_csv(r: &RunResult) -> std::io::Result<String> {
             rows.push(csv_row(&[p.set_speed_rpm.to_string()], &row));
         }
     }
-    csv_text(
-        &[
-            "set_speed_rpm",
-            "component",
-            "joints",
-            "tribo_kpa",
-            "correlation_kpa",
-            "ratio",
-            "terms",
-        ],
-        rows,
-    )
+    crate::report::csv_text(&header(&["set_speed_rpm"]), rows)
 }
 
+/// A CSV header: the leading columns, then a row's.
+fn header<'a>(lead: &[&'a str]) -> Vec<&'a str> {
+    let mut h = lead.to_vec();
+    h.extend([
+        "component",
+        "joints",
+        "tribo_kpa",
+        "correlation_kpa",
+        "ratio",
+        "terms",
+    ]);
+    h
+}
+
+/// A CSV row: the leading columns, then the components side by side.
 fn csv_row(lead: &[String], row: &Beside) -> Vec<String> {
     let opt = |x: Option<f64>| x.map_or(String::new(), |v| v.to_string());
     let mut v: Vec<String> = lead.to_vec();
@@ -118,18 +122,6 @@ fn csv_row(lead: &[String], row: &Beside) -> Vec<String> {
         row.note.clone(),
     ]);
     v
-}
-
-fn csv_text(header: &[&str], rows: Vec<Vec<String>>) -> std::io::Result<String> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(header).map_err(std::io::Error::other)?;
-    for r in rows {
-        w.write_record(&r).map_err(std::io::Error::other)?;
-    }
-    let bytes = w
-        .into_inner()
-        .map_err(|e| std::io::Error::other(e.to_string()))?;
-    String::from_utf8(bytes).map_err(std::io::Error::other)
 }
 
 /// `compare`: per law set and plateau, the components both sides give a number for.
@@ -220,19 +212,7 @@ pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
             }
         }
     }
-    csv_text(
-        &[
-            "lawset",
-            "set_speed_rpm",
-            "component",
-            "joints",
-            "tribo_kpa",
-            "correlation_kpa",
-            "ratio",
-            "terms",
-        ],
-        rows,
-    )
+    crate::report::csv_text(&header(&["lawset", "set_speed_rpm"]), rows)
 }
 
 /// The rows of a sweep point (`None` without a correlation).
@@ -317,20 +297,7 @@ pub fn sweep_csv(s: &crate::study::Sweep) -> std::io::Result<String> {
             }
         }
     }
-    csv_text(
-        &[
-            "lawset",
-            "oil_temp_c",
-            "speed_rpm",
-            "component",
-            "joints",
-            "tribo_kpa",
-            "correlation_kpa",
-            "ratio",
-            "terms",
-        ],
-        rows,
-    )
+    crate::report::csv_text(&header(&["lawset", "oil_temp_c", "speed_rpm"]), rows)
 }
 
 /// One colour per component.

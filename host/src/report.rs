@@ -611,7 +611,7 @@ fn joint_table(s: &crate::study::SetResult) -> String {
 
 /// CSV text from a header and rows (through the `csv` writer, so names with commas or quotes
 /// stay one field).
-fn csv_text(header: &[&str], rows: Vec<Vec<String>>) -> std::io::Result<String> {
+pub(crate) fn csv_text(header: &[&str], rows: Vec<Vec<String>>) -> std::io::Result<String> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(header).map_err(std::io::Error::other)?;
     for r in rows {

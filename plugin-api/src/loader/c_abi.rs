@@ -16,8 +16,9 @@ type EvaluateFn =
 type CommitFn = unsafe extern "C" fn(*const c_void, *const LawInput, *mut f64) -> i32;
 type DestroyFn = unsafe extern "C" fn(*mut c_void);
 
-/// A C law library with all its symbols resolved. The `Library` is kept so the function
-/// pointers stay valid as long as any instance holds this (through an `Arc`).
+/// A C law library with all its symbols resolved. The `Library` is never closed: a law's
+/// threads, `atexit` handlers or thread-local destructors may still point into its code after
+/// the last instance is gone, and unloading it under them would crash the process at exit.
 pub(super) struct CLib {
     describe: DescribeFn,
     create: CreateFn,
@@ -25,7 +26,7 @@ pub(super) struct CLib {
     evaluate: EvaluateFn,
     commit: CommitFn,
     destroy: DestroyFn,
-    _lib: libloading::Library,
+    _lib: std::mem::ManuallyDrop<libloading::Library>,
 }
 
 fn symbol<T: Copy>(lib: &libloading::Library, path: &Path, name: &str) -> Result<T, LawError> {
@@ -55,7 +56,10 @@ unsafe fn c_text(p: *const c_char, what: &str) -> Result<String, String> {
 }
 
 impl CLib {
-    pub(super) fn load(path: &Path, lib: libloading::Library) -> Result<Self, LawError> {
+    pub(super) fn load(
+        path: &Path,
+        lib: std::mem::ManuallyDrop<libloading::Library>,
+    ) -> Result<Self, LawError> {
         Ok(Self {
             describe: symbol(&lib, path, "tribo_law_describe")?,
             create: symbol(&lib, path, "tribo_law_create")?,

@@ -251,11 +251,14 @@ impl LawLibrary {
         } else {
             path.to_path_buf()
         };
-        let lib =
+        // Never closed, even when refused below: a library's constructors may have started
+        // threads that run its code (c_abi::CLib).
+        let lib = std::mem::ManuallyDrop::new(
             unsafe { libloading::Library::new(&open_path) }.map_err(|e| LawError::NotALibrary {
                 path: path.to_path_buf(),
                 reason: e.to_string(),
-            })?;
+            })?,
+        );
         let version = {
             // SAFETY: the contract defines this symbol as `uint32_t (void)`.
             let sym = unsafe { lib.get::<extern "C" fn() -> u32>(b"tribo_law_contract_version\0") }
@@ -274,7 +277,6 @@ impl LawLibrary {
             });
         }
         if rust::exports_rust_module(&lib) {
-            drop(lib);
             let lib = rust::RustLib::load(&open_path, version)?;
             let description = lib.describe(path)?;
             Ok(Self {
@@ -482,6 +484,17 @@ impl LawInstance {
         self.state_size
     }
 
+    /// Name the joint this instance is bound to in crash and hang reports ("law `x` (file) at
+    /// joint `piston`"), so a watchdog or a parent process can say where a stuck or crashing
+    /// call was made.
+    pub fn set_joint(&mut self, joint: &str) {
+        self.code = inflight::register(format!(
+            "law `{}` ({}) at joint `{joint}`",
+            self.name,
+            self.path.display()
+        ));
+    }
+
     /// A zero-initialised state of [`LawInstance::state_size`] values. The allocation is
     /// fallible: failure is [`LawError::StateTooLarge`], not an abort.
     pub fn new_state(&self) -> Result<Vec<f64>, LawError> {
@@ -520,7 +533,7 @@ impl LawInstance {
         input: &LawInput,
         state: &[f64],
     ) -> Result<LawOutput, LawError> {
-        let _running = inflight::enter(self.code);
+        let _running = inflight::enter_call(self.code, input);
         match &self.backend {
             InstBackend::Rust(obj) => match obj.evaluate(input, state.into()) {
                 abi_stable::std_types::RResult::ROk(out) => Ok(out),
@@ -545,7 +558,7 @@ impl LawInstance {
     /// [`LawInstance::state_size`] is [`LawError::StateLength`] and the law is not called.
     pub fn commit(&self, input: &LawInput, state: &mut [f64]) -> Result<(), LawError> {
         self.check_state("commit", state.len())?;
-        let _running = inflight::enter(self.code);
+        let _running = inflight::enter_call(self.code, input);
         match &self.backend {
             InstBackend::Rust(obj) => match obj.commit(input, state.into()) {
                 abi_stable::std_types::RResult::ROk(()) => Ok(()),

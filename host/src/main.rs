@@ -528,11 +528,14 @@ struct RunJob {
     crank_angle_deg: Option<f64>,
 }
 
-/// What a run hands back: its result and the crank-angle traces asked for.
+/// What a run hands back: its result and the crank-angle traces asked for. The result's
+/// fields kept out of its serde form (they vary run to run) travel beside it.
 #[derive(Serialize, Deserialize)]
 struct RunOutput {
     result: tribo::sim::RunResult,
     traces: Option<Vec<tribo::sim::CrankAngleTrace>>,
+    law_time: Vec<tribo::sim::LawTime>,
+    rejected_steps: u64,
 }
 
 impl RunJob {
@@ -568,7 +571,12 @@ impl RunJob {
             Some(r) => Some(sim.crank_angle_traces(r)?),
             None => None,
         };
-        Ok(RunOutput { result, traces })
+        Ok(RunOutput {
+            law_time: result.law_time.clone(),
+            rejected_steps: result.rejected_steps,
+            result,
+            traces,
+        })
     }
 }
 
@@ -663,7 +671,14 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         file.commit()
             .with_context(|| format!("writing {}", path.display()))?;
     }
-    let RunOutput { result, traces } = output;
+    let RunOutput {
+        mut result,
+        traces,
+        law_time,
+        rejected_steps,
+    } = output;
+    result.law_time = law_time;
+    result.rejected_steps = rejected_steps;
     if let Some(dir) = &csv {
         tribo::report::write_csv(&result, dir)
             .with_context(|| format!("writing CSV into {}", dir.display()))?;

@@ -910,13 +910,18 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     // Every input is read and checked before anything runs.
     let specs = lawset_specs(&a.lawsets);
-    let (_, mut sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
+    let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
     tribo::study::check_unique_names(&sets_loaded)?;
-    tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
-    read_data_runs(&a.validate)?;
+    let data =
+        tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+    let validate = read_data_runs(&a.validate)?;
+    // Once, here, before any worker: data whose cycle the rig cannot run fails the command.
+    for d in std::iter::once(&data).chain(&validate) {
+        tribo::study::check_data(&rig, d)?;
+    }
     tribo::output::check_result_dir(&a.out, "--out")?;
     let progress = Progress::start("comparing law sets", None, g.quiet);
     let sources: Vec<SetSource> = specs.iter().map(|l| a.source(l)).collect();
@@ -1038,12 +1043,14 @@ fn mass_study(
 fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     let specs = lawset_specs(&a.lawsets);
-    let (_, sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
+    let (rig, sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
     tribo::study::check_unique_names(&sets_loaded)?;
     let scale_list = a.scales.clone().unwrap_or_else(|| vec![a.scale]);
     if let Some(bad) = scale_list.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
         anyhow::bail!("--scale/--scales: every scale factor must be positive, got {bad}");
     }
+    // Once, here, before any worker: a scale the rig cannot take fails the command.
+    tribo::study::check_scales(&rig, a.body.into(), &scale_list)?;
     tribo::output::check_result_dir(&a.out, "--out")?;
     let progress = Progress::start("mass response", None, g.quiet);
     let sources: Vec<SetSource> = specs
@@ -1151,10 +1158,15 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
         .rig
         .clone()
         .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
-    tribo::rig::load_rig(&rig_path, &a.sets)?;
+    let rig = tribo::rig::load_rig(&rig_path, &a.sets)?;
     let ls = tribo::lawset::LawSet::load(&a.lawset)?;
-    read_data_runs(&fit_data(&a))?;
-    read_data_runs(&a.validate)?;
+    // Data whose cycle the rig cannot run fails here, before the worker starts.
+    for d in read_data_runs(&fit_data(&a))?
+        .iter()
+        .chain(&read_data_runs(&a.validate)?)
+    {
+        tribo::study::check_data(&rig, d)?;
+    }
     let out = a
         .out
         .clone()
@@ -1226,11 +1238,13 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
     tribo::study::check_sweep_inputs(&temps_c, &speeds_rpm)?;
     let sets = with_oil_file(a.oil.as_deref(), a.sets.clone())?;
     let specs = lawset_specs(&a.lawsets);
-    let (_, mut sets_loaded) = study_inputs(a.rig.clone(), &sets, specs.clone())?;
+    let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &sets, specs.clone())?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
     tribo::study::check_unique_names(&sets_loaded)?;
+    // Once, here, before any worker: a speed the rig cannot run fails the command, not each set.
+    tribo::study::check_sweep(&rig, &sets_loaded, &temps_c, &speeds_rpm)?;
     tribo::output::check_result_dir(&a.out, "--out")?;
     let total = (sets_loaded.len() * temps_c.len()) as u64;
     let sources: Vec<SetSource> = specs
@@ -1312,6 +1326,7 @@ fn cmd_worker(g: &Globals) -> ! {
 
 /// One job in a worker process.
 fn work(g: &Globals, job: WorkerJob, session: &isolate::Session) -> anyhow::Result<WorkerOutput> {
+    test_panic_hook("worker");
     let registry = g.registry()?;
     Ok(match job {
         WorkerJob::Check(sources) => {
@@ -1378,6 +1393,14 @@ impl std::io::Write for DataSink<'_> {
             self.buf.clear();
         }
         Ok(())
+    }
+}
+
+/// Test hook: with `TRIBO_TEST_PANIC=PLACE` (`main`, `worker`), tribo panics there, so the tests
+/// can check a bug in tribo is reported as one (never as a law's `exit()`). Unset in normal use.
+fn test_panic_hook(place: &str) {
+    if std::env::var_os("TRIBO_TEST_PANIC").is_some_and(|p| p == place) {
+        panic!("TRIBO_TEST_PANIC={place}");
     }
 }
 
@@ -1594,6 +1617,7 @@ fn main() -> ExitCode {
     }
     // Ctrl-C or a kill ends the workers' process groups too (what a law started in them).
     isolate::handle_termination();
+    test_panic_hook("main");
     if let Some(out) = guard::take_stdout() {
         let _ = RESULTS_OUT.set(std::sync::Mutex::new(out));
     }

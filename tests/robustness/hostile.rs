@@ -475,3 +475,160 @@ fn lingering_child_gone(pid_file: &Path) -> Vec<String> {
     }
     vec![format!("the law's child {pid} outlived the run")]
 }
+
+/// A case of tribo's own robustness: arguments (and a test hook or a shell limit), the exit
+/// code, words the output must hold and words it must not.
+struct HostCase {
+    name: &'static str,
+    shell: Option<&'static str>,
+    env: &'static [(&'static str, &'static str)],
+    args: &'static [&'static str],
+    code: i32,
+    words: &'static [&'static str],
+    not: &'static [&'static str],
+}
+
+const HOST_CASES: &[HostCase] = &[
+    HostCase {
+        name: "a time limit of 1e300 s (it panicked, blamed on a law's exit())",
+        shell: None,
+        env: &[],
+        args: &["run", "crf250r-motored", "--time-limit-s", "1e300"],
+        code: 2,
+        words: &["--time-limit-s", "got 1e300", "to 1e6"],
+        not: &["exit()"],
+    },
+    HostCase {
+        name: "a negative call limit",
+        shell: None,
+        env: &[],
+        args: &["compare", "--call-limit-s=-1"],
+        code: 2,
+        words: &["--call-limit-s", "got -1"],
+        not: &[],
+    },
+    HostCase {
+        name: "a memory limit beyond 16 TiB",
+        shell: None,
+        env: &[],
+        args: &["sweep", "--memory-limit-mb", "99999999999"],
+        code: 2,
+        words: &["--memory-limit-mb", "99999999999"],
+        not: &[],
+    },
+    HostCase {
+        name: "a crank-angle resolution of 1e-9 degrees (it aborted allocating 48 TB)",
+        shell: None,
+        env: &[],
+        args: &[
+            "run",
+            "crf250r-motored",
+            "--crank-angle",
+            "ca",
+            "--resolution-deg",
+            "1e-9",
+        ],
+        code: 2,
+        words: &["--resolution-deg", "0.01", "72000 samples"],
+        not: &[],
+    },
+    HostCase {
+        name: "sweep speeds of 1e6 rpm (reported per law set, blaming a --set)",
+        shell: None,
+        env: &[],
+        args: &["sweep", "--speeds", "1000000", "--out", "o"],
+        code: 1,
+        words: &["--speeds", "30000 rpm"],
+        not: &["--set", "law set"],
+    },
+    HostCase {
+        name: "a mass scale of 1e9 (reported per law set)",
+        shell: None,
+        env: &[],
+        args: &["mass-response", "--steady", "--scales", "1e9", "--out", "o"],
+        code: 1,
+        words: &["--scale", "at most 1000"],
+        not: &["law set"],
+    },
+    HostCase {
+        name: "a panic in tribo is tribo's bug, not a law's exit()",
+        shell: None,
+        env: &[("TRIBO_TEST_PANIC", "main")],
+        args: &["laws"],
+        code: 101,
+        words: &["internal error", "bug in tribo, not in a law"],
+        not: &["exit()"],
+    },
+    HostCase {
+        name: "a panic in a worker is tribo's bug too",
+        shell: None,
+        env: &[("TRIBO_TEST_PANIC", "worker")],
+        args: &["run", "crf250r-motored", "--steady"],
+        code: 1,
+        words: &[
+            "internal error in the worker process",
+            "bug in tribo, not in a law",
+        ],
+        not: &["exit()", "signal"],
+    },
+    HostCase {
+        name: "a time series past `ulimit -f` (SIGXFSZ killed tribo without a word)",
+        shell: Some("ulimit -f 8; exec \"$@\""),
+        env: &[],
+        args: &["run", "crf250r-motored", "--timeseries", "ts.csv"],
+        code: 1,
+        words: &["ts.csv", "File too large"],
+        not: &[],
+    },
+];
+
+#[test]
+fn host_failures_are_clear_errors_of_tribo_never_crashes_or_a_laws_fault() {
+    ensure_plugins_built();
+    let mut failures = Vec::new();
+    for c in HOST_CASES {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let mut cmd = match c.shell {
+            Some(script) => {
+                let mut s = Command::new("sh");
+                s.arg("-c").arg(script).arg("sh").arg(tribo_exe());
+                s
+            }
+            None => Command::new(tribo_exe()),
+        };
+        cmd.args(c.args)
+            .arg("--quiet")
+            .current_dir(dir.path())
+            .env_remove("TRIBO_PLUGIN_PATH");
+        for (k, v) in c.env {
+            cmd.env(k, v);
+        }
+        let out = cmd.output().expect("tribo runs");
+        let (stdout, stderr) = text(&out);
+        let all = format!("{stdout}{stderr}");
+        let mut p = Vec::new();
+        if out.status.code() != Some(c.code) {
+            p.push(format!("exit {:?}, expected {}", out.status.code(), c.code));
+        }
+        let errors = stderr.lines().filter(|l| l.starts_with("error:")).count();
+        if errors != 1 {
+            p.push(format!("{errors} `error:` lines, expected one"));
+        }
+        p.extend(
+            c.words
+                .iter()
+                .filter(|w| !all.contains(*w))
+                .map(|w| format!("lacks `{w}`")),
+        );
+        p.extend(
+            c.not
+                .iter()
+                .filter(|w| all.contains(*w))
+                .map(|w| format!("says `{w}`")),
+        );
+        if !p.is_empty() {
+            failures.push(format!("{}: {}\n{all}", c.name, p.join("; ")));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}

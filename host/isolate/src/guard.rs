@@ -254,7 +254,7 @@ fn code_name(mark: u64) -> &'static str {
 /// One call ran past the limit: say which, where and with what inputs, and stop.
 fn stuck(slot: usize, mark: u64, running: Duration, limit_s: f64) -> ! {
     let mut text = format!(
-        "{} did not return from one call in {:.1} s, the limit for one law call (--call-limit-s, 0: none)",
+        "{} did not return from one call in {:.1} s, the limit for one law call (--call-limit-s, in Python call_limit_s; 0: none)",
         code_name(mark),
         running.as_secs_f64().max(limit_s)
     );

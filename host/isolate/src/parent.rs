@@ -102,7 +102,10 @@ pub fn handle_termination() {
             for pgid in LIVE.lock().unwrap_or_else(|p| p.into_inner()).iter() {
                 sys::killpg(*pgid, libc::SIGKILL);
             }
-            for (_, path) in TEMPS.lock().unwrap_or_else(|p| p.into_inner()).iter() {
+            // Held until the process is gone: an owner that drops its guard to put its
+            // temporary in place (a result set's swap) waits, and never moves a half-removed one.
+            let temps = TEMPS.lock().unwrap_or_else(|p| p.into_inner());
+            for (_, path) in temps.iter() {
                 // Never following a link: remove_dir_all does not, and a file is unlinked.
                 let _ = std::fs::remove_dir_all(path).or_else(|_| std::fs::remove_file(path));
             }
@@ -554,7 +557,7 @@ impl Worker {
                         self.kill();
                         return Err(WorkerFailure::CallLimit {
                             text: format!(
-                                "{code} did not return from one call in {} s, the limit for one law call (--call-limit-s, 0: none); the worker process did not answer its watchdog, so the call's inputs are unknown",
+                                "{code} did not return from one call in {} s, the limit for one law call (--call-limit-s, in Python call_limit_s; 0: none); the worker process did not answer its watchdog, so the call's inputs are unknown",
                                 self.limits.call_s
                             ),
                         });

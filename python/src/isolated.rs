@@ -6,7 +6,15 @@
 //! with a `tribo.SimulationError` naming the law; the interpreter and the user's script go on.
 //! While waiting, Ctrl-C still works (the wait checks Python's signals and kills the worker),
 //! and what the law writes on standard error reaches `sys.stderr`.
+//!
+//! A worker serves one Python thread's calls one after another (a long-lived worker: starting
+//! an interpreter costs tens of milliseconds, a steady run a few): its plugins stay loaded, as
+//! they do in process. It is replaced when it failed (a crash, a limit), when the limits asked
+//! for change, or when the working directory or `TRIBO_PLUGIN_PATH` it was started with did; it
+//! ends with its thread, or with this process.
 
+use std::cell::RefCell;
+use std::ffi::OsString;
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -69,6 +77,29 @@ impl Default for Isolation {
             call_limit_s: l.call_s,
         }
     }
+}
+
+/// What a cached worker was started with: a call with other values needs a new one.
+#[derive(PartialEq)]
+struct Started {
+    limits: Limits,
+    cwd: Option<PathBuf>,
+    plugin_path: Option<OsString>,
+}
+
+impl Started {
+    fn now(limits: Limits) -> Self {
+        Self {
+            limits,
+            cwd: std::env::current_dir().ok(),
+            plugin_path: std::env::var_os(tribo_plugin_api::loader::PLUGIN_PATH_ENV),
+        }
+    }
+}
+
+thread_local! {
+    /// This thread's worker, kept between calls.
+    static WORKER: RefCell<Option<(Started, tribo_isolate::Worker)>> = const { RefCell::new(None) };
 }
 
 /// The Python code a worker interpreter runs: load this module from its file (argument 1)
@@ -147,7 +178,17 @@ pub(crate) fn dispatch<T: Send>(
     let job = wrap(job.to_string());
     let mut interrupted: Option<PyErr> = None;
     let answer = py.detach(|| {
-        let mut worker = tribo_isolate::Worker::start(command, limits)?;
+        let started = Started::now(limits);
+        let cached = WORKER.with(|w| w.borrow_mut().take());
+        let mut worker = match cached {
+            Some((s, w)) if s == started && w.alive() => w,
+            other => {
+                if let Some((_, w)) = other {
+                    w.finish();
+                }
+                tribo_isolate::Worker::start(command, limits)?
+            }
+        };
         let r = worker.call::<_, Output>(&job, &mut |e| {
             match e {
                 Event::Stderr(line) => to_stderr(line),
@@ -162,7 +203,12 @@ pub(crate) fn dispatch<T: Send>(
             }
             Ok(())
         });
-        worker.finish();
+        // Kept for the next call unless it failed (then it is gone already).
+        if matches!(r, Ok(_) | Err(WorkerFailure::Study(_))) {
+            WORKER.with(|w| *w.borrow_mut() = Some((started, worker)));
+        } else {
+            worker.finish();
+        }
         r
     });
     if let Some(e) = interrupted {

@@ -101,6 +101,7 @@ where
         if kind != Kind::Job {
             break;
         }
+        guard::job_started();
         let reply = match rmp_serde::from_slice::<Q>(&payload) {
             Err(e) => Reply::Internal(format!("reading the job: {e}")),
             Ok(q) => match std::panic::catch_unwind(AssertUnwindSafe(|| handler(q, &session))) {
@@ -111,6 +112,7 @@ where
                 }
             },
         };
+        guard::job_finished();
         let bytes = match rmp_serde::to_vec_named(&reply) {
             Ok(b) => b,
             Err(e) => match rmp_serde::to_vec_named(&Reply::<A>::Internal(format!(

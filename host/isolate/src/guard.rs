@@ -38,6 +38,11 @@ static MARKER_FD: AtomicI32 = AtomicI32::new(-1);
 static TOKEN_HEX: OnceLock<[u8; 32]> = OnceLock::new();
 /// The watchdog has been started (once per process).
 static WATCHING: AtomicBool = AtomicBool::new(false);
+/// When the current job of a worker started, ms after [`EPOCH`] (0: no job running). The
+/// time limit counts from there, so a long-lived worker gives each request the whole limit.
+static JOB_START_MS: AtomicU64 = AtomicU64::new(0);
+/// The watchdog's reference instant.
+static EPOCH: OnceLock<Instant> = OnceLock::new();
 
 /// Exit status of a process stopped by its guards (the parent reads the marker lines, the user
 /// the message).
@@ -163,10 +168,34 @@ pub fn watch(limits: Limits) {
     if WATCHING.swap(true, Ordering::SeqCst) {
         return;
     }
-    let deadline = limits.time().map(|t| Instant::now() + t);
+    // Outside a worker the whole process is one job, from now.
+    if !is_worker() {
+        job_started();
+    }
     let _ = std::thread::Builder::new()
         .name("tribo-watchdog".into())
-        .spawn(move || watchdog(deadline, limits));
+        .spawn(move || watchdog(limits));
+}
+
+/// A worker's job starts now: the time limit counts from here.
+pub fn job_started() {
+    let epoch = *EPOCH.get_or_init(Instant::now);
+    let ms = epoch.elapsed().as_millis() as u64;
+    JOB_START_MS.store(ms.max(1), Ordering::SeqCst);
+}
+
+/// A worker's job has ended: no time limit runs until the next one.
+pub fn job_finished() {
+    JOB_START_MS.store(0, Ordering::SeqCst);
+}
+
+/// Whether the current job has run past `limit`.
+fn job_past(limit: Option<Duration>) -> bool {
+    let (Some(limit), Some(epoch)) = (limit, EPOCH.get()) else {
+        return false;
+    };
+    let start = JOB_START_MS.load(Ordering::SeqCst);
+    start != 0 && epoch.elapsed() >= Duration::from_millis(start) + limit
 }
 
 /// What one thread slot was last seen running, since when, and how many notes it got.
@@ -178,7 +207,7 @@ struct Seen {
 }
 
 /// Poll the calls in flight, the clock and the resident size; stop the process at a limit.
-fn watchdog(deadline: Option<Instant>, limits: Limits) {
+fn watchdog(limits: Limits) {
     let start = Instant::now();
     let mut seen = vec![
         Seen {
@@ -214,7 +243,7 @@ fn watchdog(deadline: Option<Instant>, limits: Limits) {
                 slow(mark, running, limits.call_s);
             }
         }
-        if deadline.is_some_and(|d| now >= d) {
+        if job_past(limits.time()) {
             if is_worker() {
                 report_running();
                 marker("limit-time", "");

@@ -235,6 +235,16 @@ impl Worker {
         self.pid as u32
     }
 
+    /// The limits the worker was started with.
+    pub fn limits(&self) -> Limits {
+        self.limits
+    }
+
+    /// Whether the worker can take another request (it has not ended, stopped or failed).
+    pub fn alive(&self) -> bool {
+        !self.ended && sys::peek(self.pid).is_none()
+    }
+
     /// Send `request` and wait for its reply, reporting what happens meanwhile to `events`
     /// (which may stop the wait by returning an error). A failure of the worker (it ended,
     /// stopped, ran out of a limit, or forged its channel) is the error; after it the worker is
@@ -249,6 +259,8 @@ impl Worker {
         }
         let job = rmp_serde::to_vec_named(request)
             .map_err(|e| WorkerFailure::Io(format!("encoding the job: {e}")))?;
+        // The time limit is per request (a long-lived worker serves many).
+        self.started = Instant::now();
         self.outbuf
             .extend_from_slice(&frame::encode(&self.token, Kind::Job, &job));
         match self.wait_reply(events) {

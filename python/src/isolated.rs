@@ -43,7 +43,7 @@ pub(crate) enum Job {
 #[derive(Serialize, Deserialize)]
 pub(crate) enum Output {
     /// `run`.
-    Run(crate::RunReply),
+    Run(Box<crate::RunReply>),
     /// `compare`.
     Compare(Box<tribo_studies::study::Comparison>),
     /// `mass_response`.
@@ -235,7 +235,7 @@ pub(crate) fn dispatch<T: Send>(
 /// Run `job` here, its failure as an answer.
 fn local(job: Job) -> Output {
     let r = match job {
-        Job::Run(j) => crate::run_local(&j).map(Output::Run),
+        Job::Run(j) => crate::run_local(&j).map(|r| Output::Run(Box::new(r))),
         Job::Compare(j) => crate::compare_local(&j).map(Output::Compare),
         Job::MassResponse(j) => crate::mass_response_local(&j).map(Output::MassResponse),
         Job::Fit(j) => crate::fit_local(&j).map(Output::Fit),

@@ -478,7 +478,7 @@ type RunOutput<'py> = (
 #[pyfunction]
 #[pyo3(signature = (job, isolation=None))]
 fn run<'py>(py: Python<'py>, job: &str, isolation: Option<&str>) -> PyResult<RunOutput<'py>> {
-    let (result, series) = isolated::dispatch(
+    let (result, series) = *isolated::dispatch(
         py,
         job,
         isolation,
@@ -502,31 +502,29 @@ type RunReply = (tribo_core::sim::RunResult, Option<Series>);
 
 /// `run` in this process.
 fn run_local(job: &str) -> Result<RunReply, Failure> {
-    {
-        let job: RunJob = serde_json::from_str(job)?;
-        if job.steady && job.timeseries {
-            return Err(Failure::new(
-                Kind::Input,
-                "timeseries=True needs a transient run: a steady run computes each plateau directly and has no time history",
-            ));
-        }
-        let mut rig = job.rig.load()?;
-        if let Some(ls) = &job.lawset {
-            ls.load()?.apply(&mut rig);
-        }
-        rig::attach_laws(&mut rig, &job.laws)?;
-        let registry = registry(&job.plugin_paths)?;
-        let mut sim = rig::any_simulation(&rig, &registry)?;
-        let (result, series) = if job.steady {
-            (sim.run_steady()?, None)
-        } else if job.timeseries {
-            let mut s = Series::default();
-            (sim.run_with(&mut s)?, Some(s))
-        } else {
-            (sim.run()?, None)
-        };
-        Ok((result, series))
+    let job: RunJob = serde_json::from_str(job)?;
+    if job.steady && job.timeseries {
+        return Err(Failure::new(
+            Kind::Input,
+            "timeseries=True needs a transient run: a steady run computes each plateau directly and has no time history",
+        ));
     }
+    let mut rig = job.rig.load()?;
+    if let Some(ls) = &job.lawset {
+        ls.load()?.apply(&mut rig);
+    }
+    rig::attach_laws(&mut rig, &job.laws)?;
+    let registry = registry(&job.plugin_paths)?;
+    let mut sim = rig::any_simulation(&rig, &registry)?;
+    let (result, series) = if job.steady {
+        (sim.run_steady()?, None)
+    } else if job.timeseries {
+        let mut s = Series::default();
+        (sim.run_with(&mut s)?, Some(s))
+    } else {
+        (sim.run()?, None)
+    };
+    Ok((result, series))
 }
 
 /// A `tribo compare` job.
@@ -572,22 +570,20 @@ fn compare<'py>(
 
 /// `compare` in this process.
 fn compare_local(job: &str) -> Result<Box<study::Comparison>, Failure> {
-    {
-        let job: CompareJob = serde_json::from_str(job)?;
-        let rig = job.rig.load()?;
-        let sets = lawsets(&job.lawsets)?;
-        study::check_unique_names(&sets)?;
-        let data = DataRun::read(job.data.as_deref().unwrap_or(bundled::DEFAULT_DATA))?;
-        let options = study::CompareOptions {
-            steady: job.steady,
-            no_cv: job.no_cv,
-            validate: data_runs(&job.validate)?,
-        };
-        let registry = registry(&job.plugin_paths)?;
-        Ok(Box::new(study::compare(
-            &rig, &sets, &data, &registry, &options,
-        )?))
-    }
+    let job: CompareJob = serde_json::from_str(job)?;
+    let rig = job.rig.load()?;
+    let sets = lawsets(&job.lawsets)?;
+    study::check_unique_names(&sets)?;
+    let data = DataRun::read(job.data.as_deref().unwrap_or(bundled::DEFAULT_DATA))?;
+    let options = study::CompareOptions {
+        steady: job.steady,
+        no_cv: job.no_cv,
+        validate: data_runs(&job.validate)?,
+    };
+    let registry = registry(&job.plugin_paths)?;
+    Ok(Box::new(study::compare(
+        &rig, &sets, &data, &registry, &options,
+    )?))
 }
 
 /// A `tribo mass-response` job.
@@ -630,43 +626,41 @@ fn mass_response<'py>(
 
 /// `mass_response` in this process.
 fn mass_response_local(job: &str) -> Result<Vec<study::MassResponse>, Failure> {
-    {
-        let job: MassJob = serde_json::from_str(job)?;
-        let body = match job.body.as_str() {
-            "rod" => study::ScaledBody::Rod,
-            "piston" => study::ScaledBody::Piston,
-            "crank" => study::ScaledBody::Crank,
-            other => {
-                return Err(Failure::new(
-                    Kind::Input,
-                    format!(
-                    "body: `{other}` is not a body that can be scaled; use rod, piston or crank"
-                ),
-                ))
-            }
-        };
-        if let Some(bad) = job.scales.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+    let job: MassJob = serde_json::from_str(job)?;
+    let body = match job.body.as_str() {
+        "rod" => study::ScaledBody::Rod,
+        "piston" => study::ScaledBody::Piston,
+        "crank" => study::ScaledBody::Crank,
+        other => {
             return Err(Failure::new(
                 Kind::Input,
-                format!("--scale/--scales: every scale factor must be positive, got {bad}"),
-            ));
+                format!(
+                    "body: `{other}` is not a body that can be scaled; use rod, piston or crank"
+                ),
+            ))
         }
-        let rig = job.rig.load()?;
-        let sets = lawsets(&job.lawsets)?;
-        study::check_unique_names(&sets)?;
-        let registry = registry(&job.plugin_paths)?;
-        let fedem = study::fedem_rod_change();
-        let fedem = (body == study::ScaledBody::Rod).then_some(fedem.as_slice());
-        Ok(study::mass_response(
-            &rig,
-            &sets,
-            body,
-            &job.scales,
-            &registry,
-            job.steady,
-            fedem,
-        )?)
+    };
+    if let Some(bad) = job.scales.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+        return Err(Failure::new(
+            Kind::Input,
+            format!("--scale/--scales: every scale factor must be positive, got {bad}"),
+        ));
     }
+    let rig = job.rig.load()?;
+    let sets = lawsets(&job.lawsets)?;
+    study::check_unique_names(&sets)?;
+    let registry = registry(&job.plugin_paths)?;
+    let fedem = study::fedem_rod_change();
+    let fedem = (body == study::ScaledBody::Rod).then_some(fedem.as_slice());
+    Ok(study::mass_response(
+        &rig,
+        &sets,
+        body,
+        &job.scales,
+        &registry,
+        job.steady,
+        fedem,
+    )?)
 }
 
 /// A `tribo fit` job.
@@ -713,41 +707,38 @@ fn fit<'py>(
 
 /// `fit` in this process: the report and the calibrated law set.
 fn fit_local(job: &str) -> Result<(Box<FitResult>, String), Failure> {
-    {
-        let job: FitJob = serde_json::from_str(job)?;
-        if !(1..=64).contains(&job.starts) {
-            return Err(Failure::new(
-                Kind::Input,
-                format!("starts: {} is not in 1..=64", job.starts),
-            ));
-        }
-        let rig = job.rig.load()?;
-        let ls = job.lawset.load()?;
-        let names = if job.data.is_empty() {
-            vec![bundled::DEFAULT_DATA.to_string()]
-        } else {
-            job.data.clone()
-        };
-        let runs = data_runs(&names)?;
-        let options = FitOptions {
-            starts: job.starts,
-            cross_validate: !job.no_cv,
-            validate: data_runs(&job.validate)?,
-        };
-        let registry = registry(&job.plugin_paths)?;
-        let free = ls.free_params(&registry, job.params.as_deref())?;
-        let (result, fitted) =
-            tribo_studies::fit::fit(&rig, &ls, &free, &runs, &registry, &options)?;
-        let text = fitted
-            .to_toml(&fit_header(&rig, &result, runs.len()))
-            .map_err(|e| {
-                Failure::new(
-                    Kind::Simulation,
-                    format!("serialising the calibrated law set: {e}"),
-                )
-            })?;
-        Ok((Box::new(result), text))
+    let job: FitJob = serde_json::from_str(job)?;
+    if !(1..=64).contains(&job.starts) {
+        return Err(Failure::new(
+            Kind::Input,
+            format!("starts: {} is not in 1..=64", job.starts),
+        ));
     }
+    let rig = job.rig.load()?;
+    let ls = job.lawset.load()?;
+    let names = if job.data.is_empty() {
+        vec![bundled::DEFAULT_DATA.to_string()]
+    } else {
+        job.data.clone()
+    };
+    let runs = data_runs(&names)?;
+    let options = FitOptions {
+        starts: job.starts,
+        cross_validate: !job.no_cv,
+        validate: data_runs(&job.validate)?,
+    };
+    let registry = registry(&job.plugin_paths)?;
+    let free = ls.free_params(&registry, job.params.as_deref())?;
+    let (result, fitted) = tribo_studies::fit::fit(&rig, &ls, &free, &runs, &registry, &options)?;
+    let text = fitted
+        .to_toml(&fit_header(&rig, &result, runs.len()))
+        .map_err(|e| {
+            Failure::new(
+                Kind::Simulation,
+                format!("serialising the calibrated law set: {e}"),
+            )
+        })?;
+    Ok((Box::new(result), text))
 }
 
 /// The header `tribo fit` writes above a calibrated law set.
@@ -801,22 +792,20 @@ fn sweep<'py>(py: Python<'py>, job: &str, isolation: Option<&str>) -> PyResult<B
 
 /// `sweep` in this process.
 fn sweep_local(job: &str) -> Result<Box<study::Sweep>, Failure> {
-    {
-        let job: SweepJob = serde_json::from_str(job)?;
-        study::check_sweep_inputs(&job.temps_c, &job.speeds_rpm)?;
-        let rig = job.rig.load()?;
-        let sets = lawsets(&job.lawsets)?;
-        study::check_unique_names(&sets)?;
-        let registry = registry(&job.plugin_paths)?;
-        Ok(Box::new(study::sweep(
-            &rig,
-            &sets,
-            &job.temps_c,
-            &job.speeds_rpm,
-            &registry,
-            None,
-        )?))
-    }
+    let job: SweepJob = serde_json::from_str(job)?;
+    study::check_sweep_inputs(&job.temps_c, &job.speeds_rpm)?;
+    let rig = job.rig.load()?;
+    let sets = lawsets(&job.lawsets)?;
+    study::check_unique_names(&sets)?;
+    let registry = registry(&job.plugin_paths)?;
+    Ok(Box::new(study::sweep(
+        &rig,
+        &sets,
+        &job.temps_c,
+        &job.speeds_rpm,
+        &registry,
+        None,
+    )?))
 }
 
 /// The bundled rigs, law sets and data files, by kind.

@@ -142,9 +142,12 @@ fn map_shared() -> Option<&'static AtomicU64> {
     }
 }
 
-/// Read one frame: its token and (kind, payload). With `token`, a frame must carry it; `None`
-/// at end of file or on anything that is not a frame.
-fn read_frame(r: &mut File, token: Option<&[u8; 16]>) -> Option<([u8; 16], (Kind, Vec<u8>))> {
+/// A frame read: its token, and its kind and payload.
+type Frame = ([u8; 16], (Kind, Vec<u8>));
+
+/// Read one frame. With `token`, a frame must carry it; `None` at end of file or on anything
+/// that is not a frame.
+fn read_frame(r: &mut File, token: Option<&[u8; 16]>) -> Option<Frame> {
     let mut header = [0u8; frame::HEADER];
     r.read_exact(&mut header).ok()?;
     let mut t = [0u8; 16];

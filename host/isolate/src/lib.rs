@@ -6,7 +6,7 @@
 //! group, with standard output on `/dev/null`, and talks to it over a channel only the two of
 //! them created: a socket pair for requests and replies, a pipe for the guards' markers, and a
 //! shared page where the worker's threads mark which law call they are in. Every message is
-//! tagged with a random per-job token ([`frame`]), so what a law prints or writes into the
+//! tagged with a random per-job token (module `frame`), so what a law prints or writes into the
 //! channel is never taken for the worker's word. A request is answered by exactly one reply;
 //! success is a positive reply, never an exit status. When the worker ends, stops, or runs out
 //! of a limit, the parent kills its whole process group (the law's own children with it), never

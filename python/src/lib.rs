@@ -306,6 +306,20 @@ fn to_python<'py, T: serde::Serialize + ?Sized>(
     })
 }
 
+/// Run a job as [`isolated::dispatch`] does, then hand its result to Python as [`to_python`]
+/// does.
+fn isolated_value<'py, T: serde::Serialize + Send>(
+    py: Python<'py>,
+    job: &str,
+    isolation: Option<&str>,
+    what: &str,
+    wrap: fn(String) -> isolated::Job,
+    pick: fn(isolated::Output) -> Option<T>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let value = isolated::dispatch(py, job, isolation, what, wrap, pick)?;
+    to_python(py, &value)
+}
+
 /// Run `work` without the GIL, then hand its result to Python as [`to_python`] does.
 fn detached_value<'py, T: serde::Serialize + Send>(
     py: Python<'py>,
@@ -554,7 +568,7 @@ fn compare<'py>(
     job: &str,
     isolation: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let value = isolated::dispatch(
+    isolated_value(
         py,
         job,
         isolation,
@@ -564,8 +578,7 @@ fn compare<'py>(
             isolated::Output::Compare(c) => Some(c),
             _ => None,
         },
-    )?;
-    to_python(py, &value)
+    )
 }
 
 /// `compare` in this process.
@@ -610,7 +623,7 @@ fn mass_response<'py>(
     job: &str,
     isolation: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let value = isolated::dispatch(
+    isolated_value(
         py,
         job,
         isolation,
@@ -620,8 +633,7 @@ fn mass_response<'py>(
             isolated::Output::MassResponse(m) => Some(m),
             _ => None,
         },
-    )?;
-    to_python(py, &value)
+    )
 }
 
 /// `mass_response` in this process.
@@ -775,19 +787,17 @@ struct SweepJob {
 #[pyfunction]
 #[pyo3(signature = (job, isolation=None))]
 fn sweep<'py>(py: Python<'py>, job: &str, isolation: Option<&str>) -> PyResult<Bound<'py, PyAny>> {
-    let value =
-        isolated::dispatch(
-            py,
-            job,
-            isolation,
-            "the sweep",
-            isolated::Job::Sweep,
-            |o| match o {
-                isolated::Output::Sweep(w) => Some(w),
-                _ => None,
-            },
-        )?;
-    to_python(py, &value)
+    isolated_value(
+        py,
+        job,
+        isolation,
+        "the sweep",
+        isolated::Job::Sweep,
+        |o| match o {
+            isolated::Output::Sweep(w) => Some(w),
+            _ => None,
+        },
+    )
 }
 
 /// `sweep` in this process.

@@ -538,7 +538,7 @@ const HOST_CASES: &[HostCase] = &[
         env: &[],
         args: &["sweep", "--speeds", "1000000", "--out", "o"],
         code: 1,
-        words: &["--speeds", "30000 rpm"],
+        words: &["--speeds", "[0, 30000] rpm", "1e6"],
         not: &["--set", "law set"],
     },
     HostCase {

@@ -251,15 +251,18 @@ impl RigFile {
                 .map_or(BearingType::Unspecified, |(_, j)| declared(j.bearing));
         };
         let rod = |k: usize| e.rods.iter().find(|r| r.cylinder == k + 1);
+        let cylinder = |kind: &str| numbered(kind).filter(|k| *k < e.cylinders.len());
         if let Some(i) = numbered("main") {
-            declared(e.mains.get(i).and_then(|m| m.bearing).or(e.main_bearing))
-        } else if let Some(k) = numbered("big_end") {
+            e.mains.get(i).map_or(BearingType::Unspecified, |m| {
+                declared(m.bearing.or(e.main_bearing))
+            })
+        } else if let Some(k) = cylinder("big_end") {
             declared(
                 rod(k)
                     .and_then(|r| r.big_end_bearing)
                     .or(self.joints.big_end.bearing),
             )
-        } else if let Some(k) = numbered("small_end") {
+        } else if let Some(k) = cylinder("small_end") {
             declared(
                 rod(k)
                     .and_then(|r| r.small_end_bearing)

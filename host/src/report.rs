@@ -255,9 +255,12 @@ pub fn write_fmep(r: &RunResult, dir: &Path) -> Result<(), crate::output::Output
     out.commit()
 }
 
+/// A `crank_angle.csv` column of a law diagnostic: its name and where a sample keeps it.
+type DiagnosticColumn = (&'static str, fn(&crate::sim::LawSample) -> Option<f64>);
+
 /// The diagnostics a law may report (contract version 3), as `crank_angle.csv` columns: each
 /// column is written when some law of the traces reports it.
-const DIAGNOSTIC_COLUMNS: [(&str, fn(&crate::sim::LawSample) -> Option<f64>); 5] = [
+const DIAGNOSTIC_COLUMNS: [DiagnosticColumn; 5] = [
     ("min_film_m", |l| l.min_film_m),
     ("eccentricity_x", |l| l.eccentricity_x),
     ("eccentricity_y", |l| l.eccentricity_y),

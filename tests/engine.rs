@@ -212,7 +212,7 @@ fn bad_engine_descriptions_are_refused_naming_the_field() {
 fn a_single_cylinder_rig_still_needs_both_main_bearings() {
     let thesis = tribo::bundled::rig("crf250r-motored").expect("bundled");
     let cut = thesis.replace(
-        "[joints.main_b]\nradius_m = 0.020           # [T table 9.5]\nlength_m = 0.015           # estimate: roller bearing width\nload_share = 0.5           # [T 9.2]\n",
+        "[joints.main_b]\nradius_m = 0.020           # [T table 9.5]\nlength_m = 0.015           # estimate: roller bearing width\nload_share = 0.5           # [T 9.2]\nbearing = \"rolling\"        # [T 5.6]\n",
         "",
     );
     assert_ne!(cut, thesis);

@@ -59,6 +59,53 @@ enum Command {
     /// Internal: run one job of a study in this process on behalf of a parent `tribo`.
     #[command(name = "__worker", hide = true)]
     Worker(WorkerArgs),
+    /// Export a rig with its laws as an FMI 2.0 Co-Simulation FMU (docs/fmu.md).
+    #[command(subcommand)]
+    Fmu(FmuCommand),
+    /// Internal: serve one FMU instance (the FMU's worker process).
+    #[command(name = "__fmu-worker", hide = true)]
+    FmuWorker(FmuWorkerArgs),
+}
+
+/// The `tribo fmu` subcommands.
+#[derive(Subcommand)]
+enum FmuCommand {
+    /// Write an FMU (FMI 2.0 Co-Simulation, Linux x86_64) of a rig with its laws: the law
+    /// libraries and the solver travel inside it, nothing else is needed where it is imported.
+    Export(FmuExportArgs),
+}
+
+/// The arguments of `tribo fmu export`.
+#[derive(Args)]
+struct FmuExportArgs {
+    /// Rig file or bundled rig name.
+    rig: PathBuf,
+    /// Attach a law set (bundled name or file), replacing the rig's laws; --law adds to it.
+    #[arg(long)]
+    lawset: Option<String>,
+    /// Attach a law to a joint, as for `run`.
+    #[arg(long = "law", value_name = "JOINT=LAW[:PARAMS_TOML_FILE]")]
+    laws: Vec<String>,
+    /// Override rig values, as for `run`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Another oil, as for `run`.
+    #[arg(long, value_name = "FILE.toml")]
+    oil: Option<PathBuf>,
+    /// What drives the crank: `speed`, the crank turns at the input speed and the drive
+    /// torque is an output (`torque`, the reverse, is not offered yet: docs/fmu.md).
+    #[arg(long, default_value = "speed", value_parser = ["speed", "torque"])]
+    drive: String,
+    /// The FMU file to write.
+    #[arg(long, value_name = "FILE.fmu")]
+    out: PathBuf,
+}
+
+/// The arguments of the hidden FMU worker subcommand.
+#[derive(Args)]
+struct FmuWorkerArgs {
+    /// The FMU's resources directory.
+    resources: PathBuf,
 }
 
 /// The arguments of the hidden worker subcommand.
@@ -459,6 +506,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::CheckLaw(a) => cmd_check_law(&g, a),
         Command::PlotLaw(a) => cmd_plot_law(&g, a),
         Command::Worker(a) => cmd_worker(&g, a),
+        Command::Fmu(FmuCommand::Export(a)) => cmd_fmu_export(&g, a),
+        Command::FmuWorker(a) => cmd_fmu_worker(&a),
     }
 }
 
@@ -1144,6 +1193,65 @@ fn cmd_worker(g: &Globals, a: WorkerArgs) -> anyhow::Result<()> {
     } else {
         Err(QuietFailure.into())
     }
+}
+
+/// `tribo fmu export`: the rig with its laws (checked by binding them) written as an FMU.
+fn cmd_fmu_export(g: &Globals, a: FmuExportArgs) -> anyhow::Result<()> {
+    let sets = with_oil_file(a.oil.as_deref(), a.sets)?;
+    let mut rig = tribo::rig::load_rig(&a.rig, &sets)?;
+    if let Some(ls) = &a.lawset {
+        tribo::lawset::LawSet::load(ls)?.apply(&mut rig);
+    }
+    tribo::rig::attach_laws(&mut rig, &a.laws)?;
+    let registry = g.registry()?;
+    // Every law bound once here, so a bad law or parameter is reported where it was written.
+    tribo::rig::any_simulation(&rig, &registry)?;
+    let exe = std::env::current_exe()
+        .context("finding the tribo executable to ship as the FMU's worker")?;
+    let library = exe
+        .parent()
+        .map(|d| d.join(format!("lib{}.so", tribo_fmu::interface::MODEL_IDENTIFIER)))
+        .filter(|p| p.is_file())
+        .with_context(|| format!("the FMU library libtribo_fmu.so is not next to {}; build it with `cargo build --release -p tribo-fmu`", exe.display()))?;
+    let drive = match a.drive.as_str() {
+        "torque" => tribo_fmu::interface::DriveMode::Torque,
+        _ => tribo_fmu::interface::DriveMode::Speed,
+    };
+    let iface = tribo_fmu::export::export(
+        &tribo_fmu::export::Export {
+            model: rig.model(),
+            registry: &registry,
+            drive,
+            worker_exe: &exe,
+            fmu_library: &library,
+            tribo_version: env!("CARGO_PKG_VERSION"),
+        },
+        &a.out,
+    )
+    .with_context(|| format!("exporting the FMU {}", a.out.display()))?;
+    emit(&tribo_fmu::export::summary(&iface, &a.out))
+}
+
+/// `tribo __fmu-worker RESOURCES`: one FMU instance's worker, answering on standard output
+/// (the real one: whatever a law prints goes to standard error).
+fn cmd_fmu_worker(a: &FmuWorkerArgs) -> anyhow::Result<()> {
+    struct Results;
+    impl std::io::Write for Results {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            match RESULTS_OUT.get() {
+                Some(out) => out.lock().unwrap_or_else(|p| p.into_inner()).write(buf),
+                None => std::io::stdout().write(buf),
+            }
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            match RESULTS_OUT.get() {
+                Some(out) => out.lock().unwrap_or_else(|p| p.into_inner()).flush(),
+                None => std::io::stdout().flush(),
+            }
+        }
+    }
+    tribo_fmu::worker::serve(&a.resources, std::io::stdin().lock(), Results)?;
+    Ok(())
 }
 
 /// A failure already reported elsewhere (a worker's reply): exit status 1, no message.

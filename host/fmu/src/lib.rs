@@ -50,6 +50,10 @@ pub enum FmuError {
         /// What is wrong.
         message: String,
     },
+    /// A resource was read and found wrong; the message names the file (and line and column,
+    /// and the field).
+    #[error("{0}")]
+    Invalid(String),
     /// The worker's channel to the FMU broke.
     #[error("the channel between the FMU and its worker process: {0}")]
     Channel(String),

@@ -13,7 +13,7 @@ use std::process::{Child, ChildStdin, ChildStdout, Command, ExitStatus, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use crate::protocol::{read_frame, write_frame, FrameError, Reply, Request};
+use crate::protocol::{read_frame, write_frame, FrameError, Reply, Request, PROTOCOL_VERSION};
 use crate::worker::{WORKER_EXE, WORKER_SUBCOMMAND};
 
 /// How long past the worker's own per-request limit the FMU waits before it kills the worker
@@ -30,6 +30,9 @@ pub struct Worker {
     stdin: ChildStdin,
     stdout: ChildStdout,
     stderr: Arc<Mutex<Tail>>,
+    /// The thread reading it: joined before the worker is dropped, so no thread of the FMU's
+    /// library outlives its instance (an importer may unload the library right after).
+    reader: Option<std::thread::JoinHandle<()>>,
     /// The worker's own per-request limit.
     limit: Duration,
 }
@@ -71,16 +74,24 @@ impl Worker {
         };
         let tail = Arc::new(Mutex::new(Tail::default()));
         let sink = Arc::clone(&tail);
-        std::thread::spawn(move || drain(stderr, &sink));
+        let reader = std::thread::spawn(move || drain(stderr, &sink));
         let mut w = Self {
             child,
             stdin,
             stdout,
             stderr: tail,
+            reader: Some(reader),
             limit,
         };
         match w.receive() {
-            Ok(Reply::Ready) => Ok(w),
+            Ok(Reply::Ready(PROTOCOL_VERSION)) => Ok(w),
+            Ok(Reply::Ready(v)) => {
+                w.stop();
+                Err(format!(
+                    "the FMU's worker {} speaks protocol version {v}, its library version {PROTOCOL_VERSION}: they come from different builds of Tribo; export the FMU again",
+                    exe.display()
+                ))
+            }
             Ok(Reply::Error(e)) => {
                 w.stop();
                 Err(e)
@@ -165,27 +176,36 @@ impl Worker {
         self.child.wait().ok()
     }
 
+    /// Wait up to `limit` for the reader to see the end of the worker's standard error.
+    fn wait_for_stderr_end(&self, limit: Duration) -> bool {
+        let until = Instant::now() + limit;
+        loop {
+            let closed = self.stderr.lock().map(|t| t.closed).unwrap_or(true);
+            if closed {
+                return true;
+            }
+            if Instant::now() >= until {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+
     /// The last lines the worker wrote on standard error, joined.
     fn tail(&self) -> String {
         // The reading thread sees the end of the pipe shortly after the process is gone.
-        let until = Instant::now() + Duration::from_millis(500);
-        loop {
-            let closed = self.stderr.lock().map(|t| t.closed).unwrap_or(true);
-            if closed || Instant::now() >= until {
-                break;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
+        self.wait_for_stderr_end(Duration::from_millis(500));
         let bytes: Vec<u8> = self
             .stderr
             .lock()
             .map(|t| t.bytes.iter().copied().collect())
             .unwrap_or_default();
         let text = String::from_utf8_lossy(&bytes);
+        // The guards' notes are advice for the command line, not for an importer.
         let lines: Vec<&str> = text
             .lines()
             .map(str::trim)
-            .filter(|l| !l.is_empty())
+            .filter(|l| !l.is_empty() && !l.starts_with("note:"))
             .collect();
         lines[lines.len().saturating_sub(TAIL_LINES)..].join(" | ")
     }
@@ -215,6 +235,13 @@ impl Drop for Worker {
         if let Ok(None) = self.child.try_wait() {
             kill_group(self.child.id());
             let _ = self.child.wait();
+        }
+        // The process group is gone, so its end of the pipe closes and the reader ends; a
+        // process that left the group and kept the pipe would hold it: then it is left alone.
+        if self.wait_for_stderr_end(Duration::from_secs(2)) {
+            if let Some(r) = self.reader.take() {
+                let _ = r.join();
+            }
         }
     }
 }

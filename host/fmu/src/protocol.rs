@@ -12,6 +12,10 @@ use crate::stepping::{Inputs, Outputs};
 /// a corrupted stream.
 const MAX_FRAME: usize = 256 << 20;
 
+/// The version of these messages: the FMU's library and its worker must agree on it (a
+/// library and a `tribo` from different builds are refused, not misread).
+pub const PROTOCOL_VERSION: u32 = 1;
+
 /// What the FMU asks its worker.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Request {
@@ -50,8 +54,8 @@ pub enum Request {
 /// What the worker answers.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Reply {
-    /// The worker read the FMU's resources and loaded its laws.
-    Ready,
+    /// The worker read the FMU's resources and loaded its laws; it speaks this version.
+    Ready(u32),
     /// The rig at the current instant, and the cycle means.
     Outputs(Box<Report>),
     /// A saved state.

@@ -18,7 +18,9 @@ use tribo_core::model::RigFile;
 use tribo_plugin_api::loader::{inflight, LawRegistry};
 
 use crate::interface::{joint_laws, joint_laws_mut, Interface, DEFAULT_CALL_TIMEOUT_S};
-use crate::protocol::{read_frame, write_frame, FrameError, Reply, Report, Request};
+use crate::protocol::{
+    read_frame, write_frame, FrameError, Reply, Report, Request, PROTOCOL_VERSION,
+};
 use crate::stepping::{Inputs, Outputs, StepError, Stepping};
 use crate::FmuError;
 
@@ -53,7 +55,7 @@ pub fn serve(
     let watchdog = Watchdog::start();
     let mut session = match Session::open(resources) {
         Ok(s) => {
-            write_frame(&mut output, &Reply::Ready).map_err(FmuError::channel)?;
+            write_frame(&mut output, &Reply::Ready(PROTOCOL_VERSION)).map_err(FmuError::channel)?;
             s
         }
         Err(e) => {
@@ -119,19 +121,29 @@ impl Session {
         let iface = read_interface(resources)?;
         let model_path = resources.join(MODEL_FILE);
         let rig = tribo_config::rig::load_rig(&model_path, &[])
-            .map_err(|e| FmuError::resource(&model_path, e))?;
+            .map_err(|e| FmuError::Invalid(e.to_string()))?;
         let model = rig.model().clone();
+        // Each law library the interface names, opened now: a missing or broken one is
+        // reported before the first step, by its file.
         let plugins = resources.join(PLUGIN_DIR);
-        let registry = tribo_plugin_api::loader::load_paths(std::slice::from_ref(&plugins))
-            .map_err(|e| FmuError::resource(&plugins, e))?;
+        let mut files: Vec<std::path::PathBuf> = Vec::new();
         for slot in &iface.laws {
-            registry.get(&slot.law).map_err(|e| {
-                FmuError::resource(
-                    &plugins.join(&slot.library),
-                    format!("law `{}`: {e}", slot.law),
-                )
-            })?;
+            let file = plugins.join(&slot.library);
+            if !file.is_file() {
+                return Err(FmuError::resource(
+                    &file,
+                    format!(
+                        "missing: the library of law `{}` on joint `{}`",
+                        slot.law, slot.joint
+                    ),
+                ));
+            }
+            if !files.contains(&file) {
+                files.push(file);
+            }
         }
+        let registry = tribo_plugin_api::loader::load_paths(&files)
+            .map_err(|e| FmuError::Invalid(e.to_string()))?;
         let joints: Vec<String> = joint_laws(&model)
             .into_iter()
             .filter(|(_, l)| !l.is_empty())

@@ -44,19 +44,21 @@ fn read(path: &Path, what: &str) -> Result<Vec<u8>, FmuError> {
         .map_err(|e| FmuError::Export(format!("cannot read the {what} {}: {e}", path.display())))
 }
 
-/// A GUID from the archive's content (FNV-1a, 128 bits): the same export gives the same
-/// GUID, a different rig, law, parameter or build a different one.
+/// A GUID from the archive's content (two SipHash-1-3 digests, 128 bits): the same export
+/// gives the same GUID, a different rig, law, parameter or build a different one.
 fn guid(entries: &[Entry]) -> String {
-    const OFFSET: u128 = 0x6c62_272e_07bb_0142_62b8_2175_6295_c58d;
-    const PRIME: u128 = 0x0000_0000_0100_0000_0000_0000_0000_013b;
-    let mut h = OFFSET;
-    for e in entries {
-        for b in e.name.bytes().chain([0]).chain(e.bytes.iter().copied()) {
-            h ^= u128::from(b);
-            h = h.wrapping_mul(PRIME);
+    use std::hash::{DefaultHasher, Hasher};
+    let digest = |salt: u8| {
+        let mut h = DefaultHasher::new();
+        h.write_u8(salt);
+        for e in entries {
+            h.write(e.name.as_bytes());
+            h.write_u64(e.bytes.len() as u64);
+            h.write(&e.bytes);
         }
-    }
-    let x = format!("{h:032x}");
+        h.finish()
+    };
+    let x = format!("{:016x}{:016x}", digest(1), digest(2));
     format!(
         "{{{}-{}-{}-{}-{}}}",
         &x[..8],

@@ -9,7 +9,7 @@ pub const CATEGORIES: [(&str, &str); 3] = [
         "errors: a missing or corrupt resource, a refused input or parameter, a failed step, a law that crashed or hung",
     ),
     (WARNING, "warnings"),
-    (INFO, "progress: the worker process started and stopped, requests"),
+    (INFO, "progress: the worker process started"),
 ];
 
 /// Category of error messages.

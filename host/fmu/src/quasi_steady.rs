@@ -335,8 +335,10 @@ mod tests {
         // Three cycles and a bit, starting mid-interval.
         let (a, b) = (0.3, 3.0 * TAU + 0.3 + 0.5 * step);
         let lin = |phi: f64| c.at(phi, step);
-        // Half an interval from 0.3: the linear interpolant's trapezoid (exact for a line).
-        let extra = 0.25 * step * (lin(0.3) + lin(0.3 + 0.5 * step)) * 2.0;
+        // Half an interval from 0.3, inside the first grid interval, where the interpolant is
+        // one straight line: the trapezoid over it is exact.
+        assert!(0.3 + 0.5 * step < step);
+        let extra = 0.25 * step * (lin(0.3) + lin(0.3 + 0.5 * step));
         let got = c.integral(a, b, TAU, step);
         assert!((got - (3.0 * total + extra)).abs() < 1e-12, "{got}");
         // Additive over a split point, and zero over nothing.

@@ -21,13 +21,11 @@ TRIBO = RELEASE / "tribo"
 
 @pytest.fixture(scope="session")
 def tribo_bin() -> Path:
-    """`target/release/tribo` and the FMU library beside it, brought up to date (a no-op after
-    the test command's cargo steps) so the FMU never ships a stale library."""
-    subprocess.run(
-        [os.environ.get("CARGO", "cargo"), "build", "--release", "--quiet", "-p", "tribo", "-p", "tribo-fmu"],
-        cwd=ROOT,
-        check=True,
-    )
+    """`target/release/tribo` and the FMU library beside it, built by the test command's cargo
+    steps (`cargo build --release` builds both)."""
+    for f in (TRIBO, RELEASE / "libtribo_fmu.so"):
+        if not f.is_file():
+            pytest.fail(f"{f} is missing: run `cargo build --release` first")
     return TRIBO
 
 

@@ -375,3 +375,24 @@ def test_a_law_printing_to_standard_output_cannot_garble_the_fmu_s_channel(expor
     assert quiet.get("friction_energy", "crank_angle") == loud.get("friction_energy", "crank_angle")
     quiet.free()
     loud.free()
+
+
+def test_a_parameter_or_input_out_of_range_is_an_error_naming_it(baseline):
+    _, unzipdir = baseline
+    log: list[tuple[int, str]] = []
+    f = Fmu(unzipdir, log=log, start={"crank_speed": rad_s(3000.0)})
+    f.step(1e-3)
+    # fedem-friction declares mu in [0, 10].
+    f.set("piston.fedem_friction.mu", 42.0)
+    with pytest.raises(FMICallException):
+        f.step(1e-3)
+    for w in ["mu", "42", "10"]:
+        assert w in text(log), (w, text(log))
+    f.slave.freeInstance()
+    log.clear()
+    g = Fmu(unzipdir, log=log, start={"crank_speed": rad_s(3000.0)})
+    g.set("crank_speed", -5.0)
+    with pytest.raises(FMICallException):
+        g.step(1e-3)
+    assert "crank_speed" in text(log) and "-5" in text(log), text(log)
+    g.slave.freeInstance()

@@ -78,20 +78,8 @@ enum FmuCommand {
 /// The arguments of `tribo fmu export`.
 #[derive(Args)]
 struct FmuExportArgs {
-    /// Rig file or bundled rig name.
-    rig: PathBuf,
-    /// Attach a law set (bundled name or file), replacing the rig's laws; --law adds to it.
-    #[arg(long)]
-    lawset: Option<String>,
-    /// Attach a law to a joint, as for `run`.
-    #[arg(long = "law", value_name = "JOINT=LAW[:PARAMS_TOML_FILE]")]
-    laws: Vec<String>,
-    /// Override rig values, as for `run`.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    sets: Vec<String>,
-    /// Another oil, as for `run`.
-    #[arg(long, value_name = "FILE.toml")]
-    oil: Option<PathBuf>,
+    #[command(flatten)]
+    rig: RigArgs,
     /// What drives the crank: `speed`, the crank turns at the input speed and the drive
     /// torque is an output (`torque`, the reverse, is not offered yet: docs/fmu.md).
     #[arg(long, default_value = "speed", value_parser = ["speed", "torque"])]
@@ -157,10 +145,10 @@ struct LawsArgs {
     json: bool,
 }
 
-/// The arguments of `tribo run`.
+/// A rig with its laws, as `run` and `fmu export` take it.
 #[derive(Args)]
-struct RunArgs {
-    /// Rig file (TOML).
+struct RigArgs {
+    /// Rig file (TOML) or bundled rig name.
     rig: PathBuf,
     /// Attach a law to a joint: JOINT=LAW or JOINT=LAW:PARAMS.toml. The first --law for a
     /// joint replaces the laws the rig lists there; further ones add to it.
@@ -176,6 +164,27 @@ struct RunArgs {
     /// Attach a law set (bundled name or file), replacing the rig's laws; --law adds to it.
     #[arg(long)]
     lawset: Option<String>,
+}
+
+impl RigArgs {
+    /// The rig: the file (or bundled rig) with the oil file and `--set`s, then the law set,
+    /// then `--law`s.
+    fn load(&self) -> anyhow::Result<tribo::rig::Rig> {
+        let sets = with_oil_file(self.oil.as_deref(), self.sets.clone())?;
+        let mut rig = tribo::rig::load_rig(&self.rig, &sets)?;
+        if let Some(ls) = &self.lawset {
+            tribo::lawset::LawSet::load(ls)?.apply(&mut rig);
+        }
+        tribo::rig::attach_laws(&mut rig, &self.laws)?;
+        Ok(rig)
+    }
+}
+
+/// The arguments of `tribo run`.
+#[derive(Args)]
+struct RunArgs {
+    #[command(flatten)]
+    rig: RigArgs,
     /// Compute each plateau's periodic steady state directly instead of the whole cycle.
     #[arg(long)]
     steady: bool,
@@ -536,10 +545,6 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     let RunArgs {
         rig,
-        laws: law_args,
-        sets,
-        oil,
-        lawset,
         steady,
         json,
         csv,
@@ -551,12 +556,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     if !(resolution_deg.is_finite() && resolution_deg > 0.0 && resolution_deg <= 10.0) {
         anyhow::bail!("--resolution-deg: must be in (0, 10] degrees, got {resolution_deg}");
     }
-    let sets = with_oil_file(oil.as_deref(), sets)?;
-    let mut rig = tribo::rig::load_rig(&rig, &sets)?;
-    if let Some(ls) = lawset {
-        tribo::lawset::LawSet::load(&ls)?.apply(&mut rig);
-    }
-    tribo::rig::attach_laws(&mut rig, &law_args)?;
+    let rig = rig.load()?;
     let registry = g.registry()?;
     let mut sim = tribo::rig::any_simulation(&rig, &registry)?;
     if let Some(dir) = &csv {
@@ -1197,12 +1197,7 @@ fn cmd_worker(g: &Globals, a: WorkerArgs) -> anyhow::Result<()> {
 
 /// `tribo fmu export`: the rig with its laws (checked by binding them) written as an FMU.
 fn cmd_fmu_export(g: &Globals, a: FmuExportArgs) -> anyhow::Result<()> {
-    let sets = with_oil_file(a.oil.as_deref(), a.sets)?;
-    let mut rig = tribo::rig::load_rig(&a.rig, &sets)?;
-    if let Some(ls) = &a.lawset {
-        tribo::lawset::LawSet::load(ls)?.apply(&mut rig);
-    }
-    tribo::rig::attach_laws(&mut rig, &a.laws)?;
+    let rig = a.rig.load()?;
     let registry = g.registry()?;
     // Every law bound once here, so a bad law or parameter is reported where it was written.
     tribo::rig::any_simulation(&rig, &registry)?;

@@ -76,6 +76,21 @@ fn with(c: Component, call: &str, f: impl FnOnce(&mut Instance) -> CallResult<()
     }
 }
 
+/// An FMI function defined by `body` over the instance pointer `c` and the other arguments,
+/// with the safety contract every one of them has.
+macro_rules! fmi_function {
+    ($(#[$doc:meta])* $name:ident($c:ident $(, $arg:ident: $ty:ty)*) => $body:expr) => {
+        $(#[$doc])*
+        ///
+        /// # Safety
+        /// `c` from fmi2Instantiate; the other arguments as FMI 2.0 defines them.
+        #[no_mangle]
+        pub unsafe extern "C" fn $name($c: Component $(, $arg: $ty)*) -> Fmi2Status {
+            $body
+        }
+    };
+}
+
 /// The platform of the FMU's types.
 #[no_mangle]
 pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char {
@@ -292,94 +307,53 @@ unsafe fn set<T: Copy>(
     })
 }
 
-/// fmi2GetReal.
-///
-/// # Safety
-/// As FMI 2.0: `vr` and `value` hold `nvr` elements.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetReal(
-    c: Component,
-    vr: *const ValueReference,
-    nvr: usize,
-    value: *mut f64,
-) -> Fmi2Status {
-    unsafe {
-        get(c, "fmi2GetReal", "Real", vr, nvr, value, |v| match v {
-            Value::Real(x) => Some(x),
-            _ => None,
-        })
-    }
-}
+fmi_function!(
+    /// fmi2GetReal.
+    fmi2GetReal(c, vr: *const ValueReference, nvr: usize, value: *mut f64)
+    => unsafe { get(c, "fmi2GetReal", "Real", vr, nvr, value, |v| match v {
+        Value::Real(x) => Some(x),
+        _ => None,
+    }) }
+);
 
-/// fmi2GetInteger (the enumerations).
-///
-/// # Safety
-/// As FMI 2.0.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetInteger(
-    c: Component,
-    vr: *const ValueReference,
-    nvr: usize,
-    value: *mut c_int,
-) -> Fmi2Status {
-    unsafe {
-        get(
-            c,
-            "fmi2GetInteger",
-            "Integer",
-            vr,
-            nvr,
-            value,
-            |v| match v {
-                Value::Int(x) => Some(x),
-                _ => None,
-            },
-        )
-    }
-}
+fmi_function!(
+    /// fmi2GetInteger (the enumerations).
+    fmi2GetInteger(c, vr: *const ValueReference, nvr: usize, value: *mut c_int)
+    => unsafe { get(c, "fmi2GetInteger", "Integer", vr, nvr, value, |v| match v {
+        Value::Int(x) => Some(x),
+        _ => None,
+    }) }
+);
 
-/// fmi2GetBoolean.
-///
-/// # Safety
-/// As FMI 2.0.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetBoolean(
-    c: Component,
-    vr: *const ValueReference,
-    nvr: usize,
-    value: *mut c_int,
-) -> Fmi2Status {
-    unsafe {
-        get(
-            c,
-            "fmi2GetBoolean",
-            "Boolean",
-            vr,
-            nvr,
-            value,
-            |v| match v {
-                Value::Bool(b) => Some(c_int::from(b)),
-                _ => None,
-            },
-        )
-    }
-}
+fmi_function!(
+    /// fmi2GetBoolean.
+    fmi2GetBoolean(c, vr: *const ValueReference, nvr: usize, value: *mut c_int)
+    => unsafe { get(c, "fmi2GetBoolean", "Boolean", vr, nvr, value, |v| match v {
+        Value::Bool(b) => Some(c_int::from(b)),
+        _ => None,
+    }) }
+);
 
-/// fmi2GetString: the FMU has no string variables.
-///
-/// # Safety
-/// As FMI 2.0.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetString(
-    c: Component,
-    vr: *const ValueReference,
-    nvr: usize,
-    _value: *mut *const c_char,
-) -> Fmi2Status {
-    with(c, "fmi2GetString", |_| no_strings(vr, nvr))
-}
+fmi_function!(
+    /// fmi2SetReal.
+    fmi2SetReal(c, vr: *const ValueReference, nvr: usize, value: *const f64)
+    => unsafe { set(c, "fmi2SetReal", "Real", vr, nvr, value, Value::Real) }
+);
 
-fn no_strings(_vr: *const ValueReference, nvr: usize) -> CallResult<()> {
+fmi_function!(
+    /// fmi2SetInteger (the enumerations).
+    fmi2SetInteger(c, vr: *const ValueReference, nvr: usize, value: *const c_int)
+    => unsafe { set(c, "fmi2SetInteger", "Integer", vr, nvr, value, Value::Int) }
+);
+
+fmi_function!(
+    /// fmi2SetBoolean.
+    fmi2SetBoolean(c, vr: *const ValueReference, nvr: usize, value: *const c_int)
+    => unsafe { set(c, "fmi2SetBoolean", "Boolean", vr, nvr, value, |b| Value::Bool(b != 0)) }
+);
+
+/// The string calls of an FMU without String variables: nothing to read or write.
+fn no_strings(nvr: usize) -> CallResult<()> {
     if nvr == 0 {
         Ok(())
     } else {
@@ -387,65 +361,17 @@ fn no_strings(_vr: *const ValueReference, nvr: usize) -> CallResult<()> {
     }
 }
 
-/// fmi2SetReal.
-///
-/// # Safety
-/// As FMI 2.0.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetReal(
-    c: Component,
-    vr: *const ValueReference,
-    nvr: usize,
-    value: *const f64,
-) -> Fmi2Status {
-    unsafe { set(c, "fmi2SetReal", "Real", vr, nvr, value, Value::Real) }
-}
+fmi_function!(
+    /// fmi2GetString: the FMU has no String variables.
+    fmi2GetString(c, _vr: *const ValueReference, nvr: usize, _value: *mut *const c_char)
+    => with(c, "fmi2GetString", |_| no_strings(nvr))
+);
 
-/// fmi2SetInteger (the enumerations).
-///
-/// # Safety
-/// As FMI 2.0.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetInteger(
-    c: Component,
-    vr: *const ValueReference,
-    nvr: usize,
-    value: *const c_int,
-) -> Fmi2Status {
-    unsafe { set(c, "fmi2SetInteger", "Integer", vr, nvr, value, Value::Int) }
-}
-
-/// fmi2SetBoolean.
-///
-/// # Safety
-/// As FMI 2.0.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetBoolean(
-    c: Component,
-    vr: *const ValueReference,
-    nvr: usize,
-    value: *const c_int,
-) -> Fmi2Status {
-    unsafe {
-        set(c, "fmi2SetBoolean", "Boolean", vr, nvr, value, |b| {
-            Value::Bool(b != 0)
-        })
-    }
-}
-
-/// fmi2SetString: the FMU has no string variables.
-///
-/// # Safety
-/// As FMI 2.0.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetString(
-    c: Component,
-    vr: *const ValueReference,
-    nvr: usize,
-    _value: *const *const c_char,
-) -> Fmi2Status {
-    with(c, "fmi2SetString", |_| no_strings(vr, nvr))
-}
+fmi_function!(
+    /// fmi2SetString: the FMU has no String variables.
+    fmi2SetString(c, _vr: *const ValueReference, nvr: usize, _value: *const *const c_char)
+    => with(c, "fmi2SetString", |_| no_strings(nvr))
+);
 
 /// fmi2GetFMUstate: the whole state (the worker's run, laws' states included), new or into
 /// the state `*state` points to.
@@ -578,59 +504,34 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
     })
 }
 
-/// fmi2GetDirectionalDerivative: not provided (the description says so).
-///
-/// # Safety
-/// `c` from fmi2Instantiate.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
-    c: Component,
-    _unknown: *const ValueReference,
-    _n_unknown: usize,
-    _known: *const ValueReference,
-    _n_known: usize,
-    _dv_known: *const f64,
-    _dv_unknown: *mut f64,
-) -> Fmi2Status {
-    with(c, "fmi2GetDirectionalDerivative", |_| {
+fmi_function!(
+    /// fmi2GetDirectionalDerivative: not provided (the description says so).
+    fmi2GetDirectionalDerivative(c, _unknown: *const ValueReference, _n_unknown: usize,
+        _known: *const ValueReference, _n_known: usize, _dv_known: *const f64,
+        _dv_unknown: *mut f64)
+    => with(c, "fmi2GetDirectionalDerivative", |_| {
         Err("this FMU provides no directional derivatives".into())
     })
-}
+);
 
-/// fmi2SetRealInputDerivatives: inputs are held constant over a step (canInterpolateInputs
-/// is false).
-///
-/// # Safety
-/// `c` from fmi2Instantiate.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
-    c: Component,
-    _vr: *const ValueReference,
-    _nvr: usize,
-    _order: *const c_int,
-    _value: *const f64,
-) -> Fmi2Status {
-    with(c, "fmi2SetRealInputDerivatives", |_| {
+fmi_function!(
+    /// fmi2SetRealInputDerivatives: inputs are held constant over a step
+    /// (canInterpolateInputs is false).
+    fmi2SetRealInputDerivatives(c, _vr: *const ValueReference, _nvr: usize,
+        _order: *const c_int, _value: *const f64)
+    => with(c, "fmi2SetRealInputDerivatives", |_| {
         Err("this FMU holds its inputs constant over a step (canInterpolateInputs=false)".into())
     })
-}
+);
 
-/// fmi2GetRealOutputDerivatives: not provided (maxOutputDerivativeOrder is 0).
-///
-/// # Safety
-/// `c` from fmi2Instantiate.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
-    c: Component,
-    _vr: *const ValueReference,
-    _nvr: usize,
-    _order: *const c_int,
-    _value: *mut f64,
-) -> Fmi2Status {
-    with(c, "fmi2GetRealOutputDerivatives", |_| {
+fmi_function!(
+    /// fmi2GetRealOutputDerivatives: not provided (maxOutputDerivativeOrder is 0).
+    fmi2GetRealOutputDerivatives(c, _vr: *const ValueReference, _nvr: usize,
+        _order: *const c_int, _value: *mut f64)
+    => with(c, "fmi2GetRealOutputDerivatives", |_| {
         Err("this FMU provides no output derivatives (maxOutputDerivativeOrder=0)".into())
     })
-}
+);
 
 /// fmi2DoStep: integrate over the communication step, any size.
 ///
@@ -646,99 +547,65 @@ pub unsafe extern "C" fn fmi2DoStep(
     with(c, "fmi2DoStep", |i| i.do_step(current, step))
 }
 
-/// fmi2CancelStep: steps are synchronous, there is nothing to cancel.
-///
-/// # Safety
-/// `c` from fmi2Instantiate.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2CancelStep(c: Component) -> Fmi2Status {
-    with(c, "fmi2CancelStep", |_| {
-        Err(
-            "steps are synchronous (canRunAsynchronuously=false); there is nothing to cancel"
-                .into(),
-        )
+fmi_function!(
+    /// fmi2CancelStep: steps are synchronous, there is nothing to cancel.
+    fmi2CancelStep(c)
+    => with(c, "fmi2CancelStep", |_| {
+        Err("steps are synchronous (canRunAsynchronuously=false); there is nothing to cancel".into())
     })
-}
+);
 
-/// fmi2GetStatus: only asked of asynchronous steps, which this FMU does not run.
+fmi_function!(
+    /// fmi2GetStatus: only asked of asynchronous steps, which this FMU does not run.
+    fmi2GetStatus(c, _kind: c_int, _value: *mut c_int) => status_discard(c)
+);
+
+/// fmi2LastSuccessfulTime, the one real status.
+const LAST_SUCCESSFUL_TIME: c_int = 2;
+/// fmi2Terminated, the one boolean status.
+const TERMINATED: c_int = 4;
+
+/// Answer a status query of kind `kind` with `read(instance)` when it is the `known` kind;
+/// discard any other.
 ///
 /// # Safety
-/// `c` from fmi2Instantiate.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetStatus(
-    c: Component,
-    _kind: c_int,
-    _value: *mut c_int,
-) -> Fmi2Status {
-    status_discard(c)
-}
-
-/// fmi2GetRealStatus: the last successful time (fmi2LastSuccessfulTime), else discarded.
-///
-/// # Safety
-/// `c` from fmi2Instantiate; `value` valid.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetRealStatus(
+/// `c` from fmi2Instantiate; `value` NULL or valid.
+unsafe fn status<T>(
     c: Component,
     kind: c_int,
-    value: *mut f64,
+    known: c_int,
+    value: *mut T,
+    read: impl FnOnce(&Instance) -> T,
 ) -> Fmi2Status {
-    /// fmi2LastSuccessfulTime.
-    const LAST_SUCCESSFUL_TIME: c_int = 2;
-    if c.is_null() || value.is_null() || kind != LAST_SUCCESSFUL_TIME {
+    if c.is_null() || value.is_null() || kind != known {
         return DISCARD;
     }
-    // SAFETY: a live instance; `value` valid.
-    let inst = unsafe { &*c.cast::<Instance>() };
-    unsafe { *value = inst.time() };
+    // SAFETY: a live instance and a valid pointer, by the caller's contract.
+    unsafe { *value = read(&*c.cast::<Instance>()) };
     OK
 }
 
-/// fmi2GetIntegerStatus: nothing to report.
-///
-/// # Safety
-/// `c` from fmi2Instantiate.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetIntegerStatus(
-    c: Component,
-    _kind: c_int,
-    _value: *mut c_int,
-) -> Fmi2Status {
-    status_discard(c)
-}
+fmi_function!(
+    /// fmi2GetRealStatus: the last successful time (fmi2LastSuccessfulTime), else discarded.
+    fmi2GetRealStatus(c, kind: c_int, value: *mut f64)
+    => unsafe { status(c, kind, LAST_SUCCESSFUL_TIME, value, Instance::time) }
+);
 
-/// fmi2GetBooleanStatus: fmi2Terminated is false (the FMU never ends a simulation itself).
-///
-/// # Safety
-/// `c` from fmi2Instantiate; `value` valid.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetBooleanStatus(
-    c: Component,
-    kind: c_int,
-    value: *mut c_int,
-) -> Fmi2Status {
-    /// fmi2Terminated.
-    const TERMINATED: c_int = 4;
-    if c.is_null() || value.is_null() || kind != TERMINATED {
-        return DISCARD;
-    }
-    // SAFETY: `value` valid.
-    unsafe { *value = 0 };
-    OK
-}
+fmi_function!(
+    /// fmi2GetIntegerStatus: nothing to report.
+    fmi2GetIntegerStatus(c, _kind: c_int, _value: *mut c_int) => status_discard(c)
+);
 
-/// fmi2GetStringStatus: nothing to report.
-///
-/// # Safety
-/// `c` from fmi2Instantiate.
-#[no_mangle]
-pub unsafe extern "C" fn fmi2GetStringStatus(
-    c: Component,
-    _kind: c_int,
-    _value: *mut *const c_char,
-) -> Fmi2Status {
-    status_discard(c)
-}
+fmi_function!(
+    /// fmi2GetBooleanStatus: fmi2Terminated is false (the FMU never ends a simulation itself).
+    fmi2GetBooleanStatus(c, kind: c_int, value: *mut c_int)
+    => unsafe { status(c, kind, TERMINATED, value, |_| 0) }
+);
+
+fmi_function!(
+    /// fmi2GetStringStatus: nothing to report.
+    fmi2GetStringStatus(c, _kind: c_int, _value: *mut *const c_char) => status_discard(c)
+);
 
 fn status_discard(c: Component) -> Fmi2Status {
     if c.is_null() {

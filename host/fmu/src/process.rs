@@ -5,11 +5,12 @@
 
 use std::collections::VecDeque;
 use std::io::Read;
-use std::os::fd::AsRawFd;
+use std::os::fd::{AsRawFd, OwnedFd};
+use std::os::unix::net::UnixStream;
 use std::os::unix::fs::PermissionsExt;
 use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::Path;
-use std::process::{Child, ChildStdin, ChildStdout, Command, ExitStatus, Stdio};
+use std::process::{Child, ChildStdout, Command, ExitStatus, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -27,7 +28,10 @@ const TAIL_LINES: usize = 6;
 /// A running worker process.
 pub struct Worker {
     child: Child,
-    stdin: ChildStdin,
+    /// Our end of the worker's standard input: a socket, so a write to a worker that has died
+    /// fails with EPIPE instead of raising SIGPIPE, which would end an importer that does not
+    /// ignore it (a C program; Python ignores it).
+    requests: Requests,
     stdout: ChildStdout,
     stderr: Arc<Mutex<Tail>>,
     /// The thread reading it: joined before the worker is dropped, so no thread of the FMU's
@@ -49,11 +53,13 @@ impl Worker {
     pub fn spawn(resources: &Path, limit: Duration) -> Result<Self, String> {
         let exe = resources.join(WORKER_EXE);
         let (program, _copy) = executable(&exe)?;
+        let (ours, theirs) = UnixStream::pair()
+            .map_err(|e| format!("cannot make the channel to the FMU's worker process: {e}"))?;
         let mut child = Command::new(&program)
             .arg(WORKER_SUBCOMMAND)
             .arg(resources)
             .env_remove("TRIBO_PLUGIN_PATH")
-            .stdin(Stdio::piped())
+            .stdin(Stdio::from(OwnedFd::from(theirs)))
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             // Its own process group: a stop takes whatever a law started with it.
@@ -65,8 +71,7 @@ impl Worker {
                     exe.display()
                 )
             })?;
-        let (Some(stdin), Some(stdout), Some(stderr)) =
-            (child.stdin.take(), child.stdout.take(), child.stderr.take())
+        let (Some(stdout), Some(stderr)) = (child.stdout.take(), child.stderr.take())
         else {
             let _ = child.kill();
             let _ = child.wait();
@@ -77,7 +82,7 @@ impl Worker {
         let reader = std::thread::spawn(move || drain(stderr, &sink));
         let mut w = Self {
             child,
-            stdin,
+            requests: Requests(ours),
             stdout,
             stderr: tail,
             reader: Some(reader),
@@ -114,7 +119,7 @@ impl Worker {
     /// Send `request` and wait for the reply. A worker that died, garbled its answer or did
     /// not answer in time is stopped, and the error says what happened.
     pub fn call(&mut self, request: &Request) -> Result<Reply, String> {
-        if let Err(e) = write_frame(&mut self.stdin, request) {
+        if let Err(e) = write_frame(&mut self.requests, request) {
             return Err(self.failed(&format!("could not be sent a request ({e})")));
         }
         self.receive()
@@ -213,7 +218,7 @@ impl Worker {
     /// Ask the worker to quit, and make sure it is gone.
     pub fn stop(&mut self) {
         self.limit = Duration::from_secs(1);
-        let polite = write_frame(&mut self.stdin, &Request::Quit).is_ok()
+        let polite = write_frame(&mut self.requests, &Request::Quit).is_ok()
             && matches!(
                 read_frame::<Reply>(&mut Deadline {
                     inner: &mut self.stdout,
@@ -343,6 +348,37 @@ fn executable(exe: &Path) -> Result<(std::path::PathBuf, Option<tempfile::TempDi
             )
         })?;
     Ok((copy, Some(dir)))
+}
+
+/// The request channel: writes with `MSG_NOSIGNAL`, so a dead reader is an error, not a
+/// signal.
+struct Requests(UnixStream);
+
+impl std::io::Write for Requests {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        loop {
+            // SAFETY: send(2) of an initialised buffer of its length on a socket we own.
+            let n = unsafe {
+                libc::send(
+                    self.0.as_raw_fd(),
+                    buf.as_ptr().cast(),
+                    buf.len(),
+                    libc::MSG_NOSIGNAL,
+                )
+            };
+            if n >= 0 {
+                return Ok(n as usize);
+            }
+            let e = std::io::Error::last_os_error();
+            if e.kind() != std::io::ErrorKind::Interrupted {
+                return Err(e);
+            }
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
 }
 
 /// A reader that gives up at a deadline (poll(2) before each read).

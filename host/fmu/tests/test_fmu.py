@@ -396,3 +396,48 @@ def test_a_parameter_or_input_out_of_range_is_an_error_naming_it(baseline):
         g.step(1e-3)
     assert "crank_speed" in text(log) and "-5" in text(log), text(log)
     g.slave.freeInstance()
+
+
+IMPORTER_WITHOUT_SIGPIPE_GUARD = r"""
+import os, signal, sys, math
+sys.path.insert(0, sys.argv[2])
+from conftest import Fmu
+from fmpy.fmi1 import FMICallException
+
+# A C importer does not ignore SIGPIPE as Python does: writing to a dead pipe would end it.
+signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+f = Fmu(sys.argv[1], start={"crank_speed": 3000 * math.pi / 30})
+f.step(1e-3)
+children = set()
+for tid in os.listdir(f"/proc/{os.getpid()}/task"):
+    with open(f"/proc/{os.getpid()}/task/{tid}/children") as c:
+        children.update(int(p) for p in c.read().split())
+assert len(children) == 1, children
+# The worker dies between two calls (killed from outside: the OOM killer, a user).
+os.kill(children.pop(), signal.SIGKILL)
+try:
+    f.step(1e-3)
+    print("the step succeeded")
+except FMICallException as e:
+    print("error status", e.status)
+print("the importer is alive")
+print("\n".join(m for _, m in f.log))
+"""
+
+
+def test_a_worker_killed_between_steps_is_an_error_not_a_sigpipe_for_the_importer(baseline, tmp_path):
+    import subprocess
+    import sys
+
+    _, unzipdir = baseline
+    script = tmp_path / "importer.py"
+    script.write_text(IMPORTER_WITHOUT_SIGPIPE_GUARD)
+    proc = subprocess.run(
+        [sys.executable, str(script), str(unzipdir), str(Path(__file__).parent)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, (proc.returncode, proc.stdout, proc.stderr)
+    assert "error status 3" in proc.stdout and "the importer is alive" in proc.stdout, proc.stdout
+    assert "killed by signal 9" in proc.stdout + proc.stderr, proc.stdout

@@ -156,7 +156,7 @@ fn rig_of(case: &Case) -> tribo::rig::Rig {
 /// The case's results as JSON, or its error as `{"error": message}`.
 fn run_case(case: &Case, registry: &LawRegistry) -> Value {
     let rig = rig_of(case);
-    let mut sim = match tribo::rig::any_simulation(&rig, registry) {
+    let mut sim = match tribo::rig::simulation(&rig, registry) {
         Ok(s) => s,
         Err(e) => return json!({ "error": e.to_string() }),
     };

@@ -509,7 +509,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     }
     tribo::rig::attach_laws(&mut rig, &law_args)?;
     let registry = g.registry()?;
-    let mut sim = tribo::rig::any_simulation(&rig, &registry)?;
+    let mut sim = tribo::rig::simulation(&rig, &registry)?;
     if let Some(dir) = &csv {
         tribo::output::check_result_dir(dir, "--csv")
             .with_context(|| format!("writing CSV into {}", dir.display()))?;

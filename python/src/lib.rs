@@ -488,7 +488,7 @@ fn run<'py>(py: Python<'py>, job: &str) -> PyResult<RunOutput<'py>> {
         }
         rig::attach_laws(&mut rig, &job.laws)?;
         let registry = registry(&job.plugin_paths)?;
-        let mut sim = rig::any_simulation(&rig, &registry)?;
+        let mut sim = rig::simulation(&rig, &registry)?;
         let (result, series) = if job.steady {
             (sim.run_steady()?, None)
         } else if job.timeseries {

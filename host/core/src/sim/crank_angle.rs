@@ -6,12 +6,9 @@
 use tribo_plugin_api::serde::{Deserialize, Serialize};
 use tribo_plugin_api::Regime;
 
-use super::bind::{reset_states, Instant};
-use super::engine_run::{EngineSimulation, Work as EngineWork};
 use super::error::SimError;
-use super::evaluate::{crank_angle, relative_velocities, Point};
+use super::evaluate::{Eval, Point, Work};
 use super::Simulation;
-use crate::mechanics::JointLoads;
 
 /// One law at one crank angle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -94,8 +91,10 @@ fn regime_name(indicators: &[f64]) -> &'static str {
 
 impl Simulation {
     /// Every plateau's cycle at the plateau's speed (constant: the steady state), sampled every
-    /// `resolution_deg` degrees. Laws start from zero state; a stateful law runs one cycle
-    /// first so the sampled one is settled.
+    /// `resolution_deg` degrees: each law's torque, power, load, sliding speed and regime, the
+    /// loads and pressures; on an engine also each cylinder's and main bearing's loads. Laws
+    /// start from zero state; a stateful law runs one cycle first so the sampled one is
+    /// settled.
     pub fn crank_angle_traces(
         &mut self,
         resolution_deg: f64,
@@ -106,124 +105,31 @@ impl Simulation {
         let laws: Vec<(String, String)> = self
             .joints
             .iter()
-            .flat_map(|j| {
-                j.laws
-                    .iter()
-                    .map(move |l| (j.id.name().to_string(), l.name.clone()))
-            })
-            .collect();
-        let layout = self.layout();
-        let mut traces = Vec::new();
-        for pi in 0..self.cycle.plateaus().len() {
-            let omega = self.cycle.plateaus()[pi].omega;
-            let oil = (self.temps[pi], self.viscosities[pi]);
-            let h = h_angle / omega;
-            reset_states(&mut self.joints);
-            let mut guess = JointLoads::default();
-            let mut samples = Vec::with_capacity(n);
-            let passes = if self.stateful { 2 } else { 1 };
-            for pass in 0..passes {
-                for k in 0..n {
-                    let theta = k as f64 * h_angle;
-                    let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
-                    let (e, loads) = self.evaluate(&at, &guess, Vec::new())?;
-                    guess = loads;
-                    self.commit(at.t, h, theta, &e, oil)?;
-                    if pass + 1 < passes {
-                        continue;
-                    }
-                    let (kin, gas) = self.kinematics(theta, omega, omega);
-                    let rel = relative_velocities(&kin.qd);
-                    let instant = Instant {
-                        t: at.t,
-                        dt: h,
-                        crank_angle: crank_angle(theta),
-                        omega,
-                        oil,
-                        gas: self.law_gas(theta, omega, &kin.q, gas.as_ref()),
-                    };
-                    let mut law_samples = Vec::with_capacity(laws.len());
-                    let mut idx = 0;
-                    for j in &self.joints {
-                        let input = j.input(&instant, rel[j.id]);
-                        for _ in &j.laws {
-                            let power = e.rates[layout.power(idx)];
-                            let regimes: Vec<f64> =
-                                (0..4).map(|r| e.rates[layout.regime(idx, r)]).collect();
-                            law_samples.push(LawSample {
-                                friction_torque_nm: power / omega,
-                                power_w: power,
-                                normal_load_n: e.normals[j.id],
-                                sliding_speed_m_s: input.sliding_velocity_m_s,
-                                regime: regime_name(&regimes).to_string(),
-                            });
-                            idx += 1;
-                        }
-                    }
-                    // Without gas loads both sides are at the standard atmosphere.
-                    let pressures_pa = match &e.gas {
-                        Some(g) => [g.cylinder_pa, g.crankcase_pa],
-                        None => [crate::model::ATMOSPHERE_PA; 2],
-                    };
-                    samples.push(AngleSample {
-                        crank_angle_deg: theta.to_degrees(),
-                        laws: law_samples,
-                        big_end_n: [e.reactions.big_end_n.x, e.reactions.big_end_n.y],
-                        main_n: [e.reactions.main_n.x, e.reactions.main_n.y],
-                        pressures_pa,
-                        drive_torque_nm: e.drive_torque,
-                        cylinders: Vec::new(),
-                        mains_n: Vec::new(),
-                    });
-                }
-            }
-            traces.push(CrankAngleTrace {
-                speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
-                laws: laws.clone(),
-                samples,
-            });
-        }
-        reset_states(&mut self.joints);
-        Ok(traces)
-    }
-}
-
-impl EngineSimulation {
-    /// Every plateau's cycle at the plateau's speed (the steady state), sampled every
-    /// `resolution_deg` degrees, as [`Simulation::crank_angle_traces`] with every joint of
-    /// the engine and each cylinder's and main bearing's loads. Laws start from zero state; a
-    /// stateful law runs one cycle first so the sampled one is settled.
-    pub fn crank_angle_traces(
-        &mut self,
-        resolution_deg: f64,
-    ) -> Result<Vec<CrankAngleTrace>, SimError> {
-        let cycle = self.window_spec().cycle_angle();
-        let n = ((cycle / resolution_deg.to_radians()).round() as usize).max(4);
-        let h_angle = cycle / n as f64;
-        let laws: Vec<(String, String)> = self
-            .joints
-            .iter()
             .flat_map(|j| j.laws.iter().map(move |l| (j.name.clone(), l.name.clone())))
             .collect();
-        let mut w = EngineWork::new(self);
+        let mut w = self.work()?;
+        let mut e = w.eval();
+        let mut guess = vec![0.0; self.joints.len()];
         let mut traces = Vec::new();
         for pi in 0..self.cycle.plateaus().len() {
             let omega = self.cycle.plateaus()[pi].omega;
             let oil = (self.temps[pi], self.viscosities[pi]);
             let h = h_angle / omega;
-            self.reset_states();
+            w.states.reset();
+            if self.rules.fresh_trace_guess {
+                guess.fill(0.0);
+            }
             let mut samples = Vec::with_capacity(n);
             let passes = if self.stateful { 2 } else { 1 };
             for pass in 0..passes {
                 for k in 0..n {
                     let theta = k as f64 * h_angle;
                     let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
-                    self.evaluate(&at, &mut w)?;
-                    if self.stateful {
-                        self.commit(&w)?;
-                    }
+                    self.evaluate(&at, &guess, &mut w, &mut e)?;
+                    guess.copy_from_slice(&e.totals);
+                    self.commit(&mut w, &e)?;
                     if pass + 1 == passes {
-                        samples.push(self.angle_sample(theta, omega, &w));
+                        samples.push(self.angle_sample(theta, omega, &w, &e));
                     }
                 }
             }
@@ -233,48 +139,54 @@ impl EngineSimulation {
                 samples,
             });
         }
-        self.reset_states();
         Ok(traces)
     }
 
-    /// The sample at crank angle `theta` and speed `omega` from the settled evaluation `w`.
-    fn angle_sample(&self, theta: f64, omega: f64, w: &EngineWork) -> AngleSample {
+    /// The sample at crank angle `theta` and speed `omega` from the settled evaluation `e`
+    /// (its law inputs and the crank model's solve in `w`).
+    fn angle_sample(&self, theta: f64, omega: f64, w: &Work, e: &Eval) -> AngleSample {
         let layout = self.layout();
-        let mut law_samples = Vec::new();
-        let mut idx = 0;
+        let mut law_samples = Vec::with_capacity(self.n_laws);
         for (ji, j) in self.joints.iter().enumerate() {
-            for _ in &j.laws {
-                let power = w.rates[layout.power(idx)];
-                let regimes: Vec<f64> = (0..4).map(|r| w.rates[layout.regime(idx, r)]).collect();
+            for i in 0..j.laws.len() {
+                let k = j.first_law + i;
+                let power = e.rates[layout.power(k)];
+                let regimes: Vec<f64> = (0..4).map(|r| e.rates[layout.regime(k, r)]).collect();
                 law_samples.push(LawSample {
                     friction_torque_nm: power / omega,
                     power_w: power,
-                    normal_load_n: w.normals[ji],
+                    normal_load_n: e.normals[ji],
                     sliding_speed_m_s: w.inputs.get(ji).map_or(0.0, |i| i.sliding_velocity_m_s),
                     regime: regime_name(&regimes).to_string(),
                 });
-                idx += 1;
             }
         }
-        let cylinders: Vec<CylinderSample> =
-            w.re.cylinders
-                .iter()
-                .zip(&w.law_gas)
-                .map(|(c, g)| CylinderSample {
-                    big_end_n: [c.big_end_n.x, c.big_end_n.y],
-                    side_thrust_n: c.slide_lateral_n,
-                    pressures_pa: [g.cylinder_pa, g.crankcase_pa],
+        let loads = w.crank.loads_sample();
+        let pressures = |k: usize| {
+            w.law_gas
+                .get(k)
+                .map_or([crate::model::ATMOSPHERE_PA; 2], |g| {
+                    [g.cylinder_pa, g.crankcase_pa]
                 })
-                .collect();
-        let first = cylinders.first();
+        };
+        let cylinders: Vec<CylinderSample> = loads
+            .cylinders
+            .iter()
+            .enumerate()
+            .map(|(k, (big_end_n, side_thrust_n))| CylinderSample {
+                big_end_n: *big_end_n,
+                side_thrust_n: *side_thrust_n,
+                pressures_pa: pressures(k),
+            })
+            .collect();
         AngleSample {
             crank_angle_deg: theta.to_degrees(),
             laws: law_samples,
-            big_end_n: first.map_or([0.0; 2], |c| c.big_end_n),
-            main_n: [w.re.main_total_n.x, w.re.main_total_n.y],
-            pressures_pa: first.map_or([crate::model::ATMOSPHERE_PA; 2], |c| c.pressures_pa),
-            drive_torque_nm: w.re.drive_torque_nm,
-            mains_n: w.re.mains_n.iter().map(|m| [m.x, m.y]).collect(),
+            big_end_n: loads.big_end_n,
+            main_n: loads.main_n,
+            pressures_pa: pressures(0),
+            drive_torque_nm: e.drive_torque,
+            mains_n: loads.mains_n,
             cylinders,
         }
     }

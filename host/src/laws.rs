@@ -75,7 +75,8 @@ fn law_json(lib: &LawLibrary) -> Value {
     json!({
         "name": d.name, "version": d.version, "abi": lib.abi().to_string(),
         "contract_version": lib.contract_version(),
-        "file": lib.path().display().to_string(), "summary": d.summary, "parameters": params,
+        "file": lib.path().display().to_string(), "summary": d.summary,
+        "suits": tribo_plugin_api::suits_words(lib.suits()), "parameters": params,
     })
 }
 
@@ -103,6 +104,13 @@ pub fn to_text(listing: &LawListing<'_>) -> String {
             lib.path().display()
         );
         let _ = writeln!(out, "    {}", d.summary);
+        if lib.suits() != 0 {
+            let _ = writeln!(
+                out,
+                "    made for {}",
+                tribo_plugin_api::suits_text(lib.suits())
+            );
+        }
         let width = d.parameters.iter().map(|p| p.name.len()).max().unwrap_or(0);
         for p in &d.parameters {
             let _ = writeln!(

@@ -86,19 +86,22 @@ impl BoundLaw {
         self.state_len > 0
     }
 
-    /// Bind law `l` (the model's field `field`, `joints.J.laws[i]`) from `registry`: its
-    /// library, an instance with checked parameters, and its zero state.
+    /// Bind law `l` (the model's field `field`, `joints.J.laws[i]`) on joint `joint` from
+    /// `registry`: its library, an instance with checked parameters (named with the joint in
+    /// crash and hang reports), and its zero state.
     pub(super) fn bind(
         registry: &LawRegistry,
         l: &crate::model::LawRef,
         field: &str,
+        joint: &str,
     ) -> Result<BoundLaw, SimError> {
         let lib = registry
             .get(&l.law)
             .map_err(|e| setup_error(format!("{field}.law"), e))?;
-        let instance = lib
+        let mut instance = lib
             .create(&l.params)
             .map_err(|e| setup_error(format!("{field}.params"), e))?;
+        instance.set_joint(joint);
         let state = instance
             .new_state()
             .map_err(|e| setup_error(format!("{field}.law"), e))?;
@@ -424,7 +427,7 @@ pub(super) fn bind_joints(
             .laws
             .iter()
             .enumerate()
-            .map(|(i, l)| BoundLaw::bind(registry, l, &spec.law_field(i)))
+            .map(|(i, l)| BoundLaw::bind(registry, l, &spec.law_field(i), &spec.name))
             .collect::<Result<Vec<_>, _>>()?;
         let first_law = n_laws;
         n_laws += laws.len();

@@ -64,7 +64,7 @@ impl Adaptive {
     /// step ends) to change sign within it, so the kink falls between steps. Returns the step,
     /// the planned (uncut) step and whether a switch cut it.
     fn plan(&self, sim: &Simulation, t: f64, y: CrankState) -> (f64, f64, bool) {
-        let w = y.1.abs().max(sim.cycle.reference(t).1.abs());
+        let w = y.1.abs().max(sim.reference(t).1.abs());
         let h_cap = sim.time_step(sim.max_step_rad, w);
         // The first step: one `step_deg` of crank angle.
         let planned = if self.h_next.is_finite() {
@@ -100,10 +100,7 @@ impl Stepper for Adaptive {
     ) -> Result<Step, SimError> {
         let (t, y) = (s.t, s.y);
         // Across a jump a step may err as much as a longest step of smooth running may.
-        let h_floor = sim.time_step(
-            sim.max_step_rad,
-            y.1.abs().max(sim.cycle.reference(t).1.abs()),
-        );
+        let h_floor = sim.time_step(sim.max_step_rad, y.1.abs().max(sim.reference(t).1.abs()));
         let (mut h, planned, switch_cut) = self.plan(sim, t, y);
         let mut rejected = false;
         loop {
@@ -171,6 +168,15 @@ impl Stepper for Adaptive {
     fn recycle(&mut self, end: Eval, _h: f64, w: &mut Work) {
         let old = std::mem::replace(&mut self.fsal, end);
         w.recycle(old);
+    }
+
+    /// The first stage evaluated again with the new inputs; no switch is predicted from the
+    /// steps before.
+    fn restart(&mut self, sim: &Simulation, w: &mut Work, s: &Integration) -> Result<(), SimError> {
+        let e = sim.step_eval(s.t, 0.0, s.y, &s.guess, w)?;
+        self.recycle(e, 0.0, w);
+        self.previous_end = None;
+        Ok(())
     }
 }
 

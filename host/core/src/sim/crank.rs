@@ -9,7 +9,7 @@ use nalgebra::Vector2;
 
 use super::evaluate::Control;
 use crate::engine::{CrankTrain, CylinderLoads, TrainKinematics, TrainLoads, TrainReactions};
-use crate::gas::{cycle_angle, GasModel, LawGas};
+use crate::gas::{cycle_angle, GasModel, GasState, LawGas};
 use crate::mechanics::{JointLoads, Kinematics, Mechanism, Reactions};
 use tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
 
@@ -151,7 +151,8 @@ impl Crank {
 
     /// The configuration at crank angle `theta` (accumulated) and speed `omega`, with each
     /// cylinder's gas force from `gas` (one model per cylinder, none without gas loads; a
-    /// vented crankcase read at the crank speed `gas_omega`). Each cylinder's gas state as its
+    /// vented crankcase read at the crank speed `gas_omega`; every cylinder's pressure
+    /// `cylinder_pa` instead of its model's where given). Each cylinder's gas state as its
     /// laws are handed it goes to `law_gas`. Returns the power into the gas (minus the gas
     /// forces' power on the pistons), W.
     #[inline]
@@ -160,13 +161,17 @@ impl Crank {
         theta: f64,
         omega: f64,
         gas: &[GasModel],
-        gas_omega: f64,
+        (gas_omega, cylinder_pa): (f64, Option<f64>),
         law_gas: &mut Vec<LawGas>,
     ) -> f64 {
         law_gas.clear();
+        let state = |g: &GasModel, s: GasState| match cylinder_pa {
+            Some(p) => g.with_cylinder_pressure(s, p),
+            None => s,
+        };
         match self {
-            Crank::Rig(r) => r.kinematics(theta, omega, gas.first(), gas_omega, law_gas),
-            Crank::Train(t) => t.kinematics(theta, omega, gas, gas_omega, law_gas),
+            Crank::Rig(r) => r.kinematics(theta, omega, gas.first(), gas_omega, state, law_gas),
+            Crank::Train(t) => t.kinematics(theta, omega, gas, gas_omega, state, law_gas),
         }
     }
 
@@ -367,6 +372,7 @@ impl RigCrank {
         omega: f64,
         gas: Option<&GasModel>,
         gas_omega: f64,
+        state: impl Fn(&GasModel, GasState) -> GasState,
         law_gas: &mut Vec<LawGas>,
     ) -> f64 {
         match gas {
@@ -381,7 +387,7 @@ impl RigCrank {
                 0.0
             }
             Some(g) => {
-                let s = g.at(theta, gas_omega);
+                let s = state(g, g.at(theta, gas_omega));
                 self.kin = self
                     .mech
                     .kinematics_with_piston_force(theta, omega, s.force_n);
@@ -402,6 +408,7 @@ impl TrainCrank {
         omega: f64,
         gas: &[GasModel],
         gas_omega: f64,
+        state: impl Fn(&GasModel, GasState) -> GasState,
         law_gas: &mut Vec<LawGas>,
     ) -> f64 {
         self.train.kinematics_into(theta, omega, &[], &mut self.kin);
@@ -412,7 +419,7 @@ impl TrainCrank {
                 // The volume follows the piston's true travel (with offsets, its dead centres
                 // are not at local angles 0 and pi); the valve events stay at those angles.
                 Some(g) => {
-                    let state = g.at_travel(c.local_angle_rad, gas_omega, travel);
+                    let state = state(g, g.at_travel(c.local_angle_rad, gas_omega, travel));
                     c.piston_force_n = state.force_n;
                     power += state.force_n * c.piston_speed_m_s;
                     law_gas.push((&state).into());

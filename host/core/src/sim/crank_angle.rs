@@ -26,6 +26,22 @@ pub struct LawSample {
     pub regime: String,
 }
 
+impl LawSample {
+    /// The sample of one law: friction torque and power from the evaluation's rates (`power`
+    /// W at crank speed `omega`, its regime `indicators`), the joint's normal load `normal_n`
+    /// and the law's sliding speed `sliding_m_s`.
+    fn new(power: f64, omega: f64, indicators: &[f64], normal_n: f64, sliding_m_s: f64) -> Self {
+        Self {
+            // At rest (a stepped run's start) nothing turns and nothing dissipates.
+            friction_torque_nm: if omega != 0.0 { power / omega } else { 0.0 },
+            power_w: power,
+            normal_load_n: normal_n,
+            sliding_speed_m_s: sliding_m_s,
+            regime: regime_name(indicators).to_string(),
+        }
+    }
+}
+
 /// The rig at one crank angle of a plateau's cycle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(crate = "tribo_plugin_api::serde")]
@@ -137,11 +153,7 @@ impl Simulation {
         let cycle = self.cycle_angle();
         let n = samples_per_cycle(cycle, resolution_deg)?;
         let h_angle = cycle / n as f64;
-        let laws: Vec<(String, String)> = self
-            .joints
-            .iter()
-            .flat_map(|j| j.laws.iter().map(move |l| (j.name.clone(), l.name.clone())))
-            .collect();
+        let laws = self.law_names();
         let mut w = self.work()?;
         let mut e = w.eval();
         let mut guess = vec![0.0; self.joints.len()];
@@ -164,7 +176,7 @@ impl Simulation {
                     guess.copy_from_slice(&e.totals);
                     self.commit(&mut w, &e)?;
                     if pass + 1 == passes {
-                        samples.push(self.angle_sample(theta, omega, &w, &e));
+                        samples.push(self.angle_sample(theta, omega, &w, &e)?);
                     }
                 }
             }
@@ -177,25 +189,47 @@ impl Simulation {
         Ok(traces)
     }
 
-    /// The sample at crank angle `theta` and speed `omega` from the settled evaluation `e`
-    /// (its law inputs and the crank model's solve in `w`).
-    fn angle_sample(&self, theta: f64, omega: f64, w: &Work, e: &Eval) -> AngleSample {
+    /// Joint and law of every law, in the run-wide law order.
+    pub fn law_names(&self) -> Vec<(String, String)> {
+        self.joints
+            .iter()
+            .flat_map(|j| j.laws.iter().map(move |l| (j.name.clone(), l.name.clone())))
+            .collect()
+    }
+
+    /// Every law's sample at crank speed `omega` from the last evaluation in `w` (its law
+    /// inputs), its settled normal loads `normals` and rates `rates`.
+    pub(super) fn law_samples(
+        &self,
+        omega: f64,
+        w: &Work,
+        normals: &[f64],
+        rates: &[f64],
+    ) -> Result<Vec<LawSample>, SimError> {
         let layout = self.layout();
         let mut law_samples = Vec::with_capacity(self.n_laws);
         for (ji, j) in self.joints.iter().enumerate() {
+            let sliding = w.inputs.get(ji).map_or(0.0, |i| i.sliding_velocity_m_s);
             for i in 0..j.laws.len() {
                 let k = j.first_law + i;
-                let power = e.rates[layout.power(k)];
-                let regimes: Vec<f64> = (0..4).map(|r| e.rates[layout.regime(k, r)]).collect();
-                law_samples.push(LawSample {
-                    friction_torque_nm: power / omega,
-                    power_w: power,
-                    normal_load_n: e.normals[ji],
-                    sliding_speed_m_s: w.inputs.get(ji).map_or(0.0, |i| i.sliding_velocity_m_s),
-                    regime: regime_name(&regimes).to_string(),
-                });
+                let power = rates[layout.power(k)];
+                let regimes: Vec<f64> = (0..4).map(|r| rates[layout.regime(k, r)]).collect();
+                law_samples.push(LawSample::new(power, omega, &regimes, normals[ji], sliding));
             }
         }
+        Ok(law_samples)
+    }
+
+    /// The sample at crank angle `theta` and speed `omega` from the settled evaluation `e`
+    /// (its law inputs and the crank model's final solve in `w`).
+    fn angle_sample(
+        &self,
+        theta: f64,
+        omega: f64,
+        w: &Work,
+        e: &Eval,
+    ) -> Result<AngleSample, SimError> {
+        let law_samples = self.law_samples(omega, w, &e.normals, &e.rates)?;
         let loads = w.crank.loads_sample();
         let pressures = |k: usize| {
             w.law_gas
@@ -214,7 +248,7 @@ impl Simulation {
                 pressures_pa: pressures(k),
             })
             .collect();
-        AngleSample {
+        Ok(AngleSample {
             crank_angle_deg: theta.to_degrees(),
             laws: law_samples,
             big_end_n: loads.big_end_n,
@@ -223,6 +257,6 @@ impl Simulation {
             drive_torque_nm: e.drive_torque,
             mains_n: loads.mains_n,
             cylinders,
-        }
+        })
     }
 }

@@ -236,14 +236,15 @@ impl Simulation {
         e.totals.resize(self.joints.len(), 0.0);
         // Positions, velocities and the factorised constraints do not depend on the loads:
         // computed once, the iteration below only recombines the multipliers.
+        let gas = self.gas_models();
         let gas_power = w.crank.kinematics(
             at.theta,
             at.omega,
-            &self.gas,
-            self.gas_speed(at),
+            gas,
+            (self.gas_speed(at), self.held.cylinder_pa),
             &mut w.law_gas,
         );
-        if !self.gas.is_empty() {
+        if !gas.is_empty() {
             e.rates[layout.gas()] = gas_power;
         }
         for (r, j) in w.rel.iter_mut().zip(&self.joints) {

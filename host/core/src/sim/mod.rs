@@ -34,6 +34,7 @@ mod rates;
 mod results;
 mod steady;
 mod stepper;
+mod stepping;
 #[cfg(test)]
 mod tests;
 mod transient;
@@ -55,6 +56,7 @@ pub use results::{
     ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
     PlateauFmep, PlateauResult, RegimeShare, RunResult,
 };
+pub use stepping::{Inputs, JointOutput, Outputs, Run, Snapshot};
 
 use bind::BoundJoint;
 use crank::{Crank, Role};
@@ -151,6 +153,13 @@ pub struct Simulation {
     /// Swept volume of all cylinders, m^3.
     displacement_m3: f64,
     rules: Rules,
+    /// What a stepped run's inputs set instead of the rig's own (nothing in a plain run).
+    held: stepping::Held,
+    /// Each cylinder's ambient gas model on a rig without gas loads (else empty): what a
+    /// cylinder pressure set from outside acts on.
+    ambient_gas: Vec<GasModel>,
+    /// The oil's viscosity model and density (kg/m^3), for an oil temperature set from outside.
+    oil: (crate::oil::ViscosityModel, f64),
 }
 
 /// The single-cylinder rig's mechanism: its bodies reduced to the rig's geometry (the crank's
@@ -187,9 +196,11 @@ fn rig_geometry(f: &RigFile) -> RigGeometry {
     }
 }
 
-/// The crank model of `f` and each cylinder's gas model: an engine's crank train with each
-/// cylinder's 4-stroke phase from the firing order, or the single-cylinder mechanism.
-fn crank_and_gas(f: &RigFile) -> Result<(Crank, Vec<GasModel>), SimError> {
+/// The crank model of `f` and each cylinder's gas model (the rig's, and on a rig without gas
+/// loads the ambient one a cylinder pressure set from outside acts on): an engine's crank
+/// train with each cylinder's 4-stroke phase from the firing order, or the single-cylinder
+/// mechanism.
+fn crank_and_gas(f: &RigFile) -> Result<(Crank, [Vec<GasModel>; 2]), SimError> {
     let setup = |message: String| SimError::Setup {
         at: None,
         field: "engine".into(),
@@ -200,7 +211,13 @@ fn crank_and_gas(f: &RigFile) -> Result<(Crank, Vec<GasModel>), SimError> {
     let (Some(e), Some(geo)) = (&f.engine, geometry(f)) else {
         let shares = [f.joints.main_a.load_share, f.joints.main_b.load_share];
         let crank = Crank::rig(Mechanism::new(rig_geometry(f)), shares);
-        return Ok((crank, GasModel::from_rig(f).into_iter().collect()));
+        let gas: Vec<GasModel> = GasModel::from_rig(f).into_iter().collect();
+        let ambient = if gas.is_empty() {
+            vec![GasModel::ambient(f)]
+        } else {
+            Vec::new()
+        };
+        return Ok((crank, [gas, ambient]));
     };
     let phases = cylinder_phases(
         &top_dead_centres(&geo),
@@ -211,15 +228,24 @@ fn crank_and_gas(f: &RigFile) -> Result<(Crank, Vec<GasModel>), SimError> {
     let train = CrankTrain::new(geo).map_err(|err| setup(err.to_string()))?;
     // Each cylinder's gas: the rig's model with the cylinder's own 4-stroke phase, evaluated
     // at the cylinder's own crank angle.
-    let gas = phases
+    let phased = |phase: &f64| {
+        let mut fk = f.clone();
+        fk.gas.cycle_angle_at_zero_deg = phase.to_degrees();
+        fk
+    };
+    let gas: Vec<GasModel> = phases
         .iter()
-        .filter_map(|phase| {
-            let mut fk = f.clone();
-            fk.gas.cycle_angle_at_zero_deg = phase.to_degrees();
-            GasModel::from_rig(&fk)
-        })
+        .filter_map(|phase| GasModel::from_rig(&phased(phase)))
         .collect();
-    Ok((Crank::train(train, phases), gas))
+    let ambient = if gas.is_empty() {
+        phases
+            .iter()
+            .map(|p| GasModel::ambient(&phased(p)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Ok((Crank::train(train, phases), [gas, ambient]))
 }
 
 /// Which of an evaluation's switching functions matter (see `Simulation::switch_mask`).
@@ -244,7 +270,7 @@ impl Simulation {
     /// Bind the model's laws (from `registry`) and prepare the crank model, cycle and gas.
     pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
         let f = model;
-        let (crank, gas) = crank_and_gas(f)?;
+        let (crank, [gas, ambient_gas]) = crank_and_gas(f)?;
         let (joints, n_laws) = bind::bind_joints(f, registry)?;
         let cylinders = crank.cylinders();
         let cycle = Cycle::new(&f.cycle.segments());
@@ -283,6 +309,9 @@ impl Simulation {
                 * 2.0
                 * f.geometry.crank_radius_m,
             rules: if engine { Rules::ENGINE } else { Rules::RIG },
+            held: stepping::Held::default(),
+            ambient_gas,
+            oil: (f.oil.viscosity.clone(), f.oil.density_kg_m3),
         })
     }
 
@@ -348,17 +377,24 @@ impl Simulation {
     #[inline]
     fn gas_speed(&self, at: &evaluate::Point) -> f64 {
         match at.control {
-            evaluate::Control::Torque(_) if self.gas.iter().any(GasModel::depends_on_speed) => {
-                self.cycle.reference(at.t).1
+            evaluate::Control::Torque(_)
+                if self.held.torque_nm.is_none()
+                    && self.gas.iter().any(GasModel::depends_on_speed) =>
+            {
+                self.reference(at.t).1
             }
             _ => at.omega,
         }
     }
 
     /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
-    /// and the ramp leading to it; after the last plateau, the last value.
+    /// and the ramp leading to it; after the last plateau, the last value; a temperature set
+    /// from outside (the stepping API) while it is set.
     #[inline]
     fn oil_at(&self, t: f64) -> (f64, f64) {
+        if let Some(oil) = self.held.oil {
+            return oil;
+        }
         let i = self
             .cycle
             .plateaus()
@@ -366,6 +402,37 @@ impl Simulation {
             .position(|p| t <= p.t_end)
             .unwrap_or(self.temps.len().saturating_sub(1));
         (self.temps[i], self.viscosities[i])
+    }
+
+    /// The crank's reference motion (angle, speed, acceleration) at `t`: the cycle's, or a
+    /// speed set from outside held from where it was set.
+    #[inline]
+    fn reference(&self, t: f64) -> (f64, f64, f64) {
+        match self.held.speed {
+            Some(held) => held.at(t),
+            None => self.cycle.reference(t),
+        }
+    }
+
+    /// [`Simulation::reference`] on the side of `t` that starts there (the cycle's
+    /// acceleration jumps at segment boundaries).
+    #[inline]
+    fn reference_after(&self, t: f64) -> (f64, f64, f64) {
+        match self.held.speed {
+            Some(held) => held.at(t),
+            None => self.cycle.reference_after(t),
+        }
+    }
+
+    /// The cylinders' gas models: the rig's, or the ambient ones while a cylinder pressure set
+    /// from outside acts on a rig without gas loads.
+    #[inline]
+    fn gas_models(&self) -> &[GasModel] {
+        if self.held.cylinder_pa.is_some() && self.gas.is_empty() {
+            &self.ambient_gas
+        } else {
+            &self.gas
+        }
     }
 
     #[inline]
@@ -400,7 +467,7 @@ impl Simulation {
         let refs: Vec<&str> = names.iter().map(String::as_str).collect();
         observer.start(&refs).map_err(SimError::Observer)?;
         let mut run = self.start_transient()?;
-        self.advance(&mut run, f64::INFINITY, observer)?;
+        self.advance(&mut run, f64::INFINITY, u64::MAX, observer)?;
         self.finish_transient(&run)
     }
 }

@@ -101,6 +101,13 @@ pub(super) trait Stepper {
 
     /// Take back the end evaluation of the step of length `h` once the run has used it.
     fn recycle(&mut self, end: Eval, h: f64, w: &mut Work);
+
+    /// The inputs changed at `s.t` (the stepping API): forget every evaluation made with the
+    /// old ones.
+    fn restart(&mut self, sim: &Simulation, w: &mut Work, s: &Integration) -> Result<(), SimError> {
+        let _ = (sim, w, s);
+        Ok(())
+    }
 }
 
 /// Prescribed crank: the reference motion is exact, so each step evaluates its midpoint and
@@ -118,7 +125,7 @@ impl Stepper for Quadrature {
     ) -> Result<(), SimError> {
         // The reference acceleration may jump at t: start this interval from its own side of
         // the jump so Simpson's rule never straddles it.
-        let (theta, omega, alpha) = sim.cycle.reference_after(s.t);
+        let (theta, omega, alpha) = sim.reference_after(s.t);
         let at = sim.prescribed_point(s.t, dt, (theta, omega, alpha));
         let mut e0 = w.eval();
         sim.evaluate(&at, &s.guess, w, &mut e0)?;
@@ -137,10 +144,10 @@ impl Stepper for Quadrature {
         _b: f64,
     ) -> Result<Step, SimError> {
         let (t, h) = (s.t, t1 - s.t);
-        let at = sim.prescribed_point(t + 0.5 * h, h, sim.cycle.reference(t + 0.5 * h));
+        let at = sim.prescribed_point(t + 0.5 * h, h, sim.reference(t + 0.5 * h));
         let mut em = w.eval();
         sim.evaluate(&at, &s.guess, w, &mut em)?;
-        let (th1, w1, a1) = sim.cycle.reference(t1);
+        let (th1, w1, a1) = sim.reference(t1);
         let mut e1 = w.eval();
         sim.evaluate(
             &sim.prescribed_point(t1, h, (th1, w1, a1)),
@@ -205,6 +212,13 @@ impl Stepper for Rk4 {
             w.recycle(old);
         }
     }
+
+    fn restart(&mut self, _: &Simulation, w: &mut Work, _: &Integration) -> Result<(), SimError> {
+        if let Some((old, _)) = self.carried.take() {
+            w.recycle(old);
+        }
+        Ok(())
+    }
 }
 
 impl Simulation {
@@ -255,7 +269,11 @@ impl Simulation {
     /// (negative while saturated) for a PI drive.
     #[inline]
     pub(super) fn pi_torque(&self, t: f64, omega: f64, z: f64) -> (f64, f64, f64) {
-        pi_drive(&self.drive, self.cycle.reference(t).1, omega, z)
+        match self.held.torque_nm {
+            // A drive torque set from outside replaces the controller (which holds still).
+            Some(torque) => (torque, 0.0, f64::INFINITY),
+            None => pi_drive(&self.drive, self.reference(t).1, omega, z),
+        }
     }
 
     /// The evaluation at the end of a step (or the run's start) in state `y`: the reference
@@ -270,7 +288,7 @@ impl Simulation {
         w: &mut Work,
     ) -> Result<Eval, SimError> {
         let at = match self.drive {
-            Drive::Prescribed => self.prescribed_point(t, dt, self.cycle.reference(t)),
+            Drive::Prescribed => self.prescribed_point(t, dt, self.reference(t)),
             Drive::Pi { .. } => self.driven_point(t, dt, y).0,
         };
         let mut e = w.eval();

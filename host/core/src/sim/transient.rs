@@ -123,20 +123,26 @@ impl Simulation {
         })
     }
 
-    /// Advance the run `r` by accepted steps until it reaches `target` (s) or the end of the
-    /// cycle, handing each step to `observer`.
+    /// Advance the run `r` by accepted steps until it reaches `target` (s), the end of its
+    /// grid (the cycle's end) or `max_steps` steps, handing each step to `observer`. Returns
+    /// the number of steps taken.
     pub(super) fn advance(
         &self,
         r: &mut Transient,
         target: f64,
+        max_steps: u64,
         observer: &mut dyn StepObserver,
-    ) -> Result<(), SimError> {
+    ) -> Result<u64, SimError> {
+        let mut taken = 0;
         loop {
+            if r.s.t >= target || taken >= max_steps {
+                return Ok(taken);
+            }
             let iv = match r.interval {
                 Some(iv) if r.s.t < iv.b => iv,
                 _ => {
                     let Some(&b) = r.grid.get(r.next) else {
-                        return Ok(());
+                        return Ok(taken);
                     };
                     r.next += 1;
                     let iv = self.plan_interval(r, b);
@@ -147,9 +153,6 @@ impl Simulation {
                     continue;
                 }
             };
-            if r.s.t >= target {
-                return Ok(());
-            }
             let done = iv.done + 1;
             r.interval = Some(Interval { done, ..iv });
             let t1 = if done == iv.m { iv.b } else { r.s.t + iv.dt };
@@ -158,15 +161,47 @@ impl Simulation {
                 .stepper()
                 .step(self, &mut r.w, &mut r.s, t1, iv.b)?;
             self.accept(r, step, observer)?;
+            taken += 1;
         }
+    }
+
+    /// Make `t` (s, after the run's time) a point of the run's grid, so the run lands on it:
+    /// the interval under way, if it reaches past `t`, is planned again from the run's time.
+    /// Beyond the end of the cycle the grid goes on to `t`.
+    pub(super) fn land_on(&self, r: &mut Transient, t: f64) {
+        if t <= r.s.t {
+            return;
+        }
+        let pos = r.grid.partition_point(|g| *g < t);
+        let on_grid = r.grid.get(pos).is_some_and(|g| *g == t);
+        if !on_grid {
+            r.grid.insert(pos, t);
+            if pos < r.next {
+                // `t` falls inside the interval under way (which ends at the point now at
+                // `pos + 1`): plan it again, to `t` first.
+                r.next = pos;
+                r.interval = None;
+            }
+        }
+    }
+
+    /// Plan the interval under way again from the run's time (its step, and for a prescribed
+    /// crank its start evaluation): after the inputs changed, or a state was restored.
+    pub(super) fn replan(&self, r: &mut Transient) -> Result<(), SimError> {
+        if let Some(iv) = r.interval.take() {
+            if r.s.t < iv.b {
+                r.next -= 1;
+            }
+        }
+        r.method.stepper().restart(self, &mut r.w, &r.s)
     }
 
     /// The interval of the grid from the run's time to `b`: whole steps of at most
     /// `solver.step_deg` at the fastest speed the interval reaches.
     fn plan_interval(&self, r: &Transient, b: f64) -> Interval {
         let (t, y) = (r.s.t, r.s.y);
-        let (_, w_end, _) = self.cycle.reference(b);
-        let w_max = w_end.max(self.cycle.reference(t).1).max(y.1);
+        let (_, w_end, _) = self.reference(b);
+        let w_max = w_end.max(self.reference(t).1).max(y.1);
         let dt_target = self.time_step(self.step_rad, w_max);
         let m = ((b - t) / dt_target).ceil().max(1.0) as u64;
         Interval {

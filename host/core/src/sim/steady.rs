@@ -3,11 +3,15 @@
 //! pressure) with the periodic trapezoid rule.
 
 use super::error::SimError;
-use super::evaluate::{Point, Work};
+use super::evaluate::{Control, Point, Work};
 use super::plateau::Measured;
 use super::rates::RateLayout;
 use super::results::{DriveKind, EnergyBalance, RunResult};
 use super::Simulation;
+
+/// Cycles of the plateau's length (a revolution, two for a 4-stroke pressure) over which the
+/// steady state spins the crank up from rest where its stateful laws need it.
+const SPIN_UP_CYCLES: f64 = 4.0;
 
 impl Simulation {
     /// Steady state at every plateau speed, computed directly: the crank turns at exactly the
@@ -15,7 +19,9 @@ impl Simulation {
     /// a 4-stroke cycle (periodic trapezoid rule at the run's crank-angle step). Stateless
     /// laws need one cycle; with stateful laws cycles are repeated until the cycle's mean
     /// torque repeats to 1e-9 (at most 200). Every law's state starts from zero at every
-    /// plateau.
+    /// plateau; where stateful laws find no consistent load in that start (LuGre's bristles
+    /// at zero deflection under the full sliding speed), the crank is first spun up from rest
+    /// ([`Simulation::spin_up`]) and the cycles measured from there.
     pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
         let n_plateaus = self.cycle.plateaus().len();
         let mut results = Vec::with_capacity(n_plateaus);
@@ -26,7 +32,16 @@ impl Simulation {
         for pi in 0..n_plateaus {
             let omega = self.cycle.plateaus()[pi].omega;
             w.states.reset();
-            let (delta, t) = self.steady_plateau(pi, omega, &mut w, &mut steps)?;
+            let before = steps;
+            let (delta, t) = match self.steady_plateau(pi, omega, (0.0, 0.0), &mut w, &mut steps) {
+                Err(_) if self.stateful => {
+                    steps = before;
+                    w.states.reset();
+                    let start = self.spin_up(pi, omega, &mut w, &mut steps)?;
+                    self.steady_plateau(pi, omega, start, &mut w, &mut steps)?
+                }
+                other => other?,
+            };
             motor += delta[RateLayout::MOTOR];
             dissipated += delta[layout.powers()].iter().sum::<f64>();
             gas += delta[layout.gas()];
@@ -58,15 +73,18 @@ impl Simulation {
         })
     }
 
-    /// Plateau `pi` at speed `omega`: the accumulated quantities over its last cycle, and the
-    /// time at its end (from 0 at the plateau's start).
+    /// Plateau `pi` at speed `omega` from time `start.0` and crank angle `start.1`: the
+    /// accumulated quantities over its last cycle, and the time at its end (from 0 at the
+    /// plateau's start).
     fn steady_plateau(
         &self,
         pi: usize,
         omega: f64,
+        start: (f64, f64),
         w: &mut Work,
         steps: &mut u64,
     ) -> Result<(Vec<f64>, f64), SimError> {
+        let (t0, theta0) = start;
         let oil = (self.temps[pi], self.viscosities[pi]);
         let cycle = self.cycle_angle();
         let m = ((cycle / self.step_rad).ceil() as usize).max(16);
@@ -75,7 +93,7 @@ impl Simulation {
         let mut last_torque = f64::NAN;
         let mut delta = vec![0.0; self.layout().len()];
         let max_cycles = if self.stateful { 200 } else { 1 };
-        let mut t = 0.0;
+        let mut t = t0;
         let mut e = w.eval();
         for _ in 0..max_cycles {
             delta.iter_mut().for_each(|x| *x = 0.0);
@@ -83,7 +101,7 @@ impl Simulation {
             // spaced samples converges spectrally for smooth laws (and like Simpson's for
             // kinked ones) with one evaluation per step instead of two.
             for _ in 0..m {
-                let at = Point::steady(t + h, h, omega * (t + h), omega, oil);
+                let at = Point::steady(t + h, h, theta0 + omega * (t + h - t0), omega, oil);
                 self.evaluate(&at, &guess, w, &mut e)?;
                 for (d, r) in delta.iter_mut().zip(&e.rates) {
                     *d += h * r;
@@ -101,5 +119,44 @@ impl Simulation {
         }
         w.recycle(e);
         Ok((delta, t))
+    }
+
+    /// Spin the crank up from rest to plateau `pi`'s speed `omega` at a constant acceleration
+    /// over [`SPIN_UP_CYCLES`] cycles, every step committed, as a transient run brings the
+    /// stateful laws to speed. Returns the time and crank angle at its end.
+    fn spin_up(
+        &self,
+        pi: usize,
+        omega: f64,
+        w: &mut Work,
+        steps: &mut u64,
+    ) -> Result<(f64, f64), SimError> {
+        let oil = (self.temps[pi], self.viscosities[pi]);
+        let angle = SPIN_UP_CYCLES * self.cycle_angle();
+        let alpha = omega * omega / (2.0 * angle);
+        let duration = omega / alpha;
+        // At most the run's crank-angle step at the end, where the crank is fastest.
+        let m = ((2.0 * angle / self.step_rad).ceil() as usize).max(16);
+        let h = duration / m as f64;
+        let mut guess = vec![0.0; self.joints.len()];
+        let mut e = w.eval();
+        for k in 1..=m {
+            let t = h * k as f64;
+            let at = Point {
+                t,
+                dt: h,
+                theta: 0.5 * alpha * t * t,
+                omega: alpha * t,
+                control: Control::Acceleration(alpha),
+                margin: f64::INFINITY,
+                oil,
+            };
+            self.evaluate(&at, &guess, w, &mut e)?;
+            self.commit(w, &e)?;
+            guess.copy_from_slice(&e.totals);
+            *steps += 1;
+        }
+        w.recycle(e);
+        Ok((duration, angle))
     }
 }

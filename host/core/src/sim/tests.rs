@@ -160,6 +160,29 @@ fn sign_changes(n: usize, f: impl Fn(f64) -> f64) -> Vec<f64> {
     out
 }
 
+/// Phase 2's test on the piston of the thesis rig at `(t, theta)`: the load the law saw, `w`,
+/// reproduces itself to tolerance in the final solve (`normals`), and a fixed point
+/// `W* = |Phi(W*)|` of the side thrust `phi` lies within tolerance of it (`Phi(w) - w` changes
+/// sign across that interval).
+fn assert_phase_2_fixed_point(
+    sim: &Simulation,
+    phi: &dyn Fn(f64) -> crate::mechanics::Reactions,
+    normals: &[f64],
+    w: f64,
+    (t, theta): (f64, f64),
+) {
+    let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+    let delta = sim.tol * scale;
+    let rho = |w: f64| phi(w).slide_lateral_n.abs() - w;
+    let near = |x: f64, k: f64| rho((x - k * delta).max(0.0)) * rho(x + k * delta) <= 0.0;
+    assert!(
+        (normals[4] - w).abs() <= delta && near(w, 1.0),
+        "t = {t}, theta = {theta}: the law saw {w} N, Phi(W) = {} N, tolerance \
+         {delta:e} N",
+        normals[4]
+    );
+}
+
 #[test]
 fn evaluate_holds_the_fixed_point_where_the_plain_iteration_cannot() {
     let sim = sqrt_simulation();
@@ -211,24 +234,10 @@ fn evaluate_holds_the_fixed_point_where_the_plain_iteration_cannot() {
                 };
                 kin.reactions(alpha, &applied)
             };
-            let re = phi(w);
-            let normals = rig_normals(&sim, &re);
-            let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
-            // A fixed point W* = |Phi(W*)| within k * friction_tol * scale of x: Phi(w) - w
-            // changes sign across that interval.
-            let delta = sim.tol * scale;
-            let rho = |w: f64| phi(w).slide_lateral_n.abs() - w;
-            let near = |x: f64, k: f64| rho((x - k * delta).max(0.0)) * rho(x + k * delta) <= 0.0;
+            let normals = rig_normals(&sim, &phi(w));
             if e.newton {
-                // Phase 2's test: the load the law saw reproduces itself to tolerance, and
-                // a fixed point lies within tolerance of it.
                 newton += 1;
-                assert!(
-                    (normals[4] - w).abs() <= delta && near(w, 1.0),
-                    "t = {t}, theta = {theta}: the law saw {w} N, Phi(W) = {} N, tolerance \
-                     {delta:e} N",
-                    normals[4]
-                );
+                assert_phase_2_fixed_point(&sim, &phi, &normals, w, (t, theta));
             }
             // (Phase 1's exit is its documented estimate, the last change and its ratio to
             // the one before, which cannot be re-checked from the result alone.)
@@ -746,6 +755,44 @@ fn engine_plain_iteration_settles(
     false
 }
 
+/// Each of the engine's `pistons` (joint indices) in the evaluation `e` (scratch `w`) at
+/// `(omega, theta)` with the final solve's loads `normals`: the load its law saw, its force
+/// there (written out) and the booked power; after phase 2, the load reproduces itself.
+fn check_pistons(
+    sim: &Simulation,
+    (e, w): (&Eval, &Work),
+    normals: &[f64],
+    pistons: &[usize],
+    (omega, theta): (f64, f64),
+) {
+    let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+    for (k, &ji) in pistons.iter().enumerate() {
+        // The load the law saw, its force there (written out) and the booked power.
+        let input = &w.inputs[ji];
+        let load = input.normal_load_n;
+        let f = sqrt_force(5.0, input, load);
+        let applied = e.totals[ji];
+        assert!(
+            (f - applied).abs() <= 1e-12 * (1.0 + f.abs()),
+            "{f} vs {applied}"
+        );
+        assert_eq!(
+            e.rates[sim.layout().power(k)],
+            -(f * input.relative_velocity)
+        );
+        if e.newton {
+            // Phase 2's test: the load each law saw reproduces itself to tolerance.
+            assert!(
+                (normals[ji] - load).abs() <= sim.tol * scale,
+                "{omega} rad/s, theta = {theta}, piston {}: the law saw {load} N, \
+                 the solve gives {} N",
+                k + 1,
+                normals[ji]
+            );
+        }
+    }
+}
+
 #[test]
 fn an_engine_settles_by_phase_2_where_its_plain_iteration_cannot() {
     let sim = sqrt_engine();
@@ -794,32 +841,7 @@ fn an_engine_settles_by_phase_2_where_its_plain_iteration_cannot() {
                 e.normals, normals,
                 "the reported loads are the final solve's"
             );
-            let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
-            for (k, &ji) in pistons.iter().enumerate() {
-                // The load the law saw, its force there (written out) and the booked power.
-                let input = &w.inputs[ji];
-                let load = input.normal_load_n;
-                let f = sqrt_force(5.0, input, load);
-                let applied = e.totals[ji];
-                assert!(
-                    (f - applied).abs() <= 1e-12 * (1.0 + f.abs()),
-                    "{f} vs {applied}"
-                );
-                assert_eq!(
-                    e.rates[sim.layout().power(k)],
-                    -(f * input.relative_velocity)
-                );
-                if e.newton {
-                    // Phase 2's test: the load each law saw reproduces itself to tolerance.
-                    assert!(
-                        (normals[ji] - load).abs() <= sim.tol * scale,
-                        "{omega} rad/s, theta = {theta}, piston {}: the law saw {load} N, \
-                         the solve gives {} N",
-                        k + 1,
-                        normals[ji]
-                    );
-                }
-            }
+            check_pistons(&sim, (&e, &w), &normals, &pistons, (omega, theta));
             if !engine_plain_iteration_settles(&sim, &kin, &pistons, &w.inputs) {
                 plain_failures += 1;
                 assert!(

@@ -7,6 +7,7 @@
 
 use nalgebra::Vector2;
 
+use super::bind::Bodies;
 use super::evaluate::Control;
 use crate::engine::{CrankTrain, CylinderLoads, TrainKinematics, TrainLoads, TrainReactions};
 use crate::gas::{cycle_angle, GasModel, GasState, LawGas};
@@ -42,6 +43,16 @@ impl Role {
         match self {
             Role::Main(_) => 0,
             Role::BigEnd(k) | Role::SmallEnd(k) | Role::Piston(k) => k,
+        }
+    }
+
+    /// Which of the joint's bodies is the inner member: the crank's journal (A) in a main
+    /// bearing, the crank pin (B, the crank) in the big end, the piston pin (A, the piston) in
+    /// the small end, the piston (A) in the cylinder.
+    pub(crate) fn inner(self) -> tribo_plugin_api::InnerBody {
+        match self {
+            Role::BigEnd(_) => tribo_plugin_api::InnerBody::B,
+            _ => tribo_plugin_api::InnerBody::A,
         }
     }
 
@@ -175,27 +186,59 @@ impl Crank {
         }
     }
 
-    /// The relative velocity of the joint `role` in the current configuration (rad/s for
-    /// bearings and pins, m/s for a slide).
+    /// The two bodies of the joint `role` in the current configuration, body A first: a main
+    /// bearing, crank and block (at rest); a big end, rod and crank; a small end, piston and
+    /// rod (angles in the plane, rad, and angular velocities, rad/s; an engine's piston is
+    /// turned by its bank angle and does not rotate); a slide, the piston's position and speed
+    /// along the cylinder axis (m, m/s) and the cylinder. Their relative velocity
+    /// ([`Bodies::relative`]) is the crank speed, rod minus crank, piston minus rod, the piston
+    /// speed.
     #[inline]
-    pub(crate) fn relative_velocity(&self, role: Role) -> f64 {
+    pub(crate) fn bodies(&self, role: Role) -> Bodies {
+        let block = (0.0, 0.0);
         match self {
             Crank::Rig(r) => {
-                let qd = &r.kin.qd;
+                let (q, qd) = (&r.kin.q, &r.kin.qd);
+                let crank = (q[2], qd[2]);
+                let rod = (q[5], qd[5]);
                 match role {
-                    Role::Main(_) => qd[2],
-                    Role::BigEnd(_) => qd[5] - qd[2],
-                    Role::SmallEnd(_) => qd[8] - qd[5],
-                    Role::Piston(_) => qd[7],
+                    Role::Main(_) => Bodies { a: crank, b: block },
+                    Role::BigEnd(_) => Bodies { a: rod, b: crank },
+                    Role::SmallEnd(_) => Bodies {
+                        a: (q[8], qd[8]),
+                        b: rod,
+                    },
+                    Role::Piston(_) => Bodies {
+                        a: (q[7], qd[7]),
+                        b: block,
+                    },
                 }
             }
             Crank::Train(t) => {
                 let kin = &t.kin;
+                let crank = (kin.theta, kin.omega);
+                let bank = |k: usize| t.train.geometry().cylinders[k].bank_rad;
+                let rod = |k: usize| {
+                    let c = &kin.cylinders[k];
+                    (bank(k) + c.rod_angle_rad, c.rod_rate_rad_s)
+                };
                 match role {
-                    Role::Main(_) => kin.omega,
-                    Role::BigEnd(k) => kin.cylinders[k].rod_rate_rad_s - kin.omega,
-                    Role::SmallEnd(k) => -kin.cylinders[k].rod_rate_rad_s,
-                    Role::Piston(k) => kin.cylinders[k].piston_speed_m_s,
+                    Role::Main(_) => Bodies { a: crank, b: block },
+                    Role::BigEnd(k) => Bodies {
+                        a: rod(k),
+                        b: crank,
+                    },
+                    Role::SmallEnd(k) => Bodies {
+                        a: (bank(k), 0.0),
+                        b: rod(k),
+                    },
+                    Role::Piston(k) => Bodies {
+                        a: (
+                            kin.cylinders[k].piston_position_m,
+                            kin.cylinders[k].piston_speed_m_s,
+                        ),
+                        b: block,
+                    },
                 }
             }
         }

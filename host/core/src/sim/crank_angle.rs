@@ -1,11 +1,13 @@
 //! Crank-angle-resolved results: per plateau, the rig at the plateau's speed sampled over one
 //! cycle (a revolution, or 720 degrees for a 4-stroke cycle) at a fixed angular resolution:
-//! each law's friction torque at the crank, power, normal load, sliding speed and regime, the
-//! big-end and main-bearing loads and the gas pressures.
+//! each law's friction torque at the crank, power, normal load, sliding speed, regime and the
+//! diagnostics it reports (contract version 3: minimum film, eccentricity, peak pressure,
+//! asperity share), the big-end and main-bearing loads and the gas pressures.
 
 use tribo_plugin_api::serde::{Deserialize, Serialize};
-use tribo_plugin_api::Regime;
+use tribo_plugin_api::{LawInput, LawOutput, Regime};
 
+use super::bind::{checked_power, law_failed, set_load, BoundLaw};
 use super::error::SimError;
 use super::evaluate::{Eval, Point, Work};
 use super::Simulation;
@@ -24,22 +26,62 @@ pub struct LawSample {
     pub sliding_speed_m_s: f64,
     /// Lubrication regime the law reported.
     pub regime: String,
+    /// Minimum oil-film thickness, m, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_film_m: Option<f64>,
+    /// Eccentricity ratio, x component in the outer member's frame, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eccentricity_x: Option<f64>,
+    /// Eccentricity ratio, y component, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eccentricity_y: Option<f64>,
+    /// Peak film pressure, Pa, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_pressure_pa: Option<f64>,
+    /// Share of the normal load carried by asperity contact, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub asperity_share: Option<f64>,
 }
 
 impl LawSample {
     /// The sample of one law: friction torque and power from the evaluation's rates (`power`
-    /// W at crank speed `omega`, its regime `indicators`), the joint's normal load `normal_n`
-    /// and the law's sliding speed `sliding_m_s`.
-    fn new(power: f64, omega: f64, indicators: &[f64], normal_n: f64, sliding_m_s: f64) -> Self {
+    /// W at crank speed `omega`, its regime `indicators`), normal load and sliding speed from
+    /// its loaded `input`, and the diagnostics of `out`, the law at that input.
+    fn new(power: f64, omega: f64, indicators: &[f64], input: &LawInput, out: &LawOutput) -> Self {
+        let (ex, ey) = out.eccentricity().unzip();
         Self {
             // At rest (a stepped run's start) nothing turns and nothing dissipates.
             friction_torque_nm: if omega != 0.0 { power / omega } else { 0.0 },
             power_w: power,
-            normal_load_n: normal_n,
-            sliding_speed_m_s: sliding_m_s,
+            normal_load_n: input.normal_load_n,
+            sliding_speed_m_s: input.sliding_velocity_m_s,
             regime: regime_name(indicators).to_string(),
+            min_film_m: out.min_film(),
+            eccentricity_x: ex,
+            eccentricity_y: ey,
+            peak_pressure_pa: out.peak_pressure(),
+            asperity_share: out.asperity_share(),
         }
     }
+}
+
+/// Law `law` at its loaded `input` with its state `state` (on joint `joint` of kind `kind`,
+/// the largest reaction `reaction_n`), for the diagnostics of a trace: the output of the same
+/// evaluation the run makes, checked the same way (a diagnostic out of its physical range is
+/// an error naming law, joint and time).
+fn sample_output(
+    joint: &str,
+    kind: tribo_plugin_api::JointKind,
+    law: &BoundLaw,
+    input: &LawInput,
+    state: &[f64],
+    reaction_n: f64,
+) -> Result<LawOutput, SimError> {
+    let out = law
+        .output(input, state)
+        .map_err(|e| law_failed(joint, input, e))?;
+    checked_power(joint, kind, law, input, &out, reaction_n)?;
+    Ok(out)
 }
 
 /// The rig at one crank angle of a plateau's cycle.
@@ -174,10 +216,12 @@ impl Simulation {
                     let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
                     self.evaluate(&at, &guess, &mut w, &mut e)?;
                     guess.copy_from_slice(&e.totals);
-                    self.commit(&mut w, &e)?;
                     if pass + 1 == passes {
+                        // Sampled before the commit: the laws' states are those the
+                        // evaluation used.
                         samples.push(self.angle_sample(theta, omega, &w, &e)?);
                     }
+                    self.commit(&mut w, &e)?;
                 }
             }
             traces.push(CrankAngleTrace {
@@ -198,7 +242,8 @@ impl Simulation {
     }
 
     /// Every law's sample at crank speed `omega` from the last evaluation in `w` (its law
-    /// inputs), its settled normal loads `normals` and rates `rates`.
+    /// inputs, the crank model's final solve and the laws' states), its settled normal loads
+    /// `normals` and rates `rates`: each law's rates, and its diagnostics at the settled loads.
     pub(super) fn law_samples(
         &self,
         omega: f64,
@@ -208,13 +253,21 @@ impl Simulation {
     ) -> Result<Vec<LawSample>, SimError> {
         let layout = self.layout();
         let mut law_samples = Vec::with_capacity(self.n_laws);
+        let reaction_n = normals.iter().fold(0.0, |m: f64, n| m.max(*n));
         for (ji, j) in self.joints.iter().enumerate() {
-            let sliding = w.inputs.get(ji).map_or(0.0, |i| i.sliding_velocity_m_s);
-            for i in 0..j.laws.len() {
+            // Without laws the inputs are not built (and nothing is sampled).
+            let Some(mut input) = w.inputs.get(ji).copied() else {
+                continue;
+            };
+            let (comp, moment) = w.crank.reaction(j.role);
+            set_load(&mut input, comp, moment, normals[ji]);
+            for (i, law) in j.laws.iter().enumerate() {
                 let k = j.first_law + i;
+                let state = &w.states.0[k];
+                let out = sample_output(&j.name, j.role.kind(), law, &input, state, reaction_n)?;
                 let power = rates[layout.power(k)];
                 let regimes: Vec<f64> = (0..4).map(|r| rates[layout.regime(k, r)]).collect();
-                law_samples.push(LawSample::new(power, omega, &regimes, normals[ji], sliding));
+                law_samples.push(LawSample::new(power, omega, &regimes, &input, &out));
             }
         }
         Ok(law_samples)

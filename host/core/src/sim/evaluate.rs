@@ -7,7 +7,7 @@ use std::f64::consts::TAU;
 
 use tribo_plugin_api::LawInput;
 
-use super::bind::{Instant, LawStates};
+use super::bind::{set_load, Bodies, Instant, LawStates};
 use super::crank::Crank;
 use super::error::{SimError, Unsettled};
 use super::newton::{Trend, Verdict};
@@ -102,6 +102,8 @@ pub(super) struct Work {
     pub(super) crank: Crank,
     pub(super) law_gas: Vec<LawGas>,
     pub(super) inputs: Vec<LawInput>,
+    /// Each joint's two bodies and relative velocity in the configuration evaluated.
+    pub(super) bodies: Vec<Bodies>,
     pub(super) rel: Vec<f64>,
     pub(super) prev: Vec<f64>,
     pub(super) states: LawStates,
@@ -154,6 +156,7 @@ impl Simulation {
             crank: self.crank.clone(),
             law_gas: Vec::with_capacity(self.crank.cylinders()),
             inputs: Vec::with_capacity(n),
+            bodies: vec![Bodies::default(); n],
             rel: vec![0.0; n],
             prev: vec![0.0; n],
             states: LawStates::new(&self.joints)?,
@@ -247,14 +250,15 @@ impl Simulation {
         if !gas.is_empty() {
             e.rates[layout.gas()] = gas_power;
         }
-        for (r, j) in w.rel.iter_mut().zip(&self.joints) {
-            *r = w.crank.relative_velocity(j.role);
+        for ((b, r), j) in w.bodies.iter_mut().zip(&mut w.rel).zip(&self.joints) {
+            *b = w.crank.bodies(j.role);
+            *r = b.relative();
         }
         check_inputs(self, at, &w.rel)?;
         // The law inputs but for the loads: built once, each round of laws sets only the loads.
         w.inputs.clear();
         if self.n_laws > 0 {
-            for (j, rel) in self.joints.iter().zip(&w.rel) {
+            for (j, bodies) in self.joints.iter().zip(&w.bodies) {
                 // A cylinder's joints see its own gas state; the mains, cylinder 1's.
                 let instant = Instant {
                     t: at.t,
@@ -264,7 +268,7 @@ impl Simulation {
                     oil: at.oil,
                     gas: w.law_gas[j.role.cylinder()],
                 };
-                w.inputs.push(j.input(&instant, *rel));
+                w.inputs.push(j.input(&instant, bodies));
             }
         }
         Ok(())
@@ -287,10 +291,7 @@ impl Simulation {
             }
             let (comp, moment) = w.crank.reaction(j.role);
             let input = &mut w.inputs[ji];
-            input.normal_load_n = e.normals[ji];
-            input.reaction_x_n = comp.x;
-            input.reaction_y_n = comp.y;
-            input.reaction_moment_nm = moment;
+            set_load(input, comp, moment, e.normals[ji]);
             e.totals[ji] = j.force(input, &w.states, reaction_n, Some(&mut e.rates), layout)?;
         }
         Ok(())

@@ -50,6 +50,7 @@ use crate::mechanics::{Mechanism, RigGeometry};
 use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature};
 use crate::observe::{NoObserver, StepObserver};
 
+pub use bind::suitability_notes;
 pub use crank_angle::{AngleSample, CrankAngleTrace, CylinderSample, LawSample};
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use results::{
@@ -69,8 +70,8 @@ pub const GRAVITY_M_S2: f64 = 9.80665;
 /// What a commit hands a stateful law.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Commit {
-    /// The last round's inputs with the final solve's normal loads and no reaction
-    /// components (the single-cylinder rig's rule before the solvers were one).
+    /// The last round's inputs loaded with the final solve's normal loads and reactions (the
+    /// single-cylinder rig's rule before the solvers were one).
     Rebuilt,
     /// The last round's inputs as the laws were evaluated at them (the engines' rule).
     LastInputs,
@@ -149,6 +150,9 @@ pub struct Simulation {
     /// Swept volume of all cylinders, m^3.
     displacement_m3: f64,
     rules: Rules,
+    /// Warnings about the laws on this rig (a law on a bearing type it does not suit), first
+    /// among every result's warnings.
+    notes: Vec<String>,
     /// What a stepped run's inputs set instead of the rig's own (nothing in a plain run).
     held: stepping::Held,
     /// Each cylinder's ambient gas model on a rig without gas loads (else empty): what a
@@ -263,7 +267,8 @@ impl Simulation {
         bind::check_laws(model, registry)
     }
 
-    /// Bind the model's laws (from `registry`) and prepare the crank model, cycle and gas.
+    /// Bind the model's laws (from `registry`) and prepare the crank model, cycle and gas; the
+    /// laws' suitability to the rig's bearings is judged here ([`suitability_notes`]).
     pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
         let f = model;
         let (crank, [gas, ambient_gas]) = crank_and_gas(f)?;
@@ -305,10 +310,16 @@ impl Simulation {
                 * 2.0
                 * f.geometry.crank_radius_m,
             rules: if engine { Rules::ENGINE } else { Rules::RIG },
+            notes: bind::suitability_notes(f, registry),
             held: stepping::Held::default(),
             ambient_gas,
             oil: (f.oil.viscosity.clone(), f.oil.density_kg_m3),
         })
+    }
+
+    /// The warnings about the laws on this rig, which every result carries first.
+    pub fn notes(&self) -> &[String] {
+        &self.notes
     }
 
     /// Report progress (permille of the simulated cycle) to `p`.

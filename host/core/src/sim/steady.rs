@@ -68,7 +68,7 @@ impl Simulation {
             steps,
             rejected_steps: 0,
             max_friction_iterations: w.max_it,
-            warnings: Vec::new(),
+            warnings: self.notes.clone(),
             law_time: super::bind::law_time(&self.joints),
         })
     }

@@ -323,7 +323,9 @@ impl Run {
 
     /// Every law after the last accepted step (in the order of
     /// [`Simulation::law_names`]): its torque at the crank, power, load, sliding speed and
-    /// regime.
+    /// regime, and the diagnostics it reports (contract version 3: film, eccentricity,
+    /// pressure, asperity share), evaluated at the step's settled loads with the states
+    /// committed there.
     pub fn laws(&self) -> Result<Vec<LawSample>, SimError> {
         let s = &self.run.s;
         self.sim

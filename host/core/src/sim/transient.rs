@@ -251,7 +251,9 @@ impl Simulation {
             dissipated,
             r.s.acc[layout.gas()],
         );
-        let (results, warnings) = r.plateaus.results(|pi, m| self.plateau_result(pi, m))?;
+        let (results, run_warnings) = r.plateaus.results(|pi, m| self.plateau_result(pi, m))?;
+        let mut warnings = self.notes.clone();
+        warnings.extend(run_warnings);
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: match self.drive {
@@ -282,10 +284,8 @@ impl Simulation {
             }
             let mut input = w.inputs[ji];
             if self.rules.commit == Commit::Rebuilt {
-                input.normal_load_n = e.normals[ji];
-                input.reaction_x_n = 0.0;
-                input.reaction_y_n = 0.0;
-                input.reaction_moment_nm = 0.0;
+                let (comp, moment) = w.crank.reaction(j.role);
+                super::bind::set_load(&mut input, comp, moment, e.normals[ji]);
             }
             j.commit(&input, &mut w.states)?;
         }

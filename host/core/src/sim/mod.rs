@@ -91,6 +91,8 @@ struct Rules {
     /// Each plateau of the crank-angle traces starts its friction iteration from zero
     /// (rather than from the previous plateau's last point).
     fresh_trace_guess: bool,
+    /// The PI drive runs fixed-step RK4 whatever `solver.integrator` says.
+    fixed_step_pi: bool,
 }
 
 impl Rules {
@@ -100,6 +102,7 @@ impl Rules {
         commit: Commit::Rebuilt,
         fresh_first_stage: false,
         fresh_trace_guess: true,
+        fixed_step_pi: false,
     };
     /// The engines'.
     const ENGINE: Rules = Rules {
@@ -107,6 +110,7 @@ impl Rules {
         commit: Commit::LastInputs,
         fresh_first_stage: true,
         fresh_trace_guess: false,
+        fixed_step_pi: true,
     };
 }
 

@@ -19,7 +19,7 @@ fn bench(c: &mut Criterion) {
     tribo::lawset::LawSet::load("4b11-physical")
         .expect("bundled set")
         .apply(&mut rig);
-    let mut sim = tribo::rig::any_simulation(&rig, &reg).expect("engine simulation");
+    let mut sim = tribo::rig::simulation(&rig, &reg).expect("engine simulation");
     let mut g = c.benchmark_group("physical");
     g.sample_size(10);
     g.bench_function("steady_4b11_physical_7_speeds", |b| {

@@ -5,17 +5,71 @@
 //! not move).
 
 use tribo_plugin_api::loader::LawRegistry;
+use tribo_plugin_api::{suits, suits_text, BearingType};
 
 use super::{CrankAngleTrace, EngineSimulation, Fmep, RunResult, SimError, Simulation};
-use crate::model::{RigFile, JOINT_NAMES};
+use crate::model::{LawRef, RigFile, JOINT_NAMES};
 use crate::observe::{Position, StepObserver};
 
-/// A rig ready to run, whatever its crank train.
-pub enum RigSimulation {
+/// A rig ready to run, whatever its crank train, with the warnings its laws raise on it.
+pub struct RigSimulation {
+    kind: Kind,
+    /// Warnings about the laws on this rig (a law on a bearing type it does not suit), added
+    /// to every result.
+    notes: Vec<String>,
+}
+
+/// The crank train's own simulation.
+enum Kind {
     /// The single-cylinder rig (five joints).
     Single(Box<Simulation>),
     /// A multi-cylinder engine (`docs/engines.md`).
     Engine(Box<EngineSimulation>),
+}
+
+/// One warning per law on a joint whose declared bearing type the law does not suit (its
+/// `SUITS_*` bits; a law declaring none, or a joint the rig declares nothing for, is never
+/// warned about), naming the joint, the law, what the law is made for and what the joint is.
+/// A law the registry cannot provide is left to the binding's error.
+pub fn suitability_notes(model: &RigFile, registry: &LawRegistry) -> Vec<String> {
+    let joints: Vec<(String, Vec<LawRef>)> = if model.engine.is_some() {
+        super::engine_run::laws_by_joint(model)
+    } else {
+        model
+            .joints
+            .named()
+            .iter()
+            .map(|(name, j)| ((*name).to_string(), j.laws.clone()))
+            .collect()
+    };
+    let mut notes = Vec::new();
+    for (joint, laws) in joints {
+        let bearing = model.bearing_type(&joint);
+        for law in laws {
+            let Ok(lib) = registry.get(&law.law) else {
+                continue;
+            };
+            if !suits(lib.suits(), bearing) {
+                notes.push(format!(
+                    "joint `{joint}`: law `{}` is made for {}, but the rig declares {} there",
+                    law.law,
+                    suits_text(lib.suits()),
+                    bearing_words(bearing)
+                ));
+            }
+        }
+    }
+    notes
+}
+
+/// A declared bearing type in a sentence.
+fn bearing_words(bearing: BearingType) -> &'static str {
+    match bearing {
+        BearingType::Unspecified => "no bearing type",
+        BearingType::Plain => "a plain bearing",
+        BearingType::Rolling => "a rolling-element bearing",
+        BearingType::Slide => "a slide",
+    }
 }
 
 impl RigSimulation {
@@ -29,66 +83,87 @@ impl RigSimulation {
         }
     }
 
-    /// Bind the model's laws (from `registry`) and prepare its crank train and cycle.
+    /// Bind the model's laws (from `registry`) and prepare its crank train and cycle; the
+    /// laws' suitability to the rig's bearings is judged here ([`suitability_notes`]).
     pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
-        Ok(if model.engine.is_some() {
-            Self::Engine(Box::new(EngineSimulation::new(model, registry)?))
+        let kind = if model.engine.is_some() {
+            Kind::Engine(Box::new(EngineSimulation::new(model, registry)?))
         } else {
-            Self::Single(Box::new(Simulation::new(model, registry)?))
+            Kind::Single(Box::new(Simulation::new(model, registry)?))
+        };
+        Ok(Self {
+            kind,
+            notes: suitability_notes(model, registry),
         })
     }
 
     /// Whether the rig is a multi-cylinder engine.
     pub fn is_engine(&self) -> bool {
-        matches!(self, Self::Engine(_))
+        matches!(self.kind, Kind::Engine(_))
+    }
+
+    /// The warnings about the laws on this rig, which every result carries first.
+    pub fn notes(&self) -> &[String] {
+        &self.notes
     }
 
     /// The joints' names, in the order of a time series' normal loads.
     pub fn joint_names(&self) -> Vec<String> {
-        match self {
-            Self::Single(_) => JOINT_NAMES.iter().map(|s| (*s).to_string()).collect(),
-            Self::Engine(e) => e.joint_names(),
+        match &self.kind {
+            Kind::Single(_) => JOINT_NAMES.iter().map(|s| (*s).to_string()).collect(),
+            Kind::Engine(e) => e.joint_names(),
         }
+    }
+
+    /// `result` with this rig's notes before its own warnings.
+    fn noted(&self, result: Result<RunResult, SimError>) -> Result<RunResult, SimError> {
+        result.map(|mut r| {
+            r.warnings.splice(0..0, self.notes.iter().cloned());
+            r
+        })
     }
 
     /// Report progress (permille of the simulated cycle) to `p`.
     pub fn report_progress(&mut self, p: Position) {
-        match self {
-            Self::Single(s) => s.report_progress(p),
-            Self::Engine(e) => e.report_progress(p),
+        match &mut self.kind {
+            Kind::Single(s) => s.report_progress(p),
+            Kind::Engine(e) => e.report_progress(p),
         }
     }
 
     /// The run's FMEP definition.
     pub fn fmep(&self) -> Fmep {
-        match self {
-            Self::Single(s) => s.fmep(),
-            Self::Engine(e) => e.fmep(),
+        match &self.kind {
+            Kind::Single(s) => s.fmep(),
+            Kind::Engine(e) => e.fmep(),
         }
     }
 
     /// Run the whole test cycle without per-step output.
     pub fn run(&mut self) -> Result<RunResult, SimError> {
-        match self {
-            Self::Single(s) => s.run(),
-            Self::Engine(e) => e.run(),
-        }
+        let r = match &mut self.kind {
+            Kind::Single(s) => s.run(),
+            Kind::Engine(e) => e.run(),
+        };
+        self.noted(r)
     }
 
     /// Run the whole test cycle, handing every accepted step to `observer`.
     pub fn run_with(&mut self, observer: &mut dyn StepObserver) -> Result<RunResult, SimError> {
-        match self {
-            Self::Single(s) => s.run_with(observer),
-            Self::Engine(e) => e.run_with(observer),
-        }
+        let r = match &mut self.kind {
+            Kind::Single(s) => s.run_with(observer),
+            Kind::Engine(e) => e.run_with(observer),
+        };
+        self.noted(r)
     }
 
     /// Each plateau's periodic steady state, computed directly.
     pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
-        match self {
-            Self::Single(s) => s.run_steady(),
-            Self::Engine(e) => e.run_steady(),
-        }
+        let r = match &mut self.kind {
+            Kind::Single(s) => s.run_steady(),
+            Kind::Engine(e) => e.run_steady(),
+        };
+        self.noted(r)
     }
 
     /// Every plateau's cycle in steady state, sampled every `resolution_deg` degrees.
@@ -96,9 +171,9 @@ impl RigSimulation {
         &mut self,
         resolution_deg: f64,
     ) -> Result<Vec<CrankAngleTrace>, SimError> {
-        match self {
-            Self::Single(s) => s.crank_angle_traces(resolution_deg),
-            Self::Engine(e) => e.crank_angle_traces(resolution_deg),
+        match &mut self.kind {
+            Kind::Single(s) => s.crank_angle_traces(resolution_deg),
+            Kind::Engine(e) => e.crank_angle_traces(resolution_deg),
         }
     }
 }

@@ -621,7 +621,7 @@ impl RunJob {
         series: Option<&mut dyn std::io::Write>,
     ) -> anyhow::Result<RunOutput> {
         let rig = self.rig()?;
-        let mut sim = tribo::rig::any_simulation(&rig, registry)?;
+        let mut sim = tribo::rig::simulation(&rig, registry)?;
         sim.report_progress(progress);
         let result = match series {
             _ if self.steady => sim.run_steady()?,
@@ -1476,7 +1476,7 @@ fn cmd_fmu_export(g: &Globals, a: FmuExportArgs) -> anyhow::Result<()> {
     let rig = a.rig.load()?;
     let registry = g.registry()?;
     // Every law bound once here, so a bad law or parameter is reported where it was written.
-    tribo::rig::any_simulation(&rig, &registry)?;
+    tribo::rig::simulation(&rig, &registry)?;
     let exe = std::env::current_exe()
         .context("finding the tribo executable to ship as the FMU's worker")?;
     let library = exe

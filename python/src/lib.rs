@@ -529,7 +529,7 @@ fn run_local(job: &str) -> Result<RunReply, Failure> {
     }
     rig::attach_laws(&mut rig, &job.laws)?;
     let registry = registry(&job.plugin_paths)?;
-    let mut sim = rig::any_simulation(&rig, &registry)?;
+    let mut sim = rig::simulation(&rig, &registry)?;
     let (result, series) = if job.steady {
         (sim.run_steady()?, None)
     } else if job.timeseries {

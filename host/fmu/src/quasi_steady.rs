@@ -1,7 +1,7 @@
 //! The temporary [`Stepping`] adapter over today's public solver (to be replaced by the core's
 //! stepping API): the crank turns at the input speed, and at each speed and oil temperature
 //! the rig is the solver's periodic steady state at that speed, one cycle evaluated on the
-//! steady run's own crank-angle grid (`RigSimulation::crank_angle_traces`: kinematics, gas,
+//! steady run's own crank-angle grid (`Simulation::crank_angle_traces`: kinematics, gas,
 //! the friction/reaction iteration and every law, at each angle).
 //!
 //! Between grid angles every quantity is linear in crank angle, and it is integrated exactly:
@@ -18,7 +18,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 use tribo_core::cycle::Segment;
 use tribo_core::model::{RigFile, Temperature};
-use tribo_core::sim::RigSimulation;
+use tribo_core::sim::Simulation;
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::interface::joint_laws;
@@ -208,7 +208,7 @@ impl QuasiSteady {
             Segment::Hold { duration_s: 1.0 },
         ]);
         m.oil.temperature_c = Temperature::Constant(temp);
-        let mut sim = RigSimulation::new(&m, &self.registry)?;
+        let mut sim = Simulation::new(&m, &self.registry)?;
         let n = (self.cycle / self.step).round() as usize;
         let resolution_deg = self.cycle.to_degrees() / n as f64;
         let trace = sim

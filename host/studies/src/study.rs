@@ -94,7 +94,7 @@ pub fn check_lawsets(
     registry: &LawRegistry,
 ) -> Result<(), StudyError> {
     check_each(rig, lawsets, |r| {
-        tribo_config::rig::any_simulation(r, registry).map(drop)
+        tribo_config::rig::simulation(r, registry).map(drop)
     })
 }
 
@@ -348,7 +348,7 @@ fn run_through(r: &mut Rig, rows: &[DataRow]) -> Result<(), Box<RigError>> {
 
 /// Run one rig, a single cylinder or an engine (steady-state or full cycle).
 pub fn run_rig(rig: &Rig, registry: &LawRegistry, steady: bool) -> Result<RunResult, SimError> {
-    let mut sim = tribo_config::rig::any_simulation(rig, registry)?;
+    let mut sim = tribo_config::rig::simulation(rig, registry)?;
     if steady {
         sim.run_steady()
     } else {

@@ -106,7 +106,7 @@ struct IsolationArgs {
     #[arg(long)]
     in_process: bool,
     /// Wall-time limit of each worker process (of this process with --in-process), s (0: none).
-    #[arg(long, default_value_t = isolate::DEFAULT_TIME_LIMIT_S, value_name = "S", value_parser = limit_seconds)]
+    #[arg(long, default_value_t = isolate::DEFAULT_TIME_LIMIT_S, value_name = "S", value_parser = limit_seconds, allow_negative_numbers = true)]
     time_limit_s: f64,
     /// Resident-memory limit of each worker process (of this process with --in-process), MiB
     /// (0: none).
@@ -114,7 +114,7 @@ struct IsolationArgs {
     memory_limit_mb: u64,
     /// Longest time one law call may take, s (0: none): a law stuck inside one call fails its
     /// run or law set, naming the law, its joint and the call's inputs.
-    #[arg(long, default_value_t = isolate::DEFAULT_CALL_LIMIT_S, value_name = "S", value_parser = limit_seconds)]
+    #[arg(long, default_value_t = isolate::DEFAULT_CALL_LIMIT_S, value_name = "S", value_parser = limit_seconds, allow_negative_numbers = true)]
     call_limit_s: f64,
 }
 
@@ -224,7 +224,7 @@ struct RunArgs {
     fmep: Option<PathBuf>,
     /// Angular resolution of --crank-angle, degrees, from 0.01 to 10 (at most 72 000 samples
     /// per cycle).
-    #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG", value_parser = resolution_deg)]
+    #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG", value_parser = resolution_deg, allow_negative_numbers = true)]
     resolution_deg: f64,
     /// Worker process and its limits.
     #[command(flatten)]
@@ -298,10 +298,10 @@ struct MassResponseArgs {
     #[arg(long, value_enum, default_value = "rod")]
     body: BodyArg,
     /// Mass (and inertia) scale factor.
-    #[arg(long, default_value_t = 0.6)]
+    #[arg(long, default_value_t = 0.6, allow_negative_numbers = true)]
     scale: f64,
     /// A sweep of scale factors instead (e.g. 0.5,0.6,...,1.1); writes a plot.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     scales: Option<Vec<f64>>,
     /// Law set (bundled name or file); repeat for several (default: fedem-baseline and
     /// stribeck-duty).

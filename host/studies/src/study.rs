@@ -1057,13 +1057,16 @@ pub fn check_sweep_inputs(temps_c: &[f64], speeds_rpm: &[f64]) -> Result<(), Swe
     if let Some(t) = temps_c.iter().find(|t| !(**t >= lo && **t <= hi)) {
         return Err(err(
             "--temps",
-            format!("{t} C is outside the viscosity model's valid range [{lo}, {hi}] C"),
+            format!(
+                "{} C is outside the viscosity model's valid range [{lo}, {hi}] C",
+                readable(*t)
+            ),
         ));
     }
     if let Some(s) = speeds_rpm.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
         return Err(err(
             "--speeds",
-            format!("every speed must be positive (rpm), got {s}"),
+            format!("every speed must be positive (rpm), got {}", readable(*s)),
         ));
     }
     for (option, list, unit) in [("--temps", temps_c, "C"), ("--speeds", speeds_rpm, "rpm")] {

@@ -236,8 +236,9 @@ fn solve_decreasing(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
     if fb >= 0.0 {
         return b;
     }
-    let tol = 1e-13 * (hi - lo).abs();
+    let tol = 1e-11 * (hi - lo).abs();
     let mut side = 0i8;
+    let mut last = f64::NAN;
     for _ in 0..200 {
         let x = (a * fb - b * fa) / (fb - fa);
         let x = if x.is_finite() && x > a && x < b {
@@ -246,9 +247,10 @@ fn solve_decreasing(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
             0.5 * (a + b)
         };
         let fx = f(x);
-        if fx == 0.0 || (b - a) <= tol {
+        if fx == 0.0 || (b - a) <= tol || (x - last).abs() <= tol {
             return x;
         }
+        last = x;
         if fx > 0.0 {
             a = x;
             fa = fx;
@@ -363,14 +365,24 @@ impl Law for PistonSkirt {
         let e0 = self.offset(&c, state);
         let dt = input.dt_s;
         let next = if dt > 0.0 && dt.is_finite() {
-            // Implicit Euler, e1 = e0 + dt de/dt(e1): the root lies between e0 and the
-            // quasi-static offset, towards which the piston moves.
-            let target = self.quasi_static(&c);
+            // Implicit Euler, e1 = e0 + dt de/dt(e1). The excess falls as the piston moves
+            // towards the quasi-static offset, so the root lies between e0 and the explicit
+            // step's end e0 + dt de/dt(e0) (kept inside the clearance); should the squeeze's
+            // damping make the rate rise there instead, the quasi-static offset bounds it.
+            let reach = self.reach();
             let g = |x: f64| x - e0 - dt * self.rate(&c, x).0;
-            if target > e0 {
-                solve_decreasing(|x| -g(x), e0, target)
-            } else if target < e0 {
-                solve_decreasing(|x| -g(x), target, e0)
+            let step = dt * self.rate(&c, e0).0;
+            let (lo, hi) = if step > 0.0 {
+                let end = (e0 + step).min(reach);
+                (e0, if g(end) >= 0.0 { end } else { self.quasi_static(&c) })
+            } else if step < 0.0 {
+                let end = (e0 + step).max(-reach);
+                (if g(end) <= 0.0 { end } else { self.quasi_static(&c) }, e0)
+            } else {
+                (e0, e0)
+            };
+            if hi > lo {
+                solve_decreasing(|x| -g(x), lo, hi)
             } else {
                 e0
             }

@@ -233,3 +233,4 @@ fn out_of_range_values_are_refused() {
         assert!(create_from_table::<PistonSkirt>(&table).is_err(), "{bad}");
     }
 }
+

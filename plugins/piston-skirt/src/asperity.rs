@@ -129,9 +129,13 @@ mod tests {
     /// `Gamma(7/4) = (3/4) Gamma(3/4)` with Gamma(3/4) = 1.2254167024651776.
     #[test]
     fn f52_at_zero_matches_its_closed_form() {
-        let exact = 2f64.powf(0.75) * 0.75 * 1.225_416_702_465_177_6
-            / (2.0 * std::f64::consts::PI).sqrt();
-        assert!((f52(0.0) - exact).abs() < 1e-12 * exact, "{} vs {exact}", f52(0.0));
+        let exact =
+            2f64.powf(0.75) * 0.75 * 1.225_416_702_465_177_6 / (2.0 * std::f64::consts::PI).sqrt();
+        assert!(
+            (f52(0.0) - exact).abs() < 1e-12 * exact,
+            "{} vs {exact}",
+            f52(0.0)
+        );
         assert!((f52_tabulated(0.0) - exact).abs() < 1e-12 * exact);
     }
 

@@ -170,16 +170,21 @@ impl PistonSkirt {
         Side {
             h_m: h,
             wedge_n: film.load_n,
-            asperity_n: self.rough.pad_load(
-                h,
-                c.pad.crown_m,
-                c.pad.height_m,
-                c.pad.width_m,
-            ),
+            asperity_n: self
+                .rough
+                .pad_load(h, c.pad.crown_m, c.pad.height_m, c.pad.width_m),
             shear_n: film.friction_n,
             peak_pa: film.peak_pa,
             damping: c.pad.squeeze_damping(h, c.eta),
         }
+    }
+
+    /// The static load (wedge and asperities) one wall's film `h` carries, N.
+    fn carried(&self, c: &Contact, h: f64) -> f64 {
+        c.pad.sliding_load_n(h, c.eta, c.speed)
+            + self
+                .rough
+                .pad_load(h, c.pad.crown_m, c.pad.height_m, c.pad.width_m)
     }
 
     /// Both walls at offset `e`: (the -y wall's film `c + e`, the +y wall's `c - e`).
@@ -191,8 +196,8 @@ impl PistonSkirt {
     /// Excess of the films' static loads over the thrust at offset `e`: positive pushes the
     /// piston towards +y. Decreasing in `e`.
     fn excess(&self, c: &Contact, e: f64) -> f64 {
-        let (minus, plus) = self.sides(c, e);
-        minus.carried_n() - plus.carried_n() - c.thrust
+        let cl = self.p.clearance_m;
+        self.carried(c, cl + e) - self.carried(c, cl - e) - c.thrust
     }
 
     /// The lateral speed `de/dt` at offset `e`: the excess carried by the closing film's
@@ -281,7 +286,7 @@ impl Law for PistonSkirt {
         vec![
             ParamSpec::number("clearance_m", "m", "radial clearance between skirt and bore (published 10-50 um)", 1e-6, 5e-4),
             ParamSpec::number("skirt_height_m", "m", "skirt height along the bore (the pad's length in the sliding direction)", 1e-3, 0.2),
-            ParamSpec::number("wetted_arc_rad", "rad", "wetted arc of each side of the skirt (80 degrees = 1.396)", 0.01, 3.14),
+            ParamSpec::number("wetted_arc_rad", "rad", "wetted arc of each side of the skirt (80 degrees = 1.396; at most half the bore)", 0.01, std::f64::consts::PI),
             ParamSpec::number("crown_m", "m", "barrel drop of the skirt profile from its crown to its edges (5-30 um; 0: a flat skirt, which carries no wedge load)", 0.0, 2e-4),
             ParamSpec::number("sigma_m", "m", "composite RMS roughness of skirt and bore (0.3-1.5 um)", 1e-8, 1e-5),
             ParamSpec::number("mu_b", "-", "boundary coefficient on the asperity load (0.05-0.15)", 0.0, 0.5),
@@ -293,12 +298,7 @@ impl Law for PistonSkirt {
     }
 
     fn new(p: Params) -> Result<Self, ParamError> {
-        let rough = Roughness::new(
-            p.sigma_m,
-            p.eta_beta_sigma,
-            p.sigma_over_beta,
-            p.modulus_pa,
-        );
+        let rough = Roughness::new(p.sigma_m, p.eta_beta_sigma, p.sigma_over_beta, p.modulus_pa);
         Ok(Self { p, rough })
     }
 
@@ -374,10 +374,24 @@ impl Law for PistonSkirt {
             let step = dt * self.rate(&c, e0).0;
             let (lo, hi) = if step > 0.0 {
                 let end = (e0 + step).min(reach);
-                (e0, if g(end) >= 0.0 { end } else { self.quasi_static(&c) })
+                (
+                    e0,
+                    if g(end) >= 0.0 {
+                        end
+                    } else {
+                        self.quasi_static(&c)
+                    },
+                )
             } else if step < 0.0 {
                 let end = (e0 + step).max(-reach);
-                (if g(end) <= 0.0 { end } else { self.quasi_static(&c) }, e0)
+                (
+                    if g(end) <= 0.0 {
+                        end
+                    } else {
+                        self.quasi_static(&c)
+                    },
+                    e0,
+                )
             } else {
                 (e0, e0)
             };

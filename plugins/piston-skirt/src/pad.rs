@@ -83,18 +83,10 @@ pub fn rupture_point(k: f64) -> f64 {
 /// streamers filling the fraction `h_c / h` of the gap, which carry the flow `U h_c / 2` and
 /// shear only where they touch (`eta U h_c / h^2`).
 pub fn sliding(k: f64) -> SlidingShape {
-    let sc = rupture_point(k);
+    let (sc, load) = rupture_and_load(k);
     let m = 1.0 + k * sc * sc;
     let full = integrals(k, -1.0, sc);
     let tail = integrals(k, sc, 1.0);
-    // J = -integral_{-1}^{s_c} s [1/q^2 - m/q^3] ds, with integral s/q^n = -1/(2k(n-1) q^(n-1)),
-    // written without the 1/k so that it keeps its digits for small k.
-    let qc = 1.0 + k * sc * sc;
-    let q1 = 1.0 + k;
-    let one_minus = 1.0 - sc * sc;
-    let d2 = -one_minus / (2.0 * qc * q1); // [integral s/q^2] from -1 to s_c
-    let d3 = -one_minus * (2.0 + k * (1.0 + sc * sc)) / (4.0 * qc * qc * q1 * q1); // [s/q^3]
-    let load = -(d2 - m * d3);
     let friction = 4.0 * full[0] - 3.0 * m * full[1] + m * tail[1];
     // The pressure peaks where h = h_c in the convergent half, at s = -s_c.
     let to_peak = integrals(k, -1.0, -sc);
@@ -105,6 +97,19 @@ pub fn sliding(k: f64) -> SlidingShape {
         friction,
         peak,
     }
+}
+
+/// The rupture point and the load factor `J` alone (what the lateral balance needs).
+pub fn rupture_and_load(k: f64) -> (f64, f64) {
+    let sc = rupture_point(k);
+    let m = 1.0 + k * sc * sc;
+    // J = -integral_{-1}^{s_c} s [1/q^2 - m/q^3] ds, with integral s/q^n = -1/(2k(n-1) q^(n-1)),
+    // written without the 1/k so that it keeps its digits for small k.
+    let q1 = 1.0 + k;
+    let one_minus = 1.0 - sc * sc;
+    let d2 = -one_minus / (2.0 * m * q1); // [integral s/q^2] from -1 to s_c
+    let d3 = -one_minus * (2.0 + k * (1.0 + sc * sc)) / (4.0 * m * m * q1 * q1); // [s/q^3]
+    (sc, -(d2 - m * d3))
 }
 
 /// `S(k) = integral_{-1}^{1} s^2 / (1 + k s^2)^3 ds`, the squeeze film's load factor
@@ -172,10 +177,24 @@ impl Pad {
         let s = sliding(k);
         let scale = eta * speed_m_s;
         SlidingFilm {
-            load_n: 1.5 * scale * l * l * s.load / (h0_m * h0_m) * self.width_m,
+            load_n: self.wedge_n(s.load, h0_m, scale),
             friction_n: scale * l * s.friction / (2.0 * h0_m) * self.width_m,
             peak_pa: 3.0 * scale * l * s.peak / (h0_m * h0_m),
         }
+    }
+
+    /// The load of the steady sliding film alone, N (as [`Pad::sliding`]'s `load_n`).
+    pub fn sliding_load_n(&self, h0_m: f64, eta: f64, speed_m_s: f64) -> f64 {
+        let k = self.crown_m / h0_m;
+        if k <= 0.0 || speed_m_s == 0.0 {
+            return 0.0;
+        }
+        self.wedge_n(rupture_and_load(k).1, h0_m, eta * speed_m_s)
+    }
+
+    /// `w = 1.5 eta U L^2 J / h0^2` over the width, N.
+    fn wedge_n(&self, j: f64, h0_m: f64, eta_u: f64) -> f64 {
+        1.5 * eta_u * self.height_m * self.height_m * j / (h0_m * h0_m) * self.width_m
     }
 
     /// The squeeze film's damping `K`, N s/m: an approaching film (`dh0/dt < 0`) carries
@@ -208,7 +227,10 @@ mod tests {
                 for n in 0..3 {
                     let fd = (a[n] - b[n]) / (2.0 * d);
                     let exact = q.powi(-(n as i32 + 1));
-                    assert!((fd - exact).abs() < 1e-8, "k {k} s {s} n {n}: {fd} vs {exact}");
+                    assert!(
+                        (fd - exact).abs() < 1e-8,
+                        "k {k} s {s} n {n}: {fd} vs {exact}"
+                    );
                 }
             }
         }

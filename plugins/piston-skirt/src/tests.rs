@@ -26,7 +26,9 @@ fn slide(v: f64, y: f64, eta: f64, dt: f64) -> LawInput {
 fn conforms() {
     assert_law_conforms::<PistonSkirt>();
     assert_law_conforms_with::<PistonSkirt>("clearance_m = 1e-5\ncrown_m = 0.0\nsigma_m = 1.5e-6");
-    assert_law_conforms_with::<PistonSkirt>("clearance_m = 5e-5\ncrown_m = 3e-5\nskirt_height_m = 0.03");
+    assert_law_conforms_with::<PistonSkirt>(
+        "clearance_m = 5e-5\ncrown_m = 3e-5\nskirt_height_m = 0.03",
+    );
 }
 
 // ---- closed forms, written out here (not through the crate's reduction formula) ----
@@ -79,7 +81,8 @@ fn closed_sliding(h0: f64, crown: f64, l: f64, eta: f64, u: f64) -> (f64, f64) {
     let w = -(l / 2.0).powi(2) * 6.0 * eta * u / (h0 * h0) * (anti(sc) - anti(-1.0));
     let full = closed_integrals(k, sc);
     let whole = closed_integrals(k, 1.0);
-    let f = eta * u * l / (2.0 * h0) * (4.0 * full[0] - 3.0 * m * full[1] + m * (whole[1] - full[1]));
+    let f =
+        eta * u * l / (2.0 * h0) * (4.0 * full[0] - 3.0 * m * full[1] + m * (whole[1] - full[1]));
     (w, f)
 }
 
@@ -87,7 +90,13 @@ fn closed_sliding(h0: f64, crown: f64, l: f64, eta: f64, u: f64) -> (f64, f64) {
 /// nearly flat to a strongly barrelled skirt.
 #[test]
 fn sliding_film_load_and_friction_match_the_closed_forms() {
-    for (h0, crown) in [(20e-6, 1e-6), (10e-6, 10e-6), (5e-6, 15e-6), (2e-6, 30e-6), (1e-6, 100e-6)] {
+    for (h0, crown) in [
+        (20e-6, 1e-6),
+        (10e-6, 10e-6),
+        (5e-6, 15e-6),
+        (2e-6, 30e-6),
+        (1e-6, 100e-6),
+    ] {
         let pad = Pad {
             height_m: 0.022,
             crown_m: crown,
@@ -95,8 +104,16 @@ fn sliding_film_load_and_friction_match_the_closed_forms() {
         };
         let got = pad.sliding(h0, 0.012, 7.5);
         let (w, f) = closed_sliding(h0, crown, 0.022, 0.012, 7.5);
-        assert!((got.load_n - w).abs() <= 1e-6 * w, "h0 {h0} crown {crown}: load {} vs {w}", got.load_n);
-        assert!((got.friction_n - f).abs() <= 1e-6 * f, "h0 {h0} crown {crown}: friction {} vs {f}", got.friction_n);
+        assert!(
+            (got.load_n - w).abs() <= 1e-6 * w,
+            "h0 {h0} crown {crown}: load {} vs {w}",
+            got.load_n
+        );
+        assert!(
+            (got.friction_n - f).abs() <= 1e-6 * f,
+            "h0 {h0} crown {crown}: friction {} vs {f}",
+            got.friction_n
+        );
     }
 }
 
@@ -119,12 +136,19 @@ fn steady_thrust_settles_where_the_closed_form_films_balance_it() {
     let (w_minus, f_minus) = closed_sliding(cl + e, crown, height, eta, u);
     let (w_plus, f_plus) = closed_sliding(cl - e, crown, height, eta, u);
     let balance = (w_minus - w_plus) * width;
-    assert!((balance - y).abs() <= 1e-6 * y, "films carry {balance} N of {y} N (e = {e})");
+    assert!(
+        (balance - y).abs() <= 1e-6 * y,
+        "films carry {balance} N of {y} N (e = {e})"
+    );
     // Thrust towards +y: the piston sits towards -y.
     assert!(e < 0.0);
     let out = l.evaluate(&input, &s);
     let friction = (f_minus + f_plus) * width;
-    assert!((out.force + friction).abs() <= 1e-6 * friction, "{} vs {friction}", out.force);
+    assert!(
+        (out.force + friction).abs() <= 1e-6 * friction,
+        "{} vs {friction}",
+        out.force
+    );
     let h = out.min_film().expect("film");
     assert!((h - (cl + e)).abs() < 1e-18);
     assert_eq!(out.asperity_share(), Some(0.0));
@@ -160,7 +184,10 @@ fn squeeze_film_approach_follows_the_closed_form() {
             let t = n as f64 * dt;
             let exact = (1.0 / (hi * hi) + 2.0 * w * t / (eta * width * height.powi(3))).powf(-0.5);
             let film = 25e-6 + s[0];
-            assert!((film - exact).abs() <= 2e-3 * exact, "t {t}: {film} vs {exact}");
+            assert!(
+                (film - exact).abs() <= 2e-3 * exact,
+                "t {t}: {film} vs {exact}"
+            );
         }
     }
 }
@@ -182,7 +209,11 @@ fn a_cycle_of_changing_thrust_dissipates_and_keeps_the_film() {
             let y = 2000.0 * (2.0 * th).sin();
             let input = slide(v, y, 0.01, dt);
             let out = l.evaluate(&input, &s);
-            assert!(out.force * v <= 1e-12, "{text}: power {} at {th}", out.force * v);
+            assert!(
+                out.force * v <= 1e-12,
+                "{text}: power {} at {th}",
+                out.force * v
+            );
             let h = out.min_film().expect("film");
             assert!(h > 0.0 && h <= 2.0 * l.p.clearance_m);
             let share = out.asperity_share().expect("share");
@@ -228,9 +259,13 @@ fn film_and_friction_trends() {
 
 #[test]
 fn out_of_range_values_are_refused() {
-    for bad in ["clearance_m = 0.0", "mu_b = -0.1", "crown_m = -1e-6", "wetted_arc_rad = 4.0"] {
+    for bad in [
+        "clearance_m = 0.0",
+        "mu_b = -0.1",
+        "crown_m = -1e-6",
+        "wetted_arc_rad = 4.0",
+    ] {
         let table: toml::Table = bad.parse().expect("toml");
         assert!(create_from_table::<PistonSkirt>(&table).is_err(), "{bad}");
     }
 }
-

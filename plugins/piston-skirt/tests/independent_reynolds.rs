@@ -88,13 +88,28 @@ fn sliding_load_and_friction_agree_with_a_numerical_reynolds_solution_within_1_p
             width_m: 1.0,
         };
         let got = pad.sliding(h0, eta, u);
-        let (ew, ef) = ((got.load_n / w_num - 1.0).abs(), (got.friction_n / f_num - 1.0).abs());
-        assert!(ew < 0.01, "h0 {h0}, crown {crown}: load {} vs numerical {w_num}", got.load_n);
-        assert!(ef < 0.01, "h0 {h0}, crown {crown}: friction {} vs numerical {f_num}", got.friction_n);
+        let (ew, ef) = (
+            (got.load_n / w_num - 1.0).abs(),
+            (got.friction_n / f_num - 1.0).abs(),
+        );
+        assert!(
+            ew < 0.01,
+            "h0 {h0}, crown {crown}: load {} vs numerical {w_num}",
+            got.load_n
+        );
+        assert!(
+            ef < 0.01,
+            "h0 {h0}, crown {crown}: friction {} vs numerical {f_num}",
+            got.friction_n
+        );
         let peak = reynolds(h0, crown, l, eta, u, 0.0, 1600)
             .into_iter()
             .fold(0.0, f64::max);
-        assert!((got.peak_pa / peak - 1.0).abs() < 0.01, "peak {} vs {peak}", got.peak_pa);
+        assert!(
+            (got.peak_pa / peak - 1.0).abs() < 0.01,
+            "peak {} vs {peak}",
+            got.peak_pa
+        );
     }
 }
 
@@ -110,7 +125,10 @@ fn squeeze_damping_agrees_with_a_numerical_reynolds_solution_within_1_percent() 
             width_m: 1.0,
         };
         let k = pad.squeeze_damping(h0, eta) * -v;
-        assert!((k / load - 1.0).abs() < 0.01, "h0 {h0} crown {crown}: {k} vs {load}");
+        assert!(
+            (k / load - 1.0).abs() < 0.01,
+            "h0 {h0} crown {crown}: {k} vs {load}"
+        );
         let peak = p.into_iter().fold(0.0, f64::max);
         let got = pad.squeeze_peak_pa(h0, eta, -v);
         assert!((got / peak - 1.0).abs() < 0.01, "peak {got} vs {peak}");

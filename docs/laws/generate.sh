@@ -20,4 +20,5 @@ lugre piston
 plain-journal main_a
 crank-churning main_a
 piston-skirt piston
+ring-pack piston
 LAWS

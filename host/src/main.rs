@@ -169,13 +169,28 @@ struct CompareArgs {
     /// Attach a law to every law set: JOINT=LAW[:PARAMS.toml] (added to the set's laws there).
     #[arg(long = "law", value_name = "JOINT=LAW[:PARAMS_TOML_FILE]")]
     laws: Vec<String>,
-    /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the thesis's table 10.4).
+    /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the bundled measurements of
+    /// the rig, the thesis's table 10.4 on crf250r-motored; a rig without any needs --data).
     #[arg(long)]
     data: Option<String>,
+    /// Use data whose `# rig:` line names another rig than the one compared.
+    #[arg(long)]
+    #[serde(default)]
+    data_for_any_rig: bool,
+    /// Score law sets with free parameters at their file's values instead of fitting them to
+    /// the data first (each is then labelled "not fitted").
+    #[arg(long)]
+    #[serde(default)]
+    no_fit: bool,
+    /// Latin-hypercube start points of each set's calibration, besides its own values and the
+    /// corners of its bounds.
+    #[arg(long, default_value_t = tribo::fit::DEFAULT_STARTS as u32, value_parser = clap::value_parser!(u32).range(0..=64))]
+    #[serde(default)]
+    starts: u32,
     /// Override rig values, as for `run`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
-    /// Output directory for comparison.csv, comparison.json and the plots.
+    /// Output directory for comparison.csv, comparison.json, the plots and the fitted law sets.
     #[arg(long, default_value = "tribo-compare")]
     out: PathBuf,
     /// Steady state at each speed instead of the full test cycle.
@@ -242,17 +257,22 @@ struct FitArgs {
     /// Parameters to fit, JOINT.LAW.PARAM,... (default: those the law set marks free).
     #[arg(long, value_delimiter = ',')]
     params: Option<Vec<String>>,
-    /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the thesis's table 10.4);
-    /// repeat for several runs: one parameter set is fitted to all, each point at its own
-    /// oil temperature.
+    /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the bundled measurements of
+    /// the rig, the thesis's table 10.4 on crf250r-motored); repeat for several runs: one
+    /// parameter set is fitted to all, each point at its own oil temperature.
     #[arg(long = "data", value_name = "FILE")]
     data: Vec<String>,
+    /// Use data whose `# rig:` line names another rig than the one fitted.
+    #[arg(long)]
+    #[serde(default)]
+    data_for_any_rig: bool,
     /// Data never used in fitting, scored with the fitted values; repeatable.
     #[arg(long = "validate", value_name = "FILE")]
     validate: Vec<String>,
-    /// Start points: the law set's values, then quasi-random points over the bounds; the
-    /// best result is kept and the spread of the others reported.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    /// Latin-hypercube start points over the bounds, besides the law set's own values and the
+    /// corners of the bounds (all of them up to four parameters, 16 beyond); the best result is
+    /// polished and kept, and the spread of the others reported.
+    #[arg(long, default_value_t = tribo::fit::DEFAULT_STARTS as u32, value_parser = clap::value_parser!(u32).range(0..=64))]
     starts: u32,
     /// Skip the leave-one-out cross-validation.
     #[arg(long)]
@@ -701,12 +721,14 @@ fn compare_study(
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
-    let data =
-        tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+    let data = tribo::study::DataRun::read(&data_arg(a.data.as_deref(), &rig)?)?;
     let options = tribo::study::CompareOptions {
         steady: a.steady,
         no_cv: a.no_cv,
+        no_fit: a.no_fit,
+        starts: a.starts as usize,
         validate: read_data_runs(&a.validate)?,
+        data_for_any_rig: a.data_for_any_rig,
     };
     Ok(tribo::study::compare(
         &rig,
@@ -723,13 +745,15 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     // Every input is read and checked before anything runs.
     let specs = lawset_specs(&a.lawsets);
-    let (_, mut sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
+    let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
     tribo::study::check_unique_names(&sets_loaded)?;
-    tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
-    read_data_runs(&a.validate)?;
+    let data = tribo::study::DataRun::read(&data_arg(a.data.as_deref(), &rig)?)?;
+    for d in std::iter::once(data).chain(read_data_runs(&a.validate)?) {
+        tribo::study::check_data_rig(&rig, &d, a.data_for_any_rig)?;
+    }
     tribo::output::check_result_dir(&a.out, "--out")?;
     let progress = Progress::start("comparing law sets", None, g.quiet);
     let sources: Vec<SetSource> = specs.iter().map(|l| a.source(l)).collect();
@@ -759,10 +783,24 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&cmp)?)?;
     } else {
         write!(out_text, "{}", tribo::report::comparison_text(&cmp))?;
-        writeln!(
+        let mut files = vec![
+            "comparison.csv".to_string(),
+            "scores.csv".into(),
+            "validation.csv".into(),
+            "comparison.json".into(),
+            "torque_vs_speed.svg".into(),
+            "contributions_*.svg".into(),
+            "piston_regimes.svg".into(),
+        ];
+        files.extend(cmp.sets.iter().filter_map(tribo::plots::fitted_file));
+        write!(
             out_text,
-            "\nwrote into {}: comparison.csv, scores.csv, validation.csv, comparison.json,\n  torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg",
-            out.display()
+            "\n{}",
+            tribo::report::wrap(
+                &format!("wrote into {}: {}", out.display(), files.join(", ")),
+                tribo::report::MAX_COLUMNS,
+                "  "
+            )
         )?;
     }
     emit(&out_text)?;
@@ -798,8 +836,8 @@ fn merge_comparisons(
         anyhow::bail!("no law set to compare");
     };
     cmp.sets.extend(parts.flat_map(|c| c.sets));
-    tribo::study::rank_sets(&mut cmp.sets, no_cv);
     cmp.failed = failed;
+    cmp.rank(no_cv);
     Ok(cmp)
 }
 
@@ -917,13 +955,14 @@ fn fit_study(
         .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
     let rig = tribo::rig::load_rig(&rig_path, &a.sets)?;
     let ls = tribo::lawset::LawSet::load(&a.lawset)?;
-    let runs = read_data_runs(&fit_data(a))?;
+    let runs = read_data_runs(&fit_data(a, &rig)?)?;
     let validate = read_data_runs(&a.validate)?;
     let free = ls.free_params(registry, a.params.as_deref())?;
     let options = tribo::fit::FitOptions {
         starts: a.starts as usize,
         cross_validate: !a.no_cv,
         validate,
+        data_for_any_rig: a.data_for_any_rig,
     };
     let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &runs, registry, &options)?;
     let header = format!(
@@ -944,12 +983,38 @@ fn fit_study(
     Ok((result, text))
 }
 
-/// The data a fit uses: those given, or the thesis's table.
-fn fit_data(a: &FitArgs) -> Vec<String> {
+/// The data a fit uses: those given, or the rig's bundled measurements.
+fn fit_data(a: &FitArgs, rig: &tribo::rig::Rig) -> anyhow::Result<Vec<String>> {
     if a.data.is_empty() {
-        vec![tribo::bundled::DEFAULT_DATA.to_string()]
+        Ok(vec![data_arg(None, rig)?])
     } else {
-        a.data.clone()
+        Ok(a.data.clone())
+    }
+}
+
+/// The data a study on `rig` compares against: `given`, or the bundled measurements made on
+/// that rig; a rig without any must be given data (no bundled data are used on a rig they
+/// were not measured on).
+fn data_arg(given: Option<&str>, rig: &tribo::rig::Rig) -> anyhow::Result<String> {
+    if let Some(d) = given {
+        return Ok(d.to_string());
+    }
+    match tribo::study::bundled_data_for(&rig.file.name) {
+        Some(name) => Ok(name.to_string()),
+        None => anyhow::bail!(
+            "rig `{}` has no bundled measurements (the bundled data were measured on {}): give yours with --data FILE (columns speed_rpm,torque_nm,oil_temp_c), or use `tribo sweep` or `tribo run` for the model alone",
+            rig.file.name,
+            tribo::bundled::data_names()
+                .iter()
+                .filter_map(|n| {
+                    tribo::bundled::data(n)
+                        .and_then(|t| tribo::study::parse_meta(std::path::Path::new(n), t).ok())
+                        .and_then(|m| m.rig)
+                        .map(|r| format!("{r} ({n})"))
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     }
 }
 
@@ -962,10 +1027,14 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
         .rig
         .clone()
         .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
-    tribo::rig::load_rig(&rig_path, &a.sets)?;
+    let rig = tribo::rig::load_rig(&rig_path, &a.sets)?;
     let ls = tribo::lawset::LawSet::load(&a.lawset)?;
-    read_data_runs(&fit_data(&a))?;
-    read_data_runs(&a.validate)?;
+    for d in read_data_runs(&fit_data(&a, &rig)?)?
+        .iter()
+        .chain(&read_data_runs(&a.validate)?)
+    {
+        tribo::study::check_data_rig(&rig, d, a.data_for_any_rig)?;
+    }
     let out = a
         .out
         .clone()

@@ -28,7 +28,8 @@ fn io(e: impl std::fmt::Display) -> std::io::Error {
 }
 
 /// Write the result set of a comparison into `dir` (`compare --out`): `comparison.csv`,
-/// `scores.csv`, `validation.csv`, the SVG plots and `comparison.json`. The set is rendered
+/// `scores.csv`, `validation.csv`, the SVG plots, `comparison.json`, and each fitted set with
+/// its fitted values as `fitted_<set>.toml` (the values it was ranked by). The set is rendered
 /// into a temporary directory and swapped in whole ([`ResultDir`]), so `dir` is always the old
 /// set or the new one, and plots of law sets no longer compared disappear with the old set.
 pub fn write_comparison(c: &Comparison, dir: &Path) -> Result<(), OutputError> {
@@ -62,7 +63,19 @@ pub fn write_comparison(c: &Comparison, dir: &Path) -> Result<(), OutputError> {
         serde_json::to_string_pretty(c).map_err(io),
     )?;
     out.write("comparison.json", json.as_bytes())?;
+    for set in &c.sets {
+        if let (Some(name), Some(text)) = (fitted_file(set), &set.fitted_lawset_toml) {
+            out.write(&name, text.as_bytes())?;
+        }
+    }
     out.commit()
+}
+
+/// The file a fitted set's calibrated law set is written to, `fitted_<set>.toml`.
+pub fn fitted_file(s: &crate::study::SetResult) -> Option<String> {
+    s.fitted_lawset_toml
+        .as_ref()
+        .map(|_| format!("fitted_{}.toml", file_stem(&s.lawset)))
 }
 
 /// A rendered file's text, or the error naming the file.
@@ -205,15 +218,19 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
             .scores
             .cv_rmse_nm
             .map_or("-".to_string(), |v| format!("{v:.3}"));
-        let band = if s.band_lower_nm.is_some() && s.scores.free_params > 0 {
+        let band = if s.band_lower_nm.is_some() {
             ", shaded: 95% band"
         } else {
             ""
         };
+        let status = match s.calibration.status {
+            crate::study::CalibrationStatus::NotFitted => ", not fitted",
+            _ => "",
+        };
         chart
             .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
             .label(format!(
-                "{} (RMSE {:.3}, LOO {loo} N m{band})",
+                "{} (RMSE {:.3}, LOO {loo} N m{band}{status})",
                 s.lawset, s.rmse_nm
             ))
             .legend(move |(x, y)| {

@@ -416,23 +416,46 @@ const JOINTS_CSV_HEADER: [&str; 10] = [
     "share_hydrodynamic",
 ];
 
-/// `text` broken into lines of at most `width` characters at spaces, continuation lines
-/// starting with `indent`.
-fn wrap(text: &str, width: usize, indent: &str) -> String {
+/// `text` broken into lines of at most `width` characters at spaces (its own line breaks
+/// kept), continuation lines starting with `indent`; a word longer than a line is cut.
+pub fn wrap(text: &str, width: usize, indent: &str) -> String {
     let mut out = String::new();
-    let mut line = String::new();
-    for word in text.split(' ') {
-        if !line.is_empty() && line.len() + 1 + word.len() > width {
-            out.push_str(&line);
-            out.push('\n');
-            line = indent.to_string();
-        } else if !line.is_empty() && line != indent {
-            line.push(' ');
+    for paragraph in text.split('\n') {
+        // Leading spaces are the paragraph's own indentation.
+        let body = paragraph.trim_start_matches(' ');
+        let mut line = paragraph[..paragraph.len() - body.len()].to_string();
+        let mut line_w = line.len();
+        let mut fresh = true;
+        for word in body.split(' ').filter(|w| !w.is_empty()) {
+            let mut word: Vec<char> = word.chars().collect();
+            if !fresh && line_w + 1 + word.len() > width {
+                out.push_str(&line);
+                out.push('\n');
+                line = indent.to_string();
+                line_w = indent.chars().count();
+                fresh = true;
+            }
+            if !fresh {
+                line.push(' ');
+                line_w += 1;
+            }
+            // A word that cannot fit on a line of its own is cut.
+            while line_w + word.len() > width && width > line_w {
+                let take = width - line_w;
+                line.extend(&word[..take]);
+                out.push_str(&line);
+                out.push('\n');
+                word.drain(..take);
+                line = indent.to_string();
+                line_w = indent.chars().count();
+            }
+            line_w += word.len();
+            line.extend(word);
+            fresh = false;
         }
-        line.push_str(word);
+        out.push_str(&line);
+        out.push('\n');
     }
-    out.push_str(&line);
-    out.push('\n');
     out
 }
 
@@ -442,84 +465,208 @@ fn opt(x: Option<f64>, prec: usize) -> String {
         .map_or("-".to_string(), |v| format!("{v:.prec$}"))
 }
 
-/// The side-by-side table with each set's 95% band, the out-of-sample scores and ranking,
-/// validation scores, and per-joint contributions (joints as rows, speeds as columns).
+/// The widest line any text report prints, in columns: tables are split into blocks of sets
+/// and prose is wrapped so that every line fits.
+pub const MAX_COLUMNS: usize = 100;
+
+/// Columns `(header, cells)` side by side after a shared left part, split into as many tables
+/// as it takes for every line to fit [`MAX_COLUMNS`]: each block is a group of columns under a
+/// title, separated by ` | `; the left part (`left_header`, `left_rows`) repeats in every table.
+struct Blocks<'a> {
+    left_header: [String; 2],
+    left_rows: Vec<String>,
+    /// Per block: its title and its columns (header, cells right-aligned).
+    blocks: Vec<(String, Vec<(&'a str, Vec<String>)>)>,
+}
+
+impl Blocks<'_> {
+    fn render(&self) -> String {
+        let left_w = self
+            .left_header
+            .iter()
+            .chain(&self.left_rows)
+            .map(|l| l.chars().count())
+            .max()
+            .unwrap_or(0);
+        // Each block's columns at their widest cell; the block as wide as its title needs.
+        let laid: Vec<(usize, Vec<usize>)> = self
+            .blocks
+            .iter()
+            .map(|(title, cols)| {
+                let widths: Vec<usize> = cols
+                    .iter()
+                    .map(|(h, cells)| {
+                        cells
+                            .iter()
+                            .map(|c| c.chars().count())
+                            .chain([h.chars().count()])
+                            .max()
+                            .unwrap_or(0)
+                    })
+                    .collect();
+                let inner = widths.iter().sum::<usize>() + widths.len().saturating_sub(1);
+                (inner.max(title.chars().count()), widths)
+            })
+            .collect();
+        let mut out = String::new();
+        let mut start = 0;
+        while start < self.blocks.len() {
+            // As many blocks as fit (at least one).
+            let mut end = start + 1;
+            let mut width = left_w + 3 + laid[start].0;
+            while end < self.blocks.len() && width + 3 + laid[end].0 <= MAX_COLUMNS {
+                width += 3 + laid[end].0;
+                end += 1;
+            }
+            if start > 0 {
+                out.push('\n');
+            }
+            let mut title = format!("{:<left_w$}", self.left_header[0]);
+            let mut head = format!("{:>left_w$}", self.left_header[1]);
+            for k in start..end {
+                let (w, widths) = &laid[k];
+                let _ = write!(title, " | {:<w$}", self.blocks[k].0);
+                let cols: Vec<String> = self.blocks[k]
+                    .1
+                    .iter()
+                    .zip(widths)
+                    .map(|((h, _), cw)| format!("{h:>cw$}"))
+                    .collect();
+                let _ = write!(head, " | {:>w$}", cols.join(" "));
+            }
+            out.push_str(title.trim_end());
+            out.push('\n');
+            out.push_str(&head);
+            out.push('\n');
+            for (i, l) in self.left_rows.iter().enumerate() {
+                let mut row = format!("{l:>left_w$}");
+                for k in start..end {
+                    let (w, widths) = &laid[k];
+                    let cols: Vec<String> = self.blocks[k]
+                        .1
+                        .iter()
+                        .zip(widths)
+                        .map(|((_, cells), cw)| {
+                            format!("{:>cw$}", cells.get(i).map_or("", String::as_str))
+                        })
+                        .collect();
+                    let _ = write!(row, " | {:>w$}", cols.join(" "));
+                }
+                out.push_str(&row);
+                out.push('\n');
+            }
+            start = end;
+        }
+        out
+    }
+}
+
+/// A law set's name with its calibration status where it is not the plain case.
+fn set_title(s: &crate::study::SetResult) -> String {
+    match s.calibration.status {
+        crate::study::CalibrationStatus::NotFitted => format!("{} (not fitted)", s.lawset),
+        _ => s.lawset.clone(),
+    }
+}
+
+/// The side-by-side table with each set's 95% band, the verdict, the out-of-sample scores and
+/// ranking, the fitted values, validation scores, and per-joint contributions (joints as rows,
+/// speeds as columns). Every line fits [`MAX_COLUMNS`].
 pub fn comparison_text(c: &crate::study::Comparison) -> String {
     let mut out = String::new();
-    let _ = writeln!(
-        out,
-        "rig {}  data {}  mode {}\n",
-        c.rig, c.data_file, c.mode
-    );
-    // One block of 22 characters per set (model, error, band), whatever its name's length,
-    // so three or four sets stay within 100 columns.
-    let _ = write!(out, "{:>7} {:>9}", "", "");
-    for s in &c.sets {
-        let name: String = s.lawset.chars().take(21).collect();
-        let _ = write!(out, " | {name:<21}");
-    }
-    let _ = write!(out, "\n{:>7} {:>9}", "rpm", "measured");
-    for _ in &c.sets {
-        let _ = write!(out, " | {:>6} {:>6} {:>7}", "model", "error", "+-95%");
-    }
+    out.push_str(&wrap(
+        &format!("rig {}  data {}  mode {}", c.rig, c.data_file, c.mode),
+        MAX_COLUMNS,
+        "  ",
+    ));
     out.push('\n');
-    for (i, d) in c.data.iter().enumerate() {
-        let _ = write!(out, "{:>7.0} {:>9.3}", d.speed_rpm, d.torque_nm);
-        for s in &c.sets {
-            let m = s
-                .run
-                .plateaus
-                .get(i)
-                .map_or(f64::NAN, |p| p.motoring_torque_nm);
-            let band = s
-                .uncertainty
-                .band_half_width_nm
-                .as_ref()
-                .and_then(|b| b.get(i).copied())
-                .map_or("-".to_string(), |h| format!("{h:.3}"));
-            let _ = write!(
-                out,
-                " | {:>6.3} {:>+6.3} {:>7}",
-                m,
-                s.errors_nm.get(i).copied().unwrap_or(f64::NAN),
-                band
-            );
-        }
-        out.push('\n');
-    }
+    let blocks = Blocks {
+        left_header: [String::new(), format!("{:>7} {:>9}", "rpm", "measured")],
+        left_rows: c
+            .data
+            .iter()
+            .map(|d| format!("{:>7.0} {:>9.3}", d.speed_rpm, d.torque_nm))
+            .collect(),
+        blocks: c
+            .sets
+            .iter()
+            .map(|s| {
+                let n = c.data.len();
+                let model: Vec<String> = (0..n)
+                    .map(|i| {
+                        let m = s.run.plateaus.get(i).map_or(f64::NAN, |p| p.motoring_torque_nm);
+                        format!("{m:.3}")
+                    })
+                    .collect();
+                let error: Vec<String> = (0..n)
+                    .map(|i| format!("{:+.3}", s.errors_nm.get(i).copied().unwrap_or(f64::NAN)))
+                    .collect();
+                let band: Vec<String> = (0..n)
+                    .map(|i| match (&s.band_lower_nm, &s.band_upper_nm) {
+                        (Some(lo), Some(hi)) => match (lo.get(i), hi.get(i)) {
+                            (Some(l), Some(h)) => format!("{l:.3}-{h:.3}"),
+                            _ => "-".into(),
+                        },
+                        _ => "-".into(),
+                    })
+                    .collect();
+                (
+                    set_title(s),
+                    vec![("model", model), ("error", error), ("95% band", band)],
+                )
+            })
+            .collect(),
+    };
+    out.push_str(&blocks.render());
     let _ = writeln!(
         out,
-        "(N m; +-95%: half-width of the 95% confidence band of the model torque from its fitted\n parameters; -: nothing fitted inside its range, no band)"
+        "(N m; 95% band: the model torque's 95% confidence band from its fitted parameters, on a\n log scale so it stays above zero)"
     );
+    for s in c.sets.iter().filter(|s| s.band_lower_nm.is_none()) {
+        if let Some(why) = &s.band_note {
+            out.push_str(&wrap(
+                &format!(" - no band for {}: {why}", s.lawset),
+                MAX_COLUMNS,
+                "   ",
+            ));
+        }
+    }
     out.push_str(&comparison_fmep(c));
     out.push('\n');
-    out.push_str(&wrap(&format!("scores, ranked by {}", c.ranked_by), 98, ""));
-    let _ = writeln!(
-        out,
-        "{:>4}  {:<22} {:>5} {:>6} {:>8} {:>8} {:>11} {:>8} {:>8} {:>9}",
-        "rank",
-        "law set",
-        "free",
-        "points",
-        "RMSE",
-        "LOO RMSE",
-        "max |error|",
-        "AICc",
-        "BIC",
-        "+10C max"
-    );
+    out.push_str(&wrap(
+        &format!("Verdict: {}.", c.verdict.sentence),
+        MAX_COLUMNS,
+        "  ",
+    ));
+    out.push('\n');
+    out.push_str(&wrap(
+        &format!("scores, ranked by {}", c.ranked_by),
+        MAX_COLUMNS,
+        "",
+    ));
     let mut ranked: Vec<&crate::study::SetResult> = c.sets.iter().collect();
     ranked.sort_by_key(|s| s.rank);
+    let name_w = ranked
+        .iter()
+        .map(|s| set_title(s).chars().count())
+        .chain([7])
+        .max()
+        .unwrap_or(7);
+    let _ = writeln!(
+        out,
+        "{:>4}  {:<name_w$} {:>6} {:>6} {:>8} {:>8} {:>10} {:>7} {:>7} {:>9}",
+        "rank", "law set", "params", "points", "RMSE", "LOO RMSE", "max |err|", "AICc", "BIC", "+10C max"
+    );
     for s in &ranked {
         let _ = writeln!(
             out,
-            "{:>4}  {:<22} {:>5} {:>6} {:>8.3} {:>8} {:>11.3} {:>8} {:>8} {:>+8.1}%{}",
+            "{:>4}  {:<name_w$} {:>6} {:>6} {:>8.3} {:>8} {:>10.3} {:>7} {:>7} {:>+8.1}%{}",
             s.rank,
-            s.lawset,
+            set_title(s),
             if s.scores.prior_fitted_params > 0 {
                 format!("0+{}", s.scores.prior_fitted_params)
             } else {
-                s.scores.free_params.to_string()
+                s.calibration.params.len().to_string()
             },
             s.scores.points,
             s.rmse_nm,
@@ -539,15 +686,40 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     }
     let _ = writeln!(
         out,
-        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; free: parameters fitted here\n   + tuned to these data elsewhere; AICc and BIC count those and the noise variance,\n   lower is better; +10C max: largest torque change per 10 C of oil warming, ! above 10%)"
+        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; params: free parameters, fitted\n   to these data before scoring unless marked not fitted, + numbers tuned to these data\n   elsewhere; AICc and BIC count those and the noise variance, lower is better; +10C max:\n   largest torque change per 10 C of oil warming, ! above 10%)"
     );
     for s in &ranked {
+        if s.calibration.params.is_empty() {
+            continue;
+        }
+        let what = match s.calibration.status {
+            crate::study::CalibrationStatus::Fitted => "fitted",
+            _ => "not fitted, the file's values",
+        };
+        let values: Vec<String> = s
+            .calibration
+            .params
+            .iter()
+            .map(|p| {
+                let short = p.id.rsplit('.').next().unwrap_or(&p.id);
+                let state = match (&p.at_bound, p.std_dev) {
+                    (Some(side), _) => format!(" (on its {side} bound)"),
+                    (None, Some(sd)) => format!(" +- {sd:.2e}"),
+                    (None, None) => String::new(),
+                };
+                format!("{short} = {:.4e}{state}", p.value)
+            })
+            .collect();
+        out.push_str(&wrap(
+            &format!("  {} {what}: {}", s.lawset, values.join(", ")),
+            MAX_COLUMNS,
+            "      ",
+        ));
+    }
+    for s in &ranked {
         let mut notes: Vec<String> = Vec::new();
-        if s.band_wider_than_data {
-            notes.push(match &s.uncertainty.band_half_width_nm {
-                Some(_) => "its 95% band is wider than the spread of the measured torques: these data do not determine its prediction".into(),
-                None => "no band can be given (see below), so nothing bounds its prediction between the data points".into(),
-            });
+        if s.band_wider_than_data == Some(true) {
+            notes.push("its 95% band is wider than the spread of the measured torques: these data do not determine its prediction".into());
         }
         notes.extend(s.scores.notes.iter().cloned());
         notes.extend(s.uncertainty.statements.iter().cloned());
@@ -561,14 +733,14 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             ));
         }
         for n in notes {
-            out.push_str(&wrap(&format!("  {}: {n}", s.lawset), 98, "      "));
+            out.push_str(&wrap(&format!("  {}: {n}", s.lawset), MAX_COLUMNS, "      "));
         }
     }
     out.push_str("\nper-joint contributions (friction torque at the crank, N m)\n");
     for s in &c.sets {
         out.push_str(&joint_table(s));
         for w in &s.run.warnings {
-            let _ = writeln!(out, "  warning: {w}");
+            out.push_str(&wrap(&format!("  warning: {w}"), MAX_COLUMNS, "    "));
         }
     }
     out
@@ -629,27 +801,38 @@ fn comparison_fmep(c: &crate::study::Comparison) -> String {
     let Some(first) = c.sets.first() else {
         return out;
     };
-    let _ = write!(out, "\n{:>7} {:>9}", "rpm", "measured");
-    for s in &c.sets {
-        let name: String = s.lawset.chars().take(21).collect();
-        let _ = write!(out, " | {name:>21}");
-    }
+    let blocks = Blocks {
+        left_header: [String::new(), format!("{:>7} {:>9}", "rpm", "measured")],
+        left_rows: c
+            .data
+            .iter()
+            .map(|d| format!("{:>7.0} {:>9.2}", d.speed_rpm, first.run.fmep.kpa(d.torque_nm)))
+            .collect(),
+        blocks: c
+            .sets
+            .iter()
+            .map(|s| {
+                let cells = (0..c.data.len())
+                    .map(|i| {
+                        let v = s.run.plateaus.get(i).map_or(f64::NAN, |p| p.fmep.total_kpa);
+                        format!("{v:.2}")
+                    })
+                    .collect();
+                (s.lawset.clone(), vec![("FMEP", cells)])
+            })
+            .collect(),
+    };
     out.push('\n');
-    for (i, d) in c.data.iter().enumerate() {
-        let measured = first.run.fmep.kpa(d.torque_nm);
-        let _ = write!(out, "{:>7.0} {:>9.2}", d.speed_rpm, measured);
-        for s in &c.sets {
-            let v = s.run.plateaus.get(i).map_or(f64::NAN, |p| p.fmep.total_kpa);
-            let _ = write!(out, " | {v:>21.2}");
-        }
-        out.push('\n');
-    }
-    let _ = writeln!(
-        out,
-        "(FMEP, kPa: {}, V_d = {:.1} cm^3; measured: the measured torque converted the same way)",
-        first.run.fmep.basis.formula(),
-        first.run.fmep.displacement_m3 * 1e6
-    );
+    out.push_str(&blocks.render());
+    out.push_str(&wrap(
+        &format!(
+            "(FMEP, kPa: {}, V_d = {:.1} cm^3; measured: the measured torque converted the same way)",
+            first.run.fmep.basis.formula(),
+            first.run.fmep.displacement_m3 * 1e6
+        ),
+        MAX_COLUMNS,
+        " ",
+    ));
     out
 }
 
@@ -718,7 +901,10 @@ pub fn scores_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
                 cell(s.scores.aic),
                 cell(s.scores.aicc),
                 cell(s.scores.bic),
-                s.band_wider_than_data.to_string(),
+                s.calibration.status.as_str().to_string(),
+                s.band_wider_than_data
+                    .map_or(String::new(), |b| b.to_string()),
+                s.band_note.clone().unwrap_or_default(),
                 s.temperature_response.max_rise_percent_per_10c.to_string(),
                 s.validation
                     .iter()
@@ -741,7 +927,9 @@ pub fn scores_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
             "aic",
             "aicc",
             "bic",
+            "calibration",
             "band_wider_than_data",
+            "band_note",
             "max_torque_rise_percent_per_10c",
             "validation_rmse_nm",
         ],

@@ -229,6 +229,16 @@ pub fn parse_meta(path: &Path, text: &str) -> Result<DataMeta, StudyError> {
     Ok(meta)
 }
 
+/// The bundled data file measured on rig `rig_name` (the first whose `# rig:` names it), if
+/// any: what a study compares against when no data are given.
+pub fn bundled_data_for(rig_name: &str) -> Option<&'static str> {
+    tribo_config::bundled::data_names().into_iter().find(|name| {
+        tribo_config::bundled::data(name)
+            .and_then(|text| parse_meta(Path::new(name), text).ok())
+            .is_some_and(|m| m.rig.as_deref() == Some(rig_name))
+    })
+}
+
 /// Refuse data measured on another rig than `rig` (the data file's `# rig:`), unless
 /// `any_rig` (`--data-for-any-rig`), and speeds above the rig's declared top speed.
 pub fn check_data_rig(rig: &Rig, data: &DataRun, any_rig: bool) -> Result<(), StudyError> {

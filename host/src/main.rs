@@ -155,6 +155,10 @@ struct RunArgs {
     /// Angular resolution of --crank-angle, degrees.
     #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG")]
     resolution_deg: f64,
+    /// Refuse to run a rig with no law on any joint (which gives a frictionless mechanism's
+    /// torque, zero on average; without this flag it is a warning).
+    #[arg(long)]
+    require_laws: bool,
 }
 
 /// The arguments of `tribo compare`.
@@ -518,6 +522,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         crank_angle,
         fmep,
         resolution_deg,
+        require_laws,
     } = a;
     if !(resolution_deg.is_finite() && resolution_deg > 0.0 && resolution_deg <= 10.0) {
         anyhow::bail!("--resolution-deg: must be in (0, 10] degrees, got {resolution_deg}");
@@ -530,6 +535,12 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     tribo::rig::attach_laws(&mut rig, &law_args)?;
     let registry = g.registry()?;
     let mut sim = tribo::rig::any_simulation(&rig, &registry)?;
+    if require_laws && sim.law_count() == 0 {
+        anyhow::bail!(
+            "--require-laws: rig `{}` has no law on any joint; attach laws with --lawset NAME or --law JOINT=LAW",
+            rig.file.name
+        );
+    }
     if let Some(dir) = &csv {
         tribo::output::check_result_dir(dir, "--csv")
             .with_context(|| format!("writing CSV into {}", dir.display()))?;

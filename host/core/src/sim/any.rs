@@ -18,6 +18,9 @@ pub enum RigSimulation {
     Engine(Box<EngineSimulation>),
 }
 
+/// The warning of a run with no law on any joint.
+pub const NO_LAWS_WARNING: &str = "no law on any joint: every joint is frictionless, so the motoring torque is the mechanism's alone (zero on average at a constant speed); attach laws with a law set or --law (a frictionless reference rig is meant to give this)";
+
 impl RigSimulation {
     /// Check `model`'s laws against `registry` (each law known, its parameters' names, types
     /// and ranges) without creating an instance.
@@ -67,28 +70,50 @@ impl RigSimulation {
         }
     }
 
+    /// Laws bound on all joints together; zero when every joint is frictionless.
+    pub fn law_count(&self) -> usize {
+        match self {
+            Self::Single(s) => s.layout().n,
+            Self::Engine(e) => e.layout().n,
+        }
+    }
+
+    /// A run's result with the warning a run without any law needs: its torque is the
+    /// frictionless mechanism's, about zero, which a user rarely meant to compute.
+    fn warn_if_lawless(&self, r: Result<RunResult, SimError>) -> Result<RunResult, SimError> {
+        r.map(|mut r| {
+            if self.law_count() == 0 {
+                r.warnings.push(NO_LAWS_WARNING.to_string());
+            }
+            r
+        })
+    }
+
     /// Run the whole test cycle without per-step output.
     pub fn run(&mut self) -> Result<RunResult, SimError> {
-        match self {
+        let r = match self {
             Self::Single(s) => s.run(),
             Self::Engine(e) => e.run(),
-        }
+        };
+        self.warn_if_lawless(r)
     }
 
     /// Run the whole test cycle, handing every accepted step to `observer`.
     pub fn run_with(&mut self, observer: &mut dyn StepObserver) -> Result<RunResult, SimError> {
-        match self {
+        let r = match self {
             Self::Single(s) => s.run_with(observer),
             Self::Engine(e) => e.run_with(observer),
-        }
+        };
+        self.warn_if_lawless(r)
     }
 
     /// Each plateau's periodic steady state, computed directly.
     pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
-        match self {
+        let r = match self {
             Self::Single(s) => s.run_steady(),
             Self::Engine(e) => e.run_steady(),
-        }
+        };
+        self.warn_if_lawless(r)
     }
 
     /// Every plateau's cycle in steady state, sampled every `resolution_deg` degrees.

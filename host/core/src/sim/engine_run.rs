@@ -293,7 +293,19 @@ impl EngineSimulation {
             };
             results.push(self.plateau_result(pi, omega, &window));
         }
-        let energy = EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas_work);
+        // The energy scale of the balance: the moving parts' energy at each plateau speed.
+        let inertial: f64 = self
+            .cycle
+            .plateaus()
+            .iter()
+            .map(|p| {
+                self.train
+                    .mechanical_energy(std::f64::consts::FRAC_PI_2, p.omega)
+                    .abs()
+            })
+            .sum();
+        let energy = EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas_work)
+            .relative_to(inertial);
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: DriveKind::Steady,

@@ -151,7 +151,8 @@ impl EngineSimulation {
             change,
             dissipated,
             run.acc[layout.gas()],
-        );
+        )
+        .relative_to(e0.abs().max((e0 + change).abs()));
         let (results, warnings) =
             plateaus.results(|pi, m| self.plateau_result(pi, m.dtheta / m.dt, m))?;
         Ok(RunResult {

@@ -45,7 +45,7 @@ use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
 use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
-pub use any::RigSimulation;
+pub use any::{RigSimulation, NO_LAWS_WARNING};
 pub use crank_angle::{AngleSample, CrankAngleTrace, CylinderSample, LawSample};
 pub use engine_run::EngineSimulation;
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
@@ -378,7 +378,8 @@ impl Simulation {
             change,
             dissipated,
             gas_work,
-        );
+        )
+        .relative_to(e0.abs().max((e0 + change).abs()));
         let (results, warnings) = plateaus.results(|pi, m| self.plateau_result(pi, m))?;
         Ok(RunResult {
             rig: self.rig_name.clone(),

@@ -42,7 +42,14 @@ impl Simulation {
         }
         // Over a periodic revolution the mechanical energy returns to its start value, so the
         // balance is motor work = dissipation + gas work.
-        let energy = EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas);
+        let inertial: f64 = self
+            .cycle
+            .plateaus()
+            .iter()
+            .map(|p| self.mechanical_energy(std::f64::consts::FRAC_PI_2, p.omega).abs())
+            .sum();
+        let energy =
+            EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas).relative_to(inertial);
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: DriveKind::Steady,

@@ -166,8 +166,8 @@ struct RunArgs {
 struct CompareArgs {
     /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
     rig: Option<PathBuf>,
-    /// Law set (bundled name or file); repeat to compare several (default: fedem-baseline
-    /// and stribeck-duty).
+    /// Law set (bundled name or file); repeat to compare several (default: fedem-baseline,
+    /// stribeck-duty and mixed-film).
     #[arg(long = "lawset")]
     lawsets: Vec<String>,
     /// Attach a law to every law set: JOINT=LAW[:PARAMS.toml] (added to the set's laws there).
@@ -229,8 +229,8 @@ struct MassResponseArgs {
     /// A sweep of scale factors instead (e.g. 0.5,0.6,...,1.1); writes a plot.
     #[arg(long, value_delimiter = ',')]
     scales: Option<Vec<f64>>,
-    /// Law set (bundled name or file); repeat for several (default: fedem-baseline and
-    /// stribeck-duty).
+    /// Law set (bundled name or file); repeat for several (default: fedem-baseline,
+    /// stribeck-duty and mixed-film).
     #[arg(long = "lawset")]
     lawsets: Vec<String>,
     /// Override rig values, as for `run`.
@@ -300,8 +300,8 @@ struct FitArgs {
 struct SweepArgs {
     /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
     rig: Option<PathBuf>,
-    /// Law set (bundled name or file); repeat for several (default: fedem-baseline and
-    /// stribeck-duty).
+    /// Law set (bundled name or file); repeat for several (default: fedem-baseline,
+    /// stribeck-duty and mixed-film).
     #[arg(long = "lawset")]
     lawsets: Vec<String>,
     /// Attach a law to every law set: JOINT=LAW[:PARAMS.toml] (added to the set's laws there).
@@ -587,7 +587,15 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     if json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
-        writeln!(out_text, "oil: {}", rig.file.oil.describe())?;
+        write!(
+            out_text,
+            "{}",
+            tribo::report::wrap(
+                &format!("oil: {}", rig.file.oil.describe()),
+                tribo::report::MAX_COLUMNS,
+                "     "
+            )
+        )?;
         write!(out_text, "{}", tribo::report::to_text(&result))?;
     }
     emit(&out_text)
@@ -944,12 +952,21 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     };
     drop(progress);
     let out = &a.out;
-    tribo::plots::write_mass_response(&result, out, a.scales.is_some())
+    let files = tribo::plots::write_mass_response(&result, out, a.scales.is_some())
         .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
         write!(out_text, "{}", tribo::report::mass_text(&result))?;
+        write!(
+            out_text,
+            "{}",
+            tribo::report::wrap(
+                &format!("wrote into {}: {}", out.display(), files.join(", ")),
+                tribo::report::MAX_COLUMNS,
+                "  "
+            )
+        )?;
     }
     emit(&out_text)?;
     failures_error(&failed, specs.len(), Some(out))
@@ -1164,7 +1181,15 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
         write!(out_text, "{}", tribo::report::sweep_text(&result))?;
-        writeln!(out_text, "\nwrote {}/{}", out.display(), files.join(", "))?;
+        write!(
+            out_text,
+            "\n{}",
+            tribo::report::wrap(
+                &format!("wrote into {}: {}", out.display(), files.join(", ")),
+                tribo::report::MAX_COLUMNS,
+                "  "
+            )
+        )?;
     }
     emit(&out_text)?;
     failures_error(&result.failed, specs.len(), Some(out))

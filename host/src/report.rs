@@ -94,7 +94,7 @@ pub fn to_text(r: &RunResult) -> String {
     for w in &r.warnings {
         let _ = writeln!(out, "warning: {w}");
     }
-    out
+    fit_width(&out)
 }
 
 /// The FMEP breakdown per plateau and component (kPa and bar), with its basis; empty when no
@@ -104,35 +104,89 @@ pub fn fmep_text(r: &RunResult) -> String {
     if r.plateaus.iter().all(|p| p.joints.is_empty()) {
         return out;
     }
-    let _ = writeln!(
-        out,
-        "\nFMEP, kPa (bar = kPa / 100); {}, V_d = {:.1} cm^3",
-        r.fmep.basis.formula(),
-        r.fmep.displacement_m3 * 1e6
-    );
+    out.push('\n');
+    out.push_str(&wrap(
+        &format!(
+            "FMEP, kPa (bar = kPa / 100); {}, V_d = {:.1} cm^3",
+            r.fmep.basis.formula(),
+            r.fmep.displacement_m3 * 1e6
+        ),
+        MAX_COLUMNS,
+        "  ",
+    ));
     let names: Vec<&str> = r
         .plateaus
         .first()
         .map(|p| p.fmep.components.iter().map(|c| c.joint.as_str()).collect())
         .unwrap_or_default();
-    let _ = write!(out, "{:>10} {:>9} {:>7}", "set rpm", "total", "bar");
-    for n in &names {
-        let _ = write!(out, " {n:>9}");
-    }
-    let _ = writeln!(out, " {:>9}", "motoring");
-    for p in &r.plateaus {
-        let f = &p.fmep;
-        let _ = write!(
-            out,
-            "{:>10.0} {:>9.3} {:>7.4}",
-            p.set_speed_rpm,
-            f.total_kpa,
-            f.total_kpa / 100.0
-        );
-        for c in &f.components {
-            let _ = write!(out, " {:>9.3}", c.kpa);
+    // A row per plateau while the components fit across; an engine's many joints turn the
+    // table: a row per component, a column per plateau.
+    if 10 + 10 + 8 + 10 * (names.len() + 1) <= MAX_COLUMNS {
+        let _ = write!(out, "{:>10} {:>9} {:>7}", "set rpm", "total", "bar");
+        for n in &names {
+            let _ = write!(out, " {n:>9}");
         }
-        let _ = writeln!(out, " {:>9.3}", f.motoring_kpa);
+        let _ = writeln!(out, " {:>9}", "motoring");
+        for p in &r.plateaus {
+            let f = &p.fmep;
+            let _ = write!(
+                out,
+                "{:>10.0} {:>9.3} {:>7.4}",
+                p.set_speed_rpm,
+                f.total_kpa,
+                f.total_kpa / 100.0
+            );
+            for c in &f.components {
+                let _ = write!(out, " {:>9.3}", c.kpa);
+            }
+            let _ = writeln!(out, " {:>9.3}", f.motoring_kpa);
+        }
+        return out;
+    }
+    let w = names.iter().map(|n| n.len()).chain([9]).max().unwrap_or(9);
+    let mut rows: Vec<(String, Vec<f64>)> = vec![(
+        "total".into(),
+        r.plateaus.iter().map(|p| p.fmep.total_kpa).collect(),
+    )];
+    for (k, n) in names.iter().enumerate() {
+        let v = r
+            .plateaus
+            .iter()
+            .map(|p| p.fmep.components.get(k).map_or(f64::NAN, |c| c.kpa))
+            .collect();
+        rows.push((n.to_string(), v));
+    }
+    rows.push((
+        "motoring".into(),
+        r.plateaus.iter().map(|p| p.fmep.motoring_kpa).collect(),
+    ));
+    // As many plateaus per table as fit across.
+    let per = ((MAX_COLUMNS - w) / 10).max(1);
+    for chunk in r.plateaus.chunks(per).enumerate() {
+        let (i, plateaus) = chunk;
+        let _ = write!(out, "{:>w$}", "set rpm");
+        for p in plateaus {
+            let _ = write!(out, " {:>9.0}", p.set_speed_rpm);
+        }
+        out.push('\n');
+        for (name, v) in &rows {
+            let _ = write!(out, "{name:>w$}");
+            for x in &v[i * per..i * per + plateaus.len()] {
+                let _ = write!(out, " {x:>9.3}");
+            }
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// `text` with every line longer than [`MAX_COLUMNS`] wrapped ([`wrap`]), its continuation
+/// indented four spaces more than the line.
+pub fn fit_width(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        let lead = line.len() - line.trim_start_matches(' ').len();
+        out.push_str(&wrap(line, MAX_COLUMNS, &" ".repeat(lead + 4)));
     }
     out
 }
@@ -417,10 +471,17 @@ const JOINTS_CSV_HEADER: [&str; 10] = [
 ];
 
 /// `text` broken into lines of at most `width` characters at spaces (its own line breaks
-/// kept), continuation lines starting with `indent`; a word longer than a line is cut.
+/// kept, and a line that fits left as it is), continuation lines starting with `indent`; a
+/// word longer than a line is cut.
 pub fn wrap(text: &str, width: usize, indent: &str) -> String {
     let mut out = String::new();
     for paragraph in text.split('\n') {
+        // A line that fits is kept as it is (its spacing may align columns).
+        if paragraph.chars().count() <= width {
+            out.push_str(paragraph);
+            out.push('\n');
+            continue;
+        }
         // Leading spaces are the paragraph's own indentation.
         let body = paragraph.trim_start_matches(' ');
         let mut line = paragraph[..paragraph.len() - body.len()].to_string();
@@ -743,7 +804,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             out.push_str(&wrap(&format!("  warning: {w}"), MAX_COLUMNS, "    "));
         }
     }
-    out
+    fit_width(&out)
 }
 
 /// One law set's per-joint friction torques: a row per joint and law, a column per speed, so
@@ -985,26 +1046,23 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
         r.failed_evaluations,
         r.termination
     );
+    let w = r.params.iter().map(|p| p.len()).chain([9]).max().unwrap_or(9);
     let _ = writeln!(
         out,
-        "{:<34} {:>11} {:>11} {:>10} {:>23}  bounds",
+        "{:<w$} {:>10} {:>10} {:>9} {:>21}  bounds",
         "parameter", "start", "fitted", "1 sigma", "95% interval"
     );
     for i in 0..r.params.len() {
         let interval = r.uncertainty.interval95.get(i).copied().flatten().map_or(
-            if r.at_bound[i].is_some() {
-                "held on its bound".to_string()
-            } else {
-                "not determined".to_string()
+            match &r.at_bound[i] {
+                Some(side) => format!("ON {side} BOUND"),
+                None => "not determined".to_string(),
             },
             |[a, b]| format!("[{a:.3e}, {b:.3e}]"),
         );
-        let bound = r.at_bound[i]
-            .as_ref()
-            .map_or(String::new(), |b| format!("  ON {b} BOUND"));
         let _ = writeln!(
             out,
-            "{:<34} {:>11.4e} {:>11.4e} {:>10} {:>23}  [{}, {}]{bound}",
+            "{:<w$} {:>10.4e} {:>10.4e} {:>9} {:>21}  [{:.3e}, {:.3e}]",
             r.params[i],
             r.start[i],
             r.values[i],
@@ -1017,17 +1075,17 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
     for run in &r.runs {
         let _ = writeln!(
             out,
-            "\nrun {}: RMSE {:.4} N m\n{:>7} {:>6} {:>10} {:>10} {:>10} {:>8}",
-            run.file, run.rmse_nm, "rpm", "oil C", "measured", "model", "residual", "band95"
+            "\nrun {}: RMSE {:.4} N m\n{:>7} {:>6} {:>10} {:>10} {:>10} {:>13}",
+            run.file, run.rmse_nm, "rpm", "oil C", "measured", "model", "residual", "95% band"
         );
         for i in 0..run.speeds_rpm.len() {
-            let band = run
-                .band_half_width_nm
-                .as_ref()
-                .map_or("-".to_string(), |b| format!("+-{:.3}", b[i]));
+            let band = match (&run.band_lower_nm, &run.band_upper_nm) {
+                (Some(lo), Some(hi)) => format!("{:.3}-{:.3}", lo[i], hi[i]),
+                _ => "-".to_string(),
+            };
             let _ = writeln!(
                 out,
-                "{:>7.0} {:>6.1} {:>10.3} {:>10.3} {:>+10.4} {:>8}",
+                "{:>7.0} {:>6.1} {:>10.3} {:>10.3} {:>+10.4} {:>13}",
                 run.speeds_rpm[i],
                 run.oil_temp_c[i],
                 run.measured_nm[i],
@@ -1036,6 +1094,12 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
                 band
             );
         }
+    }
+    if r.runs.iter().any(|run| run.band_lower_nm.is_some()) {
+        let _ = writeln!(
+            out,
+            "(95% band: the model torque's confidence band from the fitted parameters' covariance, on a\n log scale so it stays above zero)"
+        );
     }
     let sc = &r.scores;
     let _ = writeln!(
@@ -1058,22 +1122,39 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
     if r.starts.len() > 1 {
         let _ = writeln!(out, "\nstart points:");
         for s in &r.starts {
-            let _ = writeln!(out, "  RMSE {:>8}  {}", opt(s.rmse_nm, 4), s.termination);
+            let _ = writeln!(
+                out,
+                "  {:<16} RMSE {:>8}  {}",
+                s.kind,
+                opt(s.rmse_nm, 4),
+                s.termination
+            );
         }
     }
     for w in &r.warnings {
         let _ = writeln!(out, "warning: {w}");
     }
-    out
+    fit_width(&out)
 }
 
 /// The mass-response tables. The FEDEM thesis's change (table 10.6 minus 10.5) is a column
 /// only beside the thesis's own law set, labelled as the thesis's; other law sets have none.
 pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
     let mut out = String::new();
+    let mut thesis_shown = false;
     for set in r {
         let thesis = set.changes.iter().any(|c| c.fedem_change_nm.is_some());
-        let _ = writeln!(out, "law set {}: {:?} scaled", set.lawset, set.body);
+        thesis_shown |= thesis;
+        let body = match set.body {
+            crate::study::ScaledBody::Rod => "rod mass and inertia",
+            crate::study::ScaledBody::Piston => "piston assembly mass",
+            crate::study::ScaledBody::Crank => "crankshaft mass and inertia",
+        };
+        let _ = writeln!(
+            out,
+            "law set {}: {body} scaled; motoring torque and its change, N m",
+            set.lawset
+        );
         let _ = write!(
             out,
             "{:>7} {:>6} {:>10} {:>10} {:>10}",
@@ -1097,12 +1178,23 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
             }
             out.push('\n');
             for j in &c.joints {
-                let _ = writeln!(out, "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N", j.joint, j.law, j.change_nm, j.normal_load_change_n);
+                let _ = writeln!(
+                    out,
+                    "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N",
+                    j.joint, j.law, j.change_nm, j.normal_load_change_n
+                );
             }
         }
         out.push('\n');
     }
-    out
+    if thesis_shown {
+        out.push_str(&wrap(
+            "FEDEM thesis (T 10.6-10.5): the change the thesis's own FEDEM model gave for the rod at 60% (its table 10.6 minus table 10.5, N m), shown beside the thesis's law set only.",
+            MAX_COLUMNS,
+            "  ",
+        ));
+    }
+    fit_width(&out)
 }
 
 /// The sweep's tables for people: the oil and its viscosity at each temperature, then per law
@@ -1135,7 +1227,7 @@ pub fn sweep_text(s: &crate::study::Sweep) -> String {
             let _ = writeln!(out, "warning: {w}");
         }
     }
-    out
+    fit_width(&out)
 }
 
 /// `sweep.csv`: one row per law set, temperature and speed (in the JSON's order: law set, then
@@ -1240,6 +1332,27 @@ mod tests {
             warnings: Vec::new(),
             law_time: Vec::new(),
         }
+    }
+
+    #[test]
+    fn wrap_keeps_lines_that_fit_and_breaks_the_others_within_the_width() {
+        // A table row that fits keeps its alignment.
+        assert_eq!(wrap("a    b", 10, "  "), "a    b\n");
+        let long = "  alpha beta gamma delta epsilon zeta eta theta iota kappa";
+        let w = wrap(long, 20, "    ");
+        for line in w.lines() {
+            assert!(line.chars().count() <= 20, "{line:?}");
+        }
+        assert!(w.starts_with("  alpha beta gamma\n    delta"), "{w}");
+        // Every word survives, in order.
+        let words: Vec<&str> = w.split_whitespace().collect();
+        assert_eq!(words, long.split_whitespace().collect::<Vec<_>>());
+        // A word longer than a line is cut into pieces that fit.
+        let w = wrap(&"x".repeat(45), 20, "  ");
+        assert!(w.lines().all(|l| l.chars().count() <= 20), "{w}");
+        assert_eq!(w.chars().filter(|c| *c == 'x').count(), 45);
+        // Its own line breaks are kept.
+        assert_eq!(wrap("one\ntwo", 10, ""), "one\ntwo\n");
     }
 
     #[test]

@@ -204,8 +204,13 @@ pub fn verdict(
             }
         }
         CalibrationStatus::Fitted if best.on_bounds > 0 => format!(
-            "and {} of its {k} parameters sit on their bounds{}",
+            "and {} of its {k} parameters {}{}",
             best.on_bounds,
+            if best.on_bounds == 1 {
+                "sits on its bound"
+            } else {
+                "sit on their bounds"
+            },
             if best.undetermined > best.on_bounds {
                 format!(
                     ", {} more not determined by these data",
@@ -340,7 +345,7 @@ mod tests {
         let v = verdict(&[a], &MEASURED, &SPEEDS, Some(0.05));
         assert_eq!(v.rule, VerdictRule::PredictsUndetermined);
         assert!(
-            v.sentence.contains("1 of its 2 parameters sit on their bounds")
+            v.sentence.contains("1 of its 2 parameters sits on its bound")
                 && v.sentence.contains("trust its curve, not its parameter values"),
             "{}",
             v.sentence

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::loader::LawRegistry;
+use tribo_core::sim::readable;
 use tribo_plugin_api::ParamValue;
 
 use crate::files::read_text;
@@ -459,6 +460,22 @@ impl LawSet {
             .get(&param)
             .and_then(|v| v.as_float().or(v.as_integer().map(|x| x as f64)))
             .unwrap_or(default);
+        if let Some([lo, hi]) = bounds {
+            // The fit would otherwise try values the law refuses (and fail part-way), or stop
+            // at a bound that is not the law's.
+            if lo < spec.min || hi > spec.max {
+                return Err(self.error(
+                    &format!("laws[{i}].free.{param}"),
+                    format!(
+                        "the bounds [{}, {}] of free parameter `{id}` reach outside the range law `{}` accepts for `{param}`, {}; give bounds inside it",
+                        readable(lo),
+                        readable(hi),
+                        e.law,
+                        spec.range_text()
+                    ),
+                ));
+            }
+        }
         let bounds = bounds.unwrap_or([spec.min, spec.max]);
         Ok(FreeParam {
             id,

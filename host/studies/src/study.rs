@@ -93,7 +93,7 @@ pub fn check_lawsets(
     lawsets: &[LawSet],
     registry: &LawRegistry,
 ) -> Result<(), StudyError> {
-    check_each(rig, lawsets, |r| {
+    check_each(rig, lawsets, registry, |r| {
         tribo_config::rig::any_simulation(r, registry).map(drop)
     })
 }
@@ -106,13 +106,18 @@ pub fn check_lawsets_described(
     lawsets: &[LawSet],
     registry: &LawRegistry,
 ) -> Result<(), StudyError> {
-    check_each(rig, lawsets, |r| tribo_config::rig::check_laws(r, registry))
+    check_each(rig, lawsets, registry, |r| {
+        tribo_config::rig::check_laws(r, registry)
+    })
 }
 
-/// Unique names, then `check` on `rig` prepared with each law set, its error named by the set.
+/// Unique names, then `check` on `rig` prepared with each law set, its error named by the set,
+/// and its free parameters resolved against the laws' declarations (bounds inside each law's
+/// own range).
 fn check_each(
     rig: &Rig,
     lawsets: &[LawSet],
+    registry: &LawRegistry,
     check: impl Fn(&Rig) -> Result<(), SimError>,
 ) -> Result<(), StudyError> {
     check_unique_names(lawsets)?;
@@ -122,6 +127,9 @@ fn check_each(
             lawset: ls.name().into(),
             error: Box::new(e),
         })?;
+        if ls.file.laws.iter().any(|e| !e.free.is_empty()) {
+            ls.free_params(registry, None).map_err(Box::new)?;
+        }
     }
     Ok(())
 }

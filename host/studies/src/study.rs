@@ -712,7 +712,7 @@ fn score_set(
         Some((f, _)) => (
             f.scores.clone(),
             f.uncertainty.clone(),
-            fitted_calibration(f),
+            fitted_calibration(f, free),
         ),
         None => {
             // Nothing fitted: scored as it is, like a set without free parameters.
@@ -830,8 +830,8 @@ fn score_set(
     })
 }
 
-/// A fitted set's parameters as a comparison reports them.
-fn fitted_calibration(f: &crate::fit::FitResult) -> SetCalibration {
+/// A fitted set's parameters as a comparison reports them (`free`: as the file gives them).
+fn fitted_calibration(f: &crate::fit::FitResult, free: &[FreeParam]) -> SetCalibration {
     let params = (0..f.params.len())
         .map(|k| {
             let std_dev = f.std_dev.get(k).copied().flatten();
@@ -839,7 +839,7 @@ fn fitted_calibration(f: &crate::fit::FitResult) -> SetCalibration {
             let at_bound = f.at_bound.get(k).cloned().flatten();
             ParamEstimate {
                 id: f.params[k].clone(),
-                start: f.start.get(k).copied().unwrap_or(f64::NAN),
+                start: free.get(k).map_or(f64::NAN, |p| p.value),
                 value,
                 bounds: f.bounds[k],
                 determined: at_bound.is_none()

@@ -315,14 +315,10 @@ struct SweepArgs {
         allow_hyphen_values = true
     )]
     temps: String,
-    /// Engine speeds, rpm, comma-separated.
-    #[arg(
-        long,
-        value_name = "RPM,RPM,...",
-        default_value = "3000,4000,5000,6000,7000,8000,9000",
-        allow_hyphen_values = true
-    )]
-    speeds: String,
+    /// Engine speeds, rpm, comma-separated (default: the plateau speeds of the rig's own test
+    /// cycle, 3000-9000 rpm on the CRF 250 R; at most the rig's max_speed_rpm).
+    #[arg(long, value_name = "RPM,RPM,...", allow_hyphen_values = true)]
+    speeds: Option<String>,
     /// Another oil: a TOML file with an [oil] table (name, grade, source, viscosity,
     /// density_kg_m3), applied before --set.
     #[arg(long, value_name = "FILE.toml")]
@@ -1020,29 +1016,12 @@ fn fit_data(a: &FitArgs, rig: &tribo::rig::Rig) -> anyhow::Result<Vec<String>> {
     }
 }
 
-/// The data a study on `rig` compares against: `given`, or the bundled measurements made on
-/// that rig; a rig without any must be given data (no bundled data are used on a rig they
-/// were not measured on).
+/// The data a study on `rig` compares against: `given`, or the rig's own bundled measurements
+/// ([`tribo::study::default_data`]).
 fn data_arg(given: Option<&str>, rig: &tribo::rig::Rig) -> anyhow::Result<String> {
-    if let Some(d) = given {
-        return Ok(d.to_string());
-    }
-    match tribo::study::bundled_data_for(&rig.file.name) {
-        Some(name) => Ok(name.to_string()),
-        None => anyhow::bail!(
-            "rig `{}` has no bundled measurements (the bundled data were measured on {}): give yours with --data FILE (columns speed_rpm,torque_nm,oil_temp_c), or use `tribo sweep` or `tribo run` for the model alone",
-            rig.file.name,
-            tribo::bundled::data_names()
-                .iter()
-                .filter_map(|n| {
-                    tribo::bundled::data(n)
-                        .and_then(|t| tribo::study::parse_meta(std::path::Path::new(n), t).ok())
-                        .and_then(|m| m.rig)
-                        .map(|r| format!("{r} ({n})"))
-                })
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
+    match given {
+        Some(d) => Ok(d.to_string()),
+        None => Ok(tribo::study::default_data(rig)?.to_string()),
     }
 }
 
@@ -1107,8 +1086,8 @@ fn sweep_study(
     progress: Option<&tribo::progress::Position>,
 ) -> anyhow::Result<tribo::study::Sweep> {
     let temps_c = tribo::study::parse_list("--temps", &a.temps)?;
-    let speeds_rpm = tribo::study::parse_list("--speeds", &a.speeds)?;
     let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), sets, a.lawsets.clone())?;
+    let speeds_rpm = sweep_speeds(a.speeds.as_deref(), &rig)?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
@@ -1122,17 +1101,26 @@ fn sweep_study(
     )?)
 }
 
+/// The speeds a sweep runs: `--speeds`, or the plateau speeds of the rig's own cycle.
+fn sweep_speeds(given: Option<&str>, rig: &tribo::rig::Rig) -> anyhow::Result<Vec<f64>> {
+    match given {
+        Some(text) => Ok(tribo::study::parse_list("--speeds", text)?),
+        None => Ok(tribo::study::plateau_speeds(rig)),
+    }
+}
+
 /// `tribo sweep`: torque over oil temperature and speed per law set; tables or JSON on stdout,
 /// sweep.csv, sweep.json and plots in the output directory.
 fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     // Inputs are checked before anything is loaded or run.
     let temps_c = tribo::study::parse_list("--temps", &a.temps)?;
-    let speeds_rpm = tribo::study::parse_list("--speeds", &a.speeds)?;
-    tribo::study::check_sweep_inputs(&temps_c, &speeds_rpm)?;
     let sets = with_oil_file(a.oil.as_deref(), a.sets.clone())?;
     let specs = lawset_specs(&a.lawsets);
-    let (_, mut sets_loaded) = study_inputs(a.rig.clone(), &sets, specs.clone())?;
+    let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &sets, specs.clone())?;
+    let speeds_rpm = sweep_speeds(a.speeds.as_deref(), &rig)?;
+    tribo::study::check_sweep_inputs(&temps_c, &speeds_rpm)?;
+    tribo::study::check_speeds_for_rig(&rig, &speeds_rpm, "--speeds")?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }

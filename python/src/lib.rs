@@ -522,7 +522,18 @@ struct CompareJob {
     #[serde(default)]
     no_cv: bool,
     #[serde(default)]
+    no_fit: bool,
+    #[serde(default = "default_starts")]
+    starts: usize,
+    #[serde(default)]
+    data_for_any_rig: bool,
+    #[serde(default)]
     plugin_paths: Vec<PathBuf>,
+}
+
+/// Latin-hypercube start points of a calibration when the job gives none.
+fn default_starts() -> usize {
+    tribo_studies::fit::DEFAULT_STARTS
 }
 
 /// `compare(job_json)`: law sets against measured data, as `tribo compare --json`.
@@ -533,11 +544,17 @@ fn compare<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyAny>> {
         let rig = job.rig.load()?;
         let sets = lawsets(&job.lawsets)?;
         study::check_unique_names(&sets)?;
-        let data = DataRun::read(job.data.as_deref().unwrap_or(bundled::DEFAULT_DATA))?;
+        let data = match job.data.as_deref() {
+            Some(d) => DataRun::read(d)?,
+            None => DataRun::read(study::default_data(&rig)?)?,
+        };
         let options = study::CompareOptions {
             steady: job.steady,
             no_cv: job.no_cv,
+            no_fit: job.no_fit,
+            starts: job.starts,
             validate: data_runs(&job.validate)?,
+            data_for_any_rig: job.data_for_any_rig,
         };
         let registry = registry(&job.plugin_paths)?;
         Ok(study::compare(&rig, &sets, &data, &registry, &options)?)
@@ -616,6 +633,8 @@ struct FitJob {
     #[serde(default)]
     no_cv: bool,
     #[serde(default)]
+    data_for_any_rig: bool,
+    #[serde(default)]
     plugin_paths: Vec<PathBuf>,
 }
 
@@ -625,16 +644,16 @@ struct FitJob {
 fn fit<'py>(py: Python<'py>, job: &str) -> PyResult<(Bound<'py, PyAny>, String)> {
     let (result, text) = detached(py, || {
         let job: FitJob = serde_json::from_str(job)?;
-        if !(1..=64).contains(&job.starts) {
+        if job.starts > 64 {
             return Err(Failure::new(
                 Kind::Input,
-                format!("starts: {} is not in 1..=64", job.starts),
+                format!("starts: {} is not in 0..=64", job.starts),
             ));
         }
         let rig = job.rig.load()?;
         let ls = job.lawset.load()?;
         let names = if job.data.is_empty() {
-            vec![bundled::DEFAULT_DATA.to_string()]
+            vec![study::default_data(&rig)?.to_string()]
         } else {
             job.data.clone()
         };
@@ -643,6 +662,7 @@ fn fit<'py>(py: Python<'py>, job: &str) -> PyResult<(Bound<'py, PyAny>, String)>
             starts: job.starts,
             cross_validate: !job.no_cv,
             validate: data_runs(&job.validate)?,
+            data_for_any_rig: job.data_for_any_rig,
         };
         let registry = registry(&job.plugin_paths)?;
         let free = ls.free_params(&registry, job.params.as_deref())?;

@@ -247,8 +247,32 @@ pub fn bundled_data_for(rig_name: &str) -> Option<&'static str> {
     })
 }
 
-/// Refuse data measured on another rig than `rig` (the data file's `# rig:`), unless
-/// `any_rig` (`--data-for-any-rig`), and speeds above the rig's declared top speed.
+/// The data a study on `rig` compares against when none are given: the bundled measurements
+/// made on that rig ([`bundled_data_for`]). A rig without any is an error asking for data: no
+/// bundled data are used on a rig they were not measured on.
+pub fn default_data(rig: &Rig) -> Result<&'static str, StudyError> {
+    bundled_data_for(&rig.file.name).ok_or_else(|| {
+        let measured: Vec<String> = tribo_config::bundled::data_names()
+            .into_iter()
+            .filter_map(|n| {
+                let meta = parse_meta(Path::new(n), tribo_config::bundled::data(n)?).ok()?;
+                Some(format!("{} ({n})", meta.rig?))
+            })
+            .collect();
+        StudyError::Data {
+            file: PathBuf::from("--data"),
+            line: None,
+            message: format!(
+                "rig `{}` has no bundled measurements (the bundled data were measured on {}): give yours (columns speed_rpm,torque_nm,oil_temp_c), or use `tribo sweep` or `tribo run` for the model alone",
+                rig.file.name,
+                measured.join(", ")
+            ),
+        }
+    })
+}
+
+/// Refuse speeds above the rig's declared top speed (`max_speed_rpm`), and data measured on
+/// another rig than `rig` (the data file's `# rig:`) unless `any_rig` (`--data-for-any-rig`).
 pub fn check_data_rig(rig: &Rig, data: &DataRun, any_rig: bool) -> Result<(), StudyError> {
     let err = |message: String| StudyError::Data {
         file: data.file.clone(),
@@ -260,6 +284,16 @@ pub fn check_data_rig(rig: &Rig, data: &DataRun, any_rig: bool) -> Result<(), St
             return Err(err(format!(
                 "these data were measured on rig `{measured_on}` (its `# rig:` line), and this study runs rig `{}`: scoring one engine against another's measurements says nothing about either; give data measured on `{}` with --data, or pass --data-for-any-rig if they do apply",
                 rig.file.name, rig.file.name
+            )));
+        }
+    }
+    if let Some(top) = rig.file.max_speed_rpm {
+        if let Some(row) = data.rows.iter().find(|r| r.speed_rpm > top) {
+            return Err(err(format!(
+                "{} rpm is above the top speed of rig `{}` (max_speed_rpm = {} rpm): no measurement can have been made there",
+                readable(row.speed_rpm),
+                rig.file.name,
+                readable(top)
             )));
         }
     }
@@ -1433,6 +1467,46 @@ pub fn check_sweep_inputs(temps_c: &[f64], speeds_rpm: &[f64]) -> Result<(), Swe
     Ok(())
 }
 
+/// The speeds of the plateaus of `rig`'s own test cycle, rpm, in the order held (each once).
+pub fn plateau_speeds(rig: &Rig) -> Vec<f64> {
+    let mut speed = 0.0;
+    let mut out: Vec<f64> = Vec::new();
+    for s in rig.file.cycle.segments() {
+        match s {
+            Segment::Ramp { to_rpm, .. } => speed = to_rpm,
+            Segment::Hold { .. } => {
+                if !out.contains(&speed) {
+                    out.push(speed);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Refuse `speeds_rpm` (given by `option`) above the rig's declared top speed
+/// (`max_speed_rpm`), naming both.
+pub fn check_speeds_for_rig(
+    rig: &Rig,
+    speeds_rpm: &[f64],
+    option: &str,
+) -> Result<(), SweepInputError> {
+    match (rig.file.max_speed_rpm, speeds_rpm.iter().find(|s| {
+        rig.file.max_speed_rpm.is_some_and(|top| **s > top)
+    })) {
+        (Some(top), Some(s)) => Err(SweepInputError {
+            option: option.into(),
+            message: format!(
+                "{} rpm is above the top speed of rig `{}` (max_speed_rpm = {} rpm)",
+                readable(*s),
+                rig.file.name,
+                readable(top)
+            ),
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// `rig` with `lawset` attached, driven through `speeds_rpm` (the thesis's ramp-and-hold
 /// pattern) with the oil at `temp_c` on every plateau.
 fn sweep_rig(
@@ -1465,6 +1539,7 @@ pub fn sweep(
 ) -> Result<Sweep, StudyError> {
     // Every input checked before anything runs.
     check_sweep_inputs(temps_c, speeds_rpm)?;
+    check_speeds_for_rig(rig, speeds_rpm, "--speeds")?;
     check_lawsets(rig, lawsets, registry)?;
     if let Some(ls) = lawsets.first() {
         for t in temps_c {

@@ -380,6 +380,28 @@ impl LawSet {
         Ok(out)
     }
 
+    /// Check every entry's parameters against its law's declaration (names, types, ranges)
+    /// without a rig and without running any law code: what a run would refuse, reported now,
+    /// located in the law set's text (`laws[i].params.NAME`).
+    pub fn check_params(&self, registry: &LawRegistry) -> Result<(), RigError> {
+        for (i, e) in self.file.laws.iter().enumerate() {
+            let lib = registry
+                .get(&e.law)
+                .map_err(|err| self.error(&format!("laws[{i}].law"), err.to_string()))?;
+            tribo_plugin_api::describe::check_params(lib.description(), &e.params).map_err(
+                |err| {
+                    let field = if err.parameter.is_empty() {
+                        format!("laws[{i}].params")
+                    } else {
+                        format!("laws[{i}].params.{}", err.parameter)
+                    };
+                    self.error(&field, format!("law `{}`: {}", e.law, err.message))
+                },
+            )?;
+        }
+        Ok(())
+    }
+
     /// An error about `field` of this law set, located in its text.
     fn error(&self, field: &str, message: String) -> RigError {
         error(&self.source.path, &self.source.text, field, message)

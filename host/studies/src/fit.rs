@@ -620,6 +620,48 @@ pub fn search(model: &dyn Objective, own: &[f64], lhs: usize) -> Option<Search> 
     })
 }
 
+/// How far the residuals must lean on a parameter at its bound, as the cosine between the
+/// residual vector and the torque's sensitivity to it, before the bound counts as pushed: at
+/// an optimum inside the range that cosine is zero (the gradient vanishes).
+const PUSH_COSINE: f64 = 1e-3;
+
+/// Whether the data push parameter `k` of `x` past its `side` bound: the sum of squares would
+/// still fall beyond it. Its gradient there is `2 r . J_k`; the bound is pushed when that
+/// points outwards and the cosine between the residuals `r` and the sensitivity `J_k` (a
+/// difference into the range) exceeds [`PUSH_COSINE`]. A bound reached along a direction the
+/// error does not change in (a valley the data cannot resolve) is not pushed.
+fn pushed_past_bound(
+    model: &TorqueModel<'_>,
+    x: &[f64],
+    residuals: &[f64],
+    k: usize,
+    side: &str,
+) -> bool {
+    let [lo, hi] = model.free()[k].bounds;
+    let inward = if side == "lower" { 1.0 } else { -1.0 };
+    let h = 1e-6 * (hi - lo).abs().max(1e-300);
+    let mut xi = x.to_vec();
+    xi[k] = (x[k] + inward * h).clamp(lo, hi);
+    let (Ok(inside), Ok(at)) = (model.torques(&xi), model.torques(x)) else {
+        // The range's inside does not run: the bound is what holds the fit.
+        return true;
+    };
+    let step = xi[k] - x[k];
+    if step == 0.0 {
+        return true;
+    }
+    let jk: Vec<f64> = inside.iter().zip(&at).map(|(a, b)| (a - b) / step).collect();
+    let dot: f64 = residuals.iter().zip(&jk).map(|(r, j)| r * j).sum();
+    let norms = residuals.iter().map(|r| r * r).sum::<f64>().sqrt()
+        * jk.iter().map(|j| j * j).sum::<f64>().sqrt();
+    if norms <= 0.0 {
+        return false;
+    }
+    // dS/dx = 2 r . J_k: positive at a lower bound (S rises into the range), negative at an
+    // upper one, when the data push outwards.
+    inward * dot / norms > PUSH_COSINE
+}
+
 /// Which bound, if any, `x` ended on (within 0.1% of the range, in the optimiser's scale).
 pub fn bound_hit(x: f64, bounds: [f64; 2]) -> Option<String> {
     let s = Map::new(bounds).unit(x);
@@ -699,12 +741,22 @@ pub fn fit(
         .torques(&x)
         .map_err(|e| data_error(format!("the fitted values do not run: {e}")))?;
     let (residuals_nm, rmse_nm, _) = errors(&torques, &measured);
-    let on_bound: Vec<bool> = x
+    let at_bound: Vec<Option<String>> = x
         .iter()
         .zip(free)
-        .map(|(v, f)| bound_hit(*v, f.bounds).is_some())
+        .map(|(v, f)| bound_hit(*v, f.bounds))
         .collect();
-    let unc = uncertainty_within_bounds(&model, &x, &residuals_nm, &on_bound);
+    // Held by its bound only where the data push it there; one that reached a bound along a
+    // direction the error does not change in is analysed as inside its range.
+    let held: Vec<bool> = at_bound
+        .iter()
+        .enumerate()
+        .map(|(k, side)| {
+            side.as_deref()
+                .is_some_and(|side| pushed_past_bound(&model, &x, &residuals_nm, k, side))
+        })
+        .collect();
+    let unc = uncertainty_within_bounds(&model, &x, &residuals_nm, &held);
     let scores = score::scores_for_fit(&model, &x, &residuals_nm, options.cross_validate);
     let fitted = lawset.with_values(free, &x);
     let validation = options
@@ -713,11 +765,6 @@ pub fn fit(
         .map(|v| score::validate(rig, &fitted, v, registry, true))
         .collect::<Result<Vec<_>, _>>()?;
 
-    let at_bound: Vec<Option<String>> = x
-        .iter()
-        .zip(free)
-        .map(|(v, f)| bound_hit(*v, f.bounds))
-        .collect();
     let start_outcomes: Vec<StartOutcome> = found
         .outcomes
         .iter()
@@ -734,6 +781,7 @@ pub fn fit(
         free,
         uncertainty: &unc,
         at_bound: &at_bound,
+        held: &held,
         failed,
         evaluations: model.evaluations(),
         first_failure: first_failure.as_deref(),
@@ -781,6 +829,7 @@ struct FitFindings<'f> {
     free: &'f [FreeParam],
     uncertainty: &'f Uncertainty,
     at_bound: &'f [Option<String>],
+    held: &'f [bool],
     failed: usize,
     evaluations: usize,
     first_failure: Option<&'f str>,
@@ -794,12 +843,17 @@ struct FitFindings<'f> {
 /// did not run, no convergence, the spread of the start points, what the scores cannot say.
 fn fit_warnings(f: FitFindings<'_>) -> Vec<String> {
     let mut warnings = f.uncertainty.statements.clone();
-    for (p, b) in f.free.iter().zip(f.at_bound) {
-        if let Some(side) = b {
-            warnings.push(format!(
+    for ((p, b), held) in f.free.iter().zip(f.at_bound).zip(f.held) {
+        match (b, held) {
+            (Some(side), true) => warnings.push(format!(
                 "{}: ended on its {side} bound ({:?}); the data push it beyond the range you allowed, so the value is the bound, not an estimate",
                 p.id, p.bounds
-            ));
+            )),
+            (Some(side), false) => warnings.push(format!(
+                "{}: ended on its {side} bound ({:?}), but the error does not change as it moves back into its range: the bound is where a direction the data do not determine ended, not a limit the data push against",
+                p.id, p.bounds
+            )),
+            _ => {}
         }
     }
     if f.failed > 0 {

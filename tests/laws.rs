@@ -227,8 +227,9 @@ fn check_law_passes_every_bundled_law_with_defaults_and_rig_parameters() {
             for c in checks {
                 let name = c["check"].as_str().unwrap_or("");
                 let status = c["status"].as_str().unwrap_or("");
-                // Only checks that do not apply may be skipped: dF/dv of a law that reports
-                // none, commit of a stateless law. Everything else must have run and passed.
+                // Only checks that do not apply may be skipped: dF/dv, dF/dN or diagnostics of a
+                // law that reports none, commit of a stateless law. Everything else must have
+                // run and passed.
                 let expected = match name {
                     "derivative" => matches!(
                         law,
@@ -239,6 +240,9 @@ fn check_law_passes_every_bundled_law_with_defaults_and_rig_parameters() {
                             | "rolling-bearing"
                     ),
                     "commit" => law == "lugre",
+                    // Contract version 3's outputs: no bundled law reports a diagnostic or
+                    // dF/dN yet; a law that does is judged by these checks.
+                    "diagnostics" | "load-derivative" => false,
                     _ => true,
                 };
                 let want = if expected { "pass" } else { "skip" };
@@ -474,6 +478,83 @@ impl Law for Diverging {
     }
 }
 
+/// Coulomb friction reporting a film that goes negative above 2 kN (an unclamped film
+/// formula): physically impossible.
+struct NegativeFilm(f64);
+impl Law for NegativeFilm {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-negative-film";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "a film thickness below zero";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+        let (s, _) = tribo::plugin_api::smooth_sign(input.sliding_velocity_m_s, 1e-3);
+        LawOutput::force(-self.0 * input.normal_load_n * arm(input) * s)
+            .with_min_film(2e-6 - 1e-9 * input.normal_load_n)
+    }
+}
+
+/// Coulomb friction whose reported dF/dN is twice the true one.
+struct WrongLoadDerivative(f64);
+impl Law for WrongLoadDerivative {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-wrong-load-derivative";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "Coulomb friction with a wrong dF/dN";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+        let (s, _) = tribo::plugin_api::smooth_sign(input.sliding_velocity_m_s, 1e-3);
+        let per_newton = -self.0 * arm(input) * s;
+        LawOutput::force(per_newton * input.normal_load_n).with_load_derivative(2.0 * per_newton)
+    }
+}
+
+/// A stateful viscous law (its coefficient grows with the distance slid) whose batch call
+/// reads the first input's state for every input: the stride ignored.
+struct BatchIgnoresStride(f64);
+impl Law for BatchIgnoresStride {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-batch-ignores-stride";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "an evaluate_many that ignores the state stride";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn state_size(&self) -> usize {
+        1
+    }
+    fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
+        LawOutput::force(-(self.0 + state[0]) * input.relative_velocity)
+    }
+    fn commit(&self, input: &LawInput, state: &mut [f64]) {
+        state[0] += input.dt_s * input.relative_velocity.abs();
+    }
+    fn evaluate_many(
+        &self,
+        inputs: &[LawInput],
+        states: &[f64],
+        _state_stride: usize,
+        outputs: &mut [LawOutput],
+    ) {
+        for (input, out) in inputs.iter().zip(outputs.iter_mut()) {
+            *out = self.evaluate(input, &states[..1]);
+        }
+    }
+}
+
 fn report_of<L: Law>() -> Report {
     let lib = LawLibrary::in_process::<L>().expect("describes itself");
     conformance::check_law(&lib, &toml::Table::new())
@@ -544,6 +625,44 @@ fn a_panic_is_a_named_error_not_a_crash() {
         "{d}"
     );
     assert!(d.contains("load 50000 N"), "{d}");
+}
+
+#[test]
+fn a_negative_film_fails_diagnostics_naming_the_value() {
+    let r = report_of::<NegativeFilm>();
+    assert_eq!(r.failed(), vec![Check::Diagnostics], "{r}");
+    let d = detail(&r, Check::Diagnostics);
+    assert!(d.contains("min_film_m = -") && d.contains(">= 0 m"), "{d}");
+    assert!(d.contains("load 50000 N"), "{d}");
+}
+
+#[test]
+fn a_wrong_load_derivative_fails_load_derivative() {
+    let r = report_of::<WrongLoadDerivative>();
+    assert_eq!(r.failed(), vec![Check::LoadDerivative], "{r}");
+    let d = detail(&r, Check::LoadDerivative);
+    assert!(
+        d.contains("dF/dN") && d.contains("finite differences"),
+        "{d}"
+    );
+    // A right one passes, and the zero-load points are counted as not judged.
+    let r = report_of::<NegativeFilm>();
+    assert_eq!(
+        r.get(Check::LoadDerivative).map(|c| c.status),
+        Some(Status::Skip),
+        "{r}"
+    );
+}
+
+#[test]
+fn a_batch_that_ignores_the_stride_fails_evaluate_many() {
+    let r = report_of::<BatchIgnoresStride>();
+    assert_eq!(r.failed(), vec![Check::EvaluateMany], "{r}");
+    let d = detail(&r, Check::EvaluateMany);
+    assert!(
+        d.contains("a state per input") && d.contains("batch input"),
+        "{d}"
+    );
 }
 
 #[test]

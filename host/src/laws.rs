@@ -76,7 +76,8 @@ fn law_json(lib: &LawLibrary) -> Value {
         "name": d.name, "version": d.version, "abi": lib.abi().to_string(),
         "language": language(lib),
         "contract_version": lib.contract_version(),
-        "file": lib.path().display().to_string(), "summary": d.summary, "parameters": params,
+        "file": lib.path().display().to_string(), "summary": d.summary,
+        "suits": tribo_plugin_api::suits_words(lib.suits()), "parameters": params,
     })
 }
 
@@ -147,6 +148,13 @@ pub fn to_text(listing: &LawListing<'_>) -> String {
             crate::report::MAX_COLUMNS,
             "    ",
         ));
+        if lib.suits() != 0 {
+            out.push_str(&crate::report::wrap(
+                &format!("    made for {}", tribo_plugin_api::suits_text(lib.suits())),
+                crate::report::MAX_COLUMNS,
+                "    ",
+            ));
+        }
         // One line per parameter: name, default, unit and range; its meaning wrapped below.
         let width = d.parameters.iter().map(|p| p.name.len()).max().unwrap_or(0);
         for p in &d.parameters {

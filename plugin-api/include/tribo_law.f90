@@ -1,14 +1,16 @@
-! tribo_law.f90 - the Fortran interface to Tribo's law plugin ABI, contract version 1.
+! tribo_law.f90 - the Fortran interface to Tribo's law plugin ABI, contract version 3.
 !
 ! The Fortran mirror of tribo_law.h (read its opening comment: the call order, the state rules
 ! and the rules every law keeps). It gives, through iso_c_binding:
 !
-!   - the constants of the header (contract version, joint kinds, regimes, output flags);
+!   - the constants of the header (contract version, joint kinds, regimes, output flags,
+!     bearing types, inner body, suitability bits);
 !   - bind(c) derived types laid out exactly as the header's structs: tribo_law_input,
 !     tribo_law_output, tribo_param_spec, tribo_law_description (checked field by field against
 !     the C and Rust layouts by plugin-api/tests/header.rs);
-!   - abstract interfaces of the seven functions a law exports, so a test program can check a
-!     law's signatures at compile time (procedure(tribo_law_evaluate_fn), pointer :: p => ...);
+!   - abstract interfaces of the seven functions a law exports and of the two optional ones
+!     (tribo_law_evaluate_many_fn, tribo_law_suits_fn), so a test program can check a law's
+!     signatures at compile time (procedure(tribo_law_evaluate_fn), pointer :: p => ...);
 !   - tribo_set_error, which writes a message into create()'s error buffer as a C string.
 !
 ! A law implements the seven functions as module procedures with
@@ -36,9 +38,10 @@ module tribo_law
   implicit none
   private
 
-  !> Version of the contract (2: the gas state at the end of tribo_law_input); the host still
-  !> loads version-1 libraries and refuses newer ones.
-  integer(c_int32_t), parameter, public :: TRIBO_LAW_CONTRACT_VERSION = 2
+  !> Version of the contract (3: both bodies, the bearing type and the load on the inner member
+  !> in tribo_law_input; the load derivative and the diagnostics in tribo_law_output); the host
+  !> still loads version-1 and version-2 libraries and refuses newer ones.
+  integer(c_int32_t), parameter, public :: TRIBO_LAW_CONTRACT_VERSION = 3
 
   !> Joint kinds (tribo_law_input%joint_kind).
   integer(c_int32_t), parameter, public :: TRIBO_JOINT_REVOLUTE = 0   ! rad/s in, a torque in N m out
@@ -54,6 +57,27 @@ module tribo_law
   integer(c_int32_t), parameter, public :: TRIBO_HAS_COEFFICIENT = 1
   integer(c_int32_t), parameter, public :: TRIBO_HAS_DUTY_PARAMETER = 2
   integer(c_int32_t), parameter, public :: TRIBO_HAS_DERIVATIVE = 4
+  integer(c_int32_t), parameter, public :: TRIBO_HAS_LOAD_DERIVATIVE = 8    ! version 3
+  integer(c_int32_t), parameter, public :: TRIBO_HAS_MIN_FILM = 16          ! version 3
+  integer(c_int32_t), parameter, public :: TRIBO_HAS_ECCENTRICITY = 32      ! version 3
+  integer(c_int32_t), parameter, public :: TRIBO_HAS_PEAK_PRESSURE = 64     ! version 3
+  integer(c_int32_t), parameter, public :: TRIBO_HAS_ASPERITY_SHARE = 128   ! version 3
+
+  !> Bearing types (tribo_law_input%bearing_type): what the rig declares for the joint.
+  integer(c_int32_t), parameter, public :: TRIBO_BEARING_UNSPECIFIED = 0
+  integer(c_int32_t), parameter, public :: TRIBO_BEARING_PLAIN = 1     ! hydrodynamic journal
+  integer(c_int32_t), parameter, public :: TRIBO_BEARING_ROLLING = 2   ! rolling elements
+  integer(c_int32_t), parameter, public :: TRIBO_BEARING_SLIDE = 3     ! piston skirt, rings
+
+  !> Which body is the inner member (tribo_law_input%inner_body); tribo_law.h has the table of
+  !> bodies A and B per joint.
+  integer(c_int32_t), parameter, public :: TRIBO_INNER_BODY_A = 0
+  integer(c_int32_t), parameter, public :: TRIBO_INNER_BODY_B = 1
+
+  !> Bits of tribo_law_suits(): the bearing types a law is made for (0: any joint).
+  integer(c_int32_t), parameter, public :: TRIBO_SUITS_PLAIN = 1
+  integer(c_int32_t), parameter, public :: TRIBO_SUITS_ROLLING = 2
+  integer(c_int32_t), parameter, public :: TRIBO_SUITS_SLIDE = 4
 
   !> Everything a law may depend on, for one joint at one instant (tribo_law.h has the units).
   type, bind(c), public :: tribo_law_input
@@ -78,6 +102,15 @@ module tribo_law
     real(c_double) :: crankcase_pressure_pa   ! absolute pressure under the piston, Pa
     real(c_double) :: piston_from_tdc_m       ! piston travel from TDC, m
     real(c_double) :: cycle_angle_rad         ! angle in the 4-stroke cycle, rad, [0, 4 pi)
+    ! Version 3 (bodies A and B per joint: the table in tribo_law.h):
+    real(c_double) :: body_a_angle            ! body A's absolute angle, rad (slide: position, m)
+    real(c_double) :: body_a_velocity         ! body A's velocity, rad/s (slide: m/s)
+    real(c_double) :: body_b_angle            ! body B's, as body_a_angle
+    real(c_double) :: body_b_velocity         ! body B's; relative_velocity = a - b
+    integer(c_int32_t) :: inner_body          ! TRIBO_INNER_BODY_*
+    integer(c_int32_t) :: bearing_type        ! TRIBO_BEARING_*
+    real(c_double) :: load_on_inner_x_n       ! force of the outer member on the inner one, N:
+    real(c_double) :: load_on_inner_y_n       ! global x, y (revolute); along, normal to the slide
   end type tribo_law_input
 
   !> What a law returns for one evaluation.
@@ -88,6 +121,13 @@ module tribo_law
     real(c_double) :: dforce_dvelocity        ! if TRIBO_HAS_DERIVATIVE
     integer(c_int32_t) :: regime              ! TRIBO_REGIME_*
     integer(c_int32_t) :: flags               ! TRIBO_HAS_* bits
+    ! Version 3:
+    real(c_double) :: dforce_dload            ! d force / d normal load, if TRIBO_HAS_LOAD_DERIVATIVE
+    real(c_double) :: min_film_m              ! minimum film, m, >= 0, if TRIBO_HAS_MIN_FILM
+    real(c_double) :: eccentricity_x          ! e/c in the outer member's frame, |e| < 1,
+    real(c_double) :: eccentricity_y          ! if TRIBO_HAS_ECCENTRICITY
+    real(c_double) :: peak_pressure_pa        ! peak film pressure, Pa, if TRIBO_HAS_PEAK_PRESSURE
+    real(c_double) :: asperity_share          ! load share on asperities, [0, 1], if TRIBO_HAS_ASPERITY_SHARE
   end type tribo_law_output
 
   !> One scalar parameter; the strings are c_loc of NUL-terminated static character variables.
@@ -109,7 +149,7 @@ module tribo_law
     type(c_ptr) :: params                     ! c_loc of a tribo_param_spec array
   end type tribo_law_description
 
-  !> The seven functions a law exports, as tribo_law.h declares them.
+  !> The seven functions a law exports, and the two optional ones, as tribo_law.h declares them.
   abstract interface
     function tribo_law_contract_version_fn() bind(c) result(version)
       import :: c_int32_t
@@ -157,11 +197,31 @@ module tribo_law
       import :: c_ptr
       type(c_ptr), value :: instance
     end subroutine tribo_law_destroy_fn
+
+    ! Optional (version 3): n inputs at once; input k reads the state at k * state_stride
+    ! doubles from `states` (stride 0: one shared state).
+    function tribo_law_evaluate_many_fn(instance, n, inputs, states, state_stride, outputs) &
+        bind(c) result(status)
+      import :: c_ptr, c_size_t, c_int32_t, tribo_law_input, tribo_law_output
+      type(c_ptr), value :: instance
+      integer(c_size_t), value :: n
+      type(tribo_law_input), intent(in) :: inputs(*)
+      type(c_ptr), value :: states              ! const double *
+      integer(c_size_t), value :: state_stride
+      type(tribo_law_output), intent(inout) :: outputs(*)
+      integer(c_int32_t) :: status
+    end function tribo_law_evaluate_many_fn
+
+    ! Optional (version 3): the TRIBO_SUITS_* bits (0: any joint).
+    function tribo_law_suits_fn() bind(c) result(suits)
+      import :: c_int32_t
+      integer(c_int32_t) :: suits
+    end function tribo_law_suits_fn
   end interface
 
   public :: tribo_law_contract_version_fn, tribo_law_describe_fn, tribo_law_create_fn, &
             tribo_law_state_size_fn, tribo_law_evaluate_fn, tribo_law_commit_fn, &
-            tribo_law_destroy_fn
+            tribo_law_destroy_fn, tribo_law_evaluate_many_fn, tribo_law_suits_fn
   public :: tribo_set_error
 
 contains

@@ -44,11 +44,16 @@ pub enum Check {
     NoErrors,
     /// Force and every flagged optional output are finite over the sweep.
     Finite,
+    /// Every flagged diagnostic makes physical sense over the sweep: a film and a peak
+    /// pressure `>= 0`, an eccentricity ratio of magnitude `< 1`, an asperity share in `[0, 1]`.
+    Diagnostics,
     /// `force * relative_velocity <= 1e-9` over the sweep (stateless laws, and a stateful law
     /// from rest and in steady sliding), unless the law is declared active.
     Dissipative,
     /// A reported `dforce_dvelocity` agrees with central finite differences.
     Derivative,
+    /// A reported `dforce_dload` agrees with central finite differences in the normal load.
+    LoadDerivative,
     /// `evaluate` twice on one state gives bit-identical outputs and leaves the state unchanged.
     PureEvaluate,
     /// `commit` (stateful laws) is deterministic, keeps the state finite and bounded, changes
@@ -56,11 +61,14 @@ pub enum Check {
     Commit,
     /// Instances on several threads at once give the same outputs as one instance alone.
     ThreadSafety,
+    /// `evaluate_many` over batches of the sweep (one shared state, and a state per input at a
+    /// stride) gives bit for bit what `evaluate` gives input by input.
+    EvaluateMany,
 }
 
 impl Check {
     /// Every check, in the order they run and are reported.
-    pub const ALL: [Check; 12] = [
+    pub const ALL: [Check; 15] = [
         Check::Description,
         Check::Defaults,
         Check::Create,
@@ -68,11 +76,14 @@ impl Check {
         Check::OutOfRangeRefused,
         Check::NoErrors,
         Check::Finite,
+        Check::Diagnostics,
         Check::Dissipative,
         Check::Derivative,
+        Check::LoadDerivative,
         Check::PureEvaluate,
         Check::Commit,
         Check::ThreadSafety,
+        Check::EvaluateMany,
     ];
 
     /// The check's stable name, as printed by `tribo check-law`.
@@ -85,11 +96,14 @@ impl Check {
             Check::OutOfRangeRefused => "out-of-range-refused",
             Check::NoErrors => "no-errors",
             Check::Finite => "finite",
+            Check::Diagnostics => "diagnostics",
             Check::Dissipative => "dissipative",
             Check::Derivative => "derivative",
+            Check::LoadDerivative => "load-derivative",
             Check::PureEvaluate => "pure-evaluate",
             Check::Commit => "commit",
             Check::ThreadSafety => "thread-safety",
+            Check::EvaluateMany => "evaluate-many",
         }
     }
 }
@@ -238,8 +252,10 @@ pub struct Options {
 
 /// Tolerance of the dissipation check: the largest power a law may feed in, W (or N m rad/s).
 pub const DISSIPATION_TOL: f64 = 1e-9;
-/// Relative tolerance of the derivative check against central finite differences.
+/// Relative tolerance of the derivative checks against central finite differences.
 pub const DERIVATIVE_RTOL: f64 = 1e-5;
+/// Inputs per batch of the `evaluate-many` check (odd, so no law can rely on a power of two).
+pub const BATCH: usize = 97;
 /// The largest magnitude a state variable may reach in the commit check before the state is
 /// called unbounded.
 pub const STATE_BOUND: f64 = 1e12;
@@ -743,9 +759,20 @@ fn sweep_input(g: Geometry, v: f64, load: f64, t_c: f64, engine: f64, dt: f64) -
     i.contact_radius_m = g.radius_m;
     i.contact_length_m = g.length_m;
     i.normal_load_n = load;
+    // Body A (the crank, the piston) is the inner member of all three contacts; body B is at
+    // rest, so body A moves at the relative velocity (`with_velocity`).
     match g.kind {
-        JointKind::Revolute => i.reaction_x_n = load,
-        JointKind::Prismatic => i.reaction_y_n = load,
+        JointKind::Revolute => {
+            i.reaction_x_n = load;
+            i.load_on_inner_x_n = load;
+            i.body_a_angle = 1.0;
+        }
+        JointKind::Prismatic => {
+            i.reaction_y_n = load;
+            i.load_on_inner_y_n = load;
+            i.body_a_angle = 0.02;
+            i.bearing_type = crate::contract::BearingType::Slide as u32;
+        }
     }
     i.oil_temp_c = t_c;
     i.viscosity_pa_s = rig_oil_viscosity_pa_s(t_c);
@@ -831,18 +858,47 @@ fn describe_output(o: &LawOutput) -> String {
     if let Some(d) = o.derivative() {
         let _ = write!(s, " dF/dv={d:e}");
     }
+    if let Some(d) = o.load_derivative() {
+        let _ = write!(s, " dF/dN={d:e}");
+    }
+    if let Some(h) = o.min_film() {
+        let _ = write!(s, " h_min={h:e} m");
+    }
+    if let Some((x, y)) = o.eccentricity() {
+        let _ = write!(s, " e=({x:e}, {y:e})");
+    }
+    if let Some(p) = o.peak_pressure() {
+        let _ = write!(s, " p_max={p:e} Pa");
+    }
+    if let Some(a) = o.asperity_share() {
+        let _ = write!(s, " asperity share={a:e}");
+    }
     s
 }
 
 fn all_finite(o: &LawOutput) -> bool {
+    let (ex, ey) = o.eccentricity().unwrap_or((0.0, 0.0));
     o.force.is_finite()
-        && o.coefficient().is_none_or(f64::is_finite)
-        && o.duty_parameter().is_none_or(f64::is_finite)
-        && o.derivative().is_none_or(f64::is_finite)
+        && ex.is_finite()
+        && ey.is_finite()
+        && [
+            o.coefficient(),
+            o.duty_parameter(),
+            o.derivative(),
+            o.load_derivative(),
+            o.min_film(),
+            o.peak_pressure(),
+            o.asperity_share(),
+        ]
+        .into_iter()
+        .all(|x| x.is_none_or(f64::is_finite))
 }
 
-/// The bits of every field of an output, for bit-identical comparison (NaN included).
-fn output_bits(o: &LawOutput) -> [u64; 6] {
+/// An output as the bits of every field, for bit-identical comparison (NaN included).
+type OutputBits = [u64; 12];
+
+/// The bits of every field of an output.
+fn output_bits(o: &LawOutput) -> OutputBits {
     [
         o.force.to_bits(),
         o.coefficient.to_bits(),
@@ -850,6 +906,12 @@ fn output_bits(o: &LawOutput) -> [u64; 6] {
         o.dforce_dvelocity.to_bits(),
         u64::from(o.regime),
         u64::from(o.flags),
+        o.dforce_dload.to_bits(),
+        o.min_film_m.to_bits(),
+        o.eccentricity_x.to_bits(),
+        o.eccentricity_y.to_bits(),
+        o.peak_pressure_pa.to_bits(),
+        o.asperity_share.to_bits(),
     ]
 }
 
@@ -891,11 +953,12 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
     let points = sweep();
     let mut errors = Findings::default();
     let mut finite = Findings::default();
+    let mut diagnostics = Findings::default();
     let mut dissipative = Findings::default();
-    let mut derivative = Findings::default();
+    let mut dfdv = DerivativeFindings::default();
+    let mut dfdn = DerivativeFindings::default();
     let mut pure = Findings::default();
-    let (mut with_derivative, mut unresolved) = (0usize, 0usize);
-    let mut reference: Vec<Option<[u64; 6]>> = Vec::with_capacity(points.len());
+    let mut reference: Vec<Option<OutputBits>> = Vec::with_capacity(points.len());
     for input in &points {
         errors.tried();
         let state = zero.clone();
@@ -931,6 +994,12 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
                 });
             }
         }
+        if out.flags & crate::contract::DIAGNOSTIC_FLAGS != 0 {
+            diagnostics.tried();
+            if let Some(bad) = out.bad_diagnostic() {
+                diagnostics.found(|| format!("{bad} at {}", describe_input(input)));
+            }
+        }
         finite.tried();
         if !all_finite(&out) {
             finite.found(|| format!("{} at {}", describe_output(&out), describe_input(input)));
@@ -949,25 +1018,19 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
             });
         }
         if let Some(d) = out.derivative() {
-            with_derivative += 1;
-            match derivative_check(inst, input, &zero, out.force, d) {
-                Ok(DerivativeVerdict::Agrees) => derivative.tried(),
-                Ok(DerivativeVerdict::Unresolved) => unresolved += 1,
-                Ok(DerivativeVerdict::Disagrees(fd)) => {
-                    derivative.tried();
-                    derivative.found(|| {
-                        format!(
-                            "dF/dv = {d:e} but finite differences give {fd:e} at {}",
-                            describe_input(input)
-                        )
-                    });
-                }
-                Err(e) => errors.found(|| {
-                    format!(
-                        "{e} (finite-difference neighbour of {})",
-                        describe_input(input)
-                    )
-                }),
+            let v = input.relative_velocity;
+            let at = |x: f64| eval(inst, &input.with_velocity(x), &zero).map(|o| o.force);
+            let verdict = fd_verdict(out.force, d, v, 1e-6 * v.abs().max(1e-3), at);
+            dfdv.judge(verdict, "dF/dv", d, input, &mut errors);
+        }
+        if let Some(d) = out.load_derivative() {
+            let n = input.normal_load_n;
+            if n > 0.0 {
+                let at = |x: f64| eval(inst, &at_load(input, x), &zero).map(|o| o.force);
+                let verdict = fd_verdict(out.force, d, n, 1e-6 * n, at);
+                dfdn.judge(verdict, "dF/dN", d, input, &mut errors);
+            } else {
+                dfdn.at_zero_load += 1;
             }
         }
     }
@@ -977,6 +1040,7 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
     } else {
         check_stateless_commit(inst, &points, &mut errors)
     };
+    let many = check_many(inst, &points, &reference, &zero);
     results.push(errors.result(
         Check::NoErrors,
         format!("{} inputs evaluated without error", points.len()),
@@ -988,6 +1052,15 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
             points.len()
         ),
     ));
+    results.push(if diagnostics.tried == 0 {
+        skip(Check::Diagnostics, "the law reports no diagnostics")
+    } else {
+        let n = diagnostics.tried;
+        diagnostics.result(
+            Check::Diagnostics,
+            format!("film >= 0, |e| < 1, peak pressure >= 0 and asperity share in [0, 1] where reported, at {n} inputs"),
+        )
+    });
     results.push(match &options.active {
         Some(reason) => skip(Check::Dissipative, format!("declared active: {reason}")),
         None => dissipative.result(
@@ -1003,24 +1076,95 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
             ),
         ),
     });
-    results.push(if with_derivative == 0 {
-        skip(Check::Derivative, "the law reports no dF/dv")
-    } else {
-        derivative.result(
-            Check::Derivative,
-            format!(
-                "dF/dv within {DERIVATIVE_RTOL:e} of central differences at {} inputs ({unresolved} at a kink or a feature narrower than the step, not judged)",
-                with_derivative - unresolved
-            ),
-        )
-    });
+    results.push(dfdv.result(Check::Derivative, "dF/dv", "relative velocity"));
+    results.push(dfdn.result(Check::LoadDerivative, "dF/dN", "normal load"));
     results.push(pure.result(
         Check::PureEvaluate,
         "state untouched and outputs bit-identical on a second call",
     ));
     results.push(commit);
     results.push(check_threads(lib, &options.params, &points, &reference));
+    results.push(many);
     results
+}
+
+/// `input` with normal load `n`, its direction kept: the reaction and the load on the inner
+/// member scaled with it (or, from zero, laid along the contact's usual direction).
+fn at_load(input: &LawInput, n: f64) -> LawInput {
+    let mut i = *input;
+    if input.normal_load_n > 0.0 {
+        let k = n / input.normal_load_n;
+        i.reaction_x_n *= k;
+        i.reaction_y_n *= k;
+        i.load_on_inner_x_n *= k;
+        i.load_on_inner_y_n *= k;
+    }
+    i.normal_load_n = n;
+    i
+}
+
+/// One derivative check's findings (dF/dv or dF/dN): judged points and their failures, and
+/// the points not judged.
+#[derive(Default)]
+struct DerivativeFindings {
+    findings: Findings,
+    /// Inputs where the law reported the derivative.
+    reported: usize,
+    /// Reported where a kink or a feature narrower than the step lies within the step.
+    unresolved: usize,
+    /// Reported at zero load, where the load derivative is one-sided (not judged).
+    at_zero_load: usize,
+}
+
+impl DerivativeFindings {
+    /// Record the verdict on the law's derivative `d` (named `what`) at `input`; a neighbour
+    /// that fails to evaluate is an error of the law.
+    fn judge(
+        &mut self,
+        verdict: Result<DerivativeVerdict, String>,
+        what: &str,
+        d: f64,
+        input: &LawInput,
+        errors: &mut Findings,
+    ) {
+        self.reported += 1;
+        match verdict {
+            Ok(DerivativeVerdict::Agrees) => self.findings.tried(),
+            Ok(DerivativeVerdict::Unresolved) => self.unresolved += 1,
+            Ok(DerivativeVerdict::Disagrees(fd)) => {
+                self.findings.tried();
+                self.findings.found(|| {
+                    format!(
+                        "{what} = {d:e} but finite differences give {fd:e} at {}",
+                        describe_input(input)
+                    )
+                });
+            }
+            Err(e) => errors.found(|| {
+                format!(
+                    "{e} (finite-difference neighbour of {})",
+                    describe_input(input)
+                )
+            }),
+        }
+    }
+
+    fn result(self, check: Check, what: &str, variable: &str) -> CheckResult {
+        let reported = self.reported + self.at_zero_load;
+        if reported == 0 {
+            return skip(check, format!("the law reports no {what}"));
+        }
+        let judged = self.reported - self.unresolved;
+        let mut detail = format!(
+            "{what} within {DERIVATIVE_RTOL:e} of central differences in the {variable} at {judged} inputs ({} at a kink or a feature narrower than the step, not judged",
+            self.unresolved
+        );
+        if self.at_zero_load > 0 {
+            let _ = write!(detail, "; {} at zero load, not judged", self.at_zero_load);
+        }
+        detail.push(')');
+        self.findings.result(check, detail)
+    }
 }
 
 enum DerivativeVerdict {
@@ -1031,21 +1175,18 @@ enum DerivativeVerdict {
     Disagrees(f64),
 }
 
-/// Compare the law's `d` with central differences of step `h` and `h/2` around the input's
-/// relative velocity. Points where the one-sided differences disagree (a kink) or the two
-/// central ones do (a feature narrower than the step) are not judged.
-fn derivative_check(
-    inst: &LawInstance,
-    input: &LawInput,
-    state: &[f64],
+/// Compare the law's derivative `d` at `x` (where the force is `f0`) with central differences
+/// of step `h` and `h/2` of `force_at`. Points where the one-sided differences disagree (a
+/// kink) or the two central ones do (a feature narrower than the step) are not judged.
+fn fd_verdict(
     f0: f64,
     d: f64,
+    x: f64,
+    h: f64,
+    force_at: impl Fn(f64) -> Result<f64, String>,
 ) -> Result<DerivativeVerdict, String> {
-    let v = input.relative_velocity;
-    let h = 1e-6 * v.abs().max(1e-3);
-    let at = |x: f64| eval(inst, &input.with_velocity(x), state).map(|o| o.force);
-    let (fp, fm) = (at(v + h)?, at(v - h)?);
-    let (fp2, fm2) = (at(v + 0.5 * h)?, at(v - 0.5 * h)?);
+    let (fp, fm) = (force_at(x + h)?, force_at(x - h)?);
+    let (fp2, fm2) = (force_at(x + 0.5 * h)?, force_at(x - 0.5 * h)?);
     if ![fp, fm, fp2, fm2].iter().all(|x| x.is_finite()) {
         return Ok(DerivativeVerdict::Unresolved);
     }
@@ -1065,6 +1206,107 @@ fn derivative_check(
     } else {
         Ok(DerivativeVerdict::Disagrees(central2))
     }
+}
+
+/// `evaluate_many` against `evaluate`: the sweep in batches of [`BATCH`] sharing the zero
+/// state (against `reference`, the one-by-one outputs), then, for a stateful law, a batch with
+/// a different state per input (committed along a slide) at a stride one longer than the
+/// state, the gaps filled with NaN so a law reading the wrong slice shows.
+fn check_many(
+    inst: &LawInstance,
+    points: &[LawInput],
+    reference: &[Option<OutputBits>],
+    zero: &[f64],
+) -> CheckResult {
+    let mut findings = Findings::default();
+    let mut outputs = vec![LawOutput::force(0.0); BATCH];
+    for (b, batch) in points.chunks(BATCH).enumerate() {
+        findings.tried();
+        let outputs = &mut outputs[..batch.len()];
+        let refs = &reference[b * BATCH..b * BATCH + batch.len()];
+        if refs.iter().any(Option::is_none) {
+            continue; // an input that fails alone: `no-errors` reports it
+        }
+        match guarded(|| inst.evaluate_many(batch, zero, 0, outputs)) {
+            Ok(Ok(())) => {
+                if let Some(k) =
+                    (0..batch.len()).find(|&k| refs[k] != Some(output_bits(&outputs[k])))
+                {
+                    findings.found(|| {
+                        format!(
+                            "with one shared state, batch input {k} gave {} where evaluate gave F={:e}, at {}",
+                            describe_output(&outputs[k]),
+                            refs[k].map_or(f64::NAN, |r| f64::from_bits(r[0])),
+                            describe_input(&batch[k])
+                        )
+                    });
+                }
+            }
+            Ok(Err(e)) => findings.found(|| e.to_string()),
+            Err(panic) => findings.found(|| format!("evaluate_many panicked: {panic}")),
+        }
+    }
+    let size = zero.len();
+    if size > 0 {
+        findings.tried();
+        let slide = sweep_input(GEOMETRIES[0], 3.0, 1000.0, 80.0, 314.16, COMMIT_DT);
+        let batch: Vec<LawInput> = points
+            .iter()
+            .step_by(points.len() / BATCH)
+            .take(BATCH)
+            .copied()
+            .collect();
+        let stride = size + 1;
+        let mut states = vec![f64::NAN; stride * batch.len()];
+        let mut state = zero.to_vec();
+        let mut expected = Vec::with_capacity(batch.len());
+        for (k, input) in batch.iter().enumerate() {
+            states[k * stride..k * stride + size].copy_from_slice(&state);
+            expected.push(eval(inst, input, &state).map(|o| output_bits(&o)));
+            if inst.commit(&slide, &mut state).is_err() {
+                break; // `commit` and `no-errors` report it
+            }
+        }
+        let outputs = &mut outputs[..batch.len()];
+        match guarded(|| inst.evaluate_many(&batch, &states, stride, outputs)) {
+            Ok(Ok(())) => {
+                if let Some(k) = (0..batch.len())
+                    .find(|&k| expected[k].as_ref().ok() != Some(&output_bits(&outputs[k])))
+                {
+                    findings.found(|| {
+                        format!(
+                            "with a state per input (stride {stride}), batch input {k} gave {} where evaluate on its state gave {}, at {}",
+                            describe_output(&outputs[k]),
+                            match &expected[k] {
+                                Ok(bits) => format!("F={:e}", f64::from_bits(bits[0])),
+                                Err(e) => e.clone(),
+                            },
+                            describe_input(&batch[k])
+                        )
+                    });
+                }
+            }
+            Ok(Err(e)) => findings.found(|| e.to_string()),
+            Err(panic) => findings.found(|| format!("evaluate_many panicked: {panic}")),
+        }
+    }
+    let how = if inst.evaluates_batches() {
+        "the law's own evaluate_many"
+    } else {
+        "the host's loop (the library has no evaluate_many)"
+    };
+    findings.result(
+        Check::EvaluateMany,
+        format!(
+            "{} inputs in batches of {BATCH} through {how}{}: bit for bit as evaluate",
+            points.len(),
+            if size > 0 {
+                ", and one batch with a state per input"
+            } else {
+                ""
+            }
+        ),
+    )
 }
 
 /// A stateless law's commit: called with its empty state, it must not fail.
@@ -1228,7 +1470,7 @@ fn check_threads(
     lib: &LawLibrary,
     params: &toml::Table,
     points: &[LawInput],
-    reference: &[Option<[u64; 6]>],
+    reference: &[Option<OutputBits>],
 ) -> CheckResult {
     const THREADS: usize = 4;
     let outcomes: Vec<Result<Option<String>, String>> = std::thread::scope(|scope| {

@@ -17,6 +17,15 @@ pub struct LawDescription {
     pub summary: String,
     /// Parameters, in the order C plugins receive them.
     pub parameters: Vec<ParamSpec>,
+    /// The bearing types the law is made for (`SUITS_*` bits; 0, any joint); listed as words
+    /// (`["plain", "rolling", "slide"]`, empty for any).
+    #[serde(serialize_with = "suits_words")]
+    pub suits: u32,
+}
+
+/// `suits` as the list of bearing-type words it names.
+fn suits_words<S: serde::Serializer>(suits: &u32, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(crate::contract::suits_words(*suits))
 }
 
 /// The type and default of a parameter.
@@ -311,6 +320,7 @@ mod tests {
             version: "0.1.0".into(),
             summary: "demo".into(),
             parameters: vec![mu, pts, ParamSpec::choice("mode", "m", &["smooth", "hard"])],
+            suits: 0,
         }
     }
 

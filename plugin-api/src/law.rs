@@ -23,6 +23,11 @@ pub trait Law: Sized + Send + Sync + 'static {
     const VERSION: &'static str;
     /// One-line summary.
     const SUMMARY: &'static str;
+    /// The bearing types the law is made for, a set of `SUITS_*` bits
+    /// ([`SUITS_PLAIN`](crate::SUITS_PLAIN), [`SUITS_ROLLING`](crate::SUITS_ROLLING),
+    /// [`SUITS_SLIDE`](crate::SUITS_SLIDE)); 0, the default, suits any joint. The host warns when
+    /// a law is put on a joint whose declared bearing type it does not suit.
+    const SUITS: u32 = 0;
 
     /// Every parameter with unit, meaning and allowed range, in the order of `Params`' fields.
     /// Defaults are taken from `Params::default()`, so they are written once.
@@ -44,6 +49,26 @@ pub trait Law: Sized + Send + Sync + 'static {
     /// Advance `state` over the accepted step described by `input` (its `dt_s` is the step).
     fn commit(&self, input: &LawInput, state: &mut [f64]) {
         let _ = (input, state);
+    }
+
+    /// Evaluate `inputs.len()` inputs at once into `outputs` (as long). Input `k` is evaluated
+    /// with the state starting at `states[k * state_stride]`, of `state_size()` values;
+    /// `state_stride` 0 means every input shares the one state `states`. The host checks the
+    /// lengths before calling. The default calls [`Law::evaluate`] for each input; override it
+    /// only where a batch is cheaper (shared set-up, vectorised arithmetic), giving the same
+    /// outputs to the bit.
+    fn evaluate_many(
+        &self,
+        inputs: &[LawInput],
+        states: &[f64],
+        state_stride: usize,
+        outputs: &mut [LawOutput],
+    ) {
+        let n = self.state_size();
+        for (k, (input, out)) in inputs.iter().zip(outputs.iter_mut()).enumerate() {
+            let start = k * state_stride;
+            *out = self.evaluate(input, &states[start..start + n]);
+        }
     }
 }
 
@@ -104,6 +129,7 @@ pub fn describe<L: Law>() -> Result<LawDescription, ParamError> {
         version: L::VERSION.into(),
         summary: L::SUMMARY.into(),
         parameters,
+        suits: L::SUITS,
     })
 }
 

@@ -81,8 +81,25 @@ pub trait RLawObject: Send + Sync {
     /// Number of state variables.
     fn state_size(&self) -> usize;
 
-    /// Evaluate; `Err` carries a panic message.
-    fn evaluate(&self, input: &LawInput, state: RSlice<'_, f64>) -> RResult<LawOutput, RString>;
+    /// Evaluate into `out`, an output the host owns (no output returned through memory);
+    /// `Err` carries a panic message.
+    fn evaluate_into(
+        &self,
+        input: &LawInput,
+        state: RSlice<'_, f64>,
+        out: &mut LawOutput,
+    ) -> RResult<(), RString>;
+
+    /// Evaluate every input into the output of the same index; input `k` reads the state at
+    /// `states[k * state_stride..]` (stride 0: one shared state). The host has checked the
+    /// lengths. `Err` carries a panic message.
+    fn evaluate_many(
+        &self,
+        inputs: RSlice<'_, LawInput>,
+        states: RSlice<'_, f64>,
+        state_stride: usize,
+        outputs: RSliceMut<'_, LawOutput>,
+    ) -> RResult<(), RString>;
 
     /// Commit an accepted step; `Err` carries a panic message.
     #[sabi(last_prefix_field)]
@@ -100,6 +117,8 @@ pub type RLawBox = RLawObject_TO<'static, RBox<()>>;
 pub struct LawModule {
     /// [`CONTRACT_VERSION`](crate::CONTRACT_VERSION) the library was built against.
     pub contract_version: u32,
+    /// The bearing types the law suits ([`Law::SUITS`]: `SUITS_*` bits, 0 any).
+    pub suits: u32,
     /// Describe the law.
     pub describe: extern "C" fn() -> RResult<RLawDescription, RCreateError>,
     /// Create an instance from parameters given as TOML text.
@@ -117,9 +136,10 @@ impl RootModule for LawModuleRef {
 }
 
 /// [`CONTRACT_VERSION`](crate::CONTRACT_VERSION) as a semver string for abi_stable (`major.0.0`).
-pub const CONTRACT_VERSION_STRING: &str = "2.0.0";
+pub const CONTRACT_VERSION_STRING: &str = "3.0.0";
 
 pub mod v1;
+pub mod v2;
 
 /// The panic payload as text.
 pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
@@ -143,20 +163,67 @@ impl<L: Law> RLawObject for Adapter<L> {
         self.state_size
     }
 
-    fn evaluate(&self, input: &LawInput, state: RSlice<'_, f64>) -> RResult<LawOutput, RString> {
+    fn evaluate_into(
+        &self,
+        input: &LawInput,
+        state: RSlice<'_, f64>,
+        out: &mut LawOutput,
+    ) -> RResult<(), RString> {
         match catch_unwind(AssertUnwindSafe(|| {
-            self.law.evaluate(input, state.as_slice())
+            *out = self.law.evaluate(input, state.as_slice());
         })) {
-            Ok(out) => RResult::ROk(out),
+            Ok(()) => RResult::ROk(()),
+            Err(p) => RResult::RErr(panic_message(&*p).into()),
+        }
+    }
+
+    fn evaluate_many(
+        &self,
+        inputs: RSlice<'_, LawInput>,
+        states: RSlice<'_, f64>,
+        state_stride: usize,
+        mut outputs: RSliceMut<'_, LawOutput>,
+    ) -> RResult<(), RString> {
+        match catch_unwind(AssertUnwindSafe(|| {
+            self.law.evaluate_many(
+                inputs.as_slice(),
+                states.as_slice(),
+                state_stride,
+                outputs.as_mut_slice(),
+            );
+        })) {
+            Ok(()) => RResult::ROk(()),
             Err(p) => RResult::RErr(panic_message(&*p).into()),
         }
     }
 
     fn commit(&self, input: &LawInput, mut state: RSliceMut<'_, f64>) -> RResult<(), RString> {
-        match catch_unwind(AssertUnwindSafe(|| {
-            self.law.commit(input, state.as_mut_slice())
-        })) {
+        self.commit_caught(input, state.as_mut_slice())
+    }
+}
+
+impl<L: Law> Adapter<L> {
+    /// [`Law::commit`] with a panic caught as its message: every module's commit.
+    pub(crate) fn commit_caught(
+        &self,
+        input: &LawInput,
+        state: &mut [f64],
+    ) -> RResult<(), RString> {
+        match catch_unwind(AssertUnwindSafe(|| self.law.commit(input, state))) {
             Ok(()) => RResult::ROk(()),
+            Err(p) => RResult::RErr(panic_message(&*p).into()),
+        }
+    }
+
+    /// [`Law::evaluate`] as a frozen module (version 1 or 2) returns it: the version-2 output,
+    /// a panic caught as its message.
+    pub(crate) fn evaluate_frozen(
+        &self,
+        input: &LawInput,
+        state: &[f64],
+    ) -> RResult<crate::contract::v2::LawOutput, RString> {
+        match catch_unwind(AssertUnwindSafe(|| self.law.evaluate(input, state))) {
+            Ok(out) => RResult::ROk((&out).into()),
             Err(p) => RResult::RErr(panic_message(&*p).into()),
         }
     }
@@ -229,6 +296,8 @@ pub(crate) fn from_r_description(d: &RLawDescription) -> Result<LawDescription, 
         version: d.version.to_string(),
         summary: d.summary.to_string(),
         parameters,
+        // Not in the ABI description: the loader reads it from the module (version 3).
+        suits: 0,
     })
 }
 
@@ -249,7 +318,7 @@ pub(crate) extern "C" fn describe_shim<L: Law>() -> RResult<RLawDescription, RCr
 }
 
 /// Create law `L` from parameters given as TOML text, catching panics; shared by the current
-/// and the frozen version-1 module.
+/// and the frozen modules.
 pub(crate) fn create_adapter<L: Law>(params_toml: RStr<'_>) -> Result<Adapter<L>, RCreateError> {
     let result = catch_unwind(|| {
         let table: toml::Table = params_toml.as_str().parse().map_err(|e: toml::de::Error| {
@@ -288,6 +357,7 @@ extern "C" fn create_shim<L: Law>(params_toml: RStr<'_>) -> RResult<RLawBox, RCr
 pub fn module_for<L: Law>(contract_version: u32) -> LawModuleRef {
     LawModule {
         contract_version,
+        suits: L::SUITS,
         describe: describe_shim::<L>,
         create: create_shim::<L>,
     }
@@ -321,6 +391,21 @@ macro_rules! export_law {
 #[macro_export]
 macro_rules! __export_law_with_contract_version {
     ($law:ty, $version:expr) => {
+        $crate::__export_law_module!(
+            $version,
+            $crate::rust_abi::LawModuleRef,
+            $crate::rust_abi::module_for::<$law>($version)
+        );
+    };
+}
+
+/// The two symbols of a Rust law library: the contract version `$version` and abi_stable's
+/// library header whose root module, of type `$module`, `$make` builds. Shared by the current
+/// export and the frozen ones.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __export_law_module {
+    ($version:expr, $module:ty, $make:expr) => {
         /// Contract version this library was built against (read by the host first).
         #[unsafe(no_mangle)]
         pub extern "C" fn tribo_law_contract_version() -> u32 {
@@ -333,17 +418,15 @@ macro_rules! __export_law_with_contract_version {
         #[unsafe(export_name = "_1as_0lib_1header_0root_bmodule_bloader")]
         pub static __TRIBO_LAW_LIB_HEADER: $crate::rust_abi::__private::LibHeader = {
             extern "C" fn erased_module() -> $crate::rust_abi::__private::RootModuleResult {
-                fn module() -> $crate::rust_abi::LawModuleRef {
-                    $crate::rust_abi::module_for::<$law>($version)
+                fn module() -> $module {
+                    $make
                 }
                 $crate::rust_abi::__private::__call_root_module_loader(module)
             }
-            // SAFETY: `erased_module` returns the root module of type `LawModuleRef`, the type
-            // the header is declared with.
+            // SAFETY: `erased_module` returns the root module of type `$module`, the type the
+            // header is declared with.
             unsafe {
-                $crate::rust_abi::__private::LibHeader::from_constructor::<
-                    $crate::rust_abi::LawModuleRef,
-                >(
+                $crate::rust_abi::__private::LibHeader::from_constructor::<$module>(
                     erased_module,
                     $crate::rust_abi::__private::CheckTypeLayout::Yes,
                 )
@@ -365,8 +448,9 @@ mod tests {
     }
 
     #[test]
-    fn frozen_v1_module_keeps_version_one() {
+    fn frozen_modules_keep_their_versions() {
         assert_eq!(v1::CONTRACT_VERSION_STRING, "1.0.0");
+        assert_eq!(v2::CONTRACT_VERSION_STRING, "2.0.0");
     }
 
     #[test]

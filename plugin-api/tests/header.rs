@@ -15,11 +15,13 @@ use std::mem::{offset_of, size_of};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use tribo_plugin_api::contract::v1::LawInput as V1Input;
+use tribo_plugin_api::contract::v2::{LawInput as V2Input, LawOutput as V2Output};
 
 use tribo_plugin_api::contract::{CLawDescription, CParamSpec};
 use tribo_plugin_api::{
-    JointKind, LawInput, LawOutput, Regime, CONTRACT_VERSION, HAS_COEFFICIENT, HAS_DERIVATIVE,
-    HAS_DUTY_PARAMETER,
+    BearingType, InnerBody, JointKind, LawInput, LawOutput, Regime, CONTRACT_VERSION,
+    HAS_ASPERITY_SHARE, HAS_COEFFICIENT, HAS_DERIVATIVE, HAS_DUTY_PARAMETER, HAS_ECCENTRICITY,
+    HAS_LOAD_DERIVATIVE, HAS_MIN_FILM, HAS_PEAK_PRESSURE, SUITS_PLAIN, SUITS_ROLLING, SUITS_SLIDE,
 };
 
 /// Offset and size of one field.
@@ -160,6 +162,14 @@ fn rust_structs() -> Layout {
             crankcase_pressure_pa,
             piston_from_tdc_m,
             cycle_angle_rad,
+            body_a_angle,
+            body_a_velocity,
+            body_b_angle,
+            body_b_velocity,
+            inner_body,
+            bearing_type,
+            load_on_inner_x_n,
+            load_on_inner_y_n,
         ]
     );
     rust_layout!(
@@ -172,7 +182,13 @@ fn rust_structs() -> Layout {
             duty_parameter,
             dforce_dvelocity,
             regime,
-            flags
+            flags,
+            dforce_dload,
+            min_film_m,
+            eccentricity_x,
+            eccentricity_y,
+            peak_pressure_pa,
+            asperity_share,
         ]
     );
     rust_layout!(
@@ -202,6 +218,16 @@ fn rust_constants() -> BTreeMap<String, u64> {
         Regime::Mixed => ("TRIBO_REGIME_MIXED", r as u64),
         Regime::Hydrodynamic => ("TRIBO_REGIME_HYDRODYNAMIC", r as u64),
     };
+    let bearing = |b: BearingType| match b {
+        BearingType::Unspecified => ("TRIBO_BEARING_UNSPECIFIED", b as u64),
+        BearingType::Plain => ("TRIBO_BEARING_PLAIN", b as u64),
+        BearingType::Rolling => ("TRIBO_BEARING_ROLLING", b as u64),
+        BearingType::Slide => ("TRIBO_BEARING_SLIDE", b as u64),
+    };
+    let inner = |i: InnerBody| match i {
+        InnerBody::A => ("TRIBO_INNER_BODY_A", i as u64),
+        InnerBody::B => ("TRIBO_INNER_BODY_B", i as u64),
+    };
     let mut m: BTreeMap<String, u64> = [
         joint(JointKind::Revolute),
         joint(JointKind::Prismatic),
@@ -209,6 +235,12 @@ fn rust_constants() -> BTreeMap<String, u64> {
         regime(Regime::Boundary),
         regime(Regime::Mixed),
         regime(Regime::Hydrodynamic),
+        bearing(BearingType::Unspecified),
+        bearing(BearingType::Plain),
+        bearing(BearingType::Rolling),
+        bearing(BearingType::Slide),
+        inner(InnerBody::A),
+        inner(InnerBody::B),
     ]
     .into_iter()
     .map(|(k, v)| (k.to_string(), v))
@@ -218,6 +250,14 @@ fn rust_constants() -> BTreeMap<String, u64> {
         ("TRIBO_HAS_COEFFICIENT", HAS_COEFFICIENT),
         ("TRIBO_HAS_DUTY_PARAMETER", HAS_DUTY_PARAMETER),
         ("TRIBO_HAS_DERIVATIVE", HAS_DERIVATIVE),
+        ("TRIBO_HAS_LOAD_DERIVATIVE", HAS_LOAD_DERIVATIVE),
+        ("TRIBO_HAS_MIN_FILM", HAS_MIN_FILM),
+        ("TRIBO_HAS_ECCENTRICITY", HAS_ECCENTRICITY),
+        ("TRIBO_HAS_PEAK_PRESSURE", HAS_PEAK_PRESSURE),
+        ("TRIBO_HAS_ASPERITY_SHARE", HAS_ASPERITY_SHARE),
+        ("TRIBO_SUITS_PLAIN", SUITS_PLAIN),
+        ("TRIBO_SUITS_ROLLING", SUITS_ROLLING),
+        ("TRIBO_SUITS_SLIDE", SUITS_SLIDE),
     ] {
         m.insert(name.into(), u64::from(value));
     }
@@ -349,58 +389,130 @@ fn c_layout(h: &Header, include: &Path, name: &str) -> (Layout, BTreeMap<String,
     read_printed(&run(&mut Command::new(&exe), "the C layout program"))
 }
 
-/// The frozen version-1 header (`tests/fixtures/c/v1`, as released) lays its input out exactly
-/// as the host's `contract::v1::LawInput`, which is the prefix of the current input the host
-/// hands a version-1 law: so a law built from it reads the values it always read.
-#[test]
-fn the_frozen_v1_header_matches_the_v1_prefix_of_the_input() {
-    let v1_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/c/v1");
-    let h = parse_header_in(&v1_dir);
-    let (layout, constants) = c_layout(&h, &v1_dir, "c-v1");
-    let mut v1 = Layout::new();
-    rust_layout!(
-        v1,
-        "tribo_law_input",
-        V1Input,
-        [
-            joint_kind,
-            reserved,
-            relative_velocity,
-            sliding_velocity_m_s,
-            normal_load_n,
-            reaction_x_n,
-            reaction_y_n,
-            reaction_moment_nm,
-            contact_radius_m,
-            contact_length_m,
-            oil_temp_c,
-            viscosity_pa_s,
-            engine_speed_rad_s,
-            crank_angle_rad,
-            time_s,
-            dt_s,
-        ]
-    );
-    let input_v1: Layout = layout
+/// The input and output fields of contract version 2 (and, for the input, version 1).
+macro_rules! v2_input_fields {
+    ($m:ident, $t:ident, [$($more:ident),*]) => {
+        rust_layout!(
+            $m,
+            "tribo_law_input",
+            $t,
+            [
+                joint_kind,
+                reserved,
+                relative_velocity,
+                sliding_velocity_m_s,
+                normal_load_n,
+                reaction_x_n,
+                reaction_y_n,
+                reaction_moment_nm,
+                contact_radius_m,
+                contact_length_m,
+                oil_temp_c,
+                viscosity_pa_s,
+                engine_speed_rad_s,
+                crank_angle_rad,
+                time_s,
+                dt_s,
+                $($more),*
+            ]
+        )
+    };
+}
+
+/// A frozen header (`tests/fixtures/c/vN`, as released) lays its structs out exactly as the
+/// host's frozen types for that version (`frozen`), each field where the current structs have
+/// it, so a law built from it reads and writes the values it always did; it says `version`.
+fn check_frozen_header(version: u64, frozen: &Layout) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../tests/fixtures/c/v{version}"));
+    let h = parse_header_in(&dir);
+    let (layout, constants) = c_layout(&h, &dir, &format!("c-v{version}"));
+    let of_frozen_structs: Layout = layout
         .iter()
-        .filter(|(k, _)| k.starts_with("tribo_law_input."))
+        .filter(|(k, _)| k.starts_with("tribo_law_input.") || k.starts_with("tribo_law_output."))
         .map(|(k, v)| (k.clone(), *v))
         .collect();
-    assert_same("the version-1 header", &input_v1, &v1);
-    // Every v1 field sits where the current input has it.
+    assert_same(
+        &format!("the version-{version} header"),
+        &of_frozen_structs,
+        frozen,
+    );
     let current = rust_structs();
-    for (key, at) in &v1 {
+    for (key, at) in frozen {
         if !key.ends_with(".size") {
-            assert_eq!(current.get(key), Some(at), "{key} moved in version 2");
+            assert_eq!(
+                current.get(key),
+                Some(at),
+                "{key} moved after version {version}"
+            );
         }
     }
-    assert_eq!(constants.get("TRIBO_LAW_CONTRACT_VERSION"), Some(&1));
-    // The other structs did not change.
+    assert_eq!(constants.get("TRIBO_LAW_CONTRACT_VERSION"), Some(&version));
+    // Every constant it has kept its value; the other structs did not change.
+    let now = rust_constants();
+    for (name, value) in &constants {
+        if name != "TRIBO_LAW_CONTRACT_VERSION" {
+            assert_eq!(
+                now.get(name),
+                Some(value),
+                "{name} changed after version {version}"
+            );
+        }
+    }
     for (key, at) in &layout {
-        if !key.starts_with("tribo_law_input.") {
-            assert_eq!(current.get(key), Some(at), "{key} changed in version 2");
+        if !of_frozen_structs.contains_key(key) {
+            assert_eq!(
+                current.get(key),
+                Some(at),
+                "{key} changed after version {version}"
+            );
         }
     }
+}
+
+/// Contract version 2's output, as `contract::v2::LawOutput` (also version 1's).
+fn v2_output(m: &mut Layout) {
+    rust_layout!(
+        m,
+        "tribo_law_output",
+        V2Output,
+        [
+            force,
+            coefficient,
+            duty_parameter,
+            dforce_dvelocity,
+            regime,
+            flags
+        ]
+    );
+}
+
+/// The frozen version-1 header: its input is `contract::v1::LawInput`, the prefix of the
+/// current input the host hands a version-1 law; its output is version 2's.
+#[test]
+fn the_frozen_v1_header_matches_the_v1_prefix_of_the_contract() {
+    let mut v1 = Layout::new();
+    v2_input_fields!(v1, V1Input, []);
+    v2_output(&mut v1);
+    check_frozen_header(1, &v1);
+}
+
+/// The frozen version-2 header: its input is `contract::v2::LawInput` and its output
+/// `contract::v2::LawOutput`, the prefixes of the current structs.
+#[test]
+fn the_frozen_v2_header_matches_the_v2_prefix_of_the_contract() {
+    let mut v2 = Layout::new();
+    v2_input_fields!(
+        v2,
+        V2Input,
+        [
+            cylinder_pressure_pa,
+            crankcase_pressure_pa,
+            piston_from_tdc_m,
+            cycle_angle_rad
+        ]
+    );
+    v2_output(&mut v2);
+    check_frozen_header(2, &v2);
 }
 
 #[test]

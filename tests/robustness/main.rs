@@ -351,8 +351,8 @@ fn cases() -> Vec<Case> {
             code: 1,
             words: &[
                 "tribo_fixture_contract_mismatch",
-                // The fixture claims CONTRACT_VERSION + 1 (3 since contract version 2).
-                "contract version 3",
+                // The fixture claims CONTRACT_VERSION + 1 (4 since contract version 3).
+                "contract version 4",
                 "rebuild the plugin",
             ],
         },

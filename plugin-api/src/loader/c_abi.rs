@@ -15,6 +15,15 @@ type EvaluateFn =
     unsafe extern "C" fn(*const c_void, *const LawInput, *const f64, *mut LawOutput) -> i32;
 type CommitFn = unsafe extern "C" fn(*const c_void, *const LawInput, *mut f64) -> i32;
 type DestroyFn = unsafe extern "C" fn(*mut c_void);
+type EvaluateManyFn = unsafe extern "C" fn(
+    *const c_void,
+    usize,
+    *const LawInput,
+    *const f64,
+    usize,
+    *mut LawOutput,
+) -> i32;
+type SuitsFn = unsafe extern "C" fn() -> u32;
 
 /// A C law library with all its symbols resolved. The `Library` is kept so the function
 /// pointers stay valid as long as any instance holds this (through an `Arc`).
@@ -25,6 +34,12 @@ pub(super) struct CLib {
     evaluate: EvaluateFn,
     commit: CommitFn,
     destroy: DestroyFn,
+    /// `tribo_law_evaluate_many`, optional from contract version 3 (absent: the host loops).
+    evaluate_many: Option<EvaluateManyFn>,
+    /// `tribo_law_suits`, optional from contract version 3 (absent: 0, any joint).
+    suits: Option<SuitsFn>,
+    /// The contract version the library was built against.
+    version: u32,
     _lib: libloading::Library,
 }
 
@@ -55,7 +70,26 @@ unsafe fn c_text(p: *const c_char, what: &str) -> Result<String, String> {
 }
 
 impl CLib {
-    pub(super) fn load(path: &Path, lib: libloading::Library) -> Result<Self, LawError> {
+    /// Resolve the symbols of a library built against contract `version`. The optional
+    /// symbols of version 3 are looked up only in a version-3 library: an older one cannot
+    /// mean them, whatever it exports under those names.
+    pub(super) fn load(
+        path: &Path,
+        lib: libloading::Library,
+        version: u32,
+    ) -> Result<Self, LawError> {
+        fn optional<T: Copy>(
+            lib: &libloading::Library,
+            path: &Path,
+            version: u32,
+            name: &str,
+        ) -> Option<T> {
+            if version >= 3 {
+                symbol(lib, path, name).ok()
+            } else {
+                None
+            }
+        }
         Ok(Self {
             describe: symbol(&lib, path, "tribo_law_describe")?,
             create: symbol(&lib, path, "tribo_law_create")?,
@@ -63,8 +97,22 @@ impl CLib {
             evaluate: symbol(&lib, path, "tribo_law_evaluate")?,
             commit: symbol(&lib, path, "tribo_law_commit")?,
             destroy: symbol(&lib, path, "tribo_law_destroy")?,
+            evaluate_many: optional(&lib, path, version, "tribo_law_evaluate_many"),
+            suits: optional(&lib, path, version, "tribo_law_suits"),
+            version,
             _lib: lib,
         })
+    }
+
+    /// The `SUITS_*` bits from `tribo_law_suits`, 0 (any) without it.
+    pub(super) fn suits(&self) -> u32 {
+        // SAFETY: the contract declares the symbol as `uint32_t (void)`.
+        self.suits.map_or(0, |f| unsafe { f() })
+    }
+
+    /// Whether the library evaluates batches itself (`tribo_law_evaluate_many`).
+    pub(super) fn has_evaluate_many(&self) -> bool {
+        self.evaluate_many.is_some()
     }
 
     pub(super) fn describe(&self, path: &Path) -> Result<LawDescription, LawError> {
@@ -124,6 +172,7 @@ impl CLib {
                 version: c_text(d.version, "version").map_err(bad)?,
                 summary: c_text(d.summary, "summary").map_err(bad)?,
                 parameters,
+                suits: self.suits(),
             })
         }
     }
@@ -189,13 +238,59 @@ impl CInstance {
         self.state_size
     }
 
+    /// Whether the library exports `tribo_law_evaluate_many`.
+    pub(super) fn has_evaluate_many(&self) -> bool {
+        self.lib.has_evaluate_many()
+    }
+
+    /// Evaluate into `out`, which the law finds zeroed (force 0, flags 0); what a law older
+    /// than version 3 leaves is cut to its version's fields and flags.
     #[inline]
-    pub(super) fn evaluate(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, i32> {
-        let mut out = LawOutput::force(0.0);
+    pub(super) fn evaluate_into(
+        &self,
+        input: &LawInput,
+        state: &[f64],
+        out: &mut LawOutput,
+    ) -> Result<(), i32> {
+        *out = LawOutput::force(0.0);
         // SAFETY: live handle; input and out are valid for the call; state has state_size values.
-        let code = unsafe { (self.lib.evaluate)(self.handle, input, state.as_ptr(), &mut out) };
+        let code = unsafe { (self.lib.evaluate)(self.handle, input, state.as_ptr(), out) };
+        out.limit_to_version(self.lib.version);
         if code == 0 {
-            Ok(out)
+            Ok(())
+        } else {
+            Err(code)
+        }
+    }
+
+    /// One call of `tribo_law_evaluate_many` (the library has it: [`CLib::has_evaluate_many`])
+    /// over `inputs`, the outputs zeroed first. The caller has checked the lengths: `outputs`
+    /// as long as `inputs`, and `states` holding every input's state at `state_stride`.
+    pub(super) fn evaluate_many(
+        &self,
+        inputs: &[LawInput],
+        states: &[f64],
+        state_stride: usize,
+        outputs: &mut [LawOutput],
+    ) -> Result<(), i32> {
+        let Some(many) = self.lib.evaluate_many else {
+            return Err(-1);
+        };
+        outputs.fill(LawOutput::force(0.0));
+        // SAFETY: live handle; `inputs` and `outputs` hold inputs.len() structs, `states` every
+        // input's state_size values at the stride (checked by the caller).
+        let code = unsafe {
+            many(
+                self.handle,
+                inputs.len(),
+                inputs.as_ptr(),
+                states.as_ptr(),
+                state_stride,
+                outputs.as_mut_ptr(),
+            )
+        };
+        if code == 0 {
+            Ok(())
         } else {
             Err(code)
         }

@@ -177,6 +177,19 @@ pub enum LawError {
         /// The raw value returned.
         value: u32,
     },
+    /// A batch whose lengths do not fit ([`LawInstance::evaluate_many`]); the law is not
+    /// called.
+    #[error(
+        "law `{law}` (library `{path}`): evaluate_many was given {detail}; the law was not called"
+    )]
+    BatchShape {
+        /// Law name.
+        law: String,
+        /// File.
+        path: PathBuf,
+        /// The lengths given and what they must be.
+        detail: String,
+    },
     /// A directory of the plugin path could not be read.
     #[error("cannot read plugin directory `{path}`: {error}")]
     Io {
@@ -276,7 +289,8 @@ impl LawLibrary {
         if rust::exports_rust_module(&lib) {
             drop(lib);
             let lib = rust::RustLib::load(&open_path, version)?;
-            let description = lib.describe(path)?;
+            let mut description = lib.describe(path)?;
+            description.suits = lib.suits();
             Ok(Self {
                 code: law_code(&description.name, path),
                 description,
@@ -286,7 +300,7 @@ impl LawLibrary {
                 backend: LibBackend::Rust(lib),
             })
         } else {
-            let lib = c_abi::CLib::load(path, lib)?;
+            let lib = c_abi::CLib::load(path, lib, version)?;
             let description = lib.describe(path)?;
             Ok(Self {
                 code: law_code(&description.name, path),
@@ -341,6 +355,12 @@ impl LawLibrary {
         self.contract_version
     }
 
+    /// The bearing types the law declares it suits (`SUITS_*` bits; 0 any, also for every
+    /// library older than contract version 3).
+    pub fn suits(&self) -> u32 {
+        self.description.suits
+    }
+
     /// Create an instance from a parameter table (missing keys take their defaults). Names,
     /// types and ranges are checked against the description for every ABI.
     pub fn create(&self, params: &toml::Table) -> Result<LawInstance, LawError> {
@@ -375,6 +395,7 @@ impl LawLibrary {
         };
         let state_size = match &backend {
             InstBackend::Rust(obj) => obj.state_size(),
+            InstBackend::RustV2(obj) => obj.state_size(),
             InstBackend::RustV1(obj) => obj.state_size(),
             InstBackend::C(inst) => inst.state_size(),
             InstBackend::InProcess(law) => law.state_size(),
@@ -422,6 +443,13 @@ fn law_code(name: &str, path: &Path) -> inflight::CodeId {
 trait DynLaw: Send + Sync {
     fn state_size(&self) -> usize;
     fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput;
+    fn evaluate_many(
+        &self,
+        inputs: &[LawInput],
+        states: &[f64],
+        stride: usize,
+        outputs: &mut [LawOutput],
+    );
     fn commit(&self, input: &LawInput, state: &mut [f64]);
 }
 
@@ -432,6 +460,15 @@ impl<L: Law> DynLaw for L {
     fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
         Law::evaluate(self, input, state)
     }
+    fn evaluate_many(
+        &self,
+        inputs: &[LawInput],
+        states: &[f64],
+        stride: usize,
+        outputs: &mut [LawOutput],
+    ) {
+        Law::evaluate_many(self, inputs, states, stride, outputs)
+    }
     fn commit(&self, input: &LawInput, state: &mut [f64]) {
         Law::commit(self, input, state)
     }
@@ -439,10 +476,26 @@ impl<L: Law> DynLaw for L {
 
 enum InstBackend {
     Rust(crate::rust_abi::RLawBox),
-    /// A library built against contract version 1: handed the version-1 view of the input.
+    /// A library built against contract version 2: handed the version-2 view of the input,
+    /// its output completed by the host.
+    RustV2(crate::rust_abi::v2::RLawBox),
+    /// A library built against contract version 1: handed the version-1 view of the input,
+    /// its output completed by the host.
     RustV1(crate::rust_abi::v1::RLawBox),
     C(c_abi::CInstance),
     InProcess(Box<dyn DynLaw>),
+}
+
+/// A failed [`LawInstance::evaluate_many`]: the error, and the input of the batch it belongs
+/// to (`None` when the batch itself was malformed, or failed though every input evaluates
+/// alone).
+#[derive(Debug, thiserror::Error)]
+#[error("{}{error}", .index.map(|k| format!("batch input {k}: ")).unwrap_or_default())]
+pub struct BatchError {
+    /// Index of the input the law failed at.
+    pub index: Option<usize>,
+    /// What went wrong (in the message, not a `source`, so it is printed once).
+    pub error: LawError,
 }
 
 /// A created law instance: what the solver calls once per joint and step. The host keeps the
@@ -482,6 +535,17 @@ impl LawInstance {
         self.state_size
     }
 
+    /// Whether the law evaluates a batch itself ([`LawInstance::evaluate_many`] makes one call
+    /// into the library): a version-3 Rust law, a C law exporting `tribo_law_evaluate_many`,
+    /// an in-process law. Otherwise the host loops over the batch.
+    pub fn evaluates_batches(&self) -> bool {
+        match &self.backend {
+            InstBackend::Rust(_) | InstBackend::InProcess(_) => true,
+            InstBackend::C(inst) => inst.has_evaluate_many(),
+            InstBackend::RustV2(_) | InstBackend::RustV1(_) => false,
+        }
+    }
+
     /// A zero-initialised state of [`LawInstance::state_size`] values. The allocation is
     /// fallible: failure is [`LawError::StateTooLarge`], not an abort.
     pub fn new_state(&self) -> Result<Vec<f64>, LawError> {
@@ -503,41 +567,216 @@ impl LawInstance {
     /// whose length is not [`LawInstance::state_size`] is [`LawError::StateLength`] (the law is
     /// not called), and a regime outside the contract's values is
     /// [`LawError::UndefinedRegime`], so every output returned has a defined
-    /// [`LawOutput::regime`].
+    /// [`LawOutput::regime`]. A law built against an older contract gets its version's view of
+    /// the input, and its output has the later fields zero and only the flags it knew.
     #[inline]
     pub fn evaluate(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, LawError> {
-        self.check_state("evaluate", state.len())?;
-        let out = self.evaluate_unchecked_regime(input, state)?;
-        if Regime::from_u32(out.regime).is_none() {
-            return Err(self.undefined_regime(out.regime));
-        }
+        let mut out = LawOutput::force(0.0);
+        self.evaluate_into(input, state, &mut out)?;
         Ok(out)
     }
 
+    /// [`LawInstance::evaluate`] into an output the caller owns: the solver's form, with no
+    /// output moved through a `Result`. On an error `out` holds whatever the law left in it.
     #[inline]
-    fn evaluate_unchecked_regime(
+    pub fn evaluate_into(
         &self,
         input: &LawInput,
         state: &[f64],
-    ) -> Result<LawOutput, LawError> {
+        out: &mut LawOutput,
+    ) -> Result<(), LawError> {
+        self.check_state("evaluate", state.len())?;
         let _running = inflight::enter(self.code);
+        self.call_into(input, state, out)?;
+        if Regime::from_u32(out.regime).is_none() {
+            return Err(self.undefined_regime(out.regime));
+        }
+        Ok(())
+    }
+
+    /// One call of the law into `out`, the state's length already checked and the law marked
+    /// as running.
+    #[inline]
+    fn call_into(
+        &self,
+        input: &LawInput,
+        state: &[f64],
+        out: &mut LawOutput,
+    ) -> Result<(), LawError> {
+        use abi_stable::std_types::RResult::{RErr, ROk};
+        let old = |r: abi_stable::std_types::RResult<crate::contract::v2::LawOutput, _>,
+                   out: &mut LawOutput| match r {
+            ROk(v2) => {
+                *out = LawOutput::from(&v2);
+                Ok(())
+            }
+            RErr(msg) => Err(self.failed("evaluate", format!("panicked: {msg}"))),
+        };
         match &self.backend {
-            InstBackend::Rust(obj) => match obj.evaluate(input, state.into()) {
-                abi_stable::std_types::RResult::ROk(out) => Ok(out),
-                abi_stable::std_types::RResult::RErr(msg) => {
-                    Err(self.failed("evaluate", format!("panicked: {msg}")))
-                }
+            InstBackend::Rust(obj) => match obj.evaluate_into(input, state.into(), out) {
+                ROk(()) => Ok(()),
+                RErr(msg) => Err(self.failed("evaluate", format!("panicked: {msg}"))),
             },
-            InstBackend::RustV1(obj) => match obj.evaluate(input.as_v1(), state.into()) {
-                abi_stable::std_types::RResult::ROk(out) => Ok(out),
-                abi_stable::std_types::RResult::RErr(msg) => {
-                    Err(self.failed("evaluate", format!("panicked: {msg}")))
-                }
-            },
+            InstBackend::RustV2(obj) => old(obj.evaluate(input.as_v2(), state.into()), out),
+            InstBackend::RustV1(obj) => old(obj.evaluate(input.as_v1(), state.into()), out),
             InstBackend::C(inst) => inst
-                .evaluate(input, state)
+                .evaluate_into(input, state, out)
                 .map_err(|code| self.failed("evaluate", format!("returned error code {code}"))),
-            InstBackend::InProcess(law) => Ok(law.evaluate(input, state)),
+            InstBackend::InProcess(law) => {
+                *out = law.evaluate(input, state);
+                Ok(())
+            }
+        }
+    }
+
+    /// Evaluate `inputs` into `outputs` (as many), input `k` with the state starting at
+    /// `states[k * state_stride]` (`state_stride` 0: every input shares the one state
+    /// `states`, of [`LawInstance::state_size`] values). One call into the library when it
+    /// evaluates batches itself ([`LawInstance::evaluates_batches`]), else a loop here; either
+    /// way each output is what [`LawInstance::evaluate`] gives for its input.
+    ///
+    /// # Errors
+    /// Lengths that do not fit (checked before the law is called), or the first input the
+    /// law fails at, with its index: a failed batch is evaluated again one input at a time to
+    /// find it, so the error is the one that input gives alone.
+    pub fn evaluate_many(
+        &self,
+        inputs: &[LawInput],
+        states: &[f64],
+        state_stride: usize,
+        outputs: &mut [LawOutput],
+    ) -> Result<(), BatchError> {
+        self.check_batch(inputs.len(), states.len(), state_stride, outputs.len())?;
+        // A stateless law reads no state: one shared empty slice, whatever the caller passed.
+        let (states, stride) = if self.state_size == 0 {
+            (&states[..0], 0)
+        } else {
+            (states, state_stride)
+        };
+        let _running = inflight::enter(self.code);
+        let native = match &self.backend {
+            InstBackend::Rust(obj) => Some(
+                match obj.evaluate_many(inputs.into(), states.into(), stride, outputs.into()) {
+                    abi_stable::std_types::RResult::ROk(()) => Ok(()),
+                    abi_stable::std_types::RResult::RErr(msg) => Err(format!("panicked: {msg}")),
+                },
+            ),
+            InstBackend::C(inst) if inst.has_evaluate_many() => Some(
+                inst.evaluate_many(inputs, states, stride, outputs)
+                    .map_err(|code| format!("tribo_law_evaluate_many returned error code {code}")),
+            ),
+            InstBackend::InProcess(law) => {
+                law.evaluate_many(inputs, states, stride, outputs);
+                Some(Ok(()))
+            }
+            _ => None,
+        };
+        match native {
+            Some(Ok(())) => match outputs
+                .iter()
+                .position(|o| Regime::from_u32(o.regime).is_none())
+            {
+                None => Ok(()),
+                Some(k) => Err(BatchError {
+                    index: Some(k),
+                    error: self.undefined_regime(outputs[k].regime),
+                }),
+            },
+            Some(Err(message)) => {
+                Err(self.locate_batch_failure(inputs, states, stride, outputs, message))
+            }
+            None => {
+                for (k, (input, out)) in inputs.iter().zip(outputs.iter_mut()).enumerate() {
+                    let state = &states[k * stride..k * stride + self.state_size];
+                    self.call_into(input, state, out)
+                        .and_then(|()| match Regime::from_u32(out.regime) {
+                            Some(_) => Ok(()),
+                            None => Err(self.undefined_regime(out.regime)),
+                        })
+                        .map_err(|error| BatchError {
+                            index: Some(k),
+                            error,
+                        })?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// A batch call failed with `message`: evaluate its inputs one at a time and blame the
+    /// first that fails alone; if none does, the batch call itself is the failure.
+    #[cold]
+    fn locate_batch_failure(
+        &self,
+        inputs: &[LawInput],
+        states: &[f64],
+        stride: usize,
+        outputs: &mut [LawOutput],
+        message: String,
+    ) -> BatchError {
+        for (k, (input, out)) in inputs.iter().zip(outputs.iter_mut()).enumerate() {
+            let state = &states[k * stride..k * stride + self.state_size];
+            if let Err(error) = self.evaluate_into(input, state, out) {
+                return BatchError {
+                    index: Some(k),
+                    error,
+                };
+            }
+        }
+        BatchError {
+            index: None,
+            error: self.failed(
+                "evaluate_many",
+                format!(
+                    "{message}, though each of its {} inputs evaluates alone",
+                    inputs.len()
+                ),
+            ),
+        }
+    }
+
+    /// The lengths of a batch: as many outputs as inputs, and a state for every input.
+    #[inline]
+    fn check_batch(
+        &self,
+        n: usize,
+        states: usize,
+        stride: usize,
+        outputs: usize,
+    ) -> Result<(), BatchError> {
+        let size = self.state_size;
+        let needed = match (n, stride) {
+            _ if size == 0 => Some(0),
+            (0, _) => Some(0),
+            (_, 0) => Some(size),
+            (n, s) if s >= size => (n - 1).checked_mul(s).and_then(|x| x.checked_add(size)),
+            _ => None,
+        };
+        let fits = outputs == n
+            && match needed {
+                Some(needed) if stride == 0 => states == needed || size == 0,
+                Some(needed) => states >= needed,
+                None => false,
+            };
+        if fits {
+            Ok(())
+        } else {
+            Err(self.bad_batch(n, states, stride, outputs))
+        }
+    }
+
+    #[cold]
+    fn bad_batch(&self, n: usize, states: usize, stride: usize, outputs: usize) -> BatchError {
+        BatchError {
+            index: None,
+            error: LawError::BatchShape {
+                law: self.name.to_string(),
+                path: self.path.to_path_buf(),
+                detail: format!(
+                    "{n} inputs, {outputs} outputs, {states} state values at a stride of {stride}, for a state of {} values per input (stride 0: one shared state of exactly that length; otherwise a stride of at least that and room for every input's state)",
+                    self.state_size
+                ),
+            },
         }
     }
 
@@ -548,6 +787,12 @@ impl LawInstance {
         let _running = inflight::enter(self.code);
         match &self.backend {
             InstBackend::Rust(obj) => match obj.commit(input, state.into()) {
+                abi_stable::std_types::RResult::ROk(()) => Ok(()),
+                abi_stable::std_types::RResult::RErr(msg) => {
+                    Err(self.failed("commit", format!("panicked: {msg}")))
+                }
+            },
+            InstBackend::RustV2(obj) => match obj.commit(input.as_v2(), state.into()) {
                 abi_stable::std_types::RResult::ROk(()) => Ok(()),
                 abi_stable::std_types::RResult::RErr(msg) => {
                     Err(self.failed("commit", format!("panicked: {msg}")))
@@ -700,6 +945,79 @@ mod tests {
             // The law was not called: nothing was written.
             assert!(short.iter().all(|&x| x == 0.0));
         }
+    }
+
+    #[test]
+    fn evaluate_many_equals_evaluate_with_shared_and_strided_states() {
+        let law = create("n = 3");
+        let inputs: Vec<LawInput> = (0..5)
+            .map(|k| LawInput::at_rest(JointKind::Revolute).with_velocity(k as f64))
+            .collect();
+        let mut outputs = vec![LawOutput::force(9.0); 5];
+        // One shared state.
+        law.evaluate_many(&inputs, &[1.0, 2.0, 3.0], 0, &mut outputs)
+            .expect("fits");
+        assert!(outputs.iter().all(|o| o.force == -6.0));
+        // A state per input at a stride of 4; the gaps are never read.
+        let mut states = vec![f64::NAN; 4 * 4 + 3];
+        for k in 0..5 {
+            states[4 * k..4 * k + 3].copy_from_slice(&[k as f64, 1.0, 0.5]);
+        }
+        law.evaluate_many(&inputs, &states, 4, &mut outputs)
+            .expect("fits");
+        for (k, o) in outputs.iter().enumerate() {
+            let alone = law.evaluate(&inputs[k], &states[4 * k..4 * k + 3]);
+            assert_eq!(alone.expect("evaluates").force, o.force);
+            assert_eq!(o.force, -(k as f64 + 1.5));
+        }
+        // An empty batch is nothing to do.
+        law.evaluate_many(&[], &[], 3, &mut []).expect("empty");
+    }
+
+    #[test]
+    fn batches_that_do_not_fit_are_refused_before_the_law_is_called() {
+        let law = create("n = 3");
+        let inputs = vec![LawInput::at_rest(JointKind::Revolute); 2];
+        let mut two = vec![LawOutput::force(7.0); 2];
+        for (states, stride, outputs) in [
+            (4, 0, 2), // a shared state of the wrong length
+            (5, 3, 2), // no room for the second state
+            (6, 2, 2), // a stride shorter than the state
+            (6, 3, 1), // fewer outputs than inputs
+        ] {
+            let e = law
+                .evaluate_many(&inputs, &vec![0.0; states], stride, &mut two[..outputs])
+                .unwrap_err();
+            assert_eq!(e.index, None);
+            let msg = e.to_string();
+            assert!(
+                matches!(e.error, LawError::BatchShape { .. })
+                    && msg.contains("test-stateful")
+                    && msg.contains(&format!("stride of {stride}")),
+                "{msg}"
+            );
+        }
+        assert!(two.iter().all(|o| o.force == 7.0), "the law was called");
+        // A stateless law reads no state, whatever the stride.
+        let stateless = create("n = 0");
+        stateless
+            .evaluate_many(&inputs, &[], 5, &mut two)
+            .expect("no state to fit");
+        assert!(two.iter().all(|o| o.force == 0.0));
+    }
+
+    #[test]
+    fn a_batch_names_the_input_with_an_undefined_regime() {
+        let law = create("n = 0\nregime = 7");
+        let inputs = vec![LawInput::at_rest(JointKind::Prismatic); 3];
+        let mut out = vec![LawOutput::force(0.0); 3];
+        let e = law.evaluate_many(&inputs, &[], 0, &mut out).unwrap_err();
+        assert_eq!(e.index, Some(0));
+        assert!(
+            matches!(e.error, LawError::UndefinedRegime { value: 7, .. }),
+            "{e}"
+        );
+        assert!(e.to_string().starts_with("batch input 0: "), "{e}");
     }
 
     #[test]

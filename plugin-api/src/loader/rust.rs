@@ -8,7 +8,7 @@ use abi_stable::std_types::{RResult, RStr};
 
 use super::{InstBackend, LawError, LawLibrary};
 use crate::describe::{LawDescription, ParamError};
-use crate::rust_abi::{from_r_description, v1, LawModuleRef, RCreateError, RLawDescription};
+use crate::rust_abi::{from_r_description, v1, v2, LawModuleRef, RCreateError, RLawDescription};
 
 /// True if `lib` exports an abi_stable library header (a Rust plugin).
 pub(super) fn exports_rust_module(lib: &libloading::Library) -> bool {
@@ -17,9 +17,10 @@ pub(super) fn exports_rust_module(lib: &libloading::Library) -> bool {
 }
 
 /// A Rust law library whose module passed abi_stable's version and layout checks: built
-/// against the current contract or against the frozen version 1.
+/// against the current contract or against a frozen older one.
 pub(super) enum RustLib {
     Current(LawModuleRef),
+    V2(v2::LawModuleRef),
     V1(v1::LawModuleRef),
 }
 
@@ -32,14 +33,23 @@ impl RustLib {
             detail: e.to_string(),
         };
         let header = lib_header_from_path(path).map_err(abi_err)?;
-        let (lib, found) = if version == 1 {
-            let module = header
-                .init_root_module::<v1::LawModuleRef>()
-                .map_err(abi_err)?;
-            (Self::V1(module), module.contract_version())
-        } else {
-            let module = header.init_root_module::<LawModuleRef>().map_err(abi_err)?;
-            (Self::Current(module), module.contract_version())
+        let (lib, found) = match version {
+            1 => {
+                let module = header
+                    .init_root_module::<v1::LawModuleRef>()
+                    .map_err(abi_err)?;
+                (Self::V1(module), module.contract_version())
+            }
+            2 => {
+                let module = header
+                    .init_root_module::<v2::LawModuleRef>()
+                    .map_err(abi_err)?;
+                (Self::V2(module), module.contract_version())
+            }
+            _ => {
+                let module = header.init_root_module::<LawModuleRef>().map_err(abi_err)?;
+                (Self::Current(module), module.contract_version())
+            }
         };
         // The module's own version must agree with the symbol the loader read first.
         if found != version {
@@ -56,7 +66,16 @@ impl RustLib {
     fn describe_fn(&self) -> extern "C" fn() -> RResult<RLawDescription, RCreateError> {
         match self {
             Self::Current(m) => m.describe(),
+            Self::V2(m) => m.describe(),
             Self::V1(m) => m.describe(),
+        }
+    }
+
+    /// The `SUITS_*` bits the law declares (a library older than version 3 cannot: 0, any).
+    pub(super) fn suits(&self) -> u32 {
+        match self {
+            Self::Current(m) => m.suits(),
+            Self::V2(_) | Self::V1(_) => 0,
         }
     }
 
@@ -88,6 +107,7 @@ impl RustLib {
         let params = RStr::from_str(params_toml);
         let created = match self {
             Self::Current(m) => (m.create())(params).map(InstBackend::Rust),
+            Self::V2(m) => (m.create())(params).map(InstBackend::RustV2),
             Self::V1(m) => (m.create())(params).map(InstBackend::RustV1),
         };
         match created {

@@ -4,15 +4,14 @@
 //! abi_stable checks a library's root module against the host's type by layout, field names,
 //! type names and crate name (`tribo-plugin-api`, version 0.1.x). So every item here keeps the
 //! name and shape it had in version 1: [`LawModule`], [`RLawObject`] and the input
-//! [`LawInput`](crate::contract::v1::LawInput). The parts version 2 did not change
-//! ([`RLawDescription`](super::RLawDescription), [`RCreateError`](super::RCreateError),
-//! [`LawOutput`](crate::LawOutput)) are shared with the current module. Nothing here may change
-//! again: a version-1 library in the field was built from exactly this.
+//! [`LawInput`](crate::contract::v1::LawInput). Its output is version 2's (unchanged in
+//! version 2), the frozen [`LawOutput`](crate::contract::v2::LawOutput); the parts no version
+//! changed ([`RLawDescription`](super::RLawDescription), [`RCreateError`](super::RCreateError))
+//! are shared with the current module. Nothing here may change again: a version-1 library in
+//! the field was built from exactly this.
 
 // As in the parent module: abi_stable's `sabi_trait` expansion, not ours.
 #![allow(non_local_definitions)]
-
-use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use abi_stable::library::RootModule;
 use abi_stable::prefix_type::PrefixTypeTrait;
@@ -21,8 +20,8 @@ use abi_stable::sabi_types::VersionStrings;
 use abi_stable::std_types::{RBox, RResult, RSlice, RSliceMut, RStr, RString};
 use abi_stable::StableAbi;
 
-use super::{create_adapter, describe_shim, panic_message, Adapter, RCreateError, RLawDescription};
-use crate::contract::{v1::LawInput, LawOutput};
+use super::{create_adapter, describe_shim, Adapter, RCreateError, RLawDescription};
+use crate::contract::{v1::LawInput, v2::LawOutput};
 use crate::law::Law;
 
 /// Contract version 1 as abi_stable's semver string.
@@ -73,23 +72,11 @@ impl<L: Law> RLawObject for Adapter<L> {
     }
 
     fn evaluate(&self, input: &LawInput, state: RSlice<'_, f64>) -> RResult<LawOutput, RString> {
-        let input = crate::LawInput::from(input);
-        match catch_unwind(AssertUnwindSafe(|| {
-            self.law.evaluate(&input, state.as_slice())
-        })) {
-            Ok(out) => RResult::ROk(out),
-            Err(p) => RResult::RErr(panic_message(&*p).into()),
-        }
+        self.evaluate_frozen(&input.into(), state.as_slice())
     }
 
     fn commit(&self, input: &LawInput, mut state: RSliceMut<'_, f64>) -> RResult<(), RString> {
-        let input = crate::LawInput::from(input);
-        match catch_unwind(AssertUnwindSafe(|| {
-            self.law.commit(&input, state.as_mut_slice())
-        })) {
-            Ok(()) => RResult::ROk(()),
-            Err(p) => RResult::RErr(panic_message(&*p).into()),
-        }
+        self.commit_caught(&input.into(), state.as_mut_slice())
     }
 }
 
@@ -117,31 +104,10 @@ pub fn module_for<L: Law>() -> LawModuleRef {
 #[macro_export]
 macro_rules! __export_law_v1 {
     ($law:ty) => {
-        /// Contract version this library stands for (read by the host first).
-        #[unsafe(no_mangle)]
-        pub extern "C" fn tribo_law_contract_version() -> u32 {
-            1
-        }
-
-        #[doc(hidden)]
-        #[unsafe(export_name = "_1as_0lib_1header_0root_bmodule_bloader")]
-        pub static __TRIBO_LAW_LIB_HEADER: $crate::rust_abi::__private::LibHeader = {
-            extern "C" fn erased_module() -> $crate::rust_abi::__private::RootModuleResult {
-                fn module() -> $crate::rust_abi::v1::LawModuleRef {
-                    $crate::rust_abi::v1::module_for::<$law>()
-                }
-                $crate::rust_abi::__private::__call_root_module_loader(module)
-            }
-            // SAFETY: `erased_module` returns the root module of type `v1::LawModuleRef`, the
-            // type the header is declared with.
-            unsafe {
-                $crate::rust_abi::__private::LibHeader::from_constructor::<
-                    $crate::rust_abi::v1::LawModuleRef,
-                >(
-                    erased_module,
-                    $crate::rust_abi::__private::CheckTypeLayout::Yes,
-                )
-            }
-        };
+        $crate::__export_law_module!(
+            1,
+            $crate::rust_abi::v1::LawModuleRef,
+            $crate::rust_abi::v1::module_for::<$law>()
+        );
     };
 }

@@ -270,7 +270,13 @@ fn trial_points_that_do_not_run_are_counted_and_named() {
         .collect();
     let count = |k: &str| kinds.iter().filter(|x| **x == k).count();
     assert_eq!(
-        (kinds.len(), count("own values"), count("corner"), count("latin hypercube"), count("polish")),
+        (
+            kinds.len(),
+            count("own values"),
+            count("corner"),
+            count("latin hypercube"),
+            count("polish")
+        ),
         (10, 1, 4, 4, 1),
         "{kinds:?}"
     );

@@ -223,10 +223,7 @@ fn energy_follows(r: &tribo::sim::RunResult) {
         );
     }
     let lawless = r.plateaus.iter().all(|p| p.joints.is_empty());
-    let warned = r
-        .warnings
-        .iter()
-        .any(|w| w == tribo::sim::NO_LAWS_WARNING);
+    let warned = r.warnings.iter().any(|w| w == tribo::sim::NO_LAWS_WARNING);
     assert_eq!(lawless, warned, "{}", r.rig);
 }
 

@@ -552,7 +552,14 @@ fn compare_fits_every_set_before_it_ranks_and_no_fit_is_labelled_everywhere() {
          [[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\nparams = { mu = 0.3, c_viscous = 0.0 }\nfree = { mu = [0.01, 0.5], c_viscous = [0.0, 2.0] }\n",
     )
     .expect("write");
-    let sets = ["--lawset", start, "--lawset", "mixed-film", "--lawset", "user.toml"];
+    let sets = [
+        "--lawset",
+        start,
+        "--lawset",
+        "mixed-film",
+        "--lawset",
+        "user.toml",
+    ];
     let run = |extra: &[&str], out: &str| {
         let mut args = vec!["compare", "--steady", "--out", out, "--json"];
         args.extend_from_slice(&sets);
@@ -594,11 +601,17 @@ fn compare_fits_every_set_before_it_ranks_and_no_fit_is_labelled_everywhere() {
             fitted["sets"][k]["rmse_nm"].as_f64().expect("rmse"),
             as_is["sets"][k]["rmse_nm"].as_f64().expect("rmse"),
         );
-        assert!(a < 0.9 * b, "{}: fitted {a} vs as is {b}", fitted["sets"][k]["lawset"]);
+        assert!(
+            a < 0.9 * b,
+            "{}: fitted {a} vs as is {b}",
+            fitted["sets"][k]["lawset"]
+        );
     }
     // The same calibration as `tribo fit`: the same values and error.
     let fit = json_in(
-        &["fit", "--lawset", start, "--no-cv", "--out", "f.toml", "--json"],
+        &[
+            "fit", "--lawset", start, "--no-cv", "--out", "f.toml", "--json",
+        ],
         dir.path(),
     );
     let values = f64_list(&fit["values"]);
@@ -608,7 +621,11 @@ fn compare_fits_every_set_before_it_ranks_and_no_fit_is_labelled_everywhere() {
     assert_eq!(params.len(), values.len());
     for (p, v) in params.iter().zip(&values) {
         let (a, b) = (p["value"].as_f64().expect("value"), v.expect("value"));
-        assert!((a - b).abs() <= 1e-12 * b.abs(), "{}: {a} vs fit {b}", p["id"]);
+        assert!(
+            (a - b).abs() <= 1e-12 * b.abs(),
+            "{}: {a} vs fit {b}",
+            p["id"]
+        );
     }
     // Not fitted: labelled so in every output, and scored as it is.
     let u = &as_is["sets"][0];
@@ -627,14 +644,24 @@ fn compare_fits_every_set_before_it_ranks_and_no_fit_is_labelled_everywhere() {
     assert_eq!(rows.len(), 3);
     assert!(rows.iter().all(|x| &x[col] == "not fitted"), "{scores}");
     let svg = std::fs::read_to_string(dir.path().join("as-is/torque_vs_speed.svg")).expect("svg");
-    assert!(svg.contains("not fitted"), "the plot's legend says not fitted");
+    assert!(
+        svg.contains("not fitted"),
+        "the plot's legend says not fitted"
+    );
     let out = tribo_in(
-        &[&["compare", "--steady", "--no-fit", "--out", "as-is"][..], &sets].concat(),
+        &[
+            &["compare", "--steady", "--no-fit", "--out", "as-is"][..],
+            &sets,
+        ]
+        .concat(),
         dir.path(),
     );
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stderr}");
-    assert_mentions(&stdout, &["stribeck-duty-start (not fitted)", "user (not fitted)"]);
+    assert_mentions(
+        &stdout,
+        &["stribeck-duty-start (not fitted)", "user (not fitted)"],
+    );
     // A fitted set's values are written beside the results, and they give its error.
     let toml = dir.path().join("fitted/fitted_stribeck-duty-start.toml");
     assert!(toml.is_file());
@@ -693,7 +720,14 @@ fn data_belong_to_their_rig_and_a_rig_without_measurements_asks_for_them() {
         &["8000 rpm", "top speed", "max_speed_rpm = 7000"],
     );
     fails(
-        &["sweep", "inline4-4b11", "--speeds", "3000,9000", "--temps", "80"],
+        &[
+            "sweep",
+            "inline4-4b11",
+            "--speeds",
+            "3000,9000",
+            "--temps",
+            "80",
+        ],
         &["--speeds", "9000 rpm", "max_speed_rpm = 7000"],
     );
     // A user's file naming another rig is refused, and accepted when told it applies.
@@ -749,12 +783,20 @@ fn a_run_without_laws_warns_and_require_laws_refuses_it() {
     let (stdout, _) = text(&out);
     assert!(stdout.contains("warning: no law on any joint"), "{stdout}");
     let out = tribo_in(
-        &["run", "reference-frictionless", "--steady", "--require-laws"],
+        &[
+            "run",
+            "reference-frictionless",
+            "--steady",
+            "--require-laws",
+        ],
         dir.path(),
     );
     let (_, stderr) = text(&out);
     assert!(!out.status.success());
-    assert_mentions(&stderr, &["--require-laws", "reference-frictionless", "no law"]);
+    assert_mentions(
+        &stderr,
+        &["--require-laws", "reference-frictionless", "no law"],
+    );
     // With laws there is nothing to warn about.
     let run = json_in(
         &[
@@ -811,7 +853,10 @@ fn bands_of_a_positive_torque_stay_above_zero_and_a_missing_band_says_why() {
         .map(|p| p["motoring_torque_nm"].as_f64().expect("torque"))
         .collect();
     let half = f64_list(&one["uncertainty"]["band_half_width_nm"]);
-    let (lo, hi) = (f64_list(&one["band_lower_nm"]), f64_list(&one["band_upper_nm"]));
+    let (lo, hi) = (
+        f64_list(&one["band_lower_nm"]),
+        f64_list(&one["band_upper_nm"]),
+    );
     assert!(
         half.iter().zip(&model).any(|(h, t)| h.expect("h") > *t),
         "the linear band should reach below zero somewhere: {half:?} vs {model:?}"
@@ -819,19 +864,29 @@ fn bands_of_a_positive_torque_stay_above_zero_and_a_missing_band_says_why() {
     for i in 0..model.len() {
         let (l, u, t) = (lo[i].expect("lower"), hi[i].expect("upper"), model[i]);
         assert!(l > 0.0 && l <= t && t <= u, "{l} {t} {u}");
-        assert!((l * u - t * t).abs() <= 1e-9 * t * t, "log band: {l} * {u} vs {t}^2");
+        assert!(
+            (l * u - t * t).abs() <= 1e-9 * t * t,
+            "log band: {l} * {u} vs {t}^2"
+        );
     }
     // Every set either has a band or says why not; never a "wider than data" without a band.
     for s in cmp["sets"].as_array().expect("sets") {
         let band = !s["band_lower_nm"].is_null();
         assert_eq!(band, s["band_note"].is_null(), "{}", s["lawset"]);
-        assert_eq!(band, !s["band_wider_than_data"].is_null(), "{}", s["lawset"]);
+        assert_eq!(
+            band,
+            !s["band_wider_than_data"].is_null(),
+            "{}",
+            s["lawset"]
+        );
     }
     let scores = std::fs::read_to_string(dir.path().join("o/scores.csv")).expect("csv");
     let mut r = csv::Reader::from_reader(scores.as_bytes());
     let h = r.headers().expect("headers").clone();
     let (w, n) = (
-        h.iter().position(|x| x == "band_wider_than_data").expect("col"),
+        h.iter()
+            .position(|x| x == "band_wider_than_data")
+            .expect("col"),
         h.iter().position(|x| x == "band_note").expect("col"),
     );
     for row in r.records() {
@@ -840,7 +895,10 @@ fn bands_of_a_positive_torque_stay_above_zero_and_a_missing_band_says_why() {
     }
     let out = tribo_in(&args, dir.path());
     let (stdout, _) = text(&out);
-    assert_mentions(&stdout, &["no band for physical-bearings: no free parameters"]);
+    assert_mentions(
+        &stdout,
+        &["no band for physical-bearings: no free parameters"],
+    );
 }
 
 #[test]
@@ -856,10 +914,36 @@ fn reports_fit_100_columns_and_say_their_units_files_and_defaults() {
         stdout
     };
     fits(&["laws"]);
-    fits(&["run", "inline4-4b11", "--steady", "--lawset", "stribeck-duty"]);
-    fits(&["fit", "--lawset", "stribeck-duty", "--no-cv", "--out", "f.toml"]);
-    fits(&["sweep", "--lawset", "mixed-film", "--temps", "40,50,60,70,80,90,100,110"]);
-    let mass = fits(&["mass-response", "--steady", "--lawset", "fedem-baseline", "--out", "mr"]);
+    fits(&[
+        "run",
+        "inline4-4b11",
+        "--steady",
+        "--lawset",
+        "stribeck-duty",
+    ]);
+    fits(&[
+        "fit",
+        "--lawset",
+        "stribeck-duty",
+        "--no-cv",
+        "--out",
+        "f.toml",
+    ]);
+    fits(&[
+        "sweep",
+        "--lawset",
+        "mixed-film",
+        "--temps",
+        "40,50,60,70,80,90,100,110",
+    ]);
+    let mass = fits(&[
+        "mass-response",
+        "--steady",
+        "--lawset",
+        "fedem-baseline",
+        "--out",
+        "mr",
+    ]);
     assert_mentions(
         &mass,
         &[

@@ -15,7 +15,7 @@ use tribo_plugin_api::loader::{discover, LawRegistry};
 
 /// Tribo: a virtual engine-friction test bench with friction and damping laws as plugins.
 #[derive(Parser)]
-#[command(version, about, long_about = None)]
+#[command(version, about, long_about = None, max_term_width = 100)]
 struct Cli {
     /// Extra plugin library or directory (searched before TRIBO_PLUGIN_PATH and the tribo
     /// executable's directory); may be repeated.

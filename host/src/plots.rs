@@ -474,7 +474,12 @@ const MARKERS: usize = 5;
 /// Marker number `k` (circle, triangle, square, diamond, cross, then again) at each of
 /// `pts`, in `color`: with the colours, it tells lines apart in print and for readers who do
 /// not see colour.
-fn draw_markers(chart: &mut Chart<'_, '_>, k: usize, pts: &[(f64, f64)], color: RGBColor) -> PlotResult {
+fn draw_markers(
+    chart: &mut Chart<'_, '_>,
+    k: usize,
+    pts: &[(f64, f64)],
+    color: RGBColor,
+) -> PlotResult {
     let style = color.filled();
     let at = pts.iter().map(|q| EmptyElement::at(*q));
     match k % MARKERS {
@@ -848,9 +853,13 @@ fn fmep_plot(r: &crate::sim::RunResult, out: &mut String) -> PlotResult {
     let (plot, side) = root.split_horizontally(1000 - legend_width(&legend_labels));
     let speeds: Vec<f64> = p.iter().map(|x| x.set_speed_rpm).collect();
     let (x0, x1) = range(speeds.iter().copied(), 0.05);
-    let values = p
-        .iter()
-        .flat_map(|x| x.fmep.components.iter().map(|c| c.kpa).chain([x.fmep.total_kpa]));
+    let values = p.iter().flat_map(|x| {
+        x.fmep
+            .components
+            .iter()
+            .map(|c| c.kpa)
+            .chain([x.fmep.total_kpa])
+    });
     let (y0, y1) = range(values.chain([0.0]), 0.08);
     let basis = match r.fmep.basis {
         crate::sim::FmepBasis::TwoStroke => "2 pi T / V_d",

@@ -655,7 +655,11 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
                 let n = c.data.len();
                 let model: Vec<String> = (0..n)
                     .map(|i| {
-                        let m = s.run.plateaus.get(i).map_or(f64::NAN, |p| p.motoring_torque_nm);
+                        let m = s
+                            .run
+                            .plateaus
+                            .get(i)
+                            .map_or(f64::NAN, |p| p.motoring_torque_nm);
                         format!("{m:.3}")
                     })
                     .collect();
@@ -712,18 +716,36 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
         .map(|s| set_title(s).chars().count())
         .chain([7])
         .max()
-        .unwrap_or(7);
+        .unwrap_or(7)
+        // The numbers take 76 columns: a longer title goes on a line of its own.
+        .min(MAX_COLUMNS - 76);
     let _ = writeln!(
         out,
-        "{:>4}  {:<name_w$} {:>6} {:>6} {:>8} {:>8} {:>10} {:>7} {:>7} {:>9}",
-        "rank", "law set", "params", "points", "RMSE", "LOO RMSE", "max |err|", "AICc", "BIC", "+10C max"
+        "{:>4}  {:<name_w$} {:>6} {:>6} {:>8} {:>8} {:>11} {:>7} {:>7} {:>9}",
+        "rank",
+        "law set",
+        "params",
+        "points",
+        "RMSE",
+        "LOO RMSE",
+        "max |error|",
+        "AICc",
+        "BIC",
+        "+10C max"
     );
     for s in &ranked {
+        let title = set_title(s);
+        let (rank, title) = if title.chars().count() > name_w {
+            let _ = writeln!(out, "{:>4}  {title}", s.rank);
+            (String::new(), String::new())
+        } else {
+            (s.rank.to_string(), title)
+        };
         let _ = writeln!(
             out,
-            "{:>4}  {:<name_w$} {:>6} {:>6} {:>8.3} {:>8} {:>10.3} {:>7} {:>7} {:>+8.1}%{}",
-            s.rank,
-            set_title(s),
+            "{:>4}  {:<name_w$} {:>6} {:>6} {:>8.3} {:>8} {:>11.3} {:>7} {:>7} {:>+8.1}%{}",
+            rank,
+            title,
             if s.scores.prior_fitted_params > 0 {
                 format!("0+{}", s.scores.prior_fitted_params)
             } else {
@@ -794,7 +816,11 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             ));
         }
         for n in notes {
-            out.push_str(&wrap(&format!("  {}: {n}", s.lawset), MAX_COLUMNS, "      "));
+            out.push_str(&wrap(
+                &format!("  {}: {n}", s.lawset),
+                MAX_COLUMNS,
+                "      ",
+            ));
         }
     }
     out.push_str("\nper-joint contributions (friction torque at the crank, N m)\n");
@@ -867,7 +893,13 @@ fn comparison_fmep(c: &crate::study::Comparison) -> String {
         left_rows: c
             .data
             .iter()
-            .map(|d| format!("{:>7.0} {:>9.2}", d.speed_rpm, first.run.fmep.kpa(d.torque_nm)))
+            .map(|d| {
+                format!(
+                    "{:>7.0} {:>9.2}",
+                    d.speed_rpm,
+                    first.run.fmep.kpa(d.torque_nm)
+                )
+            })
             .collect(),
         blocks: c
             .sets
@@ -1046,7 +1078,13 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
         r.failed_evaluations,
         r.termination
     );
-    let w = r.params.iter().map(|p| p.len()).chain([9]).max().unwrap_or(9);
+    let w = r
+        .params
+        .iter()
+        .map(|p| p.len())
+        .chain([9])
+        .max()
+        .unwrap_or(9);
     let _ = writeln!(
         out,
         "{:<w$} {:>10} {:>10} {:>9} {:>21}  bounds",

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
-use tribo_plugin_api::loader::LawRegistry;
 use tribo_core::sim::readable;
+use tribo_plugin_api::loader::LawRegistry;
 use tribo_plugin_api::ParamValue;
 
 use crate::files::read_text;

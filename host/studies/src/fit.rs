@@ -529,7 +529,11 @@ fn corners(dims: usize) -> Vec<Vec<f64>> {
         // Golden-ratio multiples walk through the bit patterns without repeating early ones.
         let bits = k.wrapping_mul(0x9E37_79B9_7F4A_7C15);
         k += 1;
-        let mask = if dims >= 64 { u64::MAX } else { (1u64 << dims) - 1 };
+        let mask = if dims >= 64 {
+            u64::MAX
+        } else {
+            (1u64 << dims) - 1
+        };
         if !picked.iter().any(|p| p & mask == bits & mask) {
             picked.push(bits);
         }
@@ -546,11 +550,14 @@ pub fn start_points(own: &[f64], bounds: &[[f64; 2]], lhs: usize) -> Vec<(&'stat
         return vec![("own values", own.to_vec())];
     }
     let maps: Vec<Map> = bounds.iter().copied().map(Map::new).collect();
-    let physical = |unit: &[f64]| -> Vec<f64> {
-        unit.iter().zip(&maps).map(|(s, m)| m.at_unit(*s)).collect()
-    };
+    let physical =
+        |unit: &[f64]| -> Vec<f64> { unit.iter().zip(&maps).map(|(s, m)| m.at_unit(*s)).collect() };
     let mut out = vec![("own values", own.to_vec())];
-    out.extend(corners(bounds.len()).iter().map(|c| ("corner", physical(c))));
+    out.extend(
+        corners(bounds.len())
+            .iter()
+            .map(|c| ("corner", physical(c))),
+    );
     out.extend(
         latin_hypercube(lhs, bounds.len())
             .iter()
@@ -650,7 +657,11 @@ fn pushed_past_bound(
     if step == 0.0 {
         return true;
     }
-    let jk: Vec<f64> = inside.iter().zip(&at).map(|(a, b)| (a - b) / step).collect();
+    let jk: Vec<f64> = inside
+        .iter()
+        .zip(&at)
+        .map(|(a, b)| (a - b) / step)
+        .collect();
     let dot: f64 = residuals.iter().zip(&jk).map(|(r, j)| r * j).sum();
     let norms = residuals.iter().map(|r| r * r).sum::<f64>().sqrt()
         * jk.iter().map(|j| j * j).sum::<f64>().sqrt();
@@ -959,8 +970,10 @@ mod tests {
             let pts = latin_hypercube(n, dims);
             assert_eq!(pts.len(), n);
             for d in 0..dims {
-                let mut strata: Vec<usize> =
-                    pts.iter().map(|p| (p[d] * n as f64).floor() as usize).collect();
+                let mut strata: Vec<usize> = pts
+                    .iter()
+                    .map(|p| (p[d] * n as f64).floor() as usize)
+                    .collect();
                 strata.sort_unstable();
                 assert_eq!(strata, (0..n).collect::<Vec<_>>(), "n {n}, dimension {d}");
             }
@@ -975,7 +988,9 @@ mod tests {
             let c = corners(dims);
             assert_eq!(c.len(), 1 << dims);
             for (i, a) in c.iter().enumerate() {
-                assert!(a.iter().all(|v| *v == CORNER_INSET || *v == 1.0 - CORNER_INSET));
+                assert!(a
+                    .iter()
+                    .all(|v| *v == CORNER_INSET || *v == 1.0 - CORNER_INSET));
                 assert!(c[i + 1..].iter().all(|b| b != a));
             }
         }
@@ -1025,11 +1040,19 @@ mod tests {
         assert!((local.values[0] - 0.3).abs() < 1e-3, "{:?}", local.values);
         let found = search(&BoundOptimum, &own, 4).expect("runs");
         let x = &found.result.values;
-        assert_eq!(bound_hit(x[0], [0.0, 1.0]).as_deref(), Some("upper"), "{x:?}");
+        assert_eq!(
+            bound_hit(x[0], [0.0, 1.0]).as_deref(),
+            Some("upper"),
+            "{x:?}"
+        );
         assert!((x[1] - 0.4).abs() < 1e-4, "{x:?}");
         let [a, b] = BoundOptimum::residuals(1.0);
         let best = ((a * a + b * b) / 3.0).sqrt();
-        assert!((found.rmse - best).abs() < 1e-3 * best, "{} vs {best}", found.rmse);
+        assert!(
+            (found.rmse - best).abs() < 1e-3 * best,
+            "{} vs {best}",
+            found.rmse
+        );
         // Every kind of start is there: own values, 4 corners, 4 Latin-hypercube points, and
         // the polish of the best.
         let kinds: Vec<&str> = found.outcomes.iter().map(|o| o.0).collect();

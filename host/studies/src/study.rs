@@ -240,11 +240,13 @@ pub fn parse_meta(path: &Path, text: &str) -> Result<DataMeta, StudyError> {
 /// The bundled data file measured on rig `rig_name` (the first whose `# rig:` names it), if
 /// any: what a study compares against when no data are given.
 pub fn bundled_data_for(rig_name: &str) -> Option<&'static str> {
-    tribo_config::bundled::data_names().into_iter().find(|name| {
-        tribo_config::bundled::data(name)
-            .and_then(|text| parse_meta(Path::new(name), text).ok())
-            .is_some_and(|m| m.rig.as_deref() == Some(rig_name))
-    })
+    tribo_config::bundled::data_names()
+        .into_iter()
+        .find(|name| {
+            tribo_config::bundled::data(name)
+                .and_then(|text| parse_meta(Path::new(name), text).ok())
+                .is_some_and(|m| m.rig.as_deref() == Some(rig_name))
+        })
 }
 
 /// The data a study on `rig` compares against when none are given: the bundled measurements
@@ -1491,9 +1493,12 @@ pub fn check_speeds_for_rig(
     speeds_rpm: &[f64],
     option: &str,
 ) -> Result<(), SweepInputError> {
-    match (rig.file.max_speed_rpm, speeds_rpm.iter().find(|s| {
-        rig.file.max_speed_rpm.is_some_and(|top| **s > top)
-    })) {
+    match (
+        rig.file.max_speed_rpm,
+        speeds_rpm
+            .iter()
+            .find(|s| rig.file.max_speed_rpm.is_some_and(|top| **s > top)),
+    ) {
         (Some(top), Some(s)) => Err(SweepInputError {
             option: option.into(),
             message: format!(

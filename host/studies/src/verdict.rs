@@ -250,7 +250,9 @@ pub fn verdict(
             .iter()
             .zip(measured)
             .zip(speeds_rpm)
-            .filter_map(|((err, m), rpm)| err.map(|err| (100.0 * err.abs() / m.abs().max(1e-300), *rpm)))
+            .filter_map(|((err, m), rpm)| {
+                err.map(|err| (100.0 * err.abs() / m.abs().max(1e-300), *rpm))
+            })
             .max_by(|a, b| a.0.total_cmp(&b.0));
         let miss = worst.map_or(String::new(), |(pct, rpm)| {
             format!(", which misses {rpm:.0} rpm by {pct:.0}%")
@@ -330,8 +332,9 @@ mod tests {
         assert_eq!(v.set.as_deref(), Some("alpha"));
         assert!(!v.noise_assumed);
         assert!(
-            v.sentence.starts_with("alpha predicts unseen points within 0.040 N m (3% of the mean torque")
-                && v.sentence.ends_with("with every parameter determined"),
+            v.sentence.starts_with(
+                "alpha predicts unseen points within 0.040 N m (3% of the mean torque"
+            ) && v.sentence.ends_with("with every parameter determined"),
             "{}",
             v.sentence
         );
@@ -345,8 +348,10 @@ mod tests {
         let v = verdict(&[a], &MEASURED, &SPEEDS, Some(0.05));
         assert_eq!(v.rule, VerdictRule::PredictsUndetermined);
         assert!(
-            v.sentence.contains("1 of its 2 parameters sits on its bound")
-                && v.sentence.contains("trust its curve, not its parameter values"),
+            v.sentence
+                .contains("1 of its 2 parameters sits on its bound")
+                && v.sentence
+                    .contains("trust its curve, not its parameter values"),
             "{}",
             v.sentence
         );
@@ -368,9 +373,15 @@ mod tests {
         assert!(v.noise_assumed);
         assert!((v.noise_nm.expect("noise") - 0.0625).abs() < 1e-12);
         let s = &v.sentence;
-        assert!(s.starts_with("no set reproduces the data within their noise (0.062 N m, assumed"), "{s}");
+        assert!(
+            s.starts_with("no set reproduces the data within their noise (0.062 N m, assumed"),
+            "{s}"
+        );
         assert!(s.contains("the best out-of-sample error is 0.49 N m (39% of the mean torque; alpha, which misses 5000 rpm by 55%)"), "{s}");
-        assert!(s.contains("its parameters sit on the bounds of their allowed ranges"), "{s}");
+        assert!(
+            s.contains("its parameters sit on the bounds of their allowed ranges"),
+            "{s}"
+        );
         assert!(s.contains("rises 11% per 10 C"), "{s}");
         // A set tuned elsewhere has no out-of-sample error but is not a fitted set left unjudged.
         assert!(!s.contains("not judged"), "{s}");
@@ -379,13 +390,23 @@ mod tests {
     #[test]
     fn a_set_without_parameters_is_judged_by_its_error_alone() {
         let v = verdict(
-            &[set("plain", Some(0.02), CalibrationStatus::NoFreeParameters, 0)],
+            &[set(
+                "plain",
+                Some(0.02),
+                CalibrationStatus::NoFreeParameters,
+                0,
+            )],
             &MEASURED,
             &SPEEDS,
             Some(0.05),
         );
         assert_eq!(v.rule, VerdictRule::Predicts);
-        assert!(v.sentence.ends_with("with no parameter fitted to these data"), "{}", v.sentence);
+        assert!(
+            v.sentence
+                .ends_with("with no parameter fitted to these data"),
+            "{}",
+            v.sentence
+        );
         let v = verdict(
             &[set("file", Some(0.02), CalibrationStatus::NotFitted, 2)],
             &MEASURED,
@@ -401,7 +422,11 @@ mod tests {
         tuned.prior_fitted = 17;
         let v = verdict(&[tuned.clone()], &MEASURED, &SPEEDS, None);
         assert_eq!(v.rule, VerdictRule::NotJudged);
-        assert!(v.sentence.contains("tuned to these data elsewhere"), "{}", v.sentence);
+        assert!(
+            v.sentence.contains("tuned to these data elsewhere"),
+            "{}",
+            v.sentence
+        );
         let fitted = set("fitted", None, CalibrationStatus::Fitted, 2);
         let v = verdict(&[tuned, fitted.clone()], &MEASURED, &SPEEDS, None);
         assert_eq!(v.rule, VerdictRule::NotJudged);
@@ -410,6 +435,11 @@ mod tests {
         let plain = set("plain", Some(0.5), CalibrationStatus::NoFreeParameters, 0);
         let v = verdict(&[fitted, plain], &MEASURED, &SPEEDS, None);
         assert_eq!(v.rule, VerdictRule::Misses);
-        assert!(v.sentence.ends_with("not judged, without an out-of-sample error: fitted"), "{}", v.sentence);
+        assert!(
+            v.sentence
+                .ends_with("not judged, without an out-of-sample error: fitted"),
+            "{}",
+            v.sentence
+        );
     }
 }

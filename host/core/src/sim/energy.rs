@@ -78,7 +78,10 @@ mod tests {
         let e = e.relative_to(25.0);
         assert!(e.relative_residual < 1e-17, "{}", e.relative_residual);
         // All zero: zero, not NaN.
-        assert_eq!(EnergyBalance::from_terms(0.0, 0.0, 0.0).relative_residual, 0.0);
+        assert_eq!(
+            EnergyBalance::from_terms(0.0, 0.0, 0.0).relative_residual,
+            0.0
+        );
         // With friction the motor work is the scale when it is the largest term.
         let e = EnergyBalance::from_terms(10.0, 2.0, 7.9).relative_to(5.0);
         assert!((e.relative_residual - 0.01).abs() < 1e-12);

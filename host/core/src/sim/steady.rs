@@ -46,7 +46,10 @@ impl Simulation {
             .cycle
             .plateaus()
             .iter()
-            .map(|p| self.mechanical_energy(std::f64::consts::FRAC_PI_2, p.omega).abs())
+            .map(|p| {
+                self.mechanical_energy(std::f64::consts::FRAC_PI_2, p.omega)
+                    .abs()
+            })
             .sum();
         let energy =
             EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas).relative_to(inertial);

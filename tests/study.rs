@@ -99,8 +99,12 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
     assert_eq!(measured, TABLE_10_4);
 }
 
+/// A regression test of the calibration, not a validation: table 10.5 equals table 10.4, the
+/// measurements the thesis tuned its FEDEM model to, and the piston mass here was chosen to
+/// match them. It guards the rebuilt model against drifting from what it was tuned to; what was
+/// not tuned is checked by `light_rod_change_of_the_fedem_baseline_against_table_10_6_minus_10_5`.
 #[test]
-fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
+fn regression_fedem_baseline_with_the_thesis_pi_drive_stays_on_table_10_5_it_was_tuned_to() {
     // docs/crf250r-study.md: the poly-line dampers read as torques at the plateau speed, and a
     // piston assembly of 0.225 kg (the rig's 0.27 kg is an estimate) close the gaps.
     let dir = tempfile::tempdir().expect("temp dir");
@@ -155,6 +159,69 @@ fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
         .map(|e| e.as_f64().unwrap_or(f64::NAN))
         .collect();
     assert!(errors.iter().all(|e| e.abs() <= 0.05), "{errors:?}");
+}
+
+/// Validation with what the calibration never saw: the thesis ran its tuned model again with a
+/// rod at 60% mass (table 10.6). Its change, table 10.6 minus 10.5, is known to 0.01 N m (both
+/// tables are rounded to 0.01). The rebuilt model must agree in what the physics fixes: a lighter
+/// rod lowers every joint reaction, so the torque falls at every speed, and the inertia loads
+/// grow with speed, so the fall does not shrink as the speed rises. The size does not agree: the
+/// rebuilt Coulomb friction falls up to 0.18 N m where FEDEM's fell 0.02 (a finding explained in
+/// docs/crf250r-study.md, "The reduced-mass rod"; the per-joint size is checked against closed
+/// form by `rod_mass_response_of_coulomb_laws_matches_an_independent_computation`).
+#[test]
+fn light_rod_change_of_the_fedem_baseline_against_table_10_6_minus_10_5() {
+    const TABLE_10_6: [f64; 7] = [1.01, 1.57, 1.57, 1.34, 1.25, 1.29, 1.48];
+    let dir = tempfile::tempdir().expect("temp dir");
+    let json = json_in(
+        &[
+            "mass-response",
+            "--steady",
+            "--lawset",
+            "fedem-baseline",
+            "--set",
+            "bodies.piston.mass_kg=0.225",
+            "--body",
+            "rod",
+            "--scale",
+            "0.6",
+            "--out",
+            "mr",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let changes = json[0]["changes"].as_array().expect("changes");
+    assert_eq!(
+        changes.len(),
+        TABLE_10_5.len(),
+        "one change per plateau of table 10.5"
+    );
+    let mut previous = 0.0_f64;
+    for (i, c) in changes.iter().enumerate() {
+        let rpm = 3000.0 + 1000.0 * i as f64;
+        assert_eq!(c["speed_rpm"].as_f64(), Some(rpm));
+        let thesis = TABLE_10_6[i] - TABLE_10_5[i];
+        let shown = c["fedem_change_nm"]
+            .as_f64()
+            .expect("the thesis's change is shown");
+        assert!(
+            (shown - thesis).abs() < 1e-9,
+            "{rpm} rpm: shown {shown}, table {thesis}"
+        );
+        // The thesis's own change never rose (to its rounding): a lighter rod never cost torque.
+        assert!(thesis <= 0.005, "{rpm} rpm: {thesis}");
+        let change = c["change_nm"].as_f64().expect("change");
+        assert!(
+            change < 0.0,
+            "{rpm} rpm: a lighter rod raised the torque by {change}"
+        );
+        assert!(
+            change <= previous + 1e-9,
+            "{rpm} rpm: the fall {change} is smaller than at the speed below ({previous})"
+        );
+        previous = change;
+    }
 }
 
 #[test]

@@ -537,8 +537,11 @@ struct Blocks<'a> {
     left_header: [String; 2],
     left_rows: Vec<String>,
     /// Per block: its title and its columns (header, cells right-aligned).
-    blocks: Vec<(String, Vec<(&'a str, Vec<String>)>)>,
+    blocks: Vec<(String, Vec<Column<'a>>)>,
 }
+
+/// A column of a [`Blocks`] table: its header and its cells, one per left row.
+type Column<'a> = (&'a str, Vec<String>);
 
 impl Blocks<'_> {
     fn render(&self) -> String {
@@ -584,11 +587,10 @@ impl Blocks<'_> {
             }
             let mut title = format!("{:<left_w$}", self.left_header[0]);
             let mut head = format!("{:>left_w$}", self.left_header[1]);
-            for k in start..end {
-                let (w, widths) = &laid[k];
-                let _ = write!(title, " | {:<w$}", self.blocks[k].0);
-                let cols: Vec<String> = self.blocks[k]
-                    .1
+            let shown = || laid[start..end].iter().zip(&self.blocks[start..end]);
+            for ((w, widths), (block_title, block)) in shown() {
+                let _ = write!(title, " | {block_title:<w$}");
+                let cols: Vec<String> = block
                     .iter()
                     .zip(widths)
                     .map(|((h, _), cw)| format!("{h:>cw$}"))
@@ -601,10 +603,8 @@ impl Blocks<'_> {
             out.push('\n');
             for (i, l) in self.left_rows.iter().enumerate() {
                 let mut row = format!("{l:>left_w$}");
-                for k in start..end {
-                    let (w, widths) = &laid[k];
-                    let cols: Vec<String> = self.blocks[k]
-                        .1
+                for ((w, widths), (_, block)) in shown() {
+                    let cols: Vec<String> = block
                         .iter()
                         .zip(widths)
                         .map(|((_, cells), cw)| {

@@ -66,7 +66,10 @@ pub const POORLY_DETERMINED: f64 = 0.5;
 /// reaches zero or below (a friction torque cannot), and is symmetric in ratio
 /// (`lower * upper = T^2`). `None` when a torque is not positive (no log scale exists there).
 pub fn log_band(t: &[f64], half: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
-    if t.len() != half.len() || t.iter().any(|v| !(*v > 0.0)) {
+    if t.len() != half.len()
+        || t.iter()
+            .any(|v| v.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater))
+    {
         return None;
     }
     let ratio: Vec<f64> = t.iter().zip(half).map(|(t, h)| (h / t).exp()).collect();

@@ -3,14 +3,15 @@
 //! [`tribo_plugin_api::conformance`] run on it, and its force-velocity curves sampled for a
 //! plot ([`crate::plots::write_law_plot`]).
 //!
-//! The checks run in this process: a law that crashes it (a signal, an `exit`) ends
-//! `check-law` with the message of the process guards, which names the law and the signal
-//! (`isolate::guard`), and exit status 1 or the signal's.
+//! The command runs these in a worker process (`isolate`): a law that crashes it, hangs, exits
+//! or kills its process group fails the check with a message naming the law and the signal or
+//! limit. With `--in-process` they run in the `tribo` process, whose guards name the law
+//! (`isolate::guard`) as it ends with exit status 1 or the signal's.
 
 use std::ops::Deref;
 use std::path::{Path, PathBuf};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use tribo_plugin_api::loader::{LawError, LawLibrary, LawRegistry};
 use tribo_plugin_api::{JointKind, LawInput};
 
@@ -111,7 +112,7 @@ pub fn read_params(path: Option<&Path>) -> Result<toml::Table, CheckError> {
 }
 
 /// One force-velocity curve: a load and an oil temperature.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Curve {
     /// Normal load, N.
     pub load_n: f64,
@@ -126,7 +127,7 @@ pub struct Curve {
 }
 
 /// A law's force-velocity curves at the loads and oil temperatures of `plot-law`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct LawCurves {
     /// Law name.
     pub law: String,

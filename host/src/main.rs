@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use serde::{Deserialize, Serialize};
-use tribo::isolate::{self, guard, WorkerFailure};
+use tribo::isolate::{self, guard, Event, WorkerFailure};
 use tribo::progress::Progress;
 use tribo::{laws, scaffold};
 use tribo_plugin_api::loader::{discover, LawRegistry};
@@ -56,49 +56,52 @@ enum Command {
     /// Plot a law's force (or torque) against sliding velocity at three loads and two oil
     /// temperatures (SVG).
     PlotLaw(PlotLawArgs),
-    /// Internal: run one job of a study in this process on behalf of a parent `tribo`.
+    /// Internal: serve the jobs of a parent `tribo` (they arrive on the channel it set up).
     #[command(name = "__worker", hide = true)]
-    Worker(WorkerArgs),
+    Worker,
 }
 
-/// The arguments of the hidden worker subcommand.
-#[derive(Args)]
-struct WorkerArgs {
-    /// The job file the parent wrote.
-    job: PathBuf,
-    /// Where to write the reply.
-    reply: PathBuf,
-}
-
-/// How a study command treats its law plugins: one worker process per law set (the default),
-/// with limits, or everything in this process.
+/// How a command treats its law plugins: in worker processes (the default: one per law set of
+/// a study, one for a run or a law check), with limits, or in this process.
 #[derive(Args, Clone, Serialize, Deserialize)]
 struct IsolationArgs {
-    /// Run every law set in this process instead of one worker process per law set: a little
-    /// faster to start, but one crashing or hanging law then ends the whole study.
+    /// Run the laws in this process instead of worker processes: a few milliseconds faster to
+    /// start, and a debugger sees the law; but a law that crashes, exits or kills its process
+    /// group then takes tribo (and for a kill, the shell or script that started it) down with it.
     #[arg(long)]
     in_process: bool,
-    /// Wall-time limit of each law set's worker process, s (0: none).
-    #[arg(long, default_value_t = 1800.0, value_name = "S")]
+    /// Wall-time limit of each worker process (of this process with --in-process), s (0: none).
+    #[arg(long, default_value_t = isolate::DEFAULT_TIME_LIMIT_S, value_name = "S", value_parser = limit_seconds)]
     time_limit_s: f64,
-    /// Resident-memory limit of each law set's worker process, MiB (0: none).
-    #[arg(long, default_value_t = 4096, value_name = "MIB")]
+    /// Resident-memory limit of each worker process (of this process with --in-process), MiB
+    /// (0: none).
+    #[arg(long, default_value_t = isolate::DEFAULT_MEMORY_LIMIT_MB, value_name = "MIB", value_parser = clap::value_parser!(u64).range(0..=isolate::MAX_MEMORY_MB))]
     memory_limit_mb: u64,
+    /// Longest time one law call may take, s (0: none): a law stuck inside one call fails its
+    /// run or law set, naming the law, its joint and the call's inputs.
+    #[arg(long, default_value_t = isolate::DEFAULT_CALL_LIMIT_S, value_name = "S", value_parser = limit_seconds)]
+    call_limit_s: f64,
+}
+
+/// A number of seconds for a limit option, bounded where it is parsed (a limit of 1e300 s
+/// would overflow every clock).
+fn limit_seconds(text: &str) -> Result<f64, String> {
+    let s: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number of seconds"))?;
+    isolate::seconds("", s).map_err(|e| e.message)
 }
 
 impl IsolationArgs {
-    /// The limits, checked.
+    /// The limits.
     fn limits(&self) -> anyhow::Result<isolate::Limits> {
-        if !(self.time_limit_s.is_finite() && self.time_limit_s >= 0.0) {
-            anyhow::bail!(
-                "--time-limit-s: expected a number of seconds >= 0 (0: no limit), got {}",
-                self.time_limit_s
-            );
-        }
         Ok(isolate::Limits {
             time_s: self.time_limit_s,
             memory_mb: self.memory_limit_mb,
-        })
+            call_s: self.call_limit_s,
+        }
+        .checked(["--time-limit-s", "--memory-limit-mb", "--call-limit-s"])?)
     }
 }
 
@@ -152,13 +155,36 @@ struct RunArgs {
     /// Also write the FMEP breakdown (fmep.csv, stacked bars fmep.svg) into this directory.
     #[arg(long, value_name = "DIR")]
     fmep: Option<PathBuf>,
-    /// Angular resolution of --crank-angle, degrees.
-    #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG")]
+    /// Angular resolution of --crank-angle, degrees, from 0.01 to 10 (at most 72 000 samples
+    /// per cycle).
+    #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG", value_parser = resolution_deg)]
     resolution_deg: f64,
     /// Refuse to run a rig with no law on any joint (which gives a frictionless mechanism's
     /// torque, zero on average; without this flag it is a warning).
     #[arg(long)]
     require_laws: bool,
+    /// Worker process and its limits.
+    #[command(flatten)]
+    isolation: IsolationArgs,
+}
+
+/// The finest `--resolution-deg`: 72 000 samples over a 4-stroke cycle, far finer than any
+/// friction trace needs, and a bound on what a run allocates for the traces.
+const MIN_RESOLUTION_DEG: f64 = 0.01;
+
+/// `--resolution-deg`, bounded where it is parsed.
+fn resolution_deg(text: &str) -> Result<f64, String> {
+    let r: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number of degrees"))?;
+    if (MIN_RESOLUTION_DEG..=10.0).contains(&r) {
+        Ok(r)
+    } else {
+        Err(format!(
+            "must be from {MIN_RESOLUTION_DEG} to 10 degrees (at most 72000 samples per cycle), got {r}"
+        ))
+    }
 }
 
 /// The arguments of `tribo compare`.
@@ -368,6 +394,9 @@ struct CheckLawArgs {
     /// Machine-readable JSON report instead of a table.
     #[arg(long)]
     json: bool,
+    /// Worker process and its limits.
+    #[command(flatten)]
+    isolation: IsolationArgs,
 }
 
 /// The arguments of `tribo plot-law`.
@@ -385,6 +414,9 @@ struct PlotLawArgs {
     /// SVG file to write (default: plot_<law>.svg in the current directory).
     #[arg(long, value_name = "FILE.svg")]
     out: Option<PathBuf>,
+    /// Worker process and its limits.
+    #[command(flatten)]
+    isolation: IsolationArgs,
 }
 
 /// The body a mass study scales, as the command line spells it.
@@ -478,7 +510,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::NewLaw(a) => cmd_new_law(a),
         Command::CheckLaw(a) => cmd_check_law(&g, a),
         Command::PlotLaw(a) => cmd_plot_law(&g, a),
-        Command::Worker(a) => cmd_worker(&g, a),
+        Command::Worker => cmd_worker(&g),
     }
 }
 
@@ -501,8 +533,83 @@ fn cmd_laws(g: &Globals, a: LawsArgs) -> anyhow::Result<()> {
     emit(&out_text)
 }
 
+/// A `tribo run` as a worker (or this process) runs it: the rig and its laws as the user gave
+/// them (`--oil` already turned into `--set`s), already checked by the parent.
+#[derive(Serialize, Deserialize)]
+struct RunJob {
+    rig: PathBuf,
+    sets: Vec<String>,
+    lawset: Option<String>,
+    laws: Vec<String>,
+    steady: bool,
+    /// Stream the time series (to the parent, or into the writer given).
+    timeseries: bool,
+    /// `--crank-angle` at this resolution, degrees.
+    crank_angle_deg: Option<f64>,
+    /// `--require-laws`: refuse a rig with no law on any joint.
+    require_laws: bool,
+}
+
+/// What a run hands back: its result and the crank-angle traces asked for. The result's
+/// fields kept out of its serde form (they vary run to run) travel beside it.
+#[derive(Serialize, Deserialize)]
+struct RunOutput {
+    result: tribo::sim::RunResult,
+    traces: Option<Vec<tribo::sim::CrankAngleTrace>>,
+    law_time: Vec<tribo::sim::LawTime>,
+    rejected_steps: u64,
+}
+
+impl RunJob {
+    /// The rig with its law set and `--law`s attached (no plugin opened yet).
+    fn rig(&self) -> anyhow::Result<tribo::rig::Rig> {
+        let mut rig = tribo::rig::load_rig(&self.rig, &self.sets)?;
+        if let Some(ls) = &self.lawset {
+            tribo::lawset::LawSet::load(ls)?.apply(&mut rig);
+        }
+        tribo::rig::attach_laws(&mut rig, &self.laws)?;
+        Ok(rig)
+    }
+
+    /// Bind the laws from `registry` and run, the time series (if asked for) into `series`.
+    fn simulate(
+        &self,
+        registry: &LawRegistry,
+        progress: tribo::progress::Position,
+        series: Option<&mut dyn std::io::Write>,
+    ) -> anyhow::Result<RunOutput> {
+        let rig = self.rig()?;
+        let mut sim = tribo::rig::any_simulation(&rig, registry)?;
+        if self.require_laws && sim.law_count() == 0 {
+            anyhow::bail!(
+                "--require-laws: rig `{}` has no law on any joint; attach laws with --lawset NAME or --law JOINT=LAW",
+                rig.file.name
+            );
+        }
+        sim.report_progress(progress);
+        let result = match series {
+            _ if self.steady => sim.run_steady()?,
+            Some(out) if self.timeseries => {
+                let mut series = tribo::timeseries::TimeSeries::new(out);
+                sim.run_with(&mut series)?
+            }
+            _ => sim.run()?,
+        };
+        let traces = match self.crank_angle_deg {
+            Some(r) => Some(sim.crank_angle_traces(r)?),
+            None => None,
+        };
+        Ok(RunOutput {
+            law_time: result.law_time.clone(),
+            rejected_steps: result.rejected_steps,
+            result,
+            traces,
+        })
+    }
+}
+
 /// `tribo run`: one rig through its cycle (or steady state), reported as a table or JSON, with
-/// optional CSV files and time series.
+/// optional CSV files and time series; the laws run in a worker process unless `--in-process`.
 fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     let RunArgs {
@@ -519,24 +626,21 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         fmep,
         resolution_deg,
         require_laws,
+        isolation,
     } = a;
-    if !(resolution_deg.is_finite() && resolution_deg > 0.0 && resolution_deg <= 10.0) {
-        anyhow::bail!("--resolution-deg: must be in (0, 10] degrees, got {resolution_deg}");
-    }
-    let sets = with_oil_file(oil.as_deref(), sets)?;
-    let mut rig = tribo::rig::load_rig(&rig, &sets)?;
-    if let Some(ls) = lawset {
-        tribo::lawset::LawSet::load(&ls)?.apply(&mut rig);
-    }
-    tribo::rig::attach_laws(&mut rig, &law_args)?;
-    let registry = g.registry()?;
-    let mut sim = tribo::rig::any_simulation(&rig, &registry)?;
-    if require_laws && sim.law_count() == 0 {
-        anyhow::bail!(
-            "--require-laws: rig `{}` has no law on any joint; attach laws with --lawset NAME or --law JOINT=LAW",
-            rig.file.name
-        );
-    }
+    let limits = isolation.limits()?;
+    let job = RunJob {
+        rig,
+        sets: with_oil_file(oil.as_deref(), sets)?,
+        lawset,
+        laws: law_args,
+        steady,
+        timeseries: timeseries.is_some(),
+        crank_angle_deg: crank_angle.as_ref().map(|_| resolution_deg),
+        require_laws,
+    };
+    // Every input is checked here, before any law is loaded.
+    let rig = job.rig()?;
     if let Some(dir) = &csv {
         tribo::output::check_result_dir(dir, "--csv")
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
@@ -549,24 +653,62 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         tribo::output::check_result_dir(dir, "--crank-angle")
             .with_context(|| format!("writing crank-angle results into {}", dir.display()))?;
     }
+    let mut series = match &timeseries {
+        Some(path) => Some(
+            tribo::output::AtomicFile::create(path)
+                .with_context(|| format!("creating {}", path.display()))?,
+        ),
+        None => None,
+    };
     let progress = Progress::start("simulating the test cycle", Some(1000), g.quiet);
-    sim.report_progress(progress.position());
-    let result = match &timeseries {
-        _ if steady => sim.run_steady()?,
-        Some(path) => {
-            let file = tribo::output::AtomicFile::create(path)
-                .with_context(|| format!("creating {}", path.display()))?;
-            let mut series = tribo::timeseries::TimeSeries::new(file);
-            let r = sim.run_with(&mut series)?;
-            series
-                .into_inner()
-                .commit()
-                .with_context(|| format!("writing {}", path.display()))?;
-            r
+    let output = if isolation.in_process {
+        guard::watch(limits);
+        let registry = g.registry()?;
+        job.simulate(
+            &registry,
+            progress.position(),
+            series.as_mut().map(|f| f as &mut dyn std::io::Write),
+        )?
+    } else {
+        let position = progress.position();
+        let mut write_error = None;
+        let output = g.in_worker(
+            limits,
+            &WorkerJob::Run(job),
+            "the run failed",
+            &mut |e| match e {
+                Event::Data(bytes) => {
+                    if let (Some(f), None) = (series.as_mut(), &write_error) {
+                        use std::io::Write as _;
+                        write_error = f.write_all(bytes).err();
+                    }
+                }
+                Event::Progress(p) => position.set(p),
+                other => isolate::show_event("", &other),
+            },
+            |o| match o {
+                WorkerOutput::Run(r) => Some(*r),
+                _ => None,
+            },
+        )?;
+        if let (Some(e), Some(path)) = (write_error, &timeseries) {
+            return Err(anyhow::Error::new(e).context(format!("writing {}", path.display())));
         }
-        None => sim.run()?,
+        output
     };
     drop(progress);
+    if let (Some(file), Some(path)) = (series, &timeseries) {
+        file.commit()
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    let RunOutput {
+        mut result,
+        traces,
+        law_time,
+        rejected_steps,
+    } = output;
+    result.law_time = law_time;
+    result.rejected_steps = rejected_steps;
     if let Some(dir) = &csv {
         tribo::report::write_csv(&result, dir)
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
@@ -575,9 +717,8 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         tribo::report::write_fmep(&result, dir)
             .with_context(|| format!("writing FMEP into {}", dir.display()))?;
     }
-    if let Some(dir) = &crank_angle {
-        let traces = sim.crank_angle_traces(resolution_deg)?;
-        tribo::report::write_crank_angle(&traces, dir)
+    if let (Some(dir), Some(traces)) = (&crank_angle, &traces) {
+        tribo::report::write_crank_angle(traces, dir)
             .with_context(|| format!("writing crank-angle results into {}", dir.display()))?;
     }
     if json {
@@ -624,6 +765,12 @@ enum WorkerJob {
     Sweep(SweepArgs),
     /// `fit`.
     Fit(FitArgs),
+    /// `run`.
+    Run(RunJob),
+    /// `check-law`.
+    CheckLaw(CheckJob),
+    /// `plot-law`: the law's curves.
+    PlotLaw(PlotJob),
 }
 
 /// What a worker process hands back.
@@ -639,6 +786,12 @@ enum WorkerOutput {
     Sweep(Box<tribo::study::Sweep>),
     /// The fit's report and the calibrated law set as TOML.
     Fit(Box<tribo::fit::FitResult>, String),
+    /// A run's results.
+    Run(Box<RunOutput>),
+    /// A law's conformance report.
+    CheckLaw(CheckOutput),
+    /// A law's force-velocity curves.
+    PlotLaw(Box<tribo::check::LawCurves>),
 }
 
 /// Where one law set of a study comes from, for the check job.
@@ -671,23 +824,60 @@ fn check_sources(sources: &[SetSource], registry: &LawRegistry) -> anyhow::Resul
 
 impl Globals {
     /// Check every law set in one worker process (so even loading a plugin never happens in
-    /// this one), then run `jobs`, one worker process each; the results in the order of `jobs`.
+    /// this one), then run `jobs`, one worker process each, `labels` naming them in notes; the
+    /// results in the order of `jobs`.
     fn run_isolated(
         &self,
         sources: Vec<SetSource>,
         jobs: Vec<WorkerJob>,
+        labels: &[String],
         limits: isolate::Limits,
     ) -> anyhow::Result<Vec<Result<WorkerOutput, WorkerFailure>>> {
-        let check = isolate::run_all::<_, WorkerOutput>(
-            &[WorkerJob::Check(sources)],
-            &self.plugins,
+        self.in_worker(
             limits,
+            &WorkerJob::Check(sources),
+            "checking the law sets before running them",
+            &mut |e| isolate::show_event("checking the law sets: ", &e),
+            |o| matches!(o, WorkerOutput::Checked).then_some(()),
         )?;
-        for r in check {
-            r.context("checking the law sets before running them")?;
-        }
-        Ok(isolate::run_all(&jobs, &self.plugins, limits)?)
+        let command = || isolate::worker_command(&self.plugins);
+        Ok(isolate::run_all(&jobs, &command, limits, &|i, e| {
+            let label = labels.get(i).map_or("", String::as_str);
+            isolate::show_event(label, &e)
+        }))
     }
+
+    /// Run `job` in one worker process with `limits`; its events go to `events`. A failure of
+    /// the job itself is its own message; any other (a crash, a limit, an exit) is prefixed
+    /// with `what`.
+    fn in_worker<T>(
+        &self,
+        limits: isolate::Limits,
+        job: &WorkerJob,
+        what: &str,
+        events: &mut dyn FnMut(Event<'_>),
+        pick: impl FnOnce(WorkerOutput) -> Option<T>,
+    ) -> anyhow::Result<T> {
+        let mut worker = isolate::Worker::start(isolate::worker_command(&self.plugins), limits)
+            .map_err(|e| anyhow::anyhow!("{what}: {e}"))?;
+        let reply = worker.call::<_, WorkerOutput>(job, &mut |e| {
+            events(e);
+            Ok(())
+        });
+        worker.finish();
+        match reply {
+            Ok(o) => {
+                pick(o).ok_or_else(|| anyhow::anyhow!("a worker answered another job's question"))
+            }
+            Err(WorkerFailure::Study(message)) => Err(anyhow::anyhow!("{message}")),
+            Err(e) => Err(anyhow::anyhow!("{what}: {e}")),
+        }
+    }
+}
+
+/// The label of law set `name` in notes of a study's workers.
+fn set_label(name: &str) -> String {
+    format!("law set `{name}`: ")
 }
 
 /// The failures of an isolated study as one error: after the other sets' results were written
@@ -766,8 +956,12 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     }
     tribo::study::check_unique_names(&sets_loaded)?;
     let data = tribo::study::DataRun::read(&data_arg(a.data.as_deref(), &rig)?)?;
-    for d in std::iter::once(data).chain(read_data_runs(&a.validate)?) {
-        tribo::study::check_data_rig(&rig, &d, a.data_for_any_rig)?;
+    let validate = read_data_runs(&a.validate)?;
+    // Once, here, before any worker: data measured on another rig, or whose cycle the rig
+    // cannot run, fail the command.
+    for d in std::iter::once(&data).chain(&validate) {
+        tribo::study::check_data_rig(&rig, d, a.data_for_any_rig)?;
+        tribo::study::check_data(&rig, d)?;
     }
     tribo::output::check_result_dir(&a.out, "--out")?;
     let progress = Progress::start("comparing law sets", None, g.quiet);
@@ -787,7 +981,8 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        let results = g.run_isolated(sources, jobs, a.isolation.limits()?)?;
+        let labels: Vec<String> = sets_loaded.iter().map(|l| set_label(l.name())).collect();
+        let results = g.run_isolated(sources, jobs, &labels, a.isolation.limits()?)?;
         merge_comparisons(&sets_loaded, results, a.no_cv)?
     };
     drop(progress);
@@ -903,12 +1098,14 @@ fn mass_study(
 fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     let specs = lawset_specs(&a.lawsets);
-    let (_, sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
+    let (rig, sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
     tribo::study::check_unique_names(&sets_loaded)?;
     let scale_list = a.scales.clone().unwrap_or_else(|| vec![a.scale]);
     if let Some(bad) = scale_list.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
         anyhow::bail!("--scale/--scales: every scale factor must be positive, got {bad}");
     }
+    // Once, here, before any worker: a scale the rig cannot take fails the command.
+    tribo::study::check_scales(&rig, a.body.into(), &scale_list)?;
     tribo::output::check_result_dir(&a.out, "--out")?;
     let progress = Progress::start("mass response", None, g.quiet);
     let sources: Vec<SetSource> = specs
@@ -935,7 +1132,8 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        let results = g.run_isolated(sources, jobs, a.isolation.limits()?)?;
+        let labels: Vec<String> = sets_loaded.iter().map(|l| set_label(l.name())).collect();
+        let results = g.run_isolated(sources, jobs, &labels, a.isolation.limits()?)?;
         let (parts, failed) = split_replies(&sets_loaded, results, |o| match o {
             WorkerOutput::MassResponse(m) => Some(m),
             _ => None,
@@ -1036,11 +1234,14 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
     let rig = tribo::rig::load_rig(&rig_path, &a.sets)?;
     let ls = tribo::lawset::LawSet::load(&a.lawset)?;
+    // Data measured on another rig, or whose cycle the rig cannot run, fail here, before the
+    // worker starts.
     for d in read_data_runs(&fit_data(&a, &rig)?)?
         .iter()
         .chain(&read_data_runs(&a.validate)?)
     {
         tribo::study::check_data_rig(&rig, d, a.data_for_any_rig)?;
+        tribo::study::check_data(&rig, d)?;
     }
     let out = a
         .out
@@ -1052,15 +1253,17 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
         guard::watch(a.isolation.limits()?);
         fit_study(&a, &g.registry()?)?
     } else {
-        let limits = a.isolation.limits()?;
-        let r =
-            isolate::run_all::<_, WorkerOutput>(&[WorkerJob::Fit(a.clone())], &g.plugins, limits)?;
-        match r.into_iter().next() {
-            Some(Ok(WorkerOutput::Fit(result, text))) => (*result, text),
-            Some(Err(WorkerFailure::Study(message))) => anyhow::bail!("{message}"),
-            Some(Err(e)) => anyhow::bail!("law set `{}`: {e}", ls.name()),
-            _ => anyhow::bail!("the fit's worker process gave no answer"),
-        }
+        let label = set_label(ls.name());
+        g.in_worker(
+            a.isolation.limits()?,
+            &WorkerJob::Fit(a.clone()),
+            &format!("law set `{}`", ls.name()),
+            &mut |e| isolate::show_event(&label, &e),
+            |o| match o {
+                WorkerOutput::Fit(result, text) => Some((*result, text)),
+                _ => None,
+            },
+        )?
     };
     drop(progress);
     tribo::output::write_atomic(&out, text.as_bytes())
@@ -1119,12 +1322,13 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
     let specs = lawset_specs(&a.lawsets);
     let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &sets, specs.clone())?;
     let speeds_rpm = sweep_speeds(a.speeds.as_deref(), &rig)?;
-    tribo::study::check_sweep_inputs(&temps_c, &speeds_rpm)?;
     tribo::study::check_speeds_for_rig(&rig, &speeds_rpm, "--speeds")?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
     tribo::study::check_unique_names(&sets_loaded)?;
+    // Once, here, before any worker: a speed the rig cannot run fails the command, not each set.
+    tribo::study::check_sweep(&rig, &sets_loaded, &temps_c, &speeds_rpm)?;
     tribo::output::check_result_dir(&a.out, "--out")?;
     let total = (sets_loaded.len() * temps_c.len()) as u64;
     let sources: Vec<SetSource> = specs
@@ -1158,7 +1362,8 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
                 })
             })
             .collect();
-        let results = g.run_isolated(sources, jobs, a.isolation.limits()?)?;
+        let labels: Vec<String> = sets_loaded.iter().map(|l| set_label(l.name())).collect();
+        let results = g.run_isolated(sources, jobs, &labels, a.isolation.limits()?)?;
         drop(progress);
         merge_sweeps(&sets_loaded, results)?
     };
@@ -1202,40 +1407,92 @@ fn merge_sweeps(
     Ok(sweep)
 }
 
-/// The hidden worker subcommand: run the job, write the reply; exit status 1 when the study
-/// failed (the reply holds its message).
-fn cmd_worker(g: &Globals, a: WorkerArgs) -> anyhow::Result<()> {
-    let ok = isolate::serve(
-        &a.job,
-        &a.reply,
-        |job: WorkerJob| -> anyhow::Result<WorkerOutput> {
-            let registry = g.registry()?;
-            Ok(match job {
-                WorkerJob::Check(sources) => {
-                    check_sources(&sources, &registry)?;
-                    WorkerOutput::Checked
-                }
-                WorkerJob::Compare(args) => {
-                    WorkerOutput::Compare(Box::new(compare_study(&args, &registry)?))
-                }
-                WorkerJob::MassResponse(args) => {
-                    WorkerOutput::MassResponse(mass_study(&args, &registry)?)
-                }
-                WorkerJob::Sweep(args) => {
-                    let sets = args.sets.clone();
-                    WorkerOutput::Sweep(Box::new(sweep_study(&args, &sets, &registry, None)?))
-                }
-                WorkerJob::Fit(args) => {
-                    let (result, text) = fit_study(&args, &registry)?;
-                    WorkerOutput::Fit(Box::new(result), text)
-                }
-            })
-        },
-    )?;
-    if ok {
+/// The hidden worker subcommand: answer the parent's jobs on the channel it set up, then end.
+/// Standard output stays on `/dev/null`, where the parent put it: a law's printing goes
+/// nowhere.
+fn cmd_worker(g: &Globals) -> ! {
+    isolate::serve(|job: WorkerJob, session: &isolate::Session| {
+        work(g, job, session).map_err(|e| format!("{e:#}"))
+    })
+}
+
+/// One job in a worker process.
+fn work(g: &Globals, job: WorkerJob, session: &isolate::Session) -> anyhow::Result<WorkerOutput> {
+    test_panic_hook("worker");
+    let registry = g.registry()?;
+    Ok(match job {
+        WorkerJob::Check(sources) => {
+            check_sources(&sources, &registry)?;
+            WorkerOutput::Checked
+        }
+        WorkerJob::Compare(args) => {
+            WorkerOutput::Compare(Box::new(compare_study(&args, &registry)?))
+        }
+        WorkerJob::MassResponse(args) => WorkerOutput::MassResponse(mass_study(&args, &registry)?),
+        WorkerJob::Sweep(args) => {
+            let sets = args.sets.clone();
+            WorkerOutput::Sweep(Box::new(sweep_study(&args, &sets, &registry, None)?))
+        }
+        WorkerJob::Fit(args) => {
+            let (result, text) = fit_study(&args, &registry)?;
+            WorkerOutput::Fit(Box::new(result), text)
+        }
+        WorkerJob::Run(job) => {
+            let position = tribo::progress::Position::default();
+            let done = std::sync::atomic::AtomicBool::new(false);
+            let mut sink = DataSink {
+                session,
+                buf: Vec::new(),
+            };
+            let output = std::thread::scope(|s| {
+                s.spawn(|| {
+                    while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                        session.progress(position.get());
+                        std::thread::sleep(std::time::Duration::from_millis(50));
+                    }
+                });
+                let r = job.simulate(&registry, position.clone(), Some(&mut sink));
+                done.store(true, std::sync::atomic::Ordering::Relaxed);
+                r
+            })?;
+            use std::io::Write as _;
+            sink.flush().context("sending the time series")?;
+            WorkerOutput::Run(Box::new(output))
+        }
+        WorkerJob::CheckLaw(job) => WorkerOutput::CheckLaw(job.check(&registry)?),
+        WorkerJob::PlotLaw(job) => WorkerOutput::PlotLaw(Box::new(job.sample(&registry)?)),
+    })
+}
+
+/// Streamed output of a worker (the time series) sent to the parent in chunks.
+struct DataSink<'a> {
+    session: &'a isolate::Session,
+    buf: Vec<u8>,
+}
+
+impl std::io::Write for DataSink<'_> {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.buf.extend_from_slice(bytes);
+        if self.buf.len() >= 1 << 16 {
+            self.flush()?;
+        }
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        if !self.buf.is_empty() {
+            self.session.data(&self.buf)?;
+            self.buf.clear();
+        }
         Ok(())
-    } else {
-        Err(QuietFailure.into())
+    }
+}
+
+/// Test hook: with `TRIBO_TEST_PANIC=PLACE` (`main`, `worker`), tribo panics there, so the tests
+/// can check a bug in tribo is reported as one (never as a law's `exit()`). Unset in normal use.
+fn test_panic_hook(place: &str) {
+    if std::env::var_os("TRIBO_TEST_PANIC").is_some_and(|p| p == place) {
+        panic!("TRIBO_TEST_PANIC={place}");
     }
 }
 
@@ -1267,48 +1524,136 @@ fn cmd_new_law(a: NewLawArgs) -> anyhow::Result<()> {
     emit(&out_text)
 }
 
-/// `tribo check-law`: the conformance checks on one law, as a table or JSON; exit 1 naming
-/// the failed checks.
+/// A `tribo check-law`: the law (a file or a name), its parameters, the options.
+#[derive(Serialize, Deserialize)]
+struct CheckJob {
+    law: String,
+    params: toml::Table,
+    active: Option<String>,
+    json: bool,
+}
+
+/// A law's conformance report, rendered, and the checks it failed.
+#[derive(Serialize, Deserialize)]
+struct CheckOutput {
+    law: String,
+    text: String,
+    failed: Vec<String>,
+}
+
+impl CheckJob {
+    /// Open the law and run the conformance checks on it.
+    fn check(self, registry: &LawRegistry) -> anyhow::Result<CheckOutput> {
+        use tribo_plugin_api::conformance;
+        let lib = tribo::check::open_law(registry, &self.law)?;
+        let options = conformance::Options {
+            params: self.params,
+            active: self.active,
+        };
+        let report = conformance::check_with(&lib, &options);
+        let text = if self.json {
+            format!("{}\n", serde_json::to_string_pretty(&report)?)
+        } else {
+            report.to_table()
+        };
+        Ok(CheckOutput {
+            law: report.law.clone(),
+            text,
+            failed: report
+                .failed()
+                .iter()
+                .map(|c| c.as_str().to_string())
+                .collect(),
+        })
+    }
+}
+
+/// `tribo check-law`: the conformance checks on one law (in a worker process unless
+/// `--in-process`), as a table or JSON; exit 1 naming the failed checks.
 fn cmd_check_law(g: &Globals, a: CheckLawArgs) -> anyhow::Result<()> {
-    use tribo_plugin_api::conformance;
-    let params = tribo::check::read_params(a.params.as_deref())?;
-    let registry = g.registry()?;
-    let lib = tribo::check::open_law(&registry, &a.law)?;
-    let options = conformance::Options {
-        params,
+    let job = CheckJob {
+        params: tribo::check::read_params(a.params.as_deref())?,
+        law: a.law.clone(),
         active: a.active,
+        json: a.json,
     };
-    let report = conformance::check_with(&lib, &options);
-    let text = if a.json {
-        format!("{}\n", serde_json::to_string_pretty(&report)?)
+    let limits = a.isolation.limits()?;
+    let report = if a.isolation.in_process {
+        guard::watch(limits);
+        job.check(&g.registry()?)?
     } else {
-        report.to_table()
+        g.in_worker(
+            limits,
+            &WorkerJob::CheckLaw(job),
+            &format!("checking `{}`", a.law),
+            &mut |e| isolate::show_event("", &e),
+            |o| match o {
+                WorkerOutput::CheckLaw(c) => Some(c),
+                _ => None,
+            },
+        )?
     };
-    emit(&text)?;
-    let failed: Vec<&str> = report.failed().iter().map(|c| c.as_str()).collect();
-    if failed.is_empty() {
+    emit(&report.text)?;
+    if report.failed.is_empty() {
         Ok(())
     } else {
         anyhow::bail!(
             "law `{}` failed {} check{}: {}",
             report.law,
-            failed.len(),
-            if failed.len() == 1 { "" } else { "s" },
-            failed.join(", ")
+            report.failed.len(),
+            if report.failed.len() == 1 { "" } else { "s" },
+            report.failed.join(", ")
         )
     }
 }
 
-/// `tribo plot-law`: a law's force-velocity curves as an SVG file.
+/// A `tribo plot-law`: the law (a file or a name), its parameters, the joint.
+#[derive(Serialize, Deserialize)]
+struct PlotJob {
+    law: String,
+    params: toml::Table,
+    joint: String,
+}
+
+impl PlotJob {
+    /// Open the law and sample its curves.
+    fn sample(self, registry: &LawRegistry) -> anyhow::Result<tribo::check::LawCurves> {
+        let lib = tribo::check::open_law(registry, &self.law)?;
+        Ok(tribo::check::sample_law(&lib, &self.params, &self.joint)?)
+    }
+}
+
+/// `tribo plot-law`: a law's force-velocity curves (sampled in a worker process unless
+/// `--in-process`) as an SVG file.
 fn cmd_plot_law(g: &Globals, a: PlotLawArgs) -> anyhow::Result<()> {
-    let params = tribo::check::read_params(a.params.as_deref())?;
-    let registry = g.registry()?;
-    let lib = tribo::check::open_law(&registry, &a.law)?;
+    let job = PlotJob {
+        params: tribo::check::read_params(a.params.as_deref())?,
+        law: a.law.clone(),
+        joint: a.joint,
+    };
+    if let Some(out) = &a.out {
+        tribo::output::check_result_file(out)?;
+    }
+    let limits = a.isolation.limits()?;
+    let curves = if a.isolation.in_process {
+        guard::watch(limits);
+        job.sample(&g.registry()?)?
+    } else {
+        g.in_worker(
+            limits,
+            &WorkerJob::PlotLaw(job),
+            &format!("plotting `{}`", a.law),
+            &mut |e| isolate::show_event("", &e),
+            |o| match o {
+                WorkerOutput::PlotLaw(c) => Some(*c),
+                _ => None,
+            },
+        )?
+    };
     let out = a.out.unwrap_or_else(|| {
-        PathBuf::from(format!("plot_{}.svg", tribo::plots::file_stem(lib.name())))
+        PathBuf::from(format!("plot_{}.svg", tribo::plots::file_stem(&curves.law)))
     });
     tribo::output::check_result_file(&out)?;
-    let curves = tribo::check::sample_law(&lib, &params, &a.joint)?;
     tribo::plots::write_law_plot(&curves, &out)?;
     emit(&format!("wrote {}\n", out.display()))
 }
@@ -1356,6 +1701,15 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     // From here on an exit() that tribo did not ask for is a law's, and fails the run.
     guard::install();
+    if matches!(cli.command, Command::Worker) {
+        cmd_worker(&Globals {
+            plugins: cli.plugins,
+            quiet: true,
+        });
+    }
+    // Ctrl-C or a kill ends the workers' process groups too (what a law started in them).
+    isolate::handle_termination();
+    test_panic_hook("main");
     if let Some(out) = guard::take_stdout() {
         let _ = RESULTS_OUT.set(std::sync::Mutex::new(out));
     }

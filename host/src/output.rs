@@ -227,6 +227,8 @@ pub struct AtomicFile {
     file: BufWriter<NamedTempFile>,
     /// The final name.
     path: PathBuf,
+    /// Removes the temporary file if tribo is interrupted (SIGINT, SIGTERM, SIGHUP).
+    interrupted: Option<tribo_isolate::TempGuard>,
 }
 
 /// Check before a long computation that `out` can take a result set (given as `flag`, e.g.
@@ -284,6 +286,7 @@ impl AtomicFile {
             .tempfile_in(dir)
             .map_err(io_err("creating a temporary file in", dir))?;
         Ok(Self {
+            interrupted: removed_if_interrupted(file.path()),
             file: BufWriter::new(file),
             path: path.to_path_buf(),
         })
@@ -292,7 +295,9 @@ impl AtomicFile {
     /// Flush, sync and rename into place (atomic on one file system). On error the temporary
     /// file is removed and `path` keeps its previous content. The target is checked again just
     /// before the rename, so one that became a link or device meanwhile is not replaced.
-    pub fn commit(self) -> Result<(), OutputError> {
+    pub fn commit(mut self) -> Result<(), OutputError> {
+        // From here the temporary file becomes the result: an interruption must not remove it.
+        drop(self.interrupted.take());
         let path = self.path;
         let file = self
             .file
@@ -318,6 +323,19 @@ impl Write for AtomicFile {
     }
 }
 
+/// A guard removing `path` if tribo is interrupted before the guard is dropped (Unix).
+fn removed_if_interrupted(path: &Path) -> Option<tribo_isolate::TempGuard> {
+    #[cfg(unix)]
+    {
+        Some(tribo_isolate::register_temp(path))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        None
+    }
+}
+
 /// The content of [`MARKER`]: which command wrote the set and its files. Deterministic (no
 /// time, no paths), so a result set is byte-identical from run to run.
 #[derive(serde::Serialize, serde::Deserialize)]
@@ -326,6 +344,34 @@ struct Manifest {
     command: String,
     /// The files of the set, in the order written (the marker itself not included).
     files: Vec<String>,
+    /// Each file's content checksum ([`checksum`]), in the order of `files`: a file is replaced
+    /// (deleted) only if it still is what tribo wrote, so a marker made by hand, or a result
+    /// file someone edited, never costs anyone a file. Absent in markers of older tribos, whose
+    /// sets are then refused once.
+    #[serde(default)]
+    sums: Vec<String>,
+}
+
+/// The checksum recorded for a result file: its length and 64-bit FNV-1a hash, in hex. Not a
+/// defence against a forger, but no file someone wrote or changed matches it by accident.
+fn checksum(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{}:{h:016x}", bytes.len())
+}
+
+/// Whether the listed result `path` may go with the old set: a regular file whose content has
+/// checksum `sum`, or a symbolic link (removing a link removes no one's data; what it points
+/// to is never followed nor touched).
+fn verified(path: &Path, sum: &str) -> bool {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => true,
+        Ok(m) if m.is_file() => std::fs::read(path).is_ok_and(|b| checksum(&b) == sum),
+        _ => false,
+    }
 }
 
 /// The first line of [`MARKER`]: says what the file is to whoever opens the directory.
@@ -361,13 +407,22 @@ fn check_replaceable(dir: &Path, target: &str) -> Result<(), OutputError> {
         return Ok(());
     }
     names.sort();
-    let listed = read_manifest(dir).map(|m| m.files);
-    let strangers: Vec<&String> = match &listed {
-        Some(files) => names
+    // A file is tribo's only if the marker lists it with a checksum its content still has.
+    let manifest = read_manifest(dir);
+    let strangers: Vec<String> = match &manifest {
+        Some(m) => names
             .iter()
-            .filter(|n| n.as_str() != MARKER && !files.contains(n))
+            .filter(|n| n.as_str() != MARKER)
+            .filter_map(|n| match m.files.iter().position(|f| f == n) {
+                None => Some(n.clone()),
+                Some(i) => match m.sums.get(i) {
+                    Some(sum) if verified(&dir.join(n), sum) => None,
+                    Some(_) => Some(format!("{n} (changed since tribo wrote it)")),
+                    None => Some(format!("{n} (listed without a checksum)")),
+                },
+            })
             .collect(),
-        None => names.iter().collect(),
+        None => names.clone(),
     };
     if strangers.is_empty() {
         return Ok(());
@@ -584,6 +639,8 @@ pub struct ResultDir {
     pause: Duration,
     /// The advisory lock on `out`.
     _lock: DirLock,
+    /// Removes the temporary directory if tribo is interrupted (SIGINT, SIGTERM, SIGHUP).
+    interrupted: Option<tribo_isolate::TempGuard>,
 }
 
 impl ResultDir {
@@ -632,12 +689,14 @@ impl ResultDir {
             .tempdir_in(parent)
             .map_err(io_err("creating a temporary directory in", parent))?;
         let dir = Self {
+            interrupted: removed_if_interrupted(temp.path()),
             temp,
             out: out.to_path_buf(),
             target,
             manifest: Manifest {
                 command: command.to_string(),
                 files: Vec::new(),
+                sums: Vec::new(),
             },
             pause,
             _lock: lock,
@@ -699,6 +758,7 @@ impl ResultDir {
             .and_then(|()| f.sync_all())
             .map_err(io_err("writing", &path))?;
         self.manifest.files.push(name.to_string());
+        self.manifest.sums.push(checksum(bytes));
         hook_pause(self.pause);
         Ok(())
     }
@@ -708,7 +768,10 @@ impl ResultDir {
     /// are exchanged atomically (Linux `renameat2(RENAME_EXCHANGE)`) and the old set, now under
     /// the temporary name, is removed. On error the target is as it was and the temporary
     /// directory is removed.
-    pub fn commit(self) -> Result<(), OutputError> {
+    pub fn commit(mut self) -> Result<(), OutputError> {
+        // From here the set is swapped in: an interruption leaves its temporary directory to
+        // the next run (as a kill would), never half-removed under the swap.
+        drop(self.interrupted.take());
         self.write_marker()?;
         sync_dir(self.temp.path());
         hook_pause(self.pause);
@@ -979,6 +1042,44 @@ mod tests {
                 (n, text)
             })
             .collect()
+    }
+
+    #[test]
+    fn a_hand_made_marker_or_an_edited_file_never_gets_a_users_file_deleted() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let out = dir.path().join("results");
+        std::fs::create_dir(&out).expect("mkdir");
+        std::fs::write(out.join("thesis.docx"), "years of work").expect("write");
+        for marker in [
+            "command = \"compare\"\nfiles = [\"thesis.docx\"]\n",
+            "command = \"compare\"\nfiles = [\"thesis.docx\"]\nsums = [\"13:0000000000000000\"]\n",
+        ] {
+            std::fs::write(out.join(MARKER), marker).expect("write");
+            let e = commit_set(&out, &[("a.csv", "1")]).expect_err("refused");
+            assert!(e.to_string().contains("thesis.docx"), "{e}");
+            assert_eq!(
+                std::fs::read_to_string(out.join("thesis.docx")).expect("kept"),
+                "years of work"
+            );
+        }
+        // A set tribo wrote, then a file edited by hand: refused, the edit kept.
+        let set = dir.path().join("set");
+        commit_set(&set, &[("a.csv", "1"), ("b.csv", "2")]).expect("first set");
+        std::fs::write(set.join("b.csv"), "my notes").expect("edit");
+        let e = commit_set(&set, &[("a.csv", "3")]).expect_err("refused");
+        assert!(
+            e.to_string()
+                .contains("b.csv (changed since tribo wrote it)"),
+            "{e}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(set.join("b.csv")).expect("kept"),
+            "my notes"
+        );
+        // Untouched, it is replaced as before.
+        std::fs::write(set.join("b.csv"), "2").expect("restore");
+        commit_set(&set, &[("a.csv", "3")]).expect("replaced");
+        assert_eq!(contents(&set), [("a.csv".to_string(), "3".to_string())]);
     }
 
     #[test]

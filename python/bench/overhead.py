@@ -11,7 +11,9 @@ the best round of each side: the median wall time of a call, and the mean proces
 (this thread's time on a processor, from ``/proc/thread-self/schedstat``: the run is
 single-threaded, and this leaves out the time spent waiting for a processor, which dominates the
 wall clock's noise on a shared machine). Exits 1 if Python costs more than 10% over Rust on
-either measure (against the baseline with its JSON).
+either measure (against the baseline with its JSON). The calls run in process
+(``in_process=True``): this measures the Python layer; the worker process every call gets by
+default adds a fixed cost per call (``docs/performance.md``, "Law isolation").
 
     cargo build --release --workspace && cargo build --release -p tribo-python --example steady_baseline
     python bench/overhead.py [REPEATS] [ROUNDS]
@@ -49,7 +51,7 @@ def python_ms(repeats: int, lawset: str, frame: bool) -> Tuple[float, float]:
     start = cpu_ns()
     for _ in range(repeats):
         t = time.perf_counter()
-        r = tribo.run("crf250r-motored", lawset=lawset, steady=True)
+        r = tribo.run("crf250r-motored", lawset=lawset, steady=True, in_process=True)
         if frame:
             r.plateaus
         times.append((time.perf_counter() - t) * 1e3)
@@ -64,7 +66,7 @@ LAWSET = "stribeck-duty"
 def one_round(repeats: int) -> None:
     """A Python round in this (fresh) process: prints the median wall ms, the mean processor ms
     per call, and the median wall ms with the plateau DataFrame."""
-    tribo.run("crf250r-motored", lawset=LAWSET, steady=True).plateaus  # plugins opened, pandas warm
+    tribo.run("crf250r-motored", lawset=LAWSET, steady=True, in_process=True).plateaus  # plugins opened, pandas warm
     wall, cpu = python_ms(repeats, LAWSET, frame=False)
     frame = python_ms(repeats, LAWSET, frame=True)[0]
     print(f"{wall:.4f} {cpu:.4f} {frame:.4f}")

@@ -2,13 +2,16 @@
 //!
 //! Each function takes a job as JSON (the rig, law sets and options as the CLI's arguments
 //! would give them), runs it through the same library calls as `tribo ... --in-process`, with
-//! the GIL released, and hands the result back as the Python objects (dicts, lists, floats)
+//! the GIL released, in a worker process (module `isolated`: this interpreter started again
+//! with only this module loaded, so a law that crashes, exits or hangs cannot take the user's
+//! script down) unless asked to run in process, and hands the result back as the Python objects (dicts, lists, floats)
 //! that `json.loads` would make of the CLI's `--json` text (so the numbers are the same bits),
 //! built directly from the result (module `topy`) rather than written as text and parsed
 //! again. The Python package (`python/tribo/`) turns those into pandas DataFrames and numpy
 //! arrays. Errors are raised as the exception classes of `tribo.errors`, carrying the CLI's
 //! message.
 
+mod isolated;
 mod topy;
 
 use std::path::{Path, PathBuf};
@@ -35,7 +38,7 @@ use tribo_studies::study::{self, DataRun, StudyError, SweepInputError};
 const CHECKOUT_PLUGINS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../target/release");
 
 /// What went wrong, as the Python exception class of `tribo.errors` that reports it.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, Deserialize)]
 enum Kind {
     /// A rig, law set, data file, parameter or option the user gave is wrong.
     Input,
@@ -57,7 +60,7 @@ impl Kind {
 }
 
 /// An error on its way to Python: the exception class and the CLI's message.
-#[derive(Debug)]
+#[derive(Debug, serde::Serialize, Deserialize)]
 struct Failure {
     /// Which exception.
     kind: Kind,
@@ -303,6 +306,20 @@ fn to_python<'py, T: serde::Serialize + ?Sized>(
     })
 }
 
+/// Run a job as [`isolated::dispatch`] does, then hand its result to Python as [`to_python`]
+/// does.
+fn isolated_value<'py, T: serde::Serialize + Send>(
+    py: Python<'py>,
+    job: &str,
+    isolation: Option<&str>,
+    what: &str,
+    wrap: fn(String) -> isolated::Job,
+    pick: fn(isolated::Output) -> Option<T>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let value = isolated::dispatch(py, job, isolation, what, wrap, pick)?;
+    to_python(py, &value)
+}
+
 /// Run `work` without the GIL, then hand its result to Python as [`to_python`] does.
 fn detached_value<'py, T: serde::Serialize + Send>(
     py: Python<'py>,
@@ -314,7 +331,7 @@ fn detached_value<'py, T: serde::Serialize + Send>(
 
 /// The time series of a transient run: its column names ([`SERIES_COLUMNS`], then each
 /// joint's normal load, named when the run starts) and the values row after row.
-#[derive(Default)]
+#[derive(Default, serde::Serialize, Deserialize)]
 struct Series {
     columns: Vec<String>,
     values: Vec<f64>,
@@ -469,41 +486,58 @@ type RunOutput<'py> = (
     Option<(Vec<String>, Bound<'py, PyBytes>)>,
 );
 
-/// `run(job_json)`: one rig through its cycle (or steady state), as `tribo run --json`.
-/// Returns the result (as Python objects), and with `timeseries` the column names and the
-/// samples as native-endian f64 bytes (row after row).
+/// `run(job_json, isolation_json)`: one rig through its cycle (or steady state), as `tribo run
+/// --json`. Returns the result (as Python objects), and with `timeseries` the column names and
+/// the samples as native-endian f64 bytes (row after row).
 #[pyfunction]
-fn run<'py>(py: Python<'py>, job: &str) -> PyResult<RunOutput<'py>> {
-    let (result, series) = detached(py, || {
-        let job: RunJob = serde_json::from_str(job)?;
-        if job.steady && job.timeseries {
-            return Err(Failure::new(
-                Kind::Input,
-                "timeseries=True needs a transient run: a steady run computes each plateau directly and has no time history",
-            ));
-        }
-        let mut rig = job.rig.load()?;
-        if let Some(ls) = &job.lawset {
-            ls.load()?.apply(&mut rig);
-        }
-        rig::attach_laws(&mut rig, &job.laws)?;
-        let registry = registry(&job.plugin_paths)?;
-        let mut sim = rig::any_simulation(&rig, &registry)?;
-        let (result, series) = if job.steady {
-            (sim.run_steady()?, None)
-        } else if job.timeseries {
-            let mut s = Series::default();
-            (sim.run_with(&mut s)?, Some(s))
-        } else {
-            (sim.run()?, None)
-        };
-        Ok((result, series))
-    })?;
+#[pyo3(signature = (job, isolation=None))]
+fn run<'py>(py: Python<'py>, job: &str, isolation: Option<&str>) -> PyResult<RunOutput<'py>> {
+    let (result, series) = *isolated::dispatch(
+        py,
+        job,
+        isolation,
+        "the run",
+        isolated::Job::Run,
+        |o| match o {
+            isolated::Output::Run(r) => Some(r),
+            _ => None,
+        },
+    )?;
     let result = to_python(py, &result)?;
     let series = series.map(|s| {
         let bytes: Vec<u8> = s.values.iter().flat_map(|v| v.to_ne_bytes()).collect();
         (s.columns, PyBytes::new(py, &bytes))
     });
+    Ok((result, series))
+}
+
+/// A run's result and its time series, if asked for.
+type RunReply = (tribo_core::sim::RunResult, Option<Series>);
+
+/// `run` in this process.
+fn run_local(job: &str) -> Result<RunReply, Failure> {
+    let job: RunJob = serde_json::from_str(job)?;
+    if job.steady && job.timeseries {
+        return Err(Failure::new(
+            Kind::Input,
+            "timeseries=True needs a transient run: a steady run computes each plateau directly and has no time history",
+        ));
+    }
+    let mut rig = job.rig.load()?;
+    if let Some(ls) = &job.lawset {
+        ls.load()?.apply(&mut rig);
+    }
+    rig::attach_laws(&mut rig, &job.laws)?;
+    let registry = registry(&job.plugin_paths)?;
+    let mut sim = rig::any_simulation(&rig, &registry)?;
+    let (result, series) = if job.steady {
+        (sim.run_steady()?, None)
+    } else if job.timeseries {
+        let mut s = Series::default();
+        (sim.run_with(&mut s)?, Some(s))
+    } else {
+        (sim.run()?, None)
+    };
     Ok((result, series))
 }
 
@@ -536,29 +570,50 @@ fn default_starts() -> usize {
     tribo_studies::fit::DEFAULT_STARTS
 }
 
-/// `compare(job_json)`: law sets against measured data, as `tribo compare --json`.
+/// `compare(job_json, isolation_json)`: law sets against measured data, as `tribo compare
+/// --json`.
 #[pyfunction]
-fn compare<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyAny>> {
-    detached_value(py, || {
-        let job: CompareJob = serde_json::from_str(job)?;
-        let rig = job.rig.load()?;
-        let sets = lawsets(&job.lawsets)?;
-        study::check_unique_names(&sets)?;
-        let data = match job.data.as_deref() {
-            Some(d) => DataRun::read(d)?,
-            None => DataRun::read(study::default_data(&rig)?)?,
-        };
-        let options = study::CompareOptions {
-            steady: job.steady,
-            no_cv: job.no_cv,
-            no_fit: job.no_fit,
-            starts: job.starts,
-            validate: data_runs(&job.validate)?,
-            data_for_any_rig: job.data_for_any_rig,
-        };
-        let registry = registry(&job.plugin_paths)?;
-        Ok(study::compare(&rig, &sets, &data, &registry, &options)?)
-    })
+#[pyo3(signature = (job, isolation=None))]
+fn compare<'py>(
+    py: Python<'py>,
+    job: &str,
+    isolation: Option<&str>,
+) -> PyResult<Bound<'py, PyAny>> {
+    isolated_value(
+        py,
+        job,
+        isolation,
+        "the comparison",
+        isolated::Job::Compare,
+        |o| match o {
+            isolated::Output::Compare(c) => Some(c),
+            _ => None,
+        },
+    )
+}
+
+/// `compare` in this process.
+fn compare_local(job: &str) -> Result<Box<study::Comparison>, Failure> {
+    let job: CompareJob = serde_json::from_str(job)?;
+    let rig = job.rig.load()?;
+    let sets = lawsets(&job.lawsets)?;
+    study::check_unique_names(&sets)?;
+    let data = match job.data.as_deref() {
+        Some(d) => DataRun::read(d)?,
+        None => DataRun::read(study::default_data(&rig)?)?,
+    };
+    let options = study::CompareOptions {
+        steady: job.steady,
+        no_cv: job.no_cv,
+        no_fit: job.no_fit,
+        starts: job.starts,
+        validate: data_runs(&job.validate)?,
+        data_for_any_rig: job.data_for_any_rig,
+    };
+    let registry = registry(&job.plugin_paths)?;
+    Ok(Box::new(study::compare(
+        &rig, &sets, &data, &registry, &options,
+    )?))
 }
 
 /// A `tribo mass-response` job.
@@ -576,46 +631,65 @@ struct MassJob {
     plugin_paths: Vec<PathBuf>,
 }
 
-/// `mass_response(job_json)`: torque change for a scaled body, as `tribo mass-response --json`.
+/// `mass_response(job_json, isolation_json)`: torque change for a scaled body, as `tribo
+/// mass-response --json`.
 #[pyfunction]
-fn mass_response<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyAny>> {
-    detached_value(py, || {
-        let job: MassJob = serde_json::from_str(job)?;
-        let body = match job.body.as_str() {
-            "rod" => study::ScaledBody::Rod,
-            "piston" => study::ScaledBody::Piston,
-            "crank" => study::ScaledBody::Crank,
-            other => {
-                return Err(Failure::new(
-                    Kind::Input,
-                    format!(
-                    "body: `{other}` is not a body that can be scaled; use rod, piston or crank"
-                ),
-                ))
-            }
-        };
-        if let Some(bad) = job.scales.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+#[pyo3(signature = (job, isolation=None))]
+fn mass_response<'py>(
+    py: Python<'py>,
+    job: &str,
+    isolation: Option<&str>,
+) -> PyResult<Bound<'py, PyAny>> {
+    isolated_value(
+        py,
+        job,
+        isolation,
+        "the mass response",
+        isolated::Job::MassResponse,
+        |o| match o {
+            isolated::Output::MassResponse(m) => Some(m),
+            _ => None,
+        },
+    )
+}
+
+/// `mass_response` in this process.
+fn mass_response_local(job: &str) -> Result<Vec<study::MassResponse>, Failure> {
+    let job: MassJob = serde_json::from_str(job)?;
+    let body = match job.body.as_str() {
+        "rod" => study::ScaledBody::Rod,
+        "piston" => study::ScaledBody::Piston,
+        "crank" => study::ScaledBody::Crank,
+        other => {
             return Err(Failure::new(
                 Kind::Input,
-                format!("--scale/--scales: every scale factor must be positive, got {bad}"),
-            ));
+                format!(
+                    "body: `{other}` is not a body that can be scaled; use rod, piston or crank"
+                ),
+            ))
         }
-        let rig = job.rig.load()?;
-        let sets = lawsets(&job.lawsets)?;
-        study::check_unique_names(&sets)?;
-        let registry = registry(&job.plugin_paths)?;
-        let fedem = study::fedem_rod_change();
-        let fedem = (body == study::ScaledBody::Rod).then_some(fedem.as_slice());
-        Ok(study::mass_response(
-            &rig,
-            &sets,
-            body,
-            &job.scales,
-            &registry,
-            job.steady,
-            fedem,
-        )?)
-    })
+    };
+    if let Some(bad) = job.scales.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+        return Err(Failure::new(
+            Kind::Input,
+            format!("--scale/--scales: every scale factor must be positive, got {bad}"),
+        ));
+    }
+    let rig = job.rig.load()?;
+    let sets = lawsets(&job.lawsets)?;
+    study::check_unique_names(&sets)?;
+    let registry = registry(&job.plugin_paths)?;
+    let fedem = study::fedem_rod_change();
+    let fedem = (body == study::ScaledBody::Rod).then_some(fedem.as_slice());
+    Ok(study::mass_response(
+        &rig,
+        &sets,
+        body,
+        &job.scales,
+        &registry,
+        job.steady,
+        fedem,
+    )?)
 }
 
 /// A `tribo fit` job.
@@ -638,47 +712,65 @@ struct FitJob {
     plugin_paths: Vec<PathBuf>,
 }
 
-/// `fit(job_json)`: calibrate a law set's free parameters, as `tribo fit --json`; returns the
-/// report (as Python objects) and the calibrated law set as the TOML `tribo fit` writes.
+/// `fit(job_json, isolation_json)`: calibrate a law set's free parameters, as `tribo fit
+/// --json`; returns the report (as Python objects) and the calibrated law set as the TOML
+/// `tribo fit` writes.
 #[pyfunction]
-fn fit<'py>(py: Python<'py>, job: &str) -> PyResult<(Bound<'py, PyAny>, String)> {
-    let (result, text) = detached(py, || {
-        let job: FitJob = serde_json::from_str(job)?;
-        if job.starts > 64 {
-            return Err(Failure::new(
-                Kind::Input,
-                format!("starts: {} is not in 0..=64", job.starts),
-            ));
-        }
-        let rig = job.rig.load()?;
-        let ls = job.lawset.load()?;
-        let names = if job.data.is_empty() {
-            vec![study::default_data(&rig)?.to_string()]
-        } else {
-            job.data.clone()
-        };
-        let runs = data_runs(&names)?;
-        let options = FitOptions {
-            starts: job.starts,
-            cross_validate: !job.no_cv,
-            validate: data_runs(&job.validate)?,
-            data_for_any_rig: job.data_for_any_rig,
-        };
-        let registry = registry(&job.plugin_paths)?;
-        let free = ls.free_params(&registry, job.params.as_deref())?;
-        let (result, fitted) =
-            tribo_studies::fit::fit(&rig, &ls, &free, &runs, &registry, &options)?;
-        let text = fitted
-            .to_toml(&fit_header(&rig, &result, runs.len()))
-            .map_err(|e| {
-                Failure::new(
-                    Kind::Simulation,
-                    format!("serialising the calibrated law set: {e}"),
-                )
-            })?;
-        Ok((result, text))
-    })?;
+#[pyo3(signature = (job, isolation=None))]
+fn fit<'py>(
+    py: Python<'py>,
+    job: &str,
+    isolation: Option<&str>,
+) -> PyResult<(Bound<'py, PyAny>, String)> {
+    let (result, text) = isolated::dispatch(
+        py,
+        job,
+        isolation,
+        "the fit",
+        isolated::Job::Fit,
+        |o| match o {
+            isolated::Output::Fit(f) => Some(f),
+            _ => None,
+        },
+    )?;
     Ok((to_python(py, &result)?, text))
+}
+
+/// `fit` in this process: the report and the calibrated law set.
+fn fit_local(job: &str) -> Result<(Box<FitResult>, String), Failure> {
+    let job: FitJob = serde_json::from_str(job)?;
+    if job.starts > 64 {
+        return Err(Failure::new(
+            Kind::Input,
+            format!("starts: {} is not in 0..=64", job.starts),
+        ));
+    }
+    let rig = job.rig.load()?;
+    let ls = job.lawset.load()?;
+    let names = if job.data.is_empty() {
+        vec![study::default_data(&rig)?.to_string()]
+    } else {
+        job.data.clone()
+    };
+    let runs = data_runs(&names)?;
+    let options = FitOptions {
+        starts: job.starts,
+        cross_validate: !job.no_cv,
+        validate: data_runs(&job.validate)?,
+        data_for_any_rig: job.data_for_any_rig,
+    };
+    let registry = registry(&job.plugin_paths)?;
+    let free = ls.free_params(&registry, job.params.as_deref())?;
+    let (result, fitted) = tribo_studies::fit::fit(&rig, &ls, &free, &runs, &registry, &options)?;
+    let text = fitted
+        .to_toml(&fit_header(&rig, &result, runs.len()))
+        .map_err(|e| {
+            Failure::new(
+                Kind::Simulation,
+                format!("serialising the calibrated law set: {e}"),
+            )
+        })?;
+    Ok((Box::new(result), text))
 }
 
 /// The header `tribo fit` writes above a calibrated law set.
@@ -710,25 +802,40 @@ struct SweepJob {
     plugin_paths: Vec<PathBuf>,
 }
 
-/// `sweep(job_json)`: torque over oil temperature and speed, as `tribo sweep --json`.
+/// `sweep(job_json, isolation_json)`: torque over oil temperature and speed, as `tribo sweep
+/// --json`.
 #[pyfunction]
-fn sweep<'py>(py: Python<'py>, job: &str) -> PyResult<Bound<'py, PyAny>> {
-    detached_value(py, || {
-        let job: SweepJob = serde_json::from_str(job)?;
-        study::check_sweep_inputs(&job.temps_c, &job.speeds_rpm)?;
-        let rig = job.rig.load()?;
-        let sets = lawsets(&job.lawsets)?;
-        study::check_unique_names(&sets)?;
-        let registry = registry(&job.plugin_paths)?;
-        Ok(study::sweep(
-            &rig,
-            &sets,
-            &job.temps_c,
-            &job.speeds_rpm,
-            &registry,
-            None,
-        )?)
-    })
+#[pyo3(signature = (job, isolation=None))]
+fn sweep<'py>(py: Python<'py>, job: &str, isolation: Option<&str>) -> PyResult<Bound<'py, PyAny>> {
+    isolated_value(
+        py,
+        job,
+        isolation,
+        "the sweep",
+        isolated::Job::Sweep,
+        |o| match o {
+            isolated::Output::Sweep(w) => Some(w),
+            _ => None,
+        },
+    )
+}
+
+/// `sweep` in this process.
+fn sweep_local(job: &str) -> Result<Box<study::Sweep>, Failure> {
+    let job: SweepJob = serde_json::from_str(job)?;
+    study::check_sweep_inputs(&job.temps_c, &job.speeds_rpm)?;
+    let rig = job.rig.load()?;
+    let sets = lawsets(&job.lawsets)?;
+    study::check_unique_names(&sets)?;
+    let registry = registry(&job.plugin_paths)?;
+    Ok(Box::new(study::sweep(
+        &rig,
+        &sets,
+        &job.temps_c,
+        &job.speeds_rpm,
+        &registry,
+        None,
+    )?))
 }
 
 /// The bundled rigs, law sets and data files, by kind.
@@ -755,6 +862,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(bundled_names, m)?)?;
+    m.add_function(wrap_pyfunction!(isolated::_worker_main, m)?)?;
     m.add("CHECKOUT_PLUGINS", CHECKOUT_PLUGINS)?;
     Ok(())
 }

@@ -27,6 +27,28 @@ JOINTS = ("main_a", "main_b", "big_end", "small_end", "piston")
 
 
 # ---------------------------------------------------------------------------------------------
+# isolation
+
+
+def _isolation(
+    in_process: bool,
+    time_limit_s: Optional[float],
+    memory_limit_mb: Optional[int],
+    call_limit_s: Optional[float],
+) -> str:
+    """The isolation keywords every running function takes, as JSON for the native module
+    (``None``: the CLI's default)."""
+    iso: Dict[str, Any] = {"in_process": bool(in_process)}
+    if time_limit_s is not None:
+        iso["time_limit_s"] = float(time_limit_s)
+    if memory_limit_mb is not None:
+        iso["memory_limit_mb"] = int(memory_limit_mb)
+    if call_limit_s is not None:
+        iso["call_limit_s"] = float(call_limit_s)
+    return json.dumps(iso)
+
+
+# ---------------------------------------------------------------------------------------------
 # plugins
 
 
@@ -438,11 +460,22 @@ def run(
     steady: bool = False,
     timeseries: bool = False,
     plugin_paths: Optional[Iterable[PathLike]] = None,
+    in_process: bool = False,
+    time_limit_s: Optional[float] = None,
+    memory_limit_mb: Optional[int] = None,
+    call_limit_s: Optional[float] = None,
 ) -> RunResult:
     """``tribo run RIG [--lawset] [--law]... [--set]... [--oil] [--steady]``: the rig through
     its test cycle (or each plateau's steady state). ``timeseries=True`` (transient only) also
     returns every accepted step as numpy arrays (time, crank angle and speed, motoring torque,
-    filtered torque, normal load per joint)."""
+    filtered torque, normal load per joint).
+
+    The laws run in a worker process (this interpreter started again with only the native
+    module), so a law that crashes, exits or hangs raises :class:`tribo.SimulationError` naming
+    it instead of ending the script; ``in_process=True`` runs them here (a few tens of ms
+    faster per call; a crashing law then ends the interpreter). ``time_limit_s`` (default 1800),
+    ``memory_limit_mb`` (4096) and ``call_limit_s`` (10, one law call) limit the worker as the
+    CLI's ``--time-limit-s``, ``--memory-limit-mb`` and ``--call-limit-s`` do; 0 is no limit."""
     job = {
         "rig": _rig_spec(rig, set, oil),
         "lawset": None if lawset is None else _lawset_spec(lawset),
@@ -451,7 +484,7 @@ def run(
         "timeseries": bool(timeseries),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    raw, series = _native.run(json.dumps(job))
+    raw, series = _native.run(json.dumps(job), _isolation(in_process, time_limit_s, memory_limit_mb, call_limit_s))
     arrays = None
     if series is not None:
         names, data = series
@@ -524,9 +557,15 @@ def compare(
     steady: bool = False,
     no_cv: bool = False,
     plugin_paths: Optional[Iterable[PathLike]] = None,
+    in_process: bool = False,
+    time_limit_s: Optional[float] = None,
+    memory_limit_mb: Optional[int] = None,
+    call_limit_s: Optional[float] = None,
 ) -> Comparison:
     """``tribo compare``: law sets (default: the bundled three) against measured data (default:
-    the thesis's table), scored and ranked as the CLI does."""
+    the thesis's table), scored and ranked as the CLI does.
+
+    ``in_process`` and the limits: as for :func:`run`."""
     job = {
         "rig": _rig_spec(rig, set),
         "lawsets": _lawset_specs(lawsets, laws),
@@ -536,7 +575,7 @@ def compare(
         "no_cv": bool(no_cv),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    return Comparison(_native.compare(json.dumps(job)))
+    return Comparison(_native.compare(json.dumps(job), _isolation(in_process, time_limit_s, memory_limit_mb, call_limit_s)))
 
 
 class MassResponse:
@@ -573,9 +612,15 @@ def mass_response(
     set: Optional[Union[Mapping[str, Any], Sequence[str]]] = None,
     steady: bool = False,
     plugin_paths: Optional[Iterable[PathLike]] = None,
+    in_process: bool = False,
+    time_limit_s: Optional[float] = None,
+    memory_limit_mb: Optional[int] = None,
+    call_limit_s: Optional[float] = None,
 ) -> MassResponse:
     """``tribo mass-response --body BODY --scale S`` (or ``--scales``): torque and per-joint
-    friction change when a body's mass (and inertia) is scaled."""
+    friction change when a body's mass (and inertia) is scaled.
+
+    ``in_process`` and the limits: as for :func:`run`."""
     scale_list = [float(scales)] if isinstance(scales, (int, float)) else [float(s) for s in scales]
     job = {
         "rig": _rig_spec(rig, set),
@@ -585,7 +630,7 @@ def mass_response(
         "steady": bool(steady),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    return MassResponse(_native.mass_response(json.dumps(job)))
+    return MassResponse(_native.mass_response(json.dumps(job), _isolation(in_process, time_limit_s, memory_limit_mb, call_limit_s)))
 
 
 class FitResult:
@@ -637,9 +682,15 @@ def fit(
     no_cv: bool = False,
     set: Optional[Union[Mapping[str, Any], Sequence[str]]] = None,
     plugin_paths: Optional[Iterable[PathLike]] = None,
+    in_process: bool = False,
+    time_limit_s: Optional[float] = None,
+    memory_limit_mb: Optional[int] = None,
+    call_limit_s: Optional[float] = None,
 ) -> FitResult:
     """``tribo fit --lawset L [--params ...] [--data ...] [--starts N]``: calibrate the law set's
-    free parameters (or ``params``, ``JOINT.LAW.PARAM``) on steady-state runs."""
+    free parameters (or ``params``, ``JOINT.LAW.PARAM``) on steady-state runs.
+
+    ``in_process`` and the limits: as for :func:`run`."""
     spec = _lawset_spec(lawset)
     job = {
         "rig": _rig_spec(rig, set),
@@ -651,7 +702,7 @@ def fit(
         "no_cv": bool(no_cv),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    raw, toml_text = _native.fit(json.dumps(job))
+    raw, toml_text = _native.fit(json.dumps(job), _isolation(in_process, time_limit_s, memory_limit_mb, call_limit_s))
     return FitResult(raw, toml_text, raw["lawset"])
 
 
@@ -699,8 +750,14 @@ def sweep(
     oil: Optional[PathLike] = None,
     set: Optional[Union[Mapping[str, Any], Sequence[str]]] = None,
     plugin_paths: Optional[Iterable[PathLike]] = None,
+    in_process: bool = False,
+    time_limit_s: Optional[float] = None,
+    memory_limit_mb: Optional[int] = None,
+    call_limit_s: Optional[float] = None,
 ) -> Sweep:
-    """``tribo sweep``: steady-state torque of each law set over oil temperatures and speeds."""
+    """``tribo sweep``: steady-state torque of each law set over oil temperatures and speeds.
+
+    ``in_process`` and the limits: as for :func:`run`."""
     job = {
         "rig": _rig_spec(rig, set, oil),
         "lawsets": _lawset_specs(lawsets, laws),
@@ -708,4 +765,4 @@ def sweep(
         "speeds_rpm": [float(s) for s in speeds],
         "plugin_paths": _plugin_paths(plugin_paths),
     }
-    return Sweep(_native.sweep(json.dumps(job)))
+    return Sweep(_native.sweep(json.dumps(job), _isolation(in_process, time_limit_s, memory_limit_mb, call_limit_s)))

@@ -25,20 +25,25 @@ def laws(plugin_paths: Sequence[_Path]) -> Dict[str, Any]:
 def plugin_search_path(plugin_paths: Sequence[_Path]) -> List[str]:
     """The paths searched before ``TRIBO_PLUGIN_PATH``."""
 
-def run(job: str) -> Tuple[Dict[str, Any], Optional[Tuple[List[str], bytes]]]:
-    """``tribo run --json``; with ``timeseries`` the column names and float64 rows as bytes."""
+def run(job: str, isolation: Optional[str] = None) -> Tuple[Dict[str, Any], Optional[Tuple[List[str], bytes]]]:
+    """``tribo run --json``; with ``timeseries`` the column names and float64 rows as bytes.
+    ``isolation``: JSON of ``in_process`` and the limits (default: a worker process); the same
+    for the studies below."""
 
-def compare(job: str) -> Dict[str, Any]:
+def compare(job: str, isolation: Optional[str] = None) -> Dict[str, Any]:
     """``tribo compare --json``."""
 
-def mass_response(job: str) -> Dict[str, Any]:
+def mass_response(job: str, isolation: Optional[str] = None) -> Dict[str, Any]:
     """``tribo mass-response --json``."""
 
-def fit(job: str) -> Tuple[Dict[str, Any], str]:
+def fit(job: str, isolation: Optional[str] = None) -> Tuple[Dict[str, Any], str]:
     """``tribo fit --json`` and the calibrated law set's TOML."""
 
-def sweep(job: str) -> Dict[str, Any]:
+def sweep(job: str, isolation: Optional[str] = None) -> Dict[str, Any]:
     """``tribo sweep --json``."""
 
 def bundled_names() -> Tuple[List[str], List[str], List[str]]:
     """The bundled rigs, law sets and data files."""
+
+def _worker_main() -> None:
+    """Serve the jobs of a parent process on the channel it set up (a worker); never returns."""

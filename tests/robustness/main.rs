@@ -7,6 +7,7 @@ mod commit;
 #[path = "../common/mod.rs"]
 mod common;
 mod fuzz;
+mod hostile;
 mod interrupt;
 mod limits;
 

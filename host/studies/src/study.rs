@@ -140,7 +140,10 @@ fn check_each(
 pub fn check_data(rig: &Rig, data: &DataRun) -> Result<(), StudyError> {
     let mut r = rig.clone();
     run_through(&mut r, &data.rows).map_err(|mut e| {
-        e.message.push_str(&format!(": {}", data.file.display()));
+        // The cycle is the data file's, whatever the rig's own fields say.
+        e.file = data.file.clone();
+        e.line = None;
+        e.column = None;
         e
     })?;
     Ok(())
@@ -1165,14 +1168,7 @@ pub fn mass_response(
 ) -> Result<Vec<MassResponse>, StudyError> {
     // Every input checked before anything runs.
     check_lawsets(rig, lawsets, registry)?;
-    for s in scales {
-        scaled(rig, body, *s).map_err(|mut e| {
-            e.file = PathBuf::from("--scale");
-            e.message
-                .push_str(&format!(" (the rig's value times the scale factor {s})"));
-            e
-        })?;
-    }
+    check_scales(rig, body, scales)?;
     let jobs: Vec<(usize, Option<f64>)> = (0..lawsets.len())
         .flat_map(|i| std::iter::once((i, None)).chain(scales.iter().map(move |s| (i, Some(*s)))))
         .collect();
@@ -1531,6 +1527,50 @@ fn sweep_rig(
     prepare(rig, lawset, Some(&rows))
 }
 
+/// Check a sweep's temperatures and speeds, and that the rig can be driven through them (with
+/// the first of `lawsets` attached): an error names `--speeds` or `--temps`, never a `--set`
+/// nobody gave. No plugin is needed, so a caller can check before it starts any worker.
+pub fn check_sweep(
+    rig: &Rig,
+    lawsets: &[LawSet],
+    temps_c: &[f64],
+    speeds_rpm: &[f64],
+) -> Result<(), StudyError> {
+    check_sweep_inputs(temps_c, speeds_rpm)?;
+    if let Some(ls) = lawsets.first() {
+        for t in temps_c {
+            sweep_rig(rig, ls, speeds_rpm, *t).map_err(|mut e| {
+                let speeds = e.field.starts_with("cycle");
+                e.file = PathBuf::from(if speeds { "--speeds" } else { "--temps" });
+                if let Some(i) = e.message.find(" (this run's cycle") {
+                    e.message.truncate(i);
+                }
+                e.message.push_str(if speeds {
+                    " (the sweep drives the rig through the speeds of --speeds)"
+                } else {
+                    " (the sweep holds the oil at each temperature of --temps)"
+                });
+                e
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// Check that the rig's `body` can be scaled by every factor of `scales` (a mass-response
+/// study): an error names `--scale`. No plugin is needed.
+pub fn check_scales(rig: &Rig, body: ScaledBody, scales: &[f64]) -> Result<(), StudyError> {
+    for s in scales {
+        scaled(rig, body, *s).map_err(|mut e| {
+            e.file = PathBuf::from("--scale");
+            e.message
+                .push_str(&format!(" (the rig's value times the scale factor {s})"));
+            e
+        })?;
+    }
+    Ok(())
+}
+
 /// Run every law set at every temperature over `speeds_rpm`, in steady state, in parallel
 /// (one job per law set and temperature; `progress`, if given, counts finished jobs). Results
 /// are in input order whatever the scheduling, so the output is deterministic.
@@ -1543,14 +1583,9 @@ pub fn sweep(
     progress: Option<&tribo_core::observe::Position>,
 ) -> Result<Sweep, StudyError> {
     // Every input checked before anything runs.
-    check_sweep_inputs(temps_c, speeds_rpm)?;
     check_speeds_for_rig(rig, speeds_rpm, "--speeds")?;
+    check_sweep(rig, lawsets, temps_c, speeds_rpm)?;
     check_lawsets(rig, lawsets, registry)?;
-    if let Some(ls) = lawsets.first() {
-        for t in temps_c {
-            sweep_rig(rig, ls, speeds_rpm, *t)?;
-        }
-    }
     let jobs: Vec<(usize, f64)> = (0..lawsets.len())
         .flat_map(|i| temps_c.iter().map(move |t| (i, *t)))
         .collect();

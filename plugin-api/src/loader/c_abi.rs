@@ -25,8 +25,9 @@ type EvaluateManyFn = unsafe extern "C" fn(
 ) -> i32;
 type SuitsFn = unsafe extern "C" fn() -> u32;
 
-/// A C law library with all its symbols resolved. The `Library` is kept so the function
-/// pointers stay valid as long as any instance holds this (through an `Arc`).
+/// A C law library with all its symbols resolved. The `Library` is never closed: a law's
+/// threads, `atexit` handlers or thread-local destructors may still point into its code after
+/// the last instance is gone, and unloading it under them would crash the process at exit.
 pub(super) struct CLib {
     describe: DescribeFn,
     create: CreateFn,
@@ -40,7 +41,7 @@ pub(super) struct CLib {
     suits: Option<SuitsFn>,
     /// The contract version the library was built against.
     version: u32,
-    _lib: libloading::Library,
+    _lib: std::mem::ManuallyDrop<libloading::Library>,
 }
 
 fn symbol<T: Copy>(lib: &libloading::Library, path: &Path, name: &str) -> Result<T, LawError> {
@@ -75,7 +76,7 @@ impl CLib {
     /// mean them, whatever it exports under those names.
     pub(super) fn load(
         path: &Path,
-        lib: libloading::Library,
+        lib: std::mem::ManuallyDrop<libloading::Library>,
         version: u32,
     ) -> Result<Self, LawError> {
         fn optional<T: Copy>(

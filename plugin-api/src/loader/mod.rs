@@ -264,11 +264,14 @@ impl LawLibrary {
         } else {
             path.to_path_buf()
         };
-        let lib =
+        // Never closed, even when refused below: a library's constructors may have started
+        // threads that run its code (c_abi::CLib).
+        let lib = std::mem::ManuallyDrop::new(
             unsafe { libloading::Library::new(&open_path) }.map_err(|e| LawError::NotALibrary {
                 path: path.to_path_buf(),
                 reason: e.to_string(),
-            })?;
+            })?,
+        );
         let version = {
             // SAFETY: the contract defines this symbol as `uint32_t (void)`.
             let sym = unsafe { lib.get::<extern "C" fn() -> u32>(b"tribo_law_contract_version\0") }
@@ -287,7 +290,6 @@ impl LawLibrary {
             });
         }
         if rust::exports_rust_module(&lib) {
-            drop(lib);
             let lib = rust::RustLib::load(&open_path, version)?;
             let mut description = lib.describe(path)?;
             description.suits = lib.suits();
@@ -535,6 +537,17 @@ impl LawInstance {
         self.state_size
     }
 
+    /// Name the joint this instance is bound to in crash and hang reports ("law `x` (file) at
+    /// joint `piston`"), so a watchdog or a parent process can say where a stuck or crashing
+    /// call was made.
+    pub fn set_joint(&mut self, joint: &str) {
+        self.code = inflight::register(format!(
+            "law `{}` ({}) at joint `{joint}`",
+            self.name,
+            self.path.display()
+        ));
+    }
+
     /// Whether the law evaluates a batch itself ([`LawInstance::evaluate_many`] makes one call
     /// into the library): a version-3 Rust law, a C law exporting `tribo_law_evaluate_many`,
     /// an in-process law. Otherwise the host loops over the batch.
@@ -586,7 +599,7 @@ impl LawInstance {
         out: &mut LawOutput,
     ) -> Result<(), LawError> {
         self.check_state("evaluate", state.len())?;
-        let _running = inflight::enter(self.code);
+        let _running = inflight::enter_call(self.code, input);
         self.call_into(input, state, out)?;
         if Regime::from_u32(out.regime).is_none() {
             return Err(self.undefined_regime(out.regime));
@@ -688,6 +701,8 @@ impl LawInstance {
             None => {
                 for (k, (input, out)) in inputs.iter().zip(outputs.iter_mut()).enumerate() {
                     let state = &states[k * stride..k * stride + self.state_size];
+                    // Each call marked with its input, so a stuck one is reported with it.
+                    let _call = inflight::enter_call(self.code, input);
                     self.call_into(input, state, out)
                         .and_then(|()| match Regime::from_u32(out.regime) {
                             Some(_) => Ok(()),
@@ -784,7 +799,7 @@ impl LawInstance {
     /// [`LawInstance::state_size`] is [`LawError::StateLength`] and the law is not called.
     pub fn commit(&self, input: &LawInput, state: &mut [f64]) -> Result<(), LawError> {
         self.check_state("commit", state.len())?;
-        let _running = inflight::enter(self.code);
+        let _running = inflight::enter_call(self.code, input);
         match &self.backend {
             InstBackend::Rust(obj) => match obj.commit(input, state.into()) {
                 abi_stable::std_types::RResult::ROk(()) => Ok(()),

@@ -84,19 +84,22 @@ impl BoundLaw {
         !self.state.is_empty()
     }
 
-    /// Bind law `l` (the model's field `field`, `joints.J.laws[i]`) from `registry`: its
-    /// library, an instance with checked parameters, and its zero state.
+    /// Bind law `l` (the model's field `field`, `joints.J.laws[i]`) on joint `joint` from
+    /// `registry`: its library, an instance with checked parameters (named with the joint in
+    /// crash and hang reports), and its zero state.
     pub(super) fn bind(
         registry: &LawRegistry,
         l: &crate::model::LawRef,
         field: &str,
+        joint: &str,
     ) -> Result<BoundLaw, SimError> {
         let lib = registry
             .get(&l.law)
             .map_err(|e| setup_error(format!("{field}.law"), e))?;
-        let instance = lib
+        let mut instance = lib
             .create(&l.params)
             .map_err(|e| setup_error(format!("{field}.params"), e))?;
+        instance.set_joint(joint);
         let state = instance
             .new_state()
             .map_err(|e| setup_error(format!("{field}.law"), e))?;
@@ -370,6 +373,7 @@ pub(super) fn bind_joints(
                 registry,
                 l,
                 &format!("joints.{name}.laws[{i}]"),
+                name,
             )?);
             n_laws += 1;
         }

@@ -92,6 +92,41 @@ fn regime_name(indicators: &[f64]) -> &'static str {
     }
 }
 
+/// The most samples one plateau's trace may hold: a 4-stroke cycle at 0.01 degree. A bound on
+/// what a resolution can make a run allocate (at 1e-9 degree it asked for terabytes).
+pub const MAX_SAMPLES_PER_CYCLE: usize = 72_000;
+
+/// Samples over a cycle of `cycle_rad` at `resolution_deg`, at least 4 and at most
+/// [`MAX_SAMPLES_PER_CYCLE`].
+fn samples_per_cycle(cycle_rad: f64, resolution_deg: f64) -> Result<usize, SimError> {
+    let n = cycle_rad / resolution_deg.to_radians();
+    if n.is_finite() && n > 0.0 && n <= MAX_SAMPLES_PER_CYCLE as f64 + 0.5 {
+        return Ok((n.round() as usize).max(4));
+    }
+    Err(SimError::Setup {
+        at: None,
+        field: "resolution_deg".into(),
+        law: None,
+        param: None,
+        message: format!(
+            "{resolution_deg} degrees makes {n:.3e} samples per cycle; at most {MAX_SAMPLES_PER_CYCLE} are allowed (0.01 degrees over a 4-stroke cycle)"
+        ),
+    })
+}
+
+/// A buffer for `n` samples, allocated fallibly (an error, never an abort).
+fn sample_buffer<T>(n: usize) -> Result<Vec<T>, SimError> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|e| SimError::Setup {
+        at: None,
+        field: "resolution_deg".into(),
+        law: None,
+        param: None,
+        message: format!("cannot allocate {n} crank-angle samples: {e}"),
+    })?;
+    Ok(v)
+}
+
 impl Simulation {
     /// Every plateau's cycle at the plateau's speed (constant: the steady state), sampled every
     /// `resolution_deg` degrees. Laws start from zero state; a stateful law runs one cycle
@@ -101,7 +136,7 @@ impl Simulation {
         resolution_deg: f64,
     ) -> Result<Vec<CrankAngleTrace>, SimError> {
         let cycle = self.cycle_angle();
-        let n = ((cycle / resolution_deg.to_radians()).round() as usize).max(4);
+        let n = samples_per_cycle(cycle, resolution_deg)?;
         let h_angle = cycle / n as f64;
         let laws: Vec<(String, String)> = self
             .joints
@@ -120,7 +155,7 @@ impl Simulation {
             let h = h_angle / omega;
             reset_states(&mut self.joints);
             let mut guess = JointLoads::default();
-            let mut samples = Vec::with_capacity(n);
+            let mut samples = sample_buffer(n)?;
             let passes = if self.stateful { 2 } else { 1 };
             for pass in 0..passes {
                 for k in 0..n {
@@ -198,7 +233,7 @@ impl EngineSimulation {
         resolution_deg: f64,
     ) -> Result<Vec<CrankAngleTrace>, SimError> {
         let cycle = self.window_spec().cycle_angle();
-        let n = ((cycle / resolution_deg.to_radians()).round() as usize).max(4);
+        let n = samples_per_cycle(cycle, resolution_deg)?;
         let h_angle = cycle / n as f64;
         let laws: Vec<(String, String)> = self
             .joints
@@ -212,7 +247,7 @@ impl EngineSimulation {
             let oil = (self.temps[pi], self.viscosities[pi]);
             let h = h_angle / omega;
             self.reset_states();
-            let mut samples = Vec::with_capacity(n);
+            let mut samples = sample_buffer(n)?;
             let passes = if self.stateful { 2 } else { 1 };
             for pass in 0..passes {
                 for k in 0..n {

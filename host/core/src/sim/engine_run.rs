@@ -171,7 +171,7 @@ impl EngineSimulation {
             let laws = laws
                 .iter()
                 .enumerate()
-                .map(|(i, l)| BoundLaw::bind(registry, l, &law_field(f, &name, i)))
+                .map(|(i, l)| BoundLaw::bind(registry, l, &law_field(f, &name, i), &name))
                 .collect::<Result<Vec<_>, _>>()?;
             n_laws += laws.len();
             joints.push(EngineJoint {

@@ -1,0 +1,708 @@
+//! The parent's side of a worker: start it in its own session and process group, send it
+//! requests, read its replies, markers and standard error without ever blocking on them, watch
+//! it (ended, stopped, past a limit), and kill its whole group when done.
+
+use std::collections::{BTreeMap, HashSet};
+use std::io::Write as _;
+use std::os::fd::{AsRawFd, OwnedFd};
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{mpsc, Mutex};
+use std::time::{Duration, Instant};
+
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use tribo_plugin_api::loader::inflight;
+
+use crate::child::{Shared, CHANNEL_FD, MARKER_FD, SHARED_FD, SHARED_LEN};
+use crate::frame::{self, Kind, Parsed};
+use crate::sys::{self, State};
+use crate::{guard, Limits, Reply, WorkerFailure};
+
+/// How often the parent looks at its workers.
+const TICK: Duration = Duration::from_millis(20);
+/// How long the parent waits past a limit the worker should have enforced itself before it
+/// kills the worker (its own watchdog normally ends it first and names the law).
+const KILL_GRACE: Duration = Duration::from_secs(3);
+/// After the worker has ended, how long its pipes are still read: a law's child may hold them
+/// open for ever, and tribo never waits for their end of file.
+const DRAIN: Duration = Duration::from_millis(150);
+/// Keep at most this much of a worker's standard error (its tail) for the failure message.
+const STDERR_TAIL_BYTES: usize = 4096;
+
+/// What happens while a request runs, for the caller to act on.
+pub enum Event<'a> {
+    /// A chunk of streamed output (a time series).
+    Data(&'a [u8]),
+    /// The worker's progress position (what its job counts in).
+    Progress(u64),
+    /// A line the worker (a law) wrote on standard error.
+    Stderr(&'a str),
+    /// A law call has been running for a while: what to say (to follow "note: ").
+    Slow(String),
+    /// Nothing happened this tick (a chance to check for Ctrl-C).
+    Tick,
+}
+
+/// The process groups of running workers, killed when tribo is interrupted.
+static LIVE: Mutex<Vec<libc::pid_t>> = Mutex::new(Vec::new());
+/// Temporary paths to remove when tribo is interrupted.
+static TEMPS: Mutex<Vec<(u64, PathBuf)>> = Mutex::new(Vec::new());
+static NEXT_TEMP: AtomicU64 = AtomicU64::new(1);
+
+/// A temporary path removed when tribo is interrupted (SIGINT, SIGTERM, SIGHUP) while this
+/// guard lives; dropping it forgets the path (its owner removes or keeps it).
+#[must_use]
+pub struct TempGuard(u64);
+
+impl Drop for TempGuard {
+    fn drop(&mut self) {
+        TEMPS
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .retain(|(id, _)| *id != self.0);
+    }
+}
+
+/// Remove `path` (a file or a directory tree) if tribo is interrupted while the guard lives.
+pub fn register_temp(path: &Path) -> TempGuard {
+    let id = NEXT_TEMP.fetch_add(1, Ordering::Relaxed);
+    TEMPS
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .push((id, path.to_path_buf()));
+    TempGuard(id)
+}
+
+/// On SIGINT, SIGTERM or SIGHUP: kill every worker's process group, remove the registered
+/// temporary paths, then end with the signal. For a command-line process (Python has its own
+/// Ctrl-C handling, [`Event::Tick`]).
+pub fn handle_termination() {
+    let Some(pipe) = sys::termination_pipe() else {
+        return;
+    };
+    let _ = std::thread::Builder::new()
+        .name("tribo-signals".into())
+        .spawn(move || {
+            let mut byte = [0u8; 1];
+            loop {
+                let mut fds = [libc::pollfd {
+                    fd: pipe.as_raw_fd(),
+                    events: libc::POLLIN,
+                    revents: 0,
+                }];
+                sys::poll(&mut fds, Duration::from_secs(3600));
+                if let Ok(1) = sys::read(pipe.as_raw_fd(), &mut byte) {
+                    break;
+                }
+            }
+            let signal = i32::from(byte[0]);
+            for pgid in LIVE.lock().unwrap_or_else(|p| p.into_inner()).iter() {
+                sys::killpg(*pgid, libc::SIGKILL);
+            }
+            // Held until the process is gone: an owner that drops its guard to put its
+            // temporary in place (a result set's swap) waits, and never moves a half-removed one.
+            let temps = TEMPS.lock().unwrap_or_else(|p| p.into_inner());
+            for (_, path) in temps.iter() {
+                // Never following a link: remove_dir_all does not, and a file is unlinked.
+                let _ = std::fs::remove_dir_all(path).or_else(|_| std::fs::remove_file(path));
+            }
+            guard::allow_exit();
+            sys::die_of(signal)
+        });
+}
+
+/// Lines already forwarded once (warnings repeated by every worker of a study).
+static FORWARDED: Mutex<Option<HashSet<String>>> = Mutex::new(None);
+
+/// Forward a worker's standard-error line to this process's standard error; a `warning:` line
+/// only the first time (every worker of a study finds the same plugin directories).
+pub fn forward_stderr(line: &str) {
+    if line.starts_with("warning:") {
+        let mut seen = FORWARDED.lock().unwrap_or_else(|p| p.into_inner());
+        if !seen
+            .get_or_insert_with(HashSet::new)
+            .insert(line.to_string())
+        {
+            return;
+        }
+    }
+    let _ = writeln!(std::io::stderr(), "{line}");
+}
+
+/// A running worker process.
+pub struct Worker {
+    pid: libc::pid_t,
+    token: [u8; 16],
+    limits: Limits,
+    started: Instant,
+    chan: OwnedFd,
+    markers: OwnedFd,
+    stderr: OwnedFd,
+    shared: Option<sys::Mapping>,
+    /// Bytes of the channel not yet parsed.
+    inbuf: Vec<u8>,
+    /// Bytes to send.
+    outbuf: Vec<u8>,
+    marker_buf: Vec<u8>,
+    stderr_buf: Vec<u8>,
+    stderr_tail: Vec<u8>,
+    /// Registered names of plugin code, by id (told by the worker).
+    names: BTreeMap<usize, String>,
+    /// Marker reports: (kind, text).
+    reports: Vec<(String, String)>,
+    /// The shared-page marks the parent has seen: per slot, the mark and since when.
+    seen: Vec<(u64, Instant)>,
+    progress: u64,
+    ended: bool,
+}
+
+impl Worker {
+    /// Start `command` as a worker with `limits`: its own session and process group, standard
+    /// input and output on `/dev/null`, standard error piped to this process, the channel on
+    /// descriptors 3 (socket), 4 (marker pipe) and 5 (shared page). The command must run
+    /// [`crate::serve`].
+    pub fn start(mut command: Command, limits: Limits) -> Result<Self, WorkerFailure> {
+        let io = |what: &str, e: std::io::Error| WorkerFailure::Io(format!("{what}: {e}"));
+        let token = sys::random_token().map_err(|e| io("drawing the job token", e))?;
+        let (chan, child_chan) = sys::socketpair().map_err(|e| io("creating the channel", e))?;
+        let (markers, child_markers) =
+            sys::pipe().map_err(|e| io("creating the marker pipe", e))?;
+        let shared_fd = sys::memfd(SHARED_LEN);
+        let shared = shared_fd
+            .as_ref()
+            .and_then(|fd| sys::Mapping::new(fd.as_raw_fd(), SHARED_LEN).ok());
+        let mut moves = vec![
+            (child_chan.as_raw_fd(), CHANNEL_FD),
+            (child_markers.as_raw_fd(), MARKER_FD),
+        ];
+        if let (Some(fd), Some(_)) = (&shared_fd, &shared) {
+            moves.push((fd.as_raw_fd(), SHARED_FD));
+        }
+        // SAFETY: getpid has no preconditions.
+        let parent = unsafe { libc::getpid() };
+        command
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        // SAFETY: child_setup makes only async-signal-safe calls (setsid, prctl, fcntl, dup2).
+        unsafe {
+            command.pre_exec(move || sys::child_setup(&moves, parent));
+        }
+        let mut child = command
+            .spawn()
+            .map_err(|e| io("starting a worker process", e))?;
+        let pid = child.id() as libc::pid_t;
+        LIVE.lock().unwrap_or_else(|p| p.into_inner()).push(pid);
+        drop((child_chan, child_markers, shared_fd));
+        let stderr: OwnedFd = match child.stderr.take() {
+            Some(e) => e.into(),
+            None => return Err(WorkerFailure::Io("the worker has no standard error".into())),
+        };
+        for fd in [chan.as_raw_fd(), markers.as_raw_fd(), stderr.as_raw_fd()] {
+            sys::set_nonblocking(fd).map_err(|e| io("setting up the channel", e))?;
+        }
+        // The Child handle is dropped without waiting: this worker is reaped by `finish`.
+        drop(child);
+        let hello = rmp_serde::to_vec_named(&limits)
+            .map_err(|e| WorkerFailure::Io(format!("encoding the limits: {e}")))?;
+        Ok(Self {
+            pid,
+            token,
+            limits,
+            started: Instant::now(),
+            chan,
+            markers,
+            stderr,
+            shared,
+            inbuf: Vec::new(),
+            outbuf: frame::encode(&token, Kind::Hello, &hello),
+            marker_buf: Vec::new(),
+            stderr_buf: Vec::new(),
+            stderr_tail: Vec::new(),
+            names: BTreeMap::new(),
+            reports: Vec::new(),
+            seen: vec![(0, Instant::now()); inflight::SLOTS],
+            progress: 0,
+            ended: false,
+        })
+    }
+
+    /// The worker's process id (its process group's too).
+    pub fn pid(&self) -> u32 {
+        self.pid as u32
+    }
+
+    /// The limits the worker was started with.
+    pub fn limits(&self) -> Limits {
+        self.limits
+    }
+
+    /// Whether the worker can take another request (it has not ended, stopped or failed).
+    pub fn alive(&self) -> bool {
+        !self.ended && sys::peek(self.pid).is_none()
+    }
+
+    /// Send `request` and wait for its reply, reporting what happens meanwhile to `events`
+    /// (which may stop the wait by returning an error). A failure of the worker (it ended,
+    /// stopped, ran out of a limit, or forged its channel) is the error; after it the worker is
+    /// gone and only [`Worker::finish`] is left to call.
+    pub fn call<Q: Serialize, A: DeserializeOwned>(
+        &mut self,
+        request: &Q,
+        events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+    ) -> Result<A, WorkerFailure> {
+        if self.ended {
+            return Err(WorkerFailure::Io("the worker has already ended".into()));
+        }
+        let job = rmp_serde::to_vec_named(request)
+            .map_err(|e| WorkerFailure::Io(format!("encoding the job: {e}")))?;
+        // The time limit is per request (a long-lived worker serves many).
+        self.started = Instant::now();
+        self.outbuf
+            .extend_from_slice(&frame::encode(&self.token, Kind::Job, &job));
+        match self.wait_reply(events) {
+            Ok(payload) => match rmp_serde::from_slice::<Reply<A>>(&payload) {
+                Ok(Reply::Ok(a)) => Ok(a),
+                Ok(Reply::Err(message)) => Err(WorkerFailure::Study(message)),
+                Ok(Reply::Internal(message)) => Err(WorkerFailure::Internal(message)),
+                Err(e) => {
+                    self.kill();
+                    Err(WorkerFailure::Internal(format!(
+                        "reading the worker's reply: {e}"
+                    )))
+                }
+            },
+            Err(e) => {
+                self.kill();
+                Err(e)
+            }
+        }
+    }
+
+    /// End the worker: tell it there is nothing more, give it a moment to exit, then kill its
+    /// whole process group (whatever a law started in it goes too) and reap it.
+    pub fn finish(mut self) {
+        if !self.ended {
+            self.outbuf
+                .extend_from_slice(&frame::encode(&self.token, Kind::Bye, &[]));
+            let _ = self.flush_out();
+            let until = Instant::now() + Duration::from_millis(200);
+            while Instant::now() < until && sys::peek(self.pid).is_none() {
+                std::thread::sleep(Duration::from_millis(2));
+            }
+        }
+        self.kill();
+    }
+
+    /// Kill the process group and reap the worker (once).
+    fn kill(&mut self) {
+        if self.pid <= 0 {
+            return;
+        }
+        // The worker is not reaped yet (peek does not reap), so its process group's id cannot
+        // have been reused.
+        sys::killpg(self.pid, libc::SIGKILL);
+        sys::reap(self.pid, Duration::from_secs(2));
+        LIVE.lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .retain(|p| *p != self.pid);
+        self.pid = 0;
+        self.ended = true;
+    }
+
+    /// Send what is queued, as far as the socket takes it now.
+    fn flush_out(&mut self) -> std::io::Result<()> {
+        while !self.outbuf.is_empty() {
+            match sys::send(self.chan.as_raw_fd(), &self.outbuf) {
+                Ok(n) => {
+                    self.outbuf.drain(..n);
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => return Ok(()),
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(())
+    }
+
+    /// Pump the channel until the reply to the current request arrives or the worker fails.
+    fn wait_reply(
+        &mut self,
+        events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+    ) -> Result<Vec<u8>, WorkerFailure> {
+        loop {
+            let _ = self.flush_out();
+            let mut fds = [
+                pollfd(&self.chan, !self.outbuf.is_empty()),
+                pollfd(&self.markers, false),
+                pollfd(&self.stderr, false),
+            ];
+            sys::poll(&mut fds, TICK);
+            if let Some(reply) = self.read_all(events)? {
+                return Ok(reply);
+            }
+            if let Some(state) = sys::peek(self.pid) {
+                return Err(self.ended_with(state, events));
+            }
+            self.backstops()?;
+            if let Some(p) = self.shared_progress() {
+                if p != self.progress {
+                    self.progress = p;
+                    events(Event::Progress(p))?;
+                }
+            }
+            events(Event::Tick)?;
+        }
+    }
+
+    /// The worker has ended or stopped: read what it left (for a bounded time), and say why it
+    /// gave no reply. A reply that arrived meanwhile still counts.
+    fn ended_with(
+        &mut self,
+        state: State,
+        events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+    ) -> WorkerFailure {
+        let running = self.running_now();
+        let until = Instant::now() + DRAIN;
+        while Instant::now() < until {
+            let mut fds = [
+                pollfd(&self.chan, false),
+                pollfd(&self.markers, false),
+                pollfd(&self.stderr, false),
+            ];
+            sys::poll(&mut fds, Duration::from_millis(10));
+            match self.read_all(events) {
+                Ok(Some(_)) | Err(_) => break,
+                Ok(None) => {}
+            }
+            if fds.iter().all(|f| f.revents == 0) {
+                break;
+            }
+        }
+        self.flush_stderr_line(events);
+        self.kill();
+        self.interpret(state, running)
+    }
+
+    /// Read everything available on the three pipes; the reply's payload once it is whole.
+    fn read_all(
+        &mut self,
+        events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+    ) -> Result<Option<Vec<u8>>, WorkerFailure> {
+        let mut buf = [0u8; 65536];
+        // Markers first: a law's name registered before a reply or a death is then known.
+        while let Ok(n @ 1..) = sys::read(self.markers.as_raw_fd(), &mut buf) {
+            self.marker_buf.extend_from_slice(&buf[..n]);
+            self.parse_markers(events)?;
+        }
+        while let Ok(n @ 1..) = sys::read(self.stderr.as_raw_fd(), &mut buf) {
+            for &b in &buf[..n] {
+                if b == b'\n' {
+                    self.flush_stderr_line(events);
+                } else if self.stderr_buf.len() < 64 * 1024 {
+                    self.stderr_buf.push(b);
+                }
+            }
+        }
+        while let Ok(n @ 1..) = sys::read(self.chan.as_raw_fd(), &mut buf) {
+            self.inbuf.extend_from_slice(&buf[..n]);
+        }
+        loop {
+            match frame::parse(&self.inbuf, &self.token) {
+                Parsed::Partial => return Ok(None),
+                Parsed::Forged => {
+                    let running = self.running_now();
+                    return Err(WorkerFailure::Forged { running });
+                }
+                Parsed::Frame { kind, len } => {
+                    let payload: Vec<u8> = self.inbuf[frame::HEADER..frame::HEADER + len].to_vec();
+                    self.inbuf.drain(..frame::HEADER + len);
+                    match kind {
+                        Kind::Reply => return Ok(Some(payload)),
+                        Kind::Data => events(Event::Data(&payload))?,
+                        _ => {
+                            let running = self.running_now();
+                            return Err(WorkerFailure::Forged { running });
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// One whole line of the worker's standard error: forwarded, and kept for the tail.
+    fn flush_stderr_line(
+        &mut self,
+        events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+    ) {
+        if self.stderr_buf.is_empty() {
+            return;
+        }
+        let line = String::from_utf8_lossy(&self.stderr_buf).into_owned();
+        self.stderr_buf.clear();
+        self.stderr_tail.extend_from_slice(line.as_bytes());
+        self.stderr_tail.push(b'\n');
+        if self.stderr_tail.len() > 2 * STDERR_TAIL_BYTES {
+            self.stderr_tail
+                .drain(..self.stderr_tail.len() - STDERR_TAIL_BYTES);
+        }
+        let _ = events(Event::Stderr(&line));
+    }
+
+    /// Parse whole marker lines; lines without the job's token (a law writing to the pipe)
+    /// are ignored.
+    fn parse_markers(
+        &mut self,
+        events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+    ) -> Result<(), WorkerFailure> {
+        let hex = frame::hex(&self.token);
+        while let Some(end) = self.marker_buf.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.marker_buf.drain(..=end).collect();
+            let Some(rest) = line[..line.len() - 1].strip_prefix(&hex[..]) else {
+                continue;
+            };
+            let text = String::from_utf8_lossy(rest).into_owned();
+            let text = text.strip_prefix(' ').unwrap_or(&text);
+            let (kind, body) = text.split_once(' ').unwrap_or((text, ""));
+            match kind {
+                "name" => {
+                    if let Some((id, name)) = body.split_once(' ') {
+                        if let Ok(id) = id.parse() {
+                            self.names.insert(id, name.to_string());
+                        }
+                    }
+                }
+                "slow" => {
+                    let (secs, code) = body.split_once(' ').unwrap_or(("?", body));
+                    let secs: f64 = secs.parse().unwrap_or(0.0);
+                    events(Event::Slow(guard::slow_note(
+                        code,
+                        secs,
+                        self.limits.call_s,
+                    )))?;
+                }
+                _ => self.reports.push((kind.to_string(), body.to_string())),
+            }
+        }
+        if self.marker_buf.len() > 1 << 20 {
+            self.marker_buf.clear();
+        }
+        Ok(())
+    }
+
+    /// The progress position the worker published, if it has a shared page.
+    fn shared_progress(&self) -> Option<u64> {
+        let shared = self.shared.as_ref()?;
+        // SAFETY: the mapping is SHARED_LEN bytes holding a `Shared` (atomics only).
+        let s = unsafe { &*(shared.ptr() as *const Shared) };
+        Some(s.progress.load(Ordering::Relaxed))
+    }
+
+    /// The marks of the worker's threads now: (slot, mark) of every slot in a call.
+    fn marks(&self) -> Vec<(usize, u64)> {
+        let Some(shared) = self.shared.as_ref() else {
+            return Vec::new();
+        };
+        // SAFETY: as in `shared_progress`.
+        let s = unsafe { &*(shared.ptr() as *const Shared) };
+        s.table
+            .slots
+            .iter()
+            .enumerate()
+            .map(|(i, m)| (i, m.load(Ordering::Acquire)))
+            .filter(|(_, m)| inflight::id_of(*m) != 0)
+            .collect()
+    }
+
+    /// The plugin code the worker runs now (from its shared page), by name.
+    fn running_now(&self) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        for (_, mark) in self.marks() {
+            let id = inflight::id_of(mark);
+            let name = self
+                .names
+                .get(&id)
+                .cloned()
+                .unwrap_or_else(|| format!("plugin code #{id}"));
+            if !out.contains(&name) {
+                out.push(name);
+            }
+        }
+        out
+    }
+
+    /// The limits the worker enforces itself, enforced again from outside a little later: a
+    /// stopped, deadlocked or signal-blocking worker cannot report.
+    fn backstops(&mut self) -> Result<(), WorkerFailure> {
+        let now = Instant::now();
+        if let Some(t) = self.limits.time() {
+            if now >= self.started + t + KILL_GRACE {
+                let running = self.running_now();
+                self.kill();
+                return Err(WorkerFailure::TimeLimit {
+                    limit_s: self.limits.time_s,
+                    running,
+                });
+            }
+        }
+        let marks = self.marks();
+        let mut current = vec![0u64; inflight::SLOTS];
+        for (slot, mark) in marks {
+            current[slot] = mark;
+        }
+        for (slot, mark) in current.into_iter().enumerate() {
+            let (seen, since) = self.seen[slot];
+            if seen != mark {
+                self.seen[slot] = (mark, now);
+            } else if mark != 0 {
+                if let Some(limit) = self.limits.call() {
+                    if now - since >= limit + KILL_GRACE {
+                        let id = inflight::id_of(mark);
+                        let code = self
+                            .names
+                            .get(&id)
+                            .cloned()
+                            .unwrap_or_else(|| "plugin code".into());
+                        self.kill();
+                        return Err(WorkerFailure::CallLimit {
+                            text: format!(
+                                "{code} did not return from one call in {} s, the limit for one law call (--call-limit-s, in Python call_limit_s; 0: none); the worker process did not answer its watchdog, so the call's inputs are unknown",
+                                self.limits.call_s
+                            ),
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Why the worker, ended or stopped as `state`, gave no reply.
+    fn interpret(&self, state: State, running: Vec<String>) -> WorkerFailure {
+        let mut running = running;
+        for (kind, body) in &self.reports {
+            if kind == "running" && !running.contains(body) {
+                running.push(body.clone());
+            }
+        }
+        let report = |k: &str| self.reports.iter().find(|(kind, _)| kind == k);
+        let last_words = String::from_utf8_lossy(&self.stderr_tail)
+            .lines()
+            .map(str::trim)
+            .rfind(|l| !l.is_empty())
+            .map(|l| l.chars().take(300).collect::<String>());
+        if let Some((_, text)) = report("stuck") {
+            return WorkerFailure::CallLimit { text: text.clone() };
+        }
+        if let Some((_, mb)) = report("limit-memory") {
+            return WorkerFailure::MemoryLimit {
+                limit_mb: self.limits.memory_mb,
+                resident_mb: mb.trim().parse().unwrap_or(0),
+                running,
+            };
+        }
+        if report("limit-time").is_some() {
+            return WorkerFailure::TimeLimit {
+                limit_s: self.limits.time_s,
+                running,
+            };
+        }
+        if report("exit").is_some() {
+            return WorkerFailure::PluginExit { running };
+        }
+        match state {
+            State::Stopped(signal) => WorkerFailure::Stopped { signal, running },
+            State::Signaled(signal) => WorkerFailure::Signal {
+                signal,
+                running,
+                last_words,
+            },
+            State::Exited(code) => WorkerFailure::NoReply {
+                code,
+                running,
+                last_words,
+            },
+        }
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+fn pollfd(fd: &OwnedFd, write: bool) -> libc::pollfd {
+    libc::pollfd {
+        fd: fd.as_raw_fd(),
+        events: libc::POLLIN | if write { libc::POLLOUT } else { 0 },
+        revents: 0,
+    }
+}
+
+/// Run each task in its own worker process (`command` makes the command that starts one; at
+/// most as many at once as the machine has cores), returning the results in the order of
+/// `tasks` as soon as every one has finished or failed. `events` hears each worker's events
+/// with the task's index.
+pub fn run_all<J, T>(
+    tasks: &[J],
+    command: &(dyn Fn() -> Command + Sync),
+    limits: Limits,
+    events: &(dyn Fn(usize, Event<'_>) + Sync),
+) -> Vec<Result<T, WorkerFailure>>
+where
+    J: Serialize + Sync,
+    T: DeserializeOwned + Send,
+{
+    let parallel = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .min(tasks.len().max(1));
+    let next = AtomicUsize::new(0);
+    let mut results: Vec<Option<Result<T, WorkerFailure>>> =
+        (0..tasks.len()).map(|_| None).collect();
+    let (tx, rx) = mpsc::channel();
+    std::thread::scope(|s| {
+        for _ in 0..parallel {
+            let tx = tx.clone();
+            let next = &next;
+            s.spawn(move || loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(task) = tasks.get(i) else { break };
+                let r = run_one(task, command(), limits, &mut |e| {
+                    events(i, e);
+                    Ok(())
+                });
+                if tx.send((i, r)).is_err() {
+                    break;
+                }
+            });
+        }
+        drop(tx);
+        for (i, r) in rx {
+            results[i] = Some(r);
+        }
+    });
+    results
+        .into_iter()
+        .map(|r| {
+            r.unwrap_or_else(|| Err(WorkerFailure::Io("a worker thread stopped early".into())))
+        })
+        .collect()
+}
+
+/// One request in a fresh worker, which is ended afterwards.
+pub(crate) fn run_one<J: Serialize, T: DeserializeOwned>(
+    task: &J,
+    command: Command,
+    limits: Limits,
+    events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+) -> Result<T, WorkerFailure> {
+    let mut w = Worker::start(command, limits)?;
+    let r = w.call(task, events);
+    w.finish();
+    r
+}

@@ -309,8 +309,22 @@ pub fn write_fmep(r: &RunResult, dir: &Path) -> Result<(), crate::output::Output
     out.commit()
 }
 
+/// A `crank_angle.csv` column of a law diagnostic: its name and where a sample keeps it.
+type DiagnosticColumn = (&'static str, fn(&crate::sim::LawSample) -> Option<f64>);
+
+/// The diagnostics a law may report (contract version 3), as `crank_angle.csv` columns: each
+/// column is written when some law of the traces reports it.
+const DIAGNOSTIC_COLUMNS: [DiagnosticColumn; 5] = [
+    ("min_film_m", |l| l.min_film_m),
+    ("eccentricity_x", |l| l.eccentricity_x),
+    ("eccentricity_y", |l| l.eccentricity_y),
+    ("peak_pressure_pa", |l| l.peak_pressure_pa),
+    ("asperity_share", |l| l.asperity_share),
+];
+
 /// The crank-angle results of `run --crank-angle DIR`: `crank_angle.csv` (one row per
-/// plateau, angle and law: friction torque, power, normal load, sliding speed, regime),
+/// plateau, angle and law: friction torque, power, normal load, sliding speed, regime, and a
+/// column for every diagnostic some law reports, empty where a law does not),
 /// `crank_angle_loads.csv` (one row per plateau and angle: big-end and main-bearing load
 /// vectors, cylinder and crankcase pressure, drive torque), and per plateau the friction
 /// torque of every joint over the cycle (`friction_vs_angle_RPM.svg`) and the polar diagram of
@@ -320,12 +334,22 @@ pub fn write_crank_angle(
     dir: &Path,
 ) -> Result<(), crate::output::OutputError> {
     let mut out = crate::output::ResultDir::create(dir, "run", "--crank-angle")?;
+    let diagnostics: Vec<_> = DIAGNOSTIC_COLUMNS
+        .iter()
+        .filter(|(_, get)| {
+            traces
+                .iter()
+                .flat_map(|t| &t.samples)
+                .flat_map(|s| &s.laws)
+                .any(|l| get(l).is_some())
+        })
+        .collect();
     let mut rows = Vec::new();
     let mut loads = Vec::new();
     for t in traces {
         for s in &t.samples {
             for ((joint, law), l) in t.laws.iter().zip(&s.laws) {
-                rows.push(vec![
+                let mut row = vec![
                     t.speed_rpm.to_string(),
                     s.crank_angle_deg.to_string(),
                     joint.clone(),
@@ -335,7 +359,13 @@ pub fn write_crank_angle(
                     l.normal_load_n.to_string(),
                     l.sliding_speed_m_s.to_string(),
                     l.regime.clone(),
-                ]);
+                ];
+                row.extend(
+                    diagnostics
+                        .iter()
+                        .map(|(_, get)| get(l).map_or(String::new(), |x| x.to_string())),
+                );
+                rows.push(row);
             }
             loads.push(vec![
                 t.speed_rpm.to_string(),
@@ -350,7 +380,7 @@ pub fn write_crank_angle(
             ]);
         }
     }
-    let header = [
+    let mut header = vec![
         "speed_rpm",
         "crank_angle_deg",
         "joint",
@@ -361,6 +391,7 @@ pub fn write_crank_angle(
         "sliding_speed_m_s",
         "regime",
     ];
+    header.extend(diagnostics.iter().map(|(name, _)| *name));
     let text = csv_text(&header, rows).map_err(|e| render("crank_angle.csv", e))?;
     out.write("crank_angle.csv", text.as_bytes())?;
     let header = [

@@ -6,6 +6,7 @@
 
 use tribo_plugin_api::serde::{Deserialize, Serialize};
 use tribo_plugin_api::toml;
+use tribo_plugin_api::BearingType;
 
 use crate::cycle::{thesis_cycle, Segment};
 use crate::oil::ViscosityModel;
@@ -66,6 +67,10 @@ pub struct EngineSpec {
     /// `bank` (`left` at -V/2, `right` at +V/2) instead of a `bank_deg`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub v_angle_deg: Option<f64>,
+    /// What every main bearing is, unless a main says otherwise (`bearing = "plain" |
+    /// "rolling"`); unspecified when neither says.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub main_bearing: Option<Bearing>,
     /// Main bearings in axial order.
     pub mains: Vec<MainSpec>,
     /// Crank throws.
@@ -91,6 +96,9 @@ pub struct MainSpec {
     pub radius_m: f64,
     /// Bearing length, m.
     pub length_m: f64,
+    /// What this main bearing is (overrides `[engine] main_bearing`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bearing: Option<Bearing>,
 }
 
 /// A crank throw (pin and its two webs).
@@ -183,6 +191,12 @@ pub struct RodSpec {
     /// Centre of mass from the big-end centre, m.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub com_from_big_end_m: Option<f64>,
+    /// What this rod's big end is (overrides `[joints.big_end] bearing`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub big_end_bearing: Option<Bearing>,
+    /// What this rod's small end is (overrides `[joints.small_end] bearing`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub small_end_bearing: Option<Bearing>,
 }
 
 /// The joint groups of law sets: `main_*`, `big_end_*`, `small_end_*`, `piston_*`.
@@ -211,6 +225,77 @@ impl RigFile {
         match &self.engine {
             Some(e) => e.joint_names(),
             None => JOINT_NAMES.iter().map(|s| s.to_string()).collect(),
+        }
+    }
+
+    /// The bearing type the rig declares for joint `name` (a name of
+    /// [`RigFile::joint_names`]): every piston is a slide; a main, big end or small end is
+    /// what its own entry says (an engine's `[[engine.mains]]` or `[[engine.rods]]` entry),
+    /// else what its kind says (`[engine] main_bearing`, `[joints.big_end]`,
+    /// `[joints.small_end]`), else unspecified. An unknown name is unspecified.
+    pub fn bearing_type(&self, name: &str) -> BearingType {
+        let declared =
+            |b: Option<Bearing>| b.map_or(BearingType::Unspecified, Bearing::bearing_type);
+        let numbered = |kind: &str| -> Option<usize> {
+            name.strip_prefix(kind)?
+                .strip_prefix('_')?
+                .parse::<usize>()
+                .ok()?
+                .checked_sub(1)
+        };
+        if name.starts_with("piston") {
+            return BearingType::Slide;
+        }
+        let Some(e) = &self.engine else {
+            return self
+                .joints
+                .named()
+                .into_iter()
+                .find(|(n, _)| *n == name)
+                .map_or(BearingType::Unspecified, |(_, j)| declared(j.bearing));
+        };
+        let rod = |k: usize| e.rods.iter().find(|r| r.cylinder == k + 1);
+        let cylinder = |kind: &str| numbered(kind).filter(|k| *k < e.cylinders.len());
+        if let Some(i) = numbered("main") {
+            e.mains.get(i).map_or(BearingType::Unspecified, |m| {
+                declared(m.bearing.or(e.main_bearing))
+            })
+        } else if let Some(k) = cylinder("big_end") {
+            declared(
+                rod(k)
+                    .and_then(|r| r.big_end_bearing)
+                    .or(self.joints.big_end.bearing),
+            )
+        } else if let Some(k) = cylinder("small_end") {
+            declared(
+                rod(k)
+                    .and_then(|r| r.small_end_bearing)
+                    .or(self.joints.small_end.bearing),
+            )
+        } else {
+            BearingType::Unspecified
+        }
+    }
+}
+
+/// What a joint's bearing is, as a rig file says it (`bearing = "plain"` or `"rolling"`); the
+/// piston is always a slide and says nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(rename_all = "lowercase")]
+pub enum Bearing {
+    /// A plain (hydrodynamic journal) bearing: shells or a bush on an oil film.
+    Plain,
+    /// A rolling-element bearing: balls, rollers or needles.
+    Rolling,
+}
+
+impl Bearing {
+    /// The contract's bearing type (what a law is handed in `LawInput::bearing_type`).
+    pub fn bearing_type(self) -> BearingType {
+        match self {
+            Bearing::Plain => BearingType::Plain,
+            Bearing::Rolling => BearingType::Rolling,
         }
     }
 }
@@ -617,6 +702,11 @@ pub struct Joint {
     /// Share of the crank's main-bearing reaction this bearing carries (mains only).
     #[serde(default = "half")]
     pub load_share: f64,
+    /// What the bearing is (`"plain"` or `"rolling"`; mains, big end and small end, never the
+    /// piston); unspecified when absent. On an engine `[joints.big_end]` and
+    /// `[joints.small_end]` say it for every cylinder.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bearing: Option<Bearing>,
     /// Friction and damping laws, summed.
     #[serde(default)]
     pub laws: Vec<LawRef>,
@@ -629,13 +719,17 @@ impl Joint {
             radius_m: f64::NAN,
             length_m: f64::NAN,
             load_share: 0.5,
+            bearing: None,
             laws: Vec::new(),
         }
     }
 
     /// Whether this is [`Joint::absent`] (not written in the file).
     pub fn is_absent(&self) -> bool {
-        self.radius_m.is_nan() && self.length_m.is_nan() && self.laws.is_empty()
+        self.radius_m.is_nan()
+            && self.length_m.is_nan()
+            && self.laws.is_empty()
+            && self.bearing.is_none()
     }
 }
 

@@ -47,6 +47,7 @@ use std::sync::OnceLock;
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::{
     export_law, smooth_sign, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec, Regime,
+    SUITS_SLIDE,
 };
 
 /// Minimum-film constant of the optimum fixed-incline slider: `h_min = K_H b sqrt(eta U / w)`.
@@ -241,6 +242,8 @@ impl Law for MixedFilm {
     const NAME: &'static str = "mixed-film";
     const VERSION: &'static str = env!("CARGO_PKG_VERSION");
     const SUMMARY: &'static str = "Mixed lubrication: slider film h ~ b sqrt(eta U/w), Greenwood-Tripp asperity share, mu_b W + c_h sqrt(eta U W L)";
+    // What it models: a slider film on a ring or skirt (load per unit circumference).
+    const SUITS: u32 = SUITS_SLIDE;
 
     fn parameters() -> Vec<ParamSpec> {
         vec![

@@ -12,7 +12,7 @@
 
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::{
-    export_law, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec, Regime,
+    export_law, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec, Regime, SUITS_PLAIN,
 };
 
 /// Parameters of [`Petroff`].
@@ -64,6 +64,8 @@ impl Law for Petroff {
     const NAME: &'static str = "petroff-journal";
     const VERSION: &'static str = env!("CARGO_PKG_VERSION");
     const SUMMARY: &'static str = "Hydrodynamic journal bearing (Petroff): T = 2*pi*eta*omega*R^3*L/c, optional eccentricity factor";
+    // What it models: a hydrodynamic journal: shaft in a bush or shells on an oil film.
+    const SUITS: u32 = SUITS_PLAIN;
 
     fn parameters() -> Vec<ParamSpec> {
         vec![

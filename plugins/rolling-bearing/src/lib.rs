@@ -13,6 +13,7 @@
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::{
     export_law, smooth_sign, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec,
+    SUITS_ROLLING,
 };
 
 /// Parameters of [`RollingBearing`].
@@ -50,6 +51,8 @@ impl Law for RollingBearing {
     const VERSION: &'static str = env!("CARGO_PKG_VERSION");
     const SUMMARY: &'static str =
         "Rolling bearing moment M = 0.5*mu*F*d (SKF estimate) plus optional viscous drag";
+    // What it models: a rolling-element bearing's catalogue friction moment.
+    const SUITS: u32 = SUITS_ROLLING;
 
     fn parameters() -> Vec<ParamSpec> {
         vec![

@@ -32,6 +32,7 @@
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::{
     export_law, smooth_sign, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec, Regime,
+    SUITS_PLAIN, SUITS_SLIDE,
 };
 
 /// Parameters of [`StribeckDuty`].
@@ -134,6 +135,8 @@ impl Law for StribeckDuty {
     const NAME: &'static str = "stribeck-duty";
     const VERSION: &'static str = env!("CARGO_PKG_VERSION");
     const SUMMARY: &'static str = "Coulomb coefficient from the duty parameter H = eta*U/w: boundary, mixed, hydrodynamic (c*H^k)";
+    // What it models: a lubricated sliding contact, journal or ring and skirt; the Hersey number of a sliding film does not describe rolling elements.
+    const SUITS: u32 = SUITS_PLAIN | SUITS_SLIDE;
 
     fn parameters() -> Vec<ParamSpec> {
         vec![

@@ -4,8 +4,12 @@
 
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
+use nalgebra::Vector2;
 use tribo_plugin_api::loader::{LawError, LawInstance, LawRegistry};
-use tribo_plugin_api::{JointKind, LawInput, LawOutput, HAS_COEFFICIENT, HAS_DERIVATIVE};
+use tribo_plugin_api::{
+    BearingType, InnerBody, JointKind, LawInput, LawOutput, DIAGNOSTIC_FLAGS, HAS_COEFFICIENT,
+    HAS_DERIVATIVE, HAS_LOAD_DERIVATIVE,
+};
 
 use super::error::{readable, Fault, SimError, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 use super::joint::JointId;
@@ -50,6 +54,12 @@ impl BoundLaw {
         } else {
             self.instance.evaluate(input, &self.state)
         }
+    }
+
+    /// The law at `input` with its committed state, neither counted nor timed: for reports
+    /// made after a run (the crank-angle traces' diagnostics).
+    pub(super) fn output(&self, input: &LawInput) -> Result<LawOutput, LawError> {
+        self.instance.evaluate(input, &self.state)
     }
 
     /// One law call with its wall time added to the law's sample.
@@ -146,9 +156,37 @@ fn clock_overhead_ns() -> u64 {
 /// A joint with its geometry and laws.
 pub(super) struct BoundJoint {
     pub(super) id: JointId,
+    /// What every law input of the joint says about it besides the instant.
+    pub(super) contact: Contact,
+    pub(super) laws: Vec<BoundLaw>,
+}
+
+/// What a law is told about its joint beyond the instant: the kind, the contact radius and
+/// length (m), the bearing type the rig declares and which body is the inner member.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Contact {
+    pub(super) kind: JointKind,
     pub(super) radius_m: f64,
     pub(super) length_m: f64,
-    pub(super) laws: Vec<BoundLaw>,
+    pub(super) bearing: BearingType,
+    pub(super) inner: InnerBody,
+}
+
+/// A joint's two bodies at one instant: body A's and body B's (angle, velocity) (rad, rad/s;
+/// a slide's position along its axis, m, and velocity, m/s). The joint's relative velocity is
+/// A's velocity minus B's.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(super) struct Bodies {
+    pub(super) a: (f64, f64),
+    pub(super) b: (f64, f64),
+}
+
+impl Bodies {
+    /// The relative velocity, body A's minus body B's: the one place it is computed.
+    #[inline(always)]
+    pub(super) fn relative(&self) -> f64 {
+        self.a.1 - self.b.1
+    }
 }
 
 /// What every law input of one instant shares: time, step, crank and oil.
@@ -166,9 +204,9 @@ pub(super) struct Instant {
 }
 
 impl BoundJoint {
-    /// The joint's law input at instant `at` with relative velocity `rel`, unloaded.
-    pub(super) fn input(&self, at: &Instant, rel: f64) -> LawInput {
-        law_input(self.id.kind(), (self.radius_m, self.length_m), at, rel)
+    /// The joint's law input at instant `at` with its bodies at `bodies`, unloaded.
+    pub(super) fn input(&self, at: &Instant, bodies: &Bodies) -> LawInput {
+        law_input(&self.contact, at, bodies)
     }
 
     /// Whether any of the joint's laws keeps state.
@@ -188,8 +226,9 @@ impl BoundJoint {
 
     /// Check a law's output on this joint at `input` (finite; of a physical size against
     /// `reaction_n`, the largest joint reaction of the solve the law is evaluated at; optional
-    /// outputs it marks present finite; a stateless law must not add energy, a stateful one may
-    /// return what it stored) and return its power into the joint.
+    /// outputs it marks present finite, its diagnostics of physical sense; a stateless law must
+    /// not add energy, a stateful one may return what it stored) and return its power into the
+    /// joint.
     #[inline(always)]
     pub(super) fn checked_power(
         &self,
@@ -202,13 +241,15 @@ impl BoundJoint {
     }
 }
 
-/// The law input of a joint of `kind` with contact radius and length `contact` (m) at
-/// instant `at` with relative velocity `rel`, unloaded: what every law call of an instant
-/// starts from, on the single-cylinder rig and on an engine.
-pub(super) fn law_input(kind: JointKind, contact: (f64, f64), at: &Instant, rel: f64) -> LawInput {
-    let mut input = LawInput::at_rest(kind);
-    input.contact_radius_m = contact.0;
-    input.contact_length_m = contact.1;
+/// The law input of a joint with `contact` at instant `at` with its bodies at `bodies`,
+/// unloaded: what every law call of an instant starts from, on the single-cylinder rig and on
+/// an engine. Its relative velocity is [`Bodies::relative`].
+pub(super) fn law_input(contact: &Contact, at: &Instant, bodies: &Bodies) -> LawInput {
+    let mut input = LawInput::at_rest(contact.kind);
+    input.contact_radius_m = contact.radius_m;
+    input.contact_length_m = contact.length_m;
+    input.bearing_type = contact.bearing as u32;
+    input.inner_body = contact.inner as u32;
 
     input.oil_temp_c = at.oil.0;
     input.viscosity_pa_s = at.oil.1;
@@ -220,7 +261,29 @@ pub(super) fn law_input(kind: JointKind, contact: (f64, f64), at: &Instant, rel:
     input.crankcase_pressure_pa = at.gas.crankcase_pa;
     input.piston_from_tdc_m = at.gas.piston_from_tdc_m;
     input.cycle_angle_rad = at.gas.cycle_angle_rad;
-    input.with_velocity(rel)
+    let mut input = input.with_velocity(bodies.relative());
+    (input.body_a_angle, input.body_a_velocity) = bodies.a;
+    (input.body_b_angle, input.body_b_velocity) = bodies.b;
+    input
+}
+
+/// Load a law input: normal load `w` (N), reaction components `comp` (the force body B exerts
+/// on body A: global x, y on a revolute joint, along and normal to the axis on a slide) and
+/// moment `moment`; the load on the inner member is that force, or its opposite where body B
+/// is the inner member (the big end's crank pin).
+#[inline(always)]
+pub(super) fn set_load(input: &mut LawInput, comp: Vector2<f64>, moment: f64, w: f64) {
+    input.normal_load_n = w;
+    input.reaction_x_n = comp.x;
+    input.reaction_y_n = comp.y;
+    input.reaction_moment_nm = moment;
+    let on_inner = if input.inner_body == InnerBody::B as u32 {
+        -comp
+    } else {
+        comp
+    };
+    input.load_on_inner_x_n = on_inner.x;
+    input.load_on_inner_y_n = on_inner.y;
 }
 
 /// [`BoundJoint::checked_power`] for a law on the joint named `joint` of kind `kind` (an
@@ -240,7 +303,8 @@ pub(super) fn checked_power_named(
     // Below the bound at the floor load and without optional outputs, nothing more to
     // check: one comparison on the usual path.
     if out.force.abs() > MAX_FORCE_PER_REACTION * REACTION_FLOOR_N
-        || out.flags & (HAS_COEFFICIENT | HAS_DERIVATIVE) != 0
+        || out.flags & (HAS_COEFFICIENT | HAS_DERIVATIVE | HAS_LOAD_DERIVATIVE | DIAGNOSTIC_FLAGS)
+            != 0
     {
         implausible(joint, kind, law, input, out, reaction_n)?;
     }
@@ -254,8 +318,10 @@ pub(super) fn checked_power_named(
 
 /// The error for an output no law may give, if `out` is one: a finite force or torque of more
 /// than [`MAX_FORCE_PER_REACTION`] times the largest joint reaction (`reaction_n`, the law's
-/// own normal load, at least [`REACTION_FLOOR_N`]), or a non-finite coefficient or dF/dv
-/// marked present.
+/// own normal load, at least [`REACTION_FLOOR_N`]), a non-finite coefficient, dF/dv or dF/dN
+/// marked present, or a diagnostic marked present that makes no physical sense
+/// (`LawOutput::bad_diagnostic`: a negative film or pressure, `|e| >= 1`, a share outside
+/// `[0, 1]`).
 #[cold]
 fn implausible(
     joint: &str,
@@ -287,6 +353,19 @@ fn implausible(
         (
             format!("a non-finite dF/dv ({d})"),
             "it marked the derivative present (HAS_DERIVATIVE), so it must be a number; a law without one leaves the flag clear".to_string(),
+        )
+    } else if let Some(d) = out.load_derivative().filter(|d| !d.is_finite()) {
+        (
+            format!("a non-finite dF/dN ({d})"),
+            "it marked the load derivative present (HAS_LOAD_DERIVATIVE), so it must be a number; a law without one leaves the flag clear".to_string(),
+        )
+    } else if let Some(bad) = out.bad_diagnostic() {
+        (
+            format!("the diagnostic {} = {}", bad.field, readable(bad.value)),
+            format!(
+                "a diagnostic the law marks present must make physical sense: {} expected",
+                bad.expected
+            ),
         )
     } else {
         return Ok(());
@@ -379,8 +458,13 @@ pub(super) fn bind_joints(
         }
         joints.push(BoundJoint {
             id,
-            radius_m: j.radius_m,
-            length_m: j.length_m,
+            contact: Contact {
+                kind: id.kind(),
+                radius_m: j.radius_m,
+                length_m: j.length_m,
+                bearing: model.bearing_type(name),
+                inner: id.inner(),
+            },
             laws,
         });
     }
@@ -459,7 +543,9 @@ impl super::Simulation {
             return Ok(());
         }
         let kin = self.mech.kinematics(theta, e.omega);
-        let rel = super::evaluate::relative_velocities(&kin.qd);
+        let bodies = super::evaluate::joint_bodies(&kin);
+        let comps = self.components(&e.reactions);
+        let moment = e.reactions.slide_moment_nm;
         let at = Instant {
             t,
             dt,
@@ -472,8 +558,9 @@ impl super::Simulation {
         };
         for joint in self.joints.iter_mut().filter(|j| j.is_stateful()) {
             let id = joint.id;
-            let mut input = joint.input(&at, rel[id]);
-            input.normal_load_n = e.normals[id];
+            let mut input = joint.input(&at, &bodies[id]);
+            let moment = if id == JointId::Piston { moment } else { 0.0 };
+            set_load(&mut input, comps[id], moment, e.normals[id]);
             joint.commit(&input)?;
         }
         Ok(())

@@ -1,15 +1,17 @@
 //! Crank-angle-resolved results: per plateau, the rig at the plateau's speed sampled over one
 //! cycle (a revolution, or 720 degrees for a 4-stroke cycle) at a fixed angular resolution:
-//! each law's friction torque at the crank, power, normal load, sliding speed and regime, the
-//! big-end and main-bearing loads and the gas pressures.
+//! each law's friction torque at the crank, power, normal load, sliding speed, regime and the
+//! diagnostics it reports (contract version 3: minimum film, eccentricity, peak pressure,
+//! asperity share), the big-end and main-bearing loads and the gas pressures.
 
 use tribo_plugin_api::serde::{Deserialize, Serialize};
-use tribo_plugin_api::Regime;
+use tribo_plugin_api::{LawInput, LawOutput, Regime};
 
-use super::bind::{reset_states, Instant};
+use super::bind::{reset_states, set_load, BoundLaw, Instant};
 use super::engine_run::{EngineSimulation, Work as EngineWork};
 use super::error::SimError;
-use super::evaluate::{crank_angle, relative_velocities, Point};
+use super::evaluate::{crank_angle, joint_bodies, Point};
+use super::joint::JointId;
 use super::Simulation;
 use crate::mechanics::JointLoads;
 
@@ -27,6 +29,60 @@ pub struct LawSample {
     pub sliding_speed_m_s: f64,
     /// Lubrication regime the law reported.
     pub regime: String,
+    /// Minimum oil-film thickness, m, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_film_m: Option<f64>,
+    /// Eccentricity ratio, x component in the outer member's frame, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eccentricity_x: Option<f64>,
+    /// Eccentricity ratio, y component, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eccentricity_y: Option<f64>,
+    /// Peak film pressure, Pa, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_pressure_pa: Option<f64>,
+    /// Share of the normal load carried by asperity contact, if the law reports it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub asperity_share: Option<f64>,
+}
+
+impl LawSample {
+    /// The sample of one law: friction torque and power from the evaluation's rates (`power`
+    /// W at crank speed `omega`, its regime `indicators`), normal load and sliding speed from
+    /// its loaded `input`, and the diagnostics of `out`, the law at that input.
+    fn new(power: f64, omega: f64, indicators: &[f64], input: &LawInput, out: &LawOutput) -> Self {
+        let (ex, ey) = out.eccentricity().unzip();
+        Self {
+            friction_torque_nm: power / omega,
+            power_w: power,
+            normal_load_n: input.normal_load_n,
+            sliding_speed_m_s: input.sliding_velocity_m_s,
+            regime: regime_name(indicators).to_string(),
+            min_film_m: out.min_film(),
+            eccentricity_x: ex,
+            eccentricity_y: ey,
+            peak_pressure_pa: out.peak_pressure(),
+            asperity_share: out.asperity_share(),
+        }
+    }
+}
+
+/// Law `law` at its loaded `input` (on joint `joint` of kind `kind`, the largest reaction
+/// `reaction_n`), for the diagnostics of a trace: the output of the same evaluation the run
+/// makes, checked the same way (a diagnostic out of its physical range is an error naming law,
+/// joint and time).
+fn sample_output(
+    joint: &str,
+    kind: tribo_plugin_api::JointKind,
+    law: &BoundLaw,
+    input: &LawInput,
+    reaction_n: f64,
+) -> Result<LawOutput, SimError> {
+    let out = law
+        .output(input)
+        .map_err(|e| super::bind::law_failed_named(joint, input, e))?;
+    super::bind::checked_power_named(joint, kind, law, input, &out, reaction_n)?;
+    Ok(out)
 }
 
 /// The rig at one crank angle of a plateau's cycle.
@@ -147,7 +203,6 @@ impl Simulation {
                     .map(move |l| (j.id.name().to_string(), l.name.clone()))
             })
             .collect();
-        let layout = self.layout();
         let mut traces = Vec::new();
         for pi in 0..self.cycle.plateaus().len() {
             let omega = self.cycle.plateaus()[pi].omega;
@@ -163,53 +218,12 @@ impl Simulation {
                     let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
                     let (e, loads) = self.evaluate(&at, &guess, Vec::new())?;
                     guess = loads;
+                    if pass + 1 == passes {
+                        // Sampled before the commit: the laws' states are those the
+                        // evaluation used.
+                        samples.push(self.angle_sample(&at, &e)?);
+                    }
                     self.commit(at.t, h, theta, &e, oil)?;
-                    if pass + 1 < passes {
-                        continue;
-                    }
-                    let (kin, gas) = self.kinematics(theta, omega, omega);
-                    let rel = relative_velocities(&kin.qd);
-                    let instant = Instant {
-                        t: at.t,
-                        dt: h,
-                        crank_angle: crank_angle(theta),
-                        omega,
-                        oil,
-                        gas: self.law_gas(theta, omega, &kin.q, gas.as_ref()),
-                    };
-                    let mut law_samples = Vec::with_capacity(laws.len());
-                    let mut idx = 0;
-                    for j in &self.joints {
-                        let input = j.input(&instant, rel[j.id]);
-                        for _ in &j.laws {
-                            let power = e.rates[layout.power(idx)];
-                            let regimes: Vec<f64> =
-                                (0..4).map(|r| e.rates[layout.regime(idx, r)]).collect();
-                            law_samples.push(LawSample {
-                                friction_torque_nm: power / omega,
-                                power_w: power,
-                                normal_load_n: e.normals[j.id],
-                                sliding_speed_m_s: input.sliding_velocity_m_s,
-                                regime: regime_name(&regimes).to_string(),
-                            });
-                            idx += 1;
-                        }
-                    }
-                    // Without gas loads both sides are at the standard atmosphere.
-                    let pressures_pa = match &e.gas {
-                        Some(g) => [g.cylinder_pa, g.crankcase_pa],
-                        None => [crate::model::ATMOSPHERE_PA; 2],
-                    };
-                    samples.push(AngleSample {
-                        crank_angle_deg: theta.to_degrees(),
-                        laws: law_samples,
-                        big_end_n: [e.reactions.big_end_n.x, e.reactions.big_end_n.y],
-                        main_n: [e.reactions.main_n.x, e.reactions.main_n.y],
-                        pressures_pa,
-                        drive_torque_nm: e.drive_torque,
-                        cylinders: Vec::new(),
-                        mains_n: Vec::new(),
-                    });
                 }
             }
             traces.push(CrankAngleTrace {
@@ -220,6 +234,58 @@ impl Simulation {
         }
         reset_states(&mut self.joints);
         Ok(traces)
+    }
+
+    /// The sample at point `at` from its evaluation `e`: each law's rates, and its diagnostics
+    /// at the settled loads.
+    fn angle_sample(&self, at: &Point, e: &super::evaluate::Eval) -> Result<AngleSample, SimError> {
+        let (theta, omega) = (at.theta, at.omega);
+        let layout = self.layout();
+        let (kin, gas) = self.kinematics(theta, omega, omega);
+        let bodies = joint_bodies(&kin);
+        let instant = Instant {
+            t: at.t,
+            dt: at.dt,
+            crank_angle: crank_angle(theta),
+            omega,
+            oil: at.oil,
+            gas: self.law_gas(theta, omega, &kin.q, gas.as_ref()),
+        };
+        let mut law_samples = Vec::new();
+        let mut idx = 0;
+        let comps = self.components(&e.reactions);
+        let reaction_n = e.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
+        for j in &self.joints {
+            let mut input = j.input(&instant, &bodies[j.id]);
+            let moment = if j.id == JointId::Piston {
+                e.reactions.slide_moment_nm
+            } else {
+                0.0
+            };
+            set_load(&mut input, comps[j.id], moment, e.normals[j.id]);
+            for law in &j.laws {
+                let out = sample_output(j.id.name(), j.id.kind(), law, &input, reaction_n)?;
+                let regimes: Vec<f64> = (0..4).map(|r| e.rates[layout.regime(idx, r)]).collect();
+                let power = e.rates[layout.power(idx)];
+                law_samples.push(LawSample::new(power, omega, &regimes, &input, &out));
+                idx += 1;
+            }
+        }
+        // Without gas loads both sides are at the standard atmosphere.
+        let pressures_pa = match &e.gas {
+            Some(g) => [g.cylinder_pa, g.crankcase_pa],
+            None => [crate::model::ATMOSPHERE_PA; 2],
+        };
+        Ok(AngleSample {
+            crank_angle_deg: theta.to_degrees(),
+            laws: law_samples,
+            big_end_n: [e.reactions.big_end_n.x, e.reactions.big_end_n.y],
+            main_n: [e.reactions.main_n.x, e.reactions.main_n.y],
+            pressures_pa,
+            drive_torque_nm: e.drive_torque,
+            cylinders: Vec::new(),
+            mains_n: Vec::new(),
+        })
     }
 }
 
@@ -254,11 +320,12 @@ impl EngineSimulation {
                     let theta = k as f64 * h_angle;
                     let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
                     self.evaluate(&at, &mut w)?;
+                    if pass + 1 == passes {
+                        // Sampled before the commit, as on the single-cylinder rig.
+                        samples.push(self.angle_sample(&at, &w)?);
+                    }
                     if self.stateful {
                         self.commit(&w)?;
-                    }
-                    if pass + 1 == passes {
-                        samples.push(self.angle_sample(theta, omega, &w));
                     }
                 }
             }
@@ -272,22 +339,26 @@ impl EngineSimulation {
         Ok(traces)
     }
 
-    /// The sample at crank angle `theta` and speed `omega` from the settled evaluation `w`.
-    fn angle_sample(&self, theta: f64, omega: f64, w: &EngineWork) -> AngleSample {
+    /// The sample at point `at` from the settled evaluation `w`: each law's rates, and its
+    /// diagnostics at the settled loads.
+    fn angle_sample(&self, at: &Point, w: &EngineWork) -> Result<AngleSample, SimError> {
+        let (theta, omega) = (at.theta, at.omega);
         let layout = self.layout();
         let mut law_samples = Vec::new();
         let mut idx = 0;
+        let reaction_n = w.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
         for (ji, j) in self.joints.iter().enumerate() {
-            for _ in &j.laws {
+            // Without laws the inputs are not built (and nothing is sampled).
+            let Some(mut input) = w.inputs.get(ji).copied() else {
+                continue;
+            };
+            let (comp, moment) = self.joint_reaction(ji, &w.re);
+            set_load(&mut input, comp, moment, w.normals[ji]);
+            for law in &j.laws {
+                let out = sample_output(&j.name, input_kind(&input), law, &input, reaction_n)?;
                 let power = w.rates[layout.power(idx)];
                 let regimes: Vec<f64> = (0..4).map(|r| w.rates[layout.regime(idx, r)]).collect();
-                law_samples.push(LawSample {
-                    friction_torque_nm: power / omega,
-                    power_w: power,
-                    normal_load_n: w.normals[ji],
-                    sliding_speed_m_s: w.inputs.get(ji).map_or(0.0, |i| i.sliding_velocity_m_s),
-                    regime: regime_name(&regimes).to_string(),
-                });
+                law_samples.push(LawSample::new(power, omega, &regimes, &input, &out));
                 idx += 1;
             }
         }
@@ -302,7 +373,7 @@ impl EngineSimulation {
                 })
                 .collect();
         let first = cylinders.first();
-        AngleSample {
+        Ok(AngleSample {
             crank_angle_deg: theta.to_degrees(),
             laws: law_samples,
             big_end_n: first.map_or([0.0; 2], |c| c.big_end_n),
@@ -311,6 +382,13 @@ impl EngineSimulation {
             drive_torque_nm: w.re.drive_torque_nm,
             mains_n: w.re.mains_n.iter().map(|m| [m.x, m.y]).collect(),
             cylinders,
-        }
+        })
     }
+}
+
+/// The joint kind an input says (revolute unless prismatic).
+fn input_kind(input: &LawInput) -> tribo_plugin_api::JointKind {
+    input
+        .kind()
+        .unwrap_or(tribo_plugin_api::JointKind::Revolute)
 }

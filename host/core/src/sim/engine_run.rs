@@ -14,9 +14,9 @@ use std::f64::consts::TAU;
 
 use nalgebra::Vector2;
 use tribo_plugin_api::loader::LawRegistry;
-use tribo_plugin_api::{JointKind, LawInput, Regime};
+use tribo_plugin_api::{InnerBody, JointKind, LawInput, Regime};
 
-use super::bind::{check_law, law_input, BoundLaw, Instant};
+use super::bind::{check_law, law_input, set_load, Bodies, BoundLaw, Contact, Instant};
 use super::error::{SimError, Unsettled};
 use super::evaluate::{crank_angle, Control, Point};
 use super::newton::{Distance, Trend, Verdict};
@@ -72,14 +72,23 @@ impl Role {
             _ => JointKind::Revolute,
         }
     }
+
+    /// The inner member, as on the single-cylinder rig (`JointId::inner`): the crank pin
+    /// (body B) in a big end, body A everywhere else.
+    fn inner(self) -> InnerBody {
+        match self {
+            Role::BigEnd(_) => InnerBody::B,
+            _ => InnerBody::A,
+        }
+    }
 }
 
 /// One joint of the engine with its contact geometry and laws.
 pub(super) struct EngineJoint {
     pub(super) name: String,
     role: Role,
-    radius_m: f64,
-    length_m: f64,
+    /// What its laws are told about it besides the instant.
+    contact: Contact,
     pub(super) laws: Vec<BoundLaw>,
 }
 
@@ -175,10 +184,15 @@ impl EngineSimulation {
                 .collect::<Result<Vec<_>, _>>()?;
             n_laws += laws.len();
             joints.push(EngineJoint {
+                contact: Contact {
+                    kind: role.kind(),
+                    radius_m,
+                    length_m,
+                    bearing: f.bearing_type(&name),
+                    inner: role.inner(),
+                },
                 name,
                 role,
-                radius_m,
-                length_m,
                 laws,
             });
         }
@@ -381,14 +395,43 @@ impl EngineSimulation {
         Ok((delta, t))
     }
 
-    /// The relative velocity of each joint (rad/s for bearings and pins, m/s for a slide).
-    fn relative_velocity(role: Role, kin: &TrainKinematics) -> f64 {
+    /// A joint's two bodies, body A first (`evaluate::joint_bodies` on the single-cylinder
+    /// rig): a main bearing, crank and block; a big end, rod and crank; a small end, piston
+    /// and rod (global angles, rad, and angular velocities, rad/s; a cylinder's piston is
+    /// turned by its bank angle and does not rotate); a slide, the piston's position from the
+    /// crank centre along the bore axis and its speed (m, m/s) and the cylinder. The relative
+    /// velocity (`Bodies::relative`) is the crank speed, rod minus crank, piston minus rod,
+    /// the piston speed.
+    fn bodies(&self, role: Role, kin: &TrainKinematics) -> Bodies {
+        let block = (0.0, 0.0);
+        let crank = (kin.theta, kin.omega);
+        let rod = |k: usize| {
+            let c = &kin.cylinders[k];
+            (self.bank_rad(k) + c.rod_angle_rad, c.rod_rate_rad_s)
+        };
         match role {
-            Role::Main(_) => kin.omega,
-            Role::BigEnd(k) => kin.cylinders[k].rod_rate_rad_s - kin.omega,
-            Role::SmallEnd(k) => -kin.cylinders[k].rod_rate_rad_s,
-            Role::Piston(k) => kin.cylinders[k].piston_speed_m_s,
+            Role::Main(_) => Bodies { a: crank, b: block },
+            Role::BigEnd(k) => Bodies {
+                a: rod(k),
+                b: crank,
+            },
+            Role::SmallEnd(k) => Bodies {
+                a: (self.bank_rad(k), 0.0),
+                b: rod(k),
+            },
+            Role::Piston(k) => Bodies {
+                a: (
+                    kin.cylinders[k].piston_position_m,
+                    kin.cylinders[k].piston_speed_m_s,
+                ),
+                b: block,
+            },
         }
+    }
+
+    /// Cylinder `k`'s bank angle (its bore axis from the vertical), rad.
+    fn bank_rad(&self, k: usize) -> f64 {
+        self.train.geometry().cylinders[k].bank_rad
     }
 
     /// The reaction joint `ji`'s laws see in `re`: its force and moment.
@@ -473,13 +516,8 @@ impl EngineSimulation {
                     oil: at.oil,
                     gas: w.law_gas[j.role.cylinder()],
                 };
-                let rel = Self::relative_velocity(j.role, &w.kin);
-                w.inputs.push(law_input(
-                    j.role.kind(),
-                    (j.radius_m, j.length_m),
-                    &instant,
-                    rel,
-                ));
+                let bodies = self.bodies(j.role, &w.kin);
+                w.inputs.push(law_input(&j.contact, &instant, &bodies));
             }
         }
         // Phase 1: the plain fixed-point iteration (solve, evaluate the laws at the resulting
@@ -537,10 +575,7 @@ impl EngineSimulation {
             let mut k = 0;
             for ((j, normal), input) in self.joints.iter().zip(&w.normals).zip(&mut w.inputs) {
                 let (comp, moment) = Self::reaction(j.role, &w.re);
-                input.normal_load_n = *normal;
-                input.reaction_x_n = comp.x;
-                input.reaction_y_n = comp.y;
-                input.reaction_moment_nm = moment;
+                set_load(input, comp, moment, *normal);
                 let total = self.joint_force(j, input, reaction_n, Some((&mut w.rates, k)))?;
                 add_load(&mut loads, j.role, total);
                 k += j.laws.len();
@@ -792,6 +827,16 @@ fn joint_laws(f: &RigFile) -> Result<Vec<(String, Role, Vec<crate::model::LawRef
         }
     }
     Ok(out)
+}
+
+/// The engine's joints by name with their laws, in order ([`joint_laws`] without the roles);
+/// empty for a rig without an engine.
+pub(super) fn laws_by_joint(f: &RigFile) -> Vec<(String, Vec<crate::model::LawRef>)> {
+    joint_laws(f)
+        .unwrap_or_default()
+        .into_iter()
+        .map(|(name, _, laws)| (name, laws))
+        .collect()
 }
 
 /// The dotted field of law `i` on engine joint `name`: where a law set put it

@@ -7,7 +7,7 @@ use std::f64::consts::TAU;
 use nalgebra::Vector2;
 use tribo_plugin_api::{LawInput, Regime};
 
-use super::bind::{law_failed, Instant};
+use super::bind::{law_failed, set_load, Bodies, Instant};
 use super::error::{SimError, Unsettled};
 use super::joint::JointId;
 use super::newton::{Distance, Trend, Verdict};
@@ -117,12 +117,33 @@ pub(super) fn crank_angle(theta: f64) -> f64 {
     }
 }
 
-/// Each joint's relative velocity from the mechanism's coordinate velocities `qd` (crank,
-/// rod and piston: x, y, angle each): the main bearings turn with the crank, the big end at
-/// rod minus crank, the small end at piston minus rod (rad/s), the slide at the piston's
-/// axial speed (m/s).
-pub(super) fn relative_velocities(qd: &crate::mechanics::Q) -> [f64; 5] {
-    [qd[2], qd[2], qd[5] - qd[2], qd[8] - qd[5], qd[7]]
+/// Each joint's two bodies from the mechanism's coordinates `q` and velocities `qd` (crank,
+/// rod and piston: x, y, angle each), body A first: the main bearings, crank and block (at
+/// rest); the big end, rod and crank; the small end, piston and rod (angles, rad/s); the
+/// slide, the piston's position and speed along the cylinder axis and the cylinder (m, m/s).
+pub(super) fn joint_bodies(kin: &Kinematics) -> [Bodies; 5] {
+    let (q, qd) = (&kin.q, &kin.qd);
+    let block = (0.0, 0.0);
+    let crank = (q[2], qd[2]);
+    let rod = (q[5], qd[5]);
+    let piston = (q[8], qd[8]);
+    [
+        Bodies { a: crank, b: block },
+        Bodies { a: crank, b: block },
+        Bodies { a: rod, b: crank },
+        Bodies { a: piston, b: rod },
+        Bodies {
+            a: (q[7], qd[7]),
+            b: block,
+        },
+    ]
+}
+
+/// Each joint's relative velocity ([`Bodies::relative`]): the main bearings turn with the
+/// crank, the big end at rod minus crank, the small end at piston minus rod (rad/s), the slide
+/// at the piston's axial speed (m/s).
+pub(super) fn relative_velocities(bodies: &[Bodies; 5]) -> [f64; 5] {
+    bodies.map(|b| b.relative())
 }
 
 /// The friction loads from each joint's total law force or torque (main bearings summed).
@@ -251,7 +272,8 @@ impl Simulation {
         // Positions, velocities and the factorised constraints do not depend on the loads:
         // computed once, the iteration below only recombines the multipliers.
         let (kin, gas) = self.kinematics(at.theta, at.omega, self.gas_speed(at));
-        let rel = relative_velocities(&kin.qd);
+        let bodies = joint_bodies(&kin);
+        let rel = relative_velocities(&bodies);
         // The power into the gas: the gas force's power on the piston, negated.
         if let Some(g) = &gas {
             rates[self.layout().gas()] = -g.force_n * kin.qd[7];
@@ -266,7 +288,7 @@ impl Simulation {
         };
         check_inputs(at, &rel)?;
         let mut inputs: [LawInput; 5] =
-            std::array::from_fn(|ji| self.joints[ji].input(&instant, rel[ji]));
+            std::array::from_fn(|ji| self.joints[ji].input(&instant, &bodies[ji]));
         let mut p = Problem {
             kin: &kin,
             control: at.control,
@@ -328,15 +350,12 @@ impl Simulation {
         let mut k = 0;
         for joint in &self.joints {
             let id = joint.id;
-            let input = &mut p.inputs[id];
-            input.normal_load_n = normals[id];
-            input.reaction_x_n = comps[id].x;
-            input.reaction_y_n = comps[id].y;
-            input.reaction_moment_nm = if id == JointId::Piston {
+            let moment = if id == JointId::Piston {
                 re.slide_moment_nm
             } else {
                 0.0
             };
+            set_load(&mut p.inputs[id], comps[id], moment, normals[id]);
             let total = self.joint_force(p, id, Some((rates, k)))?;
             add_load(&mut new_loads, id, total);
             k += joint.laws.len();

@@ -3,7 +3,7 @@
 
 use std::ops::{Index, IndexMut};
 
-use tribo_plugin_api::JointKind;
+use tribo_plugin_api::{InnerBody, JointKind};
 
 use crate::model::JOINT_NAMES;
 
@@ -54,6 +54,16 @@ impl JointId {
     /// Whether the joint is one of the two main bearings (their laws share one crank torque).
     pub const fn is_main(self) -> bool {
         matches!(self, JointId::MainA | JointId::MainB)
+    }
+
+    /// Which of the joint's bodies is the inner member: the crank's journal (A) in a main
+    /// bearing, the crank pin (B, the crank) in the big end, the piston pin (A, the piston) in
+    /// the small end, the piston (A) in the cylinder.
+    pub const fn inner(self) -> InnerBody {
+        match self {
+            JointId::BigEnd => InnerBody::B,
+            _ => InnerBody::A,
+        }
     }
 }
 

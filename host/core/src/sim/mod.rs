@@ -45,7 +45,7 @@ use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
 use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
 use crate::observe::{NoObserver, StepObserver, StepSample};
 
-pub use any::{RigSimulation, NO_LAWS_WARNING};
+pub use any::{suitability_notes, RigSimulation, NO_LAWS_WARNING};
 pub use crank_angle::{AngleSample, CrankAngleTrace, CylinderSample, LawSample};
 pub use engine_run::EngineSimulation;
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};

@@ -108,8 +108,9 @@ impl Trend {
     }
 }
 
-/// Set a law input's normal load to `w` (N), its reaction components along `comp`, the
-/// reaction where phase 2 began (normal load `normal`), scaled to `w`, and its moment.
+/// Set a law input's normal load to `w` (N), its reaction components (and so its load on the
+/// inner member) along `comp`, the reaction where phase 2 began (normal load `normal`), scaled
+/// to `w`, and its moment.
 #[inline]
 pub(super) fn scaled_input(
     input: &mut LawInput,
@@ -119,10 +120,7 @@ pub(super) fn scaled_input(
     w: f64,
 ) {
     let f = if normal > 0.0 { w / normal } else { 0.0 };
-    input.normal_load_n = w;
-    input.reaction_x_n = comp.x * f;
-    input.reaction_y_n = comp.y * f;
-    input.reaction_moment_nm = moment;
+    super::bind::set_load(input, Vector2::new(comp.x * f, comp.y * f), moment, w);
 }
 
 /// A friction/reaction problem in phase 2's unknowns `u = sqrt(W)`, one per joint, of which

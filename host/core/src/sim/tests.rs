@@ -176,7 +176,7 @@ fn evaluate_holds_the_fixed_point_where_the_plain_iteration_cannot() {
             let w = e.rates[sim.layout().normal(0)];
             let kin = sim.mech.kinematics(theta, omega);
             let mut input = LawInput::at_rest(JointKind::Prismatic);
-            input.contact_radius_m = sim.joints[4].radius_m;
+            input.contact_radius_m = sim.joints[4].contact.radius_m;
             input.viscosity_pa_s = oil.1;
             let input = input.with_velocity(kin.qd[7]);
             let f = sqrt_force(5.0, &input, w);

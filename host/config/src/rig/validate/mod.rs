@@ -220,7 +220,8 @@ impl Check<'_> {
         self.size("bodies.piston.mass_scale", p.mass_scale, MAX_SCALE, "-")
     }
 
-    /// Each joint's contact radius and length, and no empty law name.
+    /// Each joint's contact radius and length, no empty law name, and no bearing type on the
+    /// piston (a slide).
     fn joints(&self) -> Result<(), RigError> {
         let engine = self.rig.file.engine.is_some();
         for (name, j) in self.rig.file.joints.named() {
@@ -259,6 +260,12 @@ impl Check<'_> {
                     let field = format!("joints.{name}.laws[{i}].law");
                     return Err(self.rig.error(&field, "law name is empty"));
                 }
+            }
+            if name == "piston" && j.bearing.is_some() {
+                return Err(self.rig.error(
+                    "joints.piston.bearing",
+                    "the piston is a slide, always: `bearing` (\"plain\" or \"rolling\") is for the main bearings, the big end and the small end",
+                ));
             }
         }
         Ok(())

@@ -738,6 +738,16 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     emit(&out_text)
 }
 
+/// The closing line of a study's text report: the directory and the files written into it,
+/// wrapped to the report width.
+fn wrote_into(out: &std::path::Path, files: &[String]) -> String {
+    tribo::report::wrap(
+        &format!("wrote into {}: {}", out.display(), files.join(", ")),
+        tribo::report::MAX_COLUMNS,
+        "  ",
+    )
+}
+
 /// The law-set names (bundled names or files) a study command runs: those given, or the
 /// bundled defaults.
 fn lawset_specs(given: &[String]) -> Vec<String> {
@@ -1003,15 +1013,7 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
             "piston_regimes.svg".into(),
         ];
         files.extend(cmp.sets.iter().filter_map(tribo::plots::fitted_file));
-        write!(
-            out_text,
-            "\n{}",
-            tribo::report::wrap(
-                &format!("wrote into {}: {}", out.display(), files.join(", ")),
-                tribo::report::MAX_COLUMNS,
-                "  "
-            )
-        )?;
+        write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
     failures_error(&cmp.failed, specs.len(), Some(out))
@@ -1152,15 +1154,7 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
         write!(out_text, "{}", tribo::report::mass_text(&result))?;
-        write!(
-            out_text,
-            "{}",
-            tribo::report::wrap(
-                &format!("wrote into {}: {}", out.display(), files.join(", ")),
-                tribo::report::MAX_COLUMNS,
-                "  "
-            )
-        )?;
+        write!(out_text, "{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
     failures_error(&failed, specs.len(), Some(out))
@@ -1374,15 +1368,7 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
         write!(out_text, "{}", tribo::report::sweep_text(&result))?;
-        write!(
-            out_text,
-            "\n{}",
-            tribo::report::wrap(
-                &format!("wrote into {}: {}", out.display(), files.join(", ")),
-                tribo::report::MAX_COLUMNS,
-                "  "
-            )
-        )?;
+        write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
     failures_error(&result.failed, specs.len(), Some(out))

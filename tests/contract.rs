@@ -717,6 +717,14 @@ fn law_inputs_carry_both_bodies_and_the_load_on_the_inner_member() {
     assert!(n > 2000, "only {n} instants");
 }
 
+/// The standard output of `tribo ARGS` run in the workspace, which must succeed.
+fn stdout_of(args: &[&str]) -> String {
+    let out = tribo_in(args, &workspace());
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    stdout
+}
+
 /// The rows of a CSV file as maps from its header.
 fn csv_rows(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -744,27 +752,22 @@ fn crank_angle_csv_carries_the_diagnostics_a_law_reports() {
     let lib = built_library("tribo_fixture_probe_v3");
     let rig = workspace().join("rigs/crf250r-motored.toml");
     let out_dir = dir.path().join("angle");
-    let out = tribo_in(
-        &[
-            "run",
-            rig.to_str().expect("utf-8"),
-            "--plugin",
-            lib.to_str().expect("utf-8"),
-            "--law",
-            "big_end=contract-probe",
-            "--law",
-            "piston=coulomb",
-            "--steady",
-            "--crank-angle",
-            out_dir.to_str().expect("utf-8"),
-            "--resolution-deg",
-            "10",
-            "--quiet",
-        ],
-        &workspace(),
-    );
-    let (stdout, stderr) = text(&out);
-    assert!(out.status.success(), "{stderr}");
+    let stdout = stdout_of(&[
+        "run",
+        rig.to_str().expect("utf-8"),
+        "--plugin",
+        lib.to_str().expect("utf-8"),
+        "--law",
+        "big_end=contract-probe",
+        "--law",
+        "piston=coulomb",
+        "--steady",
+        "--crank-angle",
+        out_dir.to_str().expect("utf-8"),
+        "--resolution-deg",
+        "10",
+        "--quiet",
+    ]);
     // The probe suits plain bearings and slides; the thesis rig's big end is a needle bearing.
     assert_mentions(
         &stdout,
@@ -827,19 +830,14 @@ fn crank_angle_csv_carries_the_diagnostics_a_law_reports() {
 #[test]
 fn a_law_on_a_bearing_it_does_not_suit_is_warned_about() {
     // Issue 25's case: the SKF rolling-bearing law on the 4B11's plain shells.
-    let out = tribo_in(
-        &[
-            "run",
-            "inline4-4b11",
-            "--lawset",
-            "physical-bearings",
-            "--steady",
-            "--quiet",
-        ],
-        &workspace(),
-    );
-    let (stdout, stderr) = text(&out);
-    assert!(out.status.success(), "{stderr}");
+    let stdout = stdout_of(&[
+        "run",
+        "inline4-4b11",
+        "--lawset",
+        "physical-bearings",
+        "--steady",
+        "--quiet",
+    ]);
     let warned = |joint: &str| {
         stdout.lines().any(|l| {
             l.starts_with(&format!("warning: joint `{joint}`: law `rolling-bearing`"))
@@ -882,28 +880,24 @@ fn a_law_on_a_bearing_it_does_not_suit_is_warned_about() {
         "{warnings:?}"
     );
     // The same rig with the thesis's generic laws (fedem-baseline): nothing to warn about.
-    let out = tribo_in(
-        &[
-            "run",
-            "crf250r-motored",
-            "--lawset",
-            "fedem-baseline",
-            "--steady",
-            "--quiet",
-        ],
-        &workspace(),
-    );
-    let (stdout, stderr) = text(&out);
-    assert!(out.status.success(), "{stderr}");
+    let stdout = stdout_of(&[
+        "run",
+        "crf250r-motored",
+        "--lawset",
+        "fedem-baseline",
+        "--steady",
+        "--quiet",
+    ]);
     assert!(!stdout.contains("warning: joint"), "{stdout}");
 }
 
 #[test]
 fn a_rig_declares_its_bearing_types_per_item_or_per_kind() {
     use tribo::plugin_api::BearingType::{Plain, Rolling, Slide, Unspecified};
-    let text = std::fs::read_to_string(workspace().join("rigs/inline4-4b11.toml")).expect("rig");
+    let engine_text =
+        std::fs::read_to_string(workspace().join("rigs/inline4-4b11.toml")).expect("rig");
     // The first main and the second cylinder's big end say otherwise than their kind.
-    let text = text
+    let engine_text = engine_text
         .replacen(
             "[[engine.mains]]\n",
             "[[engine.mains]]\nbearing = \"rolling\"\n",
@@ -913,7 +907,7 @@ fn a_rig_declares_its_bearing_types_per_item_or_per_kind() {
             "cylinder = 2\n",
             "cylinder = 2\nbig_end_bearing = \"rolling\"\n",
         );
-    let rig: tribo::model::RigFile = toml::from_str(&text).expect("parses");
+    let rig: tribo::model::RigFile = toml::from_str(&engine_text).expect("parses");
     for (joint, want) in [
         ("main_1", Rolling),
         ("main_2", Plain),
@@ -944,7 +938,7 @@ fn a_rig_declares_its_bearing_types_per_item_or_per_kind() {
     // A word that is not a bearing type, and a bearing on the piston, are refused at their
     // place in the file.
     let dir = tempfile::tempdir().expect("temp dir");
-    for (what, text, words) in [
+    for (what, rig_text, words) in [
         (
             "ball",
             thesis.replacen("bearing = \"rolling\"", "bearing = \"ball\"", 1),
@@ -960,12 +954,12 @@ fn a_rig_declares_its_bearing_types_per_item_or_per_kind() {
         ),
     ] {
         let path = dir.path().join(format!("{what}.toml"));
-        std::fs::write(&path, &text).expect("write");
+        std::fs::write(&path, &rig_text).expect("write");
         let out = tribo_in(
             &["run", path.to_str().expect("utf-8"), "--steady", "--quiet"],
             &workspace(),
         );
-        let (_, stderr) = text_of(&out);
+        let (_, stderr) = text(&out);
         assert!(!out.status.success(), "{what}: accepted");
         assert!(
             stderr.contains(&format!("{}:", path.display())),
@@ -973,11 +967,6 @@ fn a_rig_declares_its_bearing_types_per_item_or_per_kind() {
         );
         assert_mentions(&stderr, &words);
     }
-}
-
-/// [`text`] under another name (the test above shadows `text`).
-fn text_of(out: &std::process::Output) -> (String, String) {
-    text(out)
 }
 
 /// Parameters of [`BadFilm`].

@@ -363,6 +363,13 @@ fn regression_harness_every_bundled_rig_and_law_set_gives_the_captured_numbers()
             eprintln!("{name}: not in the capture (bundled since), not compared");
             continue;
         };
+        // The relative residual's scale changed on purpose (issue 27; `energy_follows` checks
+        // it instead): left out of both sides, every other number compared as before.
+        let mut want = want.clone();
+        if let Some(e) = want.get_mut("energy").and_then(|e| e.as_object_mut()) {
+            e.remove("relative_residual");
+        }
+        let want = &want;
         let got = run_case(case, &registry);
         let mut diffs = Vec::new();
         match (want.get("error"), got.get("error")) {

@@ -621,7 +621,7 @@ fn recorded_run(rig: &tribo::model::RigFile) -> Vec<(u32, LawInput)> {
         .insert(LawLibrary::in_process::<Recorder>().expect("describes itself"))
         .expect("one law");
     RECORDED.lock().unwrap_or_else(|e| e.into_inner()).clear();
-    let mut sim = tribo::sim::RigSimulation::new(rig, &registry).expect("binds");
+    let mut sim = tribo::sim::Simulation::new(rig, &registry).expect("binds");
     sim.crank_angle_traces(5.0).expect("traces");
     std::mem::take(&mut *RECORDED.lock().unwrap_or_else(|e| e.into_inner()))
 }
@@ -1010,7 +1010,7 @@ fn a_diagnostic_without_physical_sense_is_an_error_naming_law_joint_and_time() {
     registry
         .insert(LawLibrary::in_process::<BadFilm>().expect("describes itself"))
         .expect("one law");
-    let mut sim = tribo::sim::RigSimulation::new(&rig, &registry).expect("binds");
+    let mut sim = tribo::sim::Simulation::new(&rig, &registry).expect("binds");
     let e = sim.run().expect_err("a negative film");
     let msg = e.to_string();
     assert_mentions(

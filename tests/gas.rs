@@ -154,6 +154,7 @@ fn side_thrust_with_gas_force_matches_the_slider_crank_force_balance() {
                 // Independent pressure: p V^n = const from BDC for the closed cylinder.
                 let kin = sim
                     .mechanism()
+                    .expect("the single-cylinder rig")
                     .kinematics_with_piston_force(theta, omega, state.force_n);
                 let re = kin.reactions(0.0, &JointLoads::default());
                 let expected = side_thrust_closed_form(theta, omega, state.force_n);

@@ -26,6 +26,9 @@
 //! or law set's data is captured again with the solver of its own commit, and the commit
 //! message says so): `TRIBO_REGRESSION_CAPTURE=<commit> cargo test --release --test
 //! regression`. A rig or law set bundled after the capture is reported, not compared.
+//! `TRIBO_REGRESSION_RECAPTURE=<commit>:<case>[;<case>...]` captures the named cases only, into
+//! the existing file (each recaptured case noted with its commit under `recaptured`): for a
+//! change announced as moving exactly those cases (a case that failed and now runs).
 
 mod common;
 
@@ -156,7 +159,7 @@ fn rig_of(case: &Case) -> tribo::rig::Rig {
 /// The case's results as JSON, or its error as `{"error": message}`.
 fn run_case(case: &Case, registry: &LawRegistry) -> Value {
     let rig = rig_of(case);
-    let mut sim = match tribo::rig::any_simulation(&rig, registry) {
+    let mut sim = match tribo::rig::simulation(&rig, registry) {
         Ok(s) => s,
         Err(e) => return json!({ "error": e.to_string() }),
     };
@@ -316,6 +319,25 @@ fn compare(path: &str, got: &Value, want: &Value, energy_scale: f64, diffs: &mut
     }
 }
 
+/// Capture again the cases `spec` names (`<commit>:<case>;<case>...`) into the existing
+/// fixture, noting each under `recaptured` with the commit; every other case is kept as it was.
+fn recapture(spec: &str, cases: &[Case], registry: &LawRegistry) {
+    let (commit, names) = spec.split_once(':').expect("<commit>:<case>[;<case>...]");
+    let path = fixture_path();
+    let text = std::fs::read_to_string(&path).expect("the captured cases");
+    let mut doc: Value = serde_json::from_str(&text).expect("JSON");
+    for name in names.split(';') {
+        let case = cases
+            .iter()
+            .find(|c| c.name() == name)
+            .unwrap_or_else(|| panic!("no case named {name}"));
+        doc["cases"][name] = run_case(case, registry);
+        doc["recaptured"][name] = json!(commit);
+    }
+    let text = serde_json::to_string(&doc).expect("serialise");
+    std::fs::write(&path, text + "\n").expect("write the capture");
+}
+
 #[test]
 fn regression_harness_every_bundled_rig_and_law_set_gives_the_captured_numbers() {
     let registry = registry();
@@ -340,6 +362,10 @@ fn regression_harness_every_bundled_rig_and_law_set_gives_the_captured_numbers()
         std::fs::create_dir_all(path.parent().expect("a directory")).expect("mkdir");
         let text = serde_json::to_string(&doc).expect("serialise");
         std::fs::write(&path, text + "\n").expect("write the capture");
+        return;
+    }
+    if let Ok(spec) = std::env::var("TRIBO_REGRESSION_RECAPTURE") {
+        recapture(&spec, &cases, &registry);
         return;
     }
     let text = std::fs::read_to_string(fixture_path()).expect("the captured cases");

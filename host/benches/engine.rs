@@ -90,7 +90,7 @@ fn bench(c: &mut Criterion) {
     let thesis = load_rig(Path::new("crf250r-motored"), &[]).expect("bundled rig");
     let sim = tribo::rig::simulation(&thesis, &tribo::plugin_api::loader::LawRegistry::new())
         .expect("frictionless thesis rig");
-    let mech = sim.mechanism().clone();
+    let mech = sim.mechanism().expect("the single-cylinder rig").clone();
     let one = thesis_as_engine(&mech);
     let fixture =
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/fixtures/engines/inline4.toml");
@@ -139,7 +139,7 @@ fn bench(c: &mut Criterion) {
         let mut rig =
             tribo::rig::load_rig_text(Path::new("bench.toml"), &text, &[]).expect("engine rig");
         fedem.apply(&mut rig);
-        let mut sim = tribo::rig::engine_simulation(&rig, &reg).expect("engine simulation");
+        let mut sim = tribo::rig::simulation(&rig, &reg).expect("engine simulation");
         g.bench_function(name, |b| b.iter(|| sim.run_steady().expect("run")));
     }
     g.finish();
@@ -174,7 +174,7 @@ fn bench(c: &mut Criterion) {
         )
         .expect("engine rig");
         fedem.apply(&mut rig);
-        let mut sim = tribo::rig::engine_simulation(&rig, &reg).expect("engine simulation");
+        let mut sim = tribo::rig::simulation(&rig, &reg).expect("engine simulation");
         g.bench_function(name, |b| b.iter(|| sim.run().expect("run")));
     }
     g.finish();

@@ -59,6 +59,41 @@ enum Command {
     /// Internal: serve the jobs of a parent `tribo` (they arrive on the channel it set up).
     #[command(name = "__worker", hide = true)]
     Worker,
+    /// Export a rig with its laws as an FMI 2.0 Co-Simulation FMU (docs/fmu.md).
+    #[command(subcommand)]
+    Fmu(FmuCommand),
+    /// Internal: serve one FMU instance (the FMU's worker process).
+    #[command(name = "__fmu-worker", hide = true)]
+    FmuWorker(FmuWorkerArgs),
+}
+
+/// The `tribo fmu` subcommands.
+#[derive(Subcommand)]
+enum FmuCommand {
+    /// Write an FMU (FMI 2.0 Co-Simulation, Linux x86_64) of a rig with its laws: the law
+    /// libraries and the solver travel inside it, nothing else is needed where it is imported.
+    Export(FmuExportArgs),
+}
+
+/// The arguments of `tribo fmu export`.
+#[derive(Args)]
+struct FmuExportArgs {
+    #[command(flatten)]
+    rig: RigArgs,
+    /// What drives the crank: `speed`, the crank turns at the input speed and the drive
+    /// torque is an output (`torque`, the reverse, is not offered yet: docs/fmu.md).
+    #[arg(long, default_value = "speed", value_parser = ["speed", "torque"])]
+    drive: String,
+    /// The FMU file to write.
+    #[arg(long, value_name = "FILE.fmu")]
+    out: PathBuf,
+}
+
+/// The arguments of the hidden FMU worker subcommand.
+#[derive(Args)]
+struct FmuWorkerArgs {
+    /// The FMU's resources directory.
+    resources: PathBuf,
 }
 
 /// How a command treats its law plugins: in worker processes (the default: one per law set of
@@ -71,7 +106,7 @@ struct IsolationArgs {
     #[arg(long)]
     in_process: bool,
     /// Wall-time limit of each worker process (of this process with --in-process), s (0: none).
-    #[arg(long, default_value_t = isolate::DEFAULT_TIME_LIMIT_S, value_name = "S", value_parser = limit_seconds)]
+    #[arg(long, default_value_t = isolate::DEFAULT_TIME_LIMIT_S, value_name = "S", value_parser = limit_seconds, allow_negative_numbers = true)]
     time_limit_s: f64,
     /// Resident-memory limit of each worker process (of this process with --in-process), MiB
     /// (0: none).
@@ -79,7 +114,7 @@ struct IsolationArgs {
     memory_limit_mb: u64,
     /// Longest time one law call may take, s (0: none): a law stuck inside one call fails its
     /// run or law set, naming the law, its joint and the call's inputs.
-    #[arg(long, default_value_t = isolate::DEFAULT_CALL_LIMIT_S, value_name = "S", value_parser = limit_seconds)]
+    #[arg(long, default_value_t = isolate::DEFAULT_CALL_LIMIT_S, value_name = "S", value_parser = limit_seconds, allow_negative_numbers = true)]
     call_limit_s: f64,
 }
 
@@ -113,10 +148,10 @@ struct LawsArgs {
     json: bool,
 }
 
-/// The arguments of `tribo run`.
+/// A rig with its laws, as `run` and `fmu export` take it.
 #[derive(Args)]
-struct RunArgs {
-    /// Rig file (TOML).
+struct RigArgs {
+    /// Rig file (TOML) or bundled rig name.
     rig: PathBuf,
     /// Attach a law to a joint: JOINT=LAW or JOINT=LAW:PARAMS.toml. The first --law for a
     /// joint replaces the laws the rig lists there; further ones add to it.
@@ -132,6 +167,38 @@ struct RunArgs {
     /// Attach a law set (bundled name or file), replacing the rig's laws; --law adds to it.
     #[arg(long)]
     lawset: Option<String>,
+}
+
+impl RigArgs {
+    /// The rig: the file (or bundled rig) with the oil file and `--set`s, then the law set,
+    /// then `--law`s.
+    fn load(&self) -> anyhow::Result<tribo::rig::Rig> {
+        let sets = with_oil_file(self.oil.as_deref(), self.sets.clone())?;
+        rig_with_laws(&self.rig, &sets, self.lawset.as_deref(), &self.laws)
+    }
+}
+
+/// A rig with its `--set`s (the oil file already among them), then the law set, then the
+/// `--law`s: what `run` (in its worker) and `fmu export` load.
+fn rig_with_laws(
+    rig: &std::path::Path,
+    sets: &[String],
+    lawset: Option<&str>,
+    laws: &[String],
+) -> anyhow::Result<tribo::rig::Rig> {
+    let mut rig = tribo::rig::load_rig(rig, sets)?;
+    if let Some(ls) = lawset {
+        tribo::lawset::LawSet::load(ls)?.apply(&mut rig);
+    }
+    tribo::rig::attach_laws(&mut rig, laws)?;
+    Ok(rig)
+}
+
+/// The arguments of `tribo run`.
+#[derive(Args)]
+struct RunArgs {
+    #[command(flatten)]
+    rig: RigArgs,
     /// Compute each plateau's periodic steady state directly instead of the whole cycle.
     #[arg(long)]
     steady: bool,
@@ -157,7 +224,7 @@ struct RunArgs {
     fmep: Option<PathBuf>,
     /// Angular resolution of --crank-angle, degrees, from 0.01 to 10 (at most 72 000 samples
     /// per cycle).
-    #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG", value_parser = resolution_deg)]
+    #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG", value_parser = resolution_deg, allow_negative_numbers = true)]
     resolution_deg: f64,
     /// Refuse to run a rig with no law on any joint (which gives a frictionless mechanism's
     /// torque, zero on average; without this flag it is a warning).
@@ -250,10 +317,10 @@ struct MassResponseArgs {
     #[arg(long, value_enum, default_value = "rod")]
     body: BodyArg,
     /// Mass (and inertia) scale factor.
-    #[arg(long, default_value_t = 0.6)]
+    #[arg(long, default_value_t = 0.6, allow_negative_numbers = true)]
     scale: f64,
     /// A sweep of scale factors instead (e.g. 0.5,0.6,...,1.1); writes a plot.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     scales: Option<Vec<f64>>,
     /// Law set (bundled name or file); repeat for several (default: fedem-baseline,
     /// stribeck-duty and mixed-film).
@@ -511,6 +578,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::CheckLaw(a) => cmd_check_law(&g, a),
         Command::PlotLaw(a) => cmd_plot_law(&g, a),
         Command::Worker => cmd_worker(&g),
+        Command::Fmu(FmuCommand::Export(a)) => cmd_fmu_export(&g, a),
+        Command::FmuWorker(a) => cmd_fmu_worker(&a),
     }
 }
 
@@ -563,12 +632,7 @@ struct RunOutput {
 impl RunJob {
     /// The rig with its law set and `--law`s attached (no plugin opened yet).
     fn rig(&self) -> anyhow::Result<tribo::rig::Rig> {
-        let mut rig = tribo::rig::load_rig(&self.rig, &self.sets)?;
-        if let Some(ls) = &self.lawset {
-            tribo::lawset::LawSet::load(ls)?.apply(&mut rig);
-        }
-        tribo::rig::attach_laws(&mut rig, &self.laws)?;
-        Ok(rig)
+        rig_with_laws(&self.rig, &self.sets, self.lawset.as_deref(), &self.laws)
     }
 
     /// Bind the laws from `registry` and run, the time series (if asked for) into `series`.
@@ -579,7 +643,7 @@ impl RunJob {
         series: Option<&mut dyn std::io::Write>,
     ) -> anyhow::Result<RunOutput> {
         let rig = self.rig()?;
-        let mut sim = tribo::rig::any_simulation(&rig, registry)?;
+        let mut sim = tribo::rig::simulation(&rig, registry)?;
         if self.require_laws && sim.law_count() == 0 {
             anyhow::bail!(
                 "--require-laws: rig `{}` has no law on any joint; attach laws with --lawset NAME or --law JOINT=LAW",
@@ -614,10 +678,6 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     let RunArgs {
         rig,
-        laws: law_args,
-        sets,
-        oil,
-        lawset,
         steady,
         json,
         csv,
@@ -629,11 +689,18 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         isolation,
     } = a;
     let limits = isolation.limits()?;
+    let RigArgs {
+        rig,
+        laws,
+        sets,
+        oil,
+        lawset,
+    } = rig;
     let job = RunJob {
         rig,
         sets: with_oil_file(oil.as_deref(), sets)?,
         lawset,
-        laws: law_args,
+        laws,
         steady,
         timeseries: timeseries.is_some(),
         crank_angle_deg: crank_angle.as_ref().map(|_| resolution_deg),
@@ -1480,6 +1547,60 @@ fn test_panic_hook(place: &str) {
     if std::env::var_os("TRIBO_TEST_PANIC").is_some_and(|p| p == place) {
         panic!("TRIBO_TEST_PANIC={place}");
     }
+}
+
+/// `tribo fmu export`: the rig with its laws (checked by binding them) written as an FMU.
+fn cmd_fmu_export(g: &Globals, a: FmuExportArgs) -> anyhow::Result<()> {
+    let rig = a.rig.load()?;
+    let registry = g.registry()?;
+    // Every law bound once here, so a bad law or parameter is reported where it was written.
+    tribo::rig::simulation(&rig, &registry)?;
+    let exe = std::env::current_exe()
+        .context("finding the tribo executable to ship as the FMU's worker")?;
+    let library = exe
+        .parent()
+        .map(|d| d.join(format!("lib{}.so", tribo_fmu::interface::MODEL_IDENTIFIER)))
+        .filter(|p| p.is_file())
+        .with_context(|| format!("the FMU library libtribo_fmu.so is not next to {}; build it with `cargo build --release -p tribo-fmu`", exe.display()))?;
+    let drive = match a.drive.as_str() {
+        "torque" => tribo_fmu::interface::DriveMode::Torque,
+        _ => tribo_fmu::interface::DriveMode::Speed,
+    };
+    let iface = tribo_fmu::export::export(
+        &tribo_fmu::export::Export {
+            model: rig.model(),
+            registry: &registry,
+            drive,
+            worker_exe: &exe,
+            fmu_library: &library,
+            tribo_version: env!("CARGO_PKG_VERSION"),
+        },
+        &a.out,
+    )
+    .with_context(|| format!("exporting the FMU {}", a.out.display()))?;
+    emit(&tribo_fmu::export::summary(&iface, &a.out))
+}
+
+/// `tribo __fmu-worker RESOURCES`: one FMU instance's worker, answering on standard output
+/// (the real one: whatever a law prints goes to standard error).
+fn cmd_fmu_worker(a: &FmuWorkerArgs) -> anyhow::Result<()> {
+    struct Results;
+    impl std::io::Write for Results {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            match RESULTS_OUT.get() {
+                Some(out) => out.lock().unwrap_or_else(|p| p.into_inner()).write(buf),
+                None => std::io::stdout().write(buf),
+            }
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            match RESULTS_OUT.get() {
+                Some(out) => out.lock().unwrap_or_else(|p| p.into_inner()).flush(),
+                None => std::io::stdout().flush(),
+            }
+        }
+    }
+    tribo_fmu::worker::serve(&a.resources, std::io::stdin().lock(), Results)?;
+    Ok(())
 }
 
 /// A failure already reported elsewhere (a worker's reply): exit status 1, no message.

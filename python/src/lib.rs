@@ -91,23 +91,14 @@ fn chain(e: &dyn std::error::Error) -> String {
 
 impl From<RigError> for Failure {
     fn from(e: RigError) -> Self {
-        Self::new(Kind::Input, chain(&pythonic(e)))
+        Self::new(Kind::Input, chain(&e))
     }
 }
 
 impl From<Box<RigError>> for Failure {
     fn from(e: Box<RigError>) -> Self {
-        Self::new(Kind::Input, chain(&pythonic(*e)))
+        Self::new(Kind::Input, chain(&*e))
     }
-}
-
-/// A rig error located where a Python user put the value: an override the CLI calls `--set`
-/// is the `set=` of `Rig(...)`, `Rig.set` or a study function.
-fn pythonic(mut e: RigError) -> RigError {
-    if e.file.as_os_str() == "--set" {
-        e.file = PathBuf::from("set=");
-    }
-    e
 }
 
 impl From<SimError> for Failure {
@@ -441,19 +432,6 @@ fn free_params<'py>(
     })
 }
 
-/// `check_lawset(lawset_json, plugin_paths)`: every entry's parameters checked against its
-/// law's declaration (names, types, ranges) without running anything, so that
-/// `LawSet.set_params` refuses a bad value when it is called rather than when a run starts.
-#[pyfunction]
-fn check_lawset(py: Python<'_>, lawset: &str, plugin_paths: Vec<PathBuf>) -> PyResult<()> {
-    detached(py, || {
-        let spec: LawSetSpec = serde_json::from_str(lawset)?;
-        let ls = spec.load()?;
-        let registry = registry(&plugin_paths)?;
-        Ok(ls.check_params(&registry)?)
-    })
-}
-
 /// `laws(plugin_paths)`: every law found (name, version, file), and the files that could not
 /// be opened with the reason: `{"laws": [...], "broken": [...]}`.
 #[pyfunction]
@@ -551,7 +529,7 @@ fn run_local(job: &str) -> Result<RunReply, Failure> {
     }
     rig::attach_laws(&mut rig, &job.laws)?;
     let registry = registry(&job.plugin_paths)?;
-    let mut sim = rig::any_simulation(&rig, &registry)?;
+    let mut sim = rig::simulation(&rig, &registry)?;
     let (result, series) = if job.steady {
         (sim.run_steady()?, None)
     } else if job.timeseries {
@@ -876,7 +854,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_rig, m)?)?;
     m.add_function(wrap_pyfunction!(load_lawset, m)?)?;
     m.add_function(wrap_pyfunction!(free_params, m)?)?;
-    m.add_function(wrap_pyfunction!(check_lawset, m)?)?;
     m.add_function(wrap_pyfunction!(laws, m)?)?;
     m.add_function(wrap_pyfunction!(plugin_search_path, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;

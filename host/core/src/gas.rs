@@ -190,10 +190,35 @@ impl GasModel {
     /// The rig's gas model, or `None` for a rig without gas load (then nothing changes in the
     /// solve). The rig is assumed validated (`tribo-config` checks the ranges).
     pub fn from_rig(f: &RigFile) -> Option<GasModel> {
-        let g = &f.gas;
-        if g.is_none() {
+        if f.gas.is_none() {
             return None;
         }
+        Some(Self::build(f))
+    }
+
+    /// The ambient model of the rig `f`: both sides of the piston at the rig's ambient
+    /// pressure, whatever its `[gas]` says. What a cylinder pressure set from outside (the
+    /// stepping API) replaces its cylinder side of, on a rig without gas loads.
+    pub fn ambient(f: &RigFile) -> GasModel {
+        let mut fk = f.clone();
+        fk.gas.cylinder = CylinderPressure::None;
+        fk.gas.crankcase = CrankcasePressure::Atmospheric;
+        Self::build(&fk)
+    }
+
+    /// The gas state `s` with the cylinder pressure `cylinder_pa` (absolute, Pa) instead of
+    /// the model's: the force follows from it and the crankcase pressure.
+    pub fn with_cylinder_pressure(&self, s: GasState, cylinder_pa: f64) -> GasState {
+        GasState {
+            cylinder_pa,
+            force_n: self.area_m2 * (s.crankcase_pa - cylinder_pa),
+            ..s
+        }
+    }
+
+    /// The model of the rig `f`'s `[gas]`, whatever it is.
+    fn build(f: &RigFile) -> GasModel {
+        let g = &f.gas;
         let r = f.geometry.crank_radius_m;
         let area = PI * 0.25 * f.geometry.bore_m * f.geometry.bore_m;
         let vd = area * 2.0 * r;
@@ -258,7 +283,7 @@ impl GasModel {
                 )))
             }
         };
-        Some(GasModel {
+        GasModel {
             area_m2: area,
             crank_radius_m: r,
             rod_length_m: f.bodies.rod.length_m,
@@ -267,7 +292,7 @@ impl GasModel {
             four_stroke: g.four_stroke(),
             cylinder,
             crankcase,
-        })
+        }
     }
 
     /// Whether the pressure repeats only every 720 degrees.

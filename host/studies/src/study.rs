@@ -94,7 +94,7 @@ pub fn check_lawsets(
     registry: &LawRegistry,
 ) -> Result<(), StudyError> {
     check_each(rig, lawsets, registry, |r| {
-        tribo_config::rig::any_simulation(r, registry).map(drop)
+        tribo_config::rig::simulation(r, registry).map(drop)
     })
 }
 
@@ -487,7 +487,7 @@ fn run_through(r: &mut Rig, rows: &[DataRow]) -> Result<(), Box<RigError>> {
 
 /// Run one rig, a single cylinder or an engine (steady-state or full cycle).
 pub fn run_rig(rig: &Rig, registry: &LawRegistry, steady: bool) -> Result<RunResult, SimError> {
-    let mut sim = tribo_config::rig::any_simulation(rig, registry)?;
+    let mut sim = tribo_config::rig::simulation(rig, registry)?;
     if steady {
         sim.run_steady()
     } else {
@@ -1446,13 +1446,16 @@ pub fn check_sweep_inputs(temps_c: &[f64], speeds_rpm: &[f64]) -> Result<(), Swe
     if let Some(t) = temps_c.iter().find(|t| !(**t >= lo && **t <= hi)) {
         return Err(err(
             "--temps",
-            format!("{t} C is outside the viscosity model's valid range [{lo}, {hi}] C"),
+            format!(
+                "{} C is outside the viscosity model's valid range [{lo}, {hi}] C",
+                readable(*t)
+            ),
         ));
     }
     if let Some(s) = speeds_rpm.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
         return Err(err(
             "--speeds",
-            format!("every speed must be positive (rpm), got {s}"),
+            format!("every speed must be positive (rpm), got {}", readable(*s)),
         ));
     }
     for (option, list, unit) in [("--temps", temps_c, "C"), ("--speeds", speeds_rpm, "rpm")] {

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use tribo_core::sim::{EngineSimulation, RigSimulation, SimError, Simulation};
+use tribo_core::sim::{SimError, Simulation};
 use tribo_plugin_api::loader::LawRegistry;
 
 mod error;
@@ -159,8 +159,9 @@ impl Rig {
     }
 }
 
-/// A simulation of `rig` with its laws bound from `registry`. A law that cannot be bound is
-/// reported at the file, line and column that attach it.
+/// A simulation of `rig` (the single-cylinder rig or an engine: one solver runs both) with its
+/// laws bound from `registry`. A law that cannot be bound is reported at the file, line and
+/// column that attach it.
 ///
 /// ```
 /// use std::path::Path;
@@ -188,20 +189,6 @@ pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimEr
     Simulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
 }
 
-/// Any rig's simulation: the single-cylinder rig's or an engine's ([`RigSimulation`]), with
-/// its laws bound from `registry`; errors located as by [`simulation`].
-pub fn any_simulation(rig: &Rig, registry: &LawRegistry) -> Result<RigSimulation, SimError> {
-    refuse_unattached(rig)?;
-    RigSimulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
-}
-
-/// An engine rig's simulation (`docs/engines.md`) with its laws bound from
-/// `registry`; errors located as by [`simulation`].
-pub fn engine_simulation(rig: &Rig, registry: &LawRegistry) -> Result<EngineSimulation, SimError> {
-    refuse_unattached(rig)?;
-    EngineSimulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
-}
-
 /// The first law-set entry that names no joint of `rig`, as a setup error at the entry.
 fn refuse_unattached(rig: &Rig) -> Result<(), SimError> {
     match rig.unattached.first() {
@@ -221,7 +208,7 @@ fn refuse_unattached(rig: &Rig) -> Result<(), SimError> {
 /// instance: no law code beyond its description runs.
 pub fn check_laws(rig: &Rig, registry: &LawRegistry) -> Result<(), SimError> {
     refuse_unattached(rig)?;
-    RigSimulation::check_laws(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+    Simulation::check_laws(rig.model(), registry).map_err(|e| locate_setup(rig, e))
 }
 
 /// A setup error of `rig`'s laws located in the file, law-set entry or `--law` argument that

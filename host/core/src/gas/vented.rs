@@ -237,23 +237,11 @@ impl Breather {
             let (end, _) = self.revolution(omega, &points, y + dy, &mut scratch);
             slope = ((end - y - dy) - g) / dy;
         }
-        // The revolution map's slope at the fixed point, lambda = 1 + G': a deviation from the
-        // cycle shrinks by lambda per revolution.
-        let lambda = 1.0 + slope;
-        let period = TAU / omega;
-        let time_constant_s = if lambda <= 0.0 {
-            // Gone within a revolution.
-            0.0
-        } else if lambda >= 1.0 {
-            f64::INFINITY
-        } else {
-            -period / lambda.ln()
-        };
         VentedCycle {
             omega_rad_s: omega,
             pressure_pa: ys.iter().map(|y| y.exp()).collect(),
             pumping_work_j: work,
-            time_constant_s,
+            time_constant_s: time_constant(slope, omega),
             revolutions,
             periodicity_residual: g.abs(),
         }
@@ -454,6 +442,21 @@ impl Table {
             + (t3 - 2.0 * t2 + t) * m0
             + (-2.0 * t3 + 3.0 * t2) * p1
             + (t3 - t2) * m1
+    }
+}
+
+/// The time constant, s, of a deviation from the periodic cycle at crank speed `omega`, from the
+/// slope `slope` of `G(y0) = y(2 pi) - y0` at the fixed point: the revolution map's slope
+/// `lambda = 1 + G'` shrinks a deviation by `lambda` per revolution.
+fn time_constant(slope: f64, omega: f64) -> f64 {
+    let lambda = 1.0 + slope;
+    if lambda <= 0.0 {
+        // Gone within a revolution.
+        0.0
+    } else if lambda >= 1.0 {
+        f64::INFINITY
+    } else {
+        -(TAU / omega) / lambda.ln()
     }
 }
 

@@ -3,22 +3,22 @@
 //! joint velocities, side thrust and drive margin; a failed step is retried up to a crossing).
 
 use super::error::SimError;
-use super::evaluate::{Eval, SWITCHES};
-use super::stepper::{CrankState, Step, Stepper, Work};
+use super::evaluate::{Eval, Work};
+use super::stepper::{CrankState, Integration, Step, Stepper};
 use super::Simulation;
 use crate::erk::{Controller, Pair};
-use crate::mechanics::JointLoads;
 
 /// Most stages a pair may have (fixed-size stage arrays on the stack).
 const MAX_STAGES: usize = 8;
 
 /// The adaptive stepper's state between steps.
+#[derive(Clone)]
 pub(super) struct Adaptive {
     pair: &'static Pair,
     control: Controller,
-    /// The evaluation at the current step's start (the previous step's last stage) and its
-    /// loads: "first same as last".
-    fsal: (Eval, JointLoads),
+    /// The evaluation at the current step's start (the previous step's last stage): "first
+    /// same as last".
+    fsal: Eval,
     /// The step's increment and error estimate of every accumulated quantity.
     incr: Vec<f64>,
     est: Vec<f64>,
@@ -27,7 +27,9 @@ pub(super) struct Adaptive {
     /// The next step the controller proposes (infinite before the first).
     h_next: f64,
     /// Time and switching functions at the previous step's start, to predict crossings.
-    previous_end: Option<(f64, [f64; SWITCHES])>,
+    previous_end: Option<(f64, Vec<f64>)>,
+    /// The friction guess of the next stage (extrapolated from the two latest stages).
+    guess: Vec<f64>,
 }
 
 /// One attempted step.
@@ -35,21 +37,15 @@ struct Attempt {
     /// Scaled error estimate (acceptable at <= 1).
     err: f64,
     end: Eval,
-    loads: JointLoads,
     y: CrankState,
     /// The first switch to change sign within the step, as a fraction of it.
     crossing: Option<f64>,
 }
 
 impl Adaptive {
-    /// A stepper for `pair` with `control`, starting from the evaluation `first` (and its
-    /// loads) at the run's start, for `n` accumulated quantities.
-    pub(super) fn new(
-        pair: &'static Pair,
-        control: Controller,
-        first: (Eval, JointLoads),
-        n: usize,
-    ) -> Self {
+    /// A stepper for `pair` with `control`, starting from the evaluation `first` at the run's
+    /// start, for `n` accumulated quantities.
+    pub(super) fn new(pair: &'static Pair, control: Controller, first: Eval, n: usize) -> Self {
         Self {
             pair,
             control,
@@ -59,6 +55,7 @@ impl Adaptive {
             stages: Vec::with_capacity(pair.stages()),
             h_next: f64::INFINITY,
             previous_end: None,
+            guess: Vec::new(),
         }
     }
 
@@ -67,7 +64,7 @@ impl Adaptive {
     /// step ends) to change sign within it, so the kink falls between steps. Returns the step,
     /// the planned (uncut) step and whether a switch cut it.
     fn plan(&self, sim: &Simulation, t: f64, y: CrankState) -> (f64, f64, bool) {
-        let w = y.1.abs().max(sim.cycle.reference(t).1.abs());
+        let w = y.1.abs().max(sim.reference(t).1.abs());
         let h_cap = sim.time_step(sim.max_step_rad, w);
         // The first step: one `step_deg` of crank angle.
         let planned = if self.h_next.is_finite() {
@@ -77,7 +74,7 @@ impl Adaptive {
         };
         let mut h_switch = f64::INFINITY;
         if let Some((tp, gp)) = &self.previous_end {
-            for (i, (&a, &g)) in gp.iter().zip(&self.fsal.0.switches).enumerate() {
+            for (i, (&a, &g)) in gp.iter().zip(&self.fsal.switches).enumerate() {
                 if sim.switch_mask[i] && a * g > 0.0 && (g - a) * g < 0.0 && t > *tp {
                     let dt = g * (t - *tp) / (a - g);
                     if dt > 0.05 * planned && dt < planned {
@@ -93,13 +90,17 @@ impl Adaptive {
 impl Stepper for Adaptive {
     /// Steps are tried from the plan and shrunk until the estimated error meets
     /// `solver.rel_tol`; a step near the interval's end `b` ends exactly on it.
-    fn step(&mut self, sim: &Simulation, w: &mut Work, _t1: f64, b: f64) -> Result<Step, SimError> {
-        let (t, y) = (w.t, w.y);
+    fn step(
+        &mut self,
+        sim: &Simulation,
+        w: &mut Work,
+        s: &mut Integration,
+        _t1: f64,
+        b: f64,
+    ) -> Result<Step, SimError> {
+        let (t, y) = (s.t, s.y);
         // Across a jump a step may err as much as a longest step of smooth running may.
-        let h_floor = sim.time_step(
-            sim.max_step_rad,
-            y.1.abs().max(sim.cycle.reference(t).1.abs()),
-        );
+        let h_floor = sim.time_step(sim.max_step_rad, y.1.abs().max(sim.reference(t).1.abs()));
         let (mut h, planned, switch_cut) = self.plan(sim, t, y);
         let mut rejected = false;
         loop {
@@ -112,18 +113,23 @@ impl Stepper for Adaptive {
             } else {
                 h
             };
-            let a = self.attempt(sim, w, t, h_try, h_floor)?;
-            w.max_it = w.max_it.max(a.end.iterations);
+            let a = self.attempt(sim, w, s, t, h_try, h_floor)?;
             if a.err <= 1.0 {
                 // A step cut short to land on `b` or a switch does not shrink the next one.
                 let next = self.control.next(h_try, a.err, rejected);
                 self.control.accepted(a.err);
                 let cut_short = switch_cut || h_try < h;
                 self.h_next = if cut_short { next.max(planned) } else { next };
-                self.previous_end = Some((t, self.fsal.0.switches));
+                match &mut self.previous_end {
+                    Some((tp, gp)) => {
+                        *tp = t;
+                        gp.clone_from(&self.fsal.switches);
+                    }
+                    None => self.previous_end = Some((t, self.fsal.switches.clone())),
+                }
                 let t1 = if h_try == remaining { b } else { t + h_try };
-                w.acc.iter_mut().zip(&self.incr).for_each(|(a, d)| *a += d);
-                w.guess = a.loads;
+                s.acc.iter_mut().zip(&self.incr).for_each(|(a, d)| *a += d);
+                s.settle_from(&a.end);
                 return Ok(Step {
                     t1,
                     h: t1 - t,
@@ -131,8 +137,8 @@ impl Stepper for Adaptive {
                     y: a.y,
                 });
             }
-            w.pool.push(a.end.rates);
-            w.rejected += 1;
+            w.recycle(a.end);
+            s.rejected += 1;
             rejected = true;
             h = self.control.next(h_try, a.err, true);
             // A switch inside the failed step: retry up to it rather than by the error alone.
@@ -160,8 +166,17 @@ impl Stepper for Adaptive {
     }
 
     fn recycle(&mut self, end: Eval, _h: f64, w: &mut Work) {
-        let old = std::mem::replace(&mut self.fsal, (end, w.guess));
-        w.pool.push(old.0.rates);
+        let old = std::mem::replace(&mut self.fsal, end);
+        w.recycle(old);
+    }
+
+    /// The first stage evaluated again with the new inputs; no switch is predicted from the
+    /// steps before.
+    fn restart(&mut self, sim: &Simulation, w: &mut Work, s: &Integration) -> Result<(), SimError> {
+        let e = sim.step_eval(s.t, 0.0, s.y, &s.guess, w)?;
+        self.recycle(e, 0.0, w);
+        self.previous_end = None;
+        Ok(())
     }
 }
 
@@ -180,13 +195,14 @@ impl Adaptive {
         &mut self,
         sim: &Simulation,
         w: &mut Work,
+        state: &Integration,
         t: f64,
         h: f64,
         h_floor: f64,
     ) -> Result<Attempt, SimError> {
         let s = self.pair.stages();
         debug_assert!(s <= MAX_STAGES);
-        let (k, end, loads, y) = self.stages(sim, w, t, h)?;
+        let (k, end, y) = self.stages(sim, w, state, t, h)?;
         let Self {
             pair,
             fsal,
@@ -197,7 +213,7 @@ impl Adaptive {
         } = self;
         // Stage j's evaluation: the given first, the stored middle ones, the end.
         let evals: [&Eval; MAX_STAGES] = std::array::from_fn(|j| match j {
-            0 => &fsal.0,
+            0 => &*fsal,
             j if j < s - 1 => &stages[j - 1],
             _ => &end,
         });
@@ -205,37 +221,31 @@ impl Adaptive {
         let rates = sim.rate_error(pair, &evals[..s], h, h_floor, incr, est);
         let crossing = first_crossing(sim, pair, &evals[..s]);
         for e in stages.drain(..) {
-            w.pool.push(e.rates);
+            w.recycle(e);
         }
         Ok(Attempt {
             err: crank.max(rates),
             end,
-            loads,
             y,
             crossing,
         })
     }
 
-    /// The stages of a step of length `h` from `t`: the crank state's rates `k` per stage (the
-    /// first from `self.fsal`), the middle stages' evaluations into `self.stages`, and the end
-    /// evaluation, its loads and the end state.
-    #[allow(clippy::type_complexity)]
+    /// The stages of a step of length `h` from `t` (state `s.y`): the crank state's rates `k`
+    /// per stage (the first from `self.fsal`), the middle stages' evaluations into
+    /// `self.stages`, and the end evaluation and end state.
     fn stages(
         &mut self,
         sim: &Simulation,
         w: &mut Work,
+        s: &Integration,
         t: f64,
         h: f64,
-    ) -> Result<([[f64; 3]; MAX_STAGES], Eval, JointLoads, CrankState), SimError> {
-        let (pair, y) = (self.pair, w.y);
+    ) -> Result<([[f64; 3]; MAX_STAGES], Eval, CrankState), SimError> {
+        let (pair, y) = (self.pair, s.y);
         let mut k = [[0.0_f64; 3]; MAX_STAGES];
         let (_, dz, _) = sim.pi_torque(t, y.1, y.2);
-        k[0] = [y.1, self.fsal.0.alpha, dz];
-        // The friction iteration starts from the loads extrapolated (linearly in time) from the
-        // two latest stages: one or two iterations fewer than starting from the latest.
-        let mut loads = self.fsal.1;
-        let mut older: Option<(f64, JointLoads)> = None;
-        let mut t_last = t;
+        k[0] = [y.1, self.fsal.alpha, dz];
         self.stages.clear();
         let mut y1 = [y.0, y.1, y.2];
         for st in 1..pair.stages() {
@@ -247,25 +257,45 @@ impl Adaptive {
             }
             let ts = t + pair.c[st] * h;
             let (at, dz) = sim.driven_point(ts, h, (ys[0], ys[1], ys[2]));
-            let guess = match older {
-                Some((t0, l0)) if t_last > t0 => {
-                    loads.extrapolated(&l0, (ts - t_last) / (t_last - t0))
-                }
-                _ => loads,
-            };
-            let buffer = w.buffer();
-            let (e, l) = sim.evaluate(&at, &guess, buffer)?;
+            self.extrapolate(t, h, st);
+            let mut e = w.eval();
+            sim.evaluate(&at, &self.guess, w, &mut e)?;
             k[st] = [ys[1], e.alpha, dz];
-            older = Some((t_last, loads));
-            t_last = ts;
-            loads = l;
             self.stages.push(e);
             y1 = ys;
         }
         let Some(end) = self.stages.pop() else {
             unreachable!("an embedded pair has at least two stages")
         };
-        Ok((k, end, loads, (y1[0], y1[1], y1[2])))
+        Ok((k, end, (y1[0], y1[1], y1[2])))
+    }
+
+    /// The friction iteration of stage `st` of a step of length `h` from `t` starts from the
+    /// law totals extrapolated (linearly in time) from the two latest stages: one or two
+    /// iterations fewer than starting from the latest.
+    fn extrapolate(&mut self, t: f64, h: f64, st: usize) {
+        let c = self.pair.c;
+        let last = if st == 1 {
+            &self.fsal.totals
+        } else {
+            &self.stages[st - 2].totals
+        };
+        self.guess.clear();
+        if st >= 2 {
+            let (ts, t_last, t0) = (t + c[st] * h, t + c[st - 1] * h, t + c[st - 2] * h);
+            if t_last > t0 {
+                let older = if st == 2 {
+                    &self.fsal.totals
+                } else {
+                    &self.stages[st - 3].totals
+                };
+                let ratio = (ts - t_last) / (t_last - t0);
+                self.guess
+                    .extend(last.iter().zip(older).map(|(a, b)| a + ratio * (a - b)));
+                return;
+            }
+        }
+        self.guess.extend_from_slice(last);
     }
 }
 
@@ -290,7 +320,7 @@ fn crank_error(pair: &Pair, k: &[[f64; 3]], h: f64, tol_h: f64) -> f64 {
 /// around it (as a fraction of the step).
 fn first_crossing(sim: &Simulation, pair: &Pair, evals: &[&Eval]) -> Option<f64> {
     let mut crossing: Option<f64> = None;
-    for i in (0..SWITCHES).filter(|i| sim.switch_mask[*i]) {
+    for i in (0..sim.switch_mask.len()).filter(|i| sim.switch_mask[*i]) {
         for j in 1..evals.len() {
             let (a, g) = (evals[j - 1].switches[i], evals[j].switches[i]);
             if a * g < 0.0 && pair.c[j] > pair.c[j - 1] {

@@ -1,18 +1,20 @@
-//! Laws bound to joints: each joint's geometry and laws with their committed state, the law
-//! call with its sampled timing, the checks on what a law returns, and the commit of stateful
-//! laws after an accepted step.
+//! Laws bound to joints: each joint's name, role, geometry and laws, the law call with its
+//! sampled timing, the checks on what a law returns, and the commit of stateful laws after an
+//! accepted step. A law's state is the run's (`LawStates`), not the binding's: a simulation
+//! holds no state between runs, and a run's state can be saved and restored whole.
 
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 use nalgebra::Vector2;
 use tribo_plugin_api::loader::{LawError, LawInstance, LawRegistry};
 use tribo_plugin_api::{
-    BearingType, InnerBody, JointKind, LawInput, LawOutput, DIAGNOSTIC_FLAGS, HAS_COEFFICIENT,
-    HAS_DERIVATIVE, HAS_LOAD_DERIVATIVE,
+    suits, suits_text, BearingType, InnerBody, JointKind, LawInput, LawOutput, DIAGNOSTIC_FLAGS,
+    HAS_COEFFICIENT, HAS_DERIVATIVE, HAS_LOAD_DERIVATIVE,
 };
 
+use super::crank::Role;
 use super::error::{readable, Fault, SimError, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
-use super::joint::JointId;
+use super::joints::joint_specs;
 use super::results::LawTime;
 use crate::model::RigFile;
 
@@ -30,8 +32,8 @@ const TIMING_KEPT: usize = 512;
 pub(super) struct BoundLaw {
     pub(super) name: String,
     instance: LawInstance,
-    /// The committed state (empty for a stateless law).
-    pub(super) state: Vec<f64>,
+    /// The length of the law's state (0: stateless).
+    state_len: usize,
     /// Calls made, timed calls made, and the durations of the last [`TIMING_KEPT`] timed
     /// calls in ns (every `TIMING_SAMPLE`-th call is timed).
     calls: AtomicU64,
@@ -44,28 +46,28 @@ impl BoundLaw {
     /// in `TIMING_SAMPLE`. One simulation is stepped by one thread: a plain load and store,
     /// not a locked read-modify-write (which cost ~15% of an evaluation).
     #[inline(always)]
-    pub(super) fn call(&self, input: &LawInput) -> Result<LawOutput, LawError> {
+    pub(super) fn call(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, LawError> {
         let calls = self.calls.load(Ordering::Relaxed);
         self.calls.store(calls + 1, Ordering::Relaxed);
         // Not the first call: a law's one-off set-up there (a table built lazily) scaled by
         // the sample rate once reported a 0.1 s run as 30 s in the law.
         if calls % TIMING_SAMPLE == TIMING_SAMPLE / 2 {
-            self.timed_call(input)
+            self.timed_call(input, state)
         } else {
-            self.instance.evaluate(input, &self.state)
+            self.instance.evaluate(input, state)
         }
     }
 
-    /// The law at `input` with its committed state, neither counted nor timed: for reports
-    /// made after a run (the crank-angle traces' diagnostics).
-    pub(super) fn output(&self, input: &LawInput) -> Result<LawOutput, LawError> {
-        self.instance.evaluate(input, &self.state)
+    /// The law at `input` with the state `state`, neither counted nor timed: for reports made
+    /// after a run (the crank-angle traces' diagnostics).
+    pub(super) fn output(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, LawError> {
+        self.instance.evaluate(input, state)
     }
 
     /// One law call with its wall time added to the law's sample.
-    fn timed_call(&self, input: &LawInput) -> Result<LawOutput, LawError> {
+    fn timed_call(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, LawError> {
         let clock = std::time::Instant::now();
-        let out = self.instance.evaluate(input, &self.state);
+        let out = self.instance.evaluate(input, state);
         let ns = (clock.elapsed().as_nanos() as u64).saturating_sub(clock_overhead_ns());
         let k = self.timed.load(Ordering::Relaxed);
         self.timed.store(k + 1, Ordering::Relaxed);
@@ -91,7 +93,7 @@ impl BoundLaw {
 
     /// Whether the law keeps state (then it is committed after each accepted step).
     pub(super) fn is_stateful(&self) -> bool {
-        !self.state.is_empty()
+        self.state_len > 0
     }
 
     /// Bind law `l` (the model's field `field`, `joints.J.laws[i]`) on joint `joint` from
@@ -116,16 +118,16 @@ impl BoundLaw {
         Ok(BoundLaw {
             name: l.law.clone(),
             instance,
-            state,
+            state_len: state.len(),
             calls: AtomicU64::new(0),
             timed: AtomicU64::new(0),
             sampled_ns: (0..TIMING_KEPT).map(|_| AtomicU32::new(0)).collect(),
         })
     }
 
-    /// Advance the law's state over an accepted step ending at `input`.
-    pub(super) fn commit(&mut self, input: &LawInput) -> Result<(), LawError> {
-        self.instance.commit(input, &mut self.state)
+    /// A fresh state of the law (zeros, as at binding), allocated fallibly by the loader.
+    pub(super) fn new_state(&self) -> Result<Vec<f64>, LawError> {
+        self.instance.new_state()
     }
 
     /// Calls and estimated time so far, as on joint `joint`.
@@ -153,12 +155,15 @@ fn clock_overhead_ns() -> u64 {
     })
 }
 
-/// A joint with its geometry and laws.
+/// A joint with its name, role on the crank, contact geometry and laws.
 pub(super) struct BoundJoint {
-    pub(super) id: JointId,
+    pub(super) name: String,
+    pub(super) role: Role,
     /// What every law input of the joint says about it besides the instant.
     pub(super) contact: Contact,
     pub(super) laws: Vec<BoundLaw>,
+    /// The run-wide index of the joint's first law (laws are numbered joint by joint).
+    pub(super) first_law: usize,
 }
 
 /// What a law is told about its joint beyond the instant: the kind, the contact radius and
@@ -214,36 +219,84 @@ impl BoundJoint {
         self.laws.iter().any(BoundLaw::is_stateful)
     }
 
-    /// Commit every stateful law of the joint over an accepted step ending at `input`.
-    pub(super) fn commit(&mut self, input: &LawInput) -> Result<(), SimError> {
-        for law in self.laws.iter_mut().filter(|l| l.is_stateful()) {
-            law.instance
-                .commit(input, &mut law.state)
-                .map_err(|e| law_failed(self.id, input, e))?;
+    /// Commit every stateful law of the joint over an accepted step ending at `input`, each
+    /// advancing its own entry of the run's `states`.
+    pub(super) fn commit(&self, input: &LawInput, states: &mut LawStates) -> Result<(), SimError> {
+        for (i, law) in self.laws.iter().enumerate() {
+            if law.is_stateful() {
+                law.instance
+                    .commit(input, &mut states.0[self.first_law + i])
+                    .map_err(|e| law_failed(&self.name, input, e))?;
+            }
         }
         Ok(())
     }
 
-    /// Check a law's output on this joint at `input` (finite; of a physical size against
-    /// `reaction_n`, the largest joint reaction of the solve the law is evaluated at; optional
-    /// outputs it marks present finite, its diagnostics of physical sense; a stateless law must
-    /// not add energy, a stateful one may return what it stored) and return its power into the
-    /// joint.
+    /// The friction force (slide) or torque (revolute) of all the joint's laws at `input`, each
+    /// with its state from `states`, checked (finite, of a physical size against
+    /// `reaction_n`, a stateless law not adding energy). With `record`, each law's power,
+    /// regime and load are written into the rates.
     #[inline(always)]
-    pub(super) fn checked_power(
+    pub(super) fn force(
         &self,
-        law: &BoundLaw,
         input: &LawInput,
-        out: &LawOutput,
+        states: &LawStates,
         reaction_n: f64,
+        mut record: Option<&mut [f64]>,
+        layout: super::rates::RateLayout,
     ) -> Result<f64, SimError> {
-        checked_power_named(self.id.name(), self.id.kind(), law, input, out, reaction_n)
+        let mut total = 0.0;
+        for (i, law) in self.laws.iter().enumerate() {
+            let k = self.first_law + i;
+            let out = law
+                .call(input, &states.0[k])
+                .map_err(|e| law_failed(&self.name, input, e))?;
+            let power = checked_power(&self.name, self.role.kind(), law, input, &out, reaction_n)?;
+            total += out.force;
+            if let Some(rates) = record.as_deref_mut() {
+                let regime = out.regime().unwrap_or(tribo_plugin_api::Regime::None) as usize;
+                rates[layout.power(k)] = -power;
+                rates[layout.regime(k, regime)] = 1.0;
+                rates[layout.normal(k)] = input.normal_load_n;
+            }
+        }
+        Ok(total)
     }
 }
 
+/// Every law's state over a run, by the run-wide law index (empty for a stateless law).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct LawStates(pub(super) Vec<Vec<f64>>);
+
+impl LawStates {
+    /// Every law's fresh state (zeros), as at binding.
+    pub(super) fn new(joints: &[BoundJoint]) -> Result<Self, SimError> {
+        let mut states = Vec::new();
+        for j in joints {
+            for (i, law) in j.laws.iter().enumerate() {
+                let state = law
+                    .new_state()
+                    .map_err(|e| setup_error(format!("{}.law", law_field_of(j, i)), e))?;
+                states.push(state);
+            }
+        }
+        Ok(Self(states))
+    }
+
+    /// Every state back to zeros.
+    pub(super) fn reset(&mut self) {
+        self.0.iter_mut().for_each(|s| s.fill(0.0));
+    }
+}
+
+/// The dotted field naming law `i` of joint `j` in an error.
+fn law_field_of(j: &BoundJoint, i: usize) -> String {
+    format!("joints.{}.laws[{i}]", j.name)
+}
+
 /// The law input of a joint with `contact` at instant `at` with its bodies at `bodies`,
-/// unloaded: what every law call of an instant starts from, on the single-cylinder rig and on
-/// an engine. Its relative velocity is [`Bodies::relative`].
+/// unloaded: what every law call of an instant starts from. Its relative velocity is
+/// [`Bodies::relative`].
 pub(super) fn law_input(contact: &Contact, at: &Instant, bodies: &Bodies) -> LawInput {
     let mut input = LawInput::at_rest(contact.kind);
     input.contact_radius_m = contact.radius_m;
@@ -286,10 +339,13 @@ pub(super) fn set_load(input: &mut LawInput, comp: Vector2<f64>, moment: f64, w:
     input.load_on_inner_y_n = on_inner.y;
 }
 
-/// [`BoundJoint::checked_power`] for a law on the joint named `joint` of kind `kind` (an
-/// engine's joints are named at run time).
+/// Check a law's output on joint `joint` of kind `kind` at `input` (finite; of a physical size
+/// against `reaction_n`, the largest joint reaction of the solve the law is evaluated at;
+/// optional outputs it marks present finite, its diagnostics of physical sense; a stateless law
+/// must not add energy, a stateful one may return what it stored) and return its power into the
+/// joint.
 #[inline(always)]
-pub(super) fn checked_power_named(
+pub(super) fn checked_power(
     joint: &str,
     kind: JointKind,
     law: &BoundLaw,
@@ -382,9 +438,9 @@ fn implausible(
 /// descriptions are read, so no law code runs: a study checks every law set this way before it
 /// starts, and a law that misbehaves when created or run fails only its own set later.
 pub(super) fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), SimError> {
-    for (name, j) in model.joints.named() {
-        for (i, l) in j.laws.iter().enumerate() {
-            check_law(registry, l, &format!("joints.{name}.laws[{i}]"))?;
+    for spec in joint_specs(model) {
+        for (i, l) in spec.laws.iter().enumerate() {
+            check_law(registry, l, &spec.law_field(i))?;
         }
     }
     Ok(())
@@ -392,7 +448,7 @@ pub(super) fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), 
 
 /// Check one law (the model's field `field`) against `registry` without creating it: the law
 /// exists and its parameters have the declared names, types and ranges.
-pub(super) fn check_law(
+fn check_law(
     registry: &LawRegistry,
     l: &crate::model::LawRef,
     field: &str,
@@ -437,44 +493,73 @@ fn setup_error(field: String, e: LawError) -> SimError {
     }
 }
 
-/// Bind the model's laws from `registry` to the joints, in `JointId::ALL` order; the number of
-/// laws bound in all is returned with them.
+/// Bind the model's laws from `registry` to its joints, in joint order (laws numbered joint by
+/// joint); the number of laws bound in all is returned with them.
 pub(super) fn bind_joints(
     model: &RigFile,
     registry: &LawRegistry,
 ) -> Result<(Vec<BoundJoint>, usize), SimError> {
-    let mut joints = Vec::with_capacity(JointId::ALL.len());
+    let mut joints = Vec::new();
     let mut n_laws = 0;
-    for (id, (name, j)) in JointId::ALL.into_iter().zip(model.joints.named()) {
-        let mut laws = Vec::new();
-        for (i, l) in j.laws.iter().enumerate() {
-            laws.push(BoundLaw::bind(
-                registry,
-                l,
-                &format!("joints.{name}.laws[{i}]"),
-                name,
-            )?);
-            n_laws += 1;
-        }
+    for spec in joint_specs(model) {
+        let laws = spec
+            .laws
+            .iter()
+            .enumerate()
+            .map(|(i, l)| BoundLaw::bind(registry, l, &spec.law_field(i), &spec.name))
+            .collect::<Result<Vec<_>, _>>()?;
+        let first_law = n_laws;
+        n_laws += laws.len();
         joints.push(BoundJoint {
-            id,
             contact: Contact {
-                kind: id.kind(),
-                radius_m: j.radius_m,
-                length_m: j.length_m,
-                bearing: model.bearing_type(name),
-                inner: id.inner(),
+                kind: spec.role.kind(),
+                radius_m: spec.contact.0,
+                length_m: spec.contact.1,
+                bearing: model.bearing_type(&spec.name),
+                inner: spec.role.inner(),
             },
+            name: spec.name,
+            role: spec.role,
             laws,
+            first_law,
         });
     }
     Ok((joints, n_laws))
 }
 
-/// Every law's state back to its start (zeros), as at binding.
-pub(super) fn reset_states(joints: &mut [BoundJoint]) {
-    for l in joints.iter_mut().flat_map(|j| j.laws.iter_mut()) {
-        l.state.iter_mut().for_each(|x| *x = 0.0);
+/// One warning per law on a joint whose declared bearing type the law does not suit (its
+/// `SUITS_*` bits; a law declaring none, or a joint the rig declares nothing for, is never
+/// warned about), naming the joint, the law, what the law is made for and what the joint is.
+/// A law the registry cannot provide is left to the binding's error.
+pub fn suitability_notes(model: &RigFile, registry: &LawRegistry) -> Vec<String> {
+    let mut notes = Vec::new();
+    for spec in joint_specs(model) {
+        let bearing = model.bearing_type(&spec.name);
+        for law in &spec.laws {
+            let Ok(lib) = registry.get(&law.law) else {
+                continue;
+            };
+            if !suits(lib.suits(), bearing) {
+                notes.push(format!(
+                    "joint `{}`: law `{}` is made for {}, but the rig declares {} there",
+                    spec.name,
+                    law.law,
+                    suits_text(lib.suits()),
+                    bearing_words(bearing)
+                ));
+            }
+        }
+    }
+    notes
+}
+
+/// A declared bearing type in a sentence.
+fn bearing_words(bearing: BearingType) -> &'static str {
+    match bearing {
+        BearingType::Unspecified => "no bearing type",
+        BearingType::Plain => "a plain bearing",
+        BearingType::Rolling => "a rolling-element bearing",
+        BearingType::Slide => "a slide",
     }
 }
 
@@ -482,19 +567,13 @@ pub(super) fn reset_states(joints: &mut [BoundJoint]) {
 pub(super) fn law_time(joints: &[BoundJoint]) -> Vec<LawTime> {
     joints
         .iter()
-        .flat_map(|j| j.laws.iter().map(move |l| l.time(j.id.name())))
+        .flat_map(|j| j.laws.iter().map(move |l| l.time(&j.name)))
         .collect()
 }
 
-/// A law that failed (panicked or returned an error code) at `input`.
+/// A law that failed (panicked or returned an error code) at `input` on joint `joint`.
 #[cold]
-pub(super) fn law_failed(joint: JointId, input: &LawInput, e: LawError) -> SimError {
-    law_failed_named(joint.name(), input, e)
-}
-
-/// [`law_failed`] on the joint named `joint`.
-#[cold]
-pub(super) fn law_failed_named(joint: &str, input: &LawInput, e: LawError) -> SimError {
+pub(super) fn law_failed(joint: &str, input: &LawInput, e: LawError) -> SimError {
     SimError::Law {
         joint: joint.into(),
         time_s: input.time_s,
@@ -525,44 +604,5 @@ fn unusable(joint: &str, law: &BoundLaw, input: &LawInput, force: f64) -> SimErr
         SimError::AddsEnergy(fault)
     } else {
         SimError::NonFinite(fault)
-    }
-}
-
-impl super::Simulation {
-    /// Commit every stateful law over the accepted step of length `dt` ending at `t` (crank
-    /// angle `theta`), whose end evaluation is `e`.
-    pub(super) fn commit(
-        &mut self,
-        t: f64,
-        dt: f64,
-        theta: f64,
-        e: &super::evaluate::Eval,
-        oil: (f64, f64),
-    ) -> Result<(), SimError> {
-        if !self.stateful {
-            return Ok(());
-        }
-        let kin = self.mech.kinematics(theta, e.omega);
-        let bodies = super::evaluate::joint_bodies(&kin);
-        let comps = self.components(&e.reactions);
-        let moment = e.reactions.slide_moment_nm;
-        let at = Instant {
-            t,
-            dt,
-            crank_angle: super::evaluate::crank_angle(theta),
-            omega: e.omega,
-            oil,
-            // The end evaluation's own gas state (a vented crankcase read at the speed that
-            // evaluation used).
-            gas: self.law_gas(theta, e.omega, &kin.q, e.gas.as_ref()),
-        };
-        for joint in self.joints.iter_mut().filter(|j| j.is_stateful()) {
-            let id = joint.id;
-            let mut input = joint.input(&at, &bodies[id]);
-            let moment = if id == JointId::Piston { moment } else { 0.0 };
-            set_load(&mut input, comps[id], moment, e.normals[id]);
-            joint.commit(&input)?;
-        }
-        Ok(())
     }
 }

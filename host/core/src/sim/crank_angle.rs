@@ -7,13 +7,10 @@
 use tribo_plugin_api::serde::{Deserialize, Serialize};
 use tribo_plugin_api::{LawInput, LawOutput, Regime};
 
-use super::bind::{reset_states, set_load, BoundLaw, Instant};
-use super::engine_run::{EngineSimulation, Work as EngineWork};
+use super::bind::{checked_power, law_failed, set_load, BoundLaw};
 use super::error::SimError;
-use super::evaluate::{crank_angle, joint_bodies, Point};
-use super::joint::JointId;
+use super::evaluate::{Eval, Point, Work};
 use super::Simulation;
-use crate::mechanics::JointLoads;
 
 /// One law at one crank angle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -53,7 +50,8 @@ impl LawSample {
     fn new(power: f64, omega: f64, indicators: &[f64], input: &LawInput, out: &LawOutput) -> Self {
         let (ex, ey) = out.eccentricity().unzip();
         Self {
-            friction_torque_nm: power / omega,
+            // At rest (a stepped run's start) nothing turns and nothing dissipates.
+            friction_torque_nm: if omega != 0.0 { power / omega } else { 0.0 },
             power_w: power,
             normal_load_n: input.normal_load_n,
             sliding_speed_m_s: input.sliding_velocity_m_s,
@@ -67,21 +65,22 @@ impl LawSample {
     }
 }
 
-/// Law `law` at its loaded `input` (on joint `joint` of kind `kind`, the largest reaction
-/// `reaction_n`), for the diagnostics of a trace: the output of the same evaluation the run
-/// makes, checked the same way (a diagnostic out of its physical range is an error naming law,
-/// joint and time).
+/// Law `law` at its loaded `input` with its state `state` (on joint `joint` of kind `kind`,
+/// the largest reaction `reaction_n`), for the diagnostics of a trace: the output of the same
+/// evaluation the run makes, checked the same way (a diagnostic out of its physical range is
+/// an error naming law, joint and time).
 fn sample_output(
     joint: &str,
     kind: tribo_plugin_api::JointKind,
     law: &BoundLaw,
     input: &LawInput,
+    state: &[f64],
     reaction_n: f64,
 ) -> Result<LawOutput, SimError> {
     let out = law
-        .output(input)
-        .map_err(|e| super::bind::law_failed_named(joint, input, e))?;
-    super::bind::checked_power_named(joint, kind, law, input, &out, reaction_n)?;
+        .output(input, state)
+        .map_err(|e| law_failed(joint, input, e))?;
+    checked_power(joint, kind, law, input, &out, reaction_n)?;
     Ok(out)
 }
 
@@ -185,8 +184,10 @@ fn sample_buffer<T>(n: usize) -> Result<Vec<T>, SimError> {
 
 impl Simulation {
     /// Every plateau's cycle at the plateau's speed (constant: the steady state), sampled every
-    /// `resolution_deg` degrees. Laws start from zero state; a stateful law runs one cycle
-    /// first so the sampled one is settled.
+    /// `resolution_deg` degrees: each law's torque, power, load, sliding speed and regime, the
+    /// loads and pressures; on an engine also each cylinder's and main bearing's loads. Laws
+    /// start from zero state; a stateful law runs one cycle first so the sampled one is
+    /// settled.
     pub fn crank_angle_traces(
         &mut self,
         resolution_deg: f64,
@@ -194,36 +195,33 @@ impl Simulation {
         let cycle = self.cycle_angle();
         let n = samples_per_cycle(cycle, resolution_deg)?;
         let h_angle = cycle / n as f64;
-        let laws: Vec<(String, String)> = self
-            .joints
-            .iter()
-            .flat_map(|j| {
-                j.laws
-                    .iter()
-                    .map(move |l| (j.id.name().to_string(), l.name.clone()))
-            })
-            .collect();
+        let laws = self.law_names();
+        let mut w = self.work()?;
+        let mut e = w.eval();
+        let mut guess = vec![0.0; self.joints.len()];
         let mut traces = Vec::new();
         for pi in 0..self.cycle.plateaus().len() {
             let omega = self.cycle.plateaus()[pi].omega;
             let oil = (self.temps[pi], self.viscosities[pi]);
             let h = h_angle / omega;
-            reset_states(&mut self.joints);
-            let mut guess = JointLoads::default();
+            w.states.reset();
+            if self.rules.fresh_trace_guess {
+                guess.fill(0.0);
+            }
             let mut samples = sample_buffer(n)?;
             let passes = if self.stateful { 2 } else { 1 };
             for pass in 0..passes {
                 for k in 0..n {
                     let theta = k as f64 * h_angle;
                     let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
-                    let (e, loads) = self.evaluate(&at, &guess, Vec::new())?;
-                    guess = loads;
+                    self.evaluate(&at, &guess, &mut w, &mut e)?;
+                    guess.copy_from_slice(&e.totals);
                     if pass + 1 == passes {
                         // Sampled before the commit: the laws' states are those the
                         // evaluation used.
-                        samples.push(self.angle_sample(&at, &e)?);
+                        samples.push(self.angle_sample(theta, omega, &w, &e)?);
                     }
-                    self.commit(at.t, h, theta, &e, oil)?;
+                    self.commit(&mut w, &e)?;
                 }
             }
             traces.push(CrankAngleTrace {
@@ -232,163 +230,86 @@ impl Simulation {
                 samples,
             });
         }
-        reset_states(&mut self.joints);
         Ok(traces)
     }
 
-    /// The sample at point `at` from its evaluation `e`: each law's rates, and its diagnostics
-    /// at the settled loads.
-    fn angle_sample(&self, at: &Point, e: &super::evaluate::Eval) -> Result<AngleSample, SimError> {
-        let (theta, omega) = (at.theta, at.omega);
-        let layout = self.layout();
-        let (kin, gas) = self.kinematics(theta, omega, omega);
-        let bodies = joint_bodies(&kin);
-        let instant = Instant {
-            t: at.t,
-            dt: at.dt,
-            crank_angle: crank_angle(theta),
-            omega,
-            oil: at.oil,
-            gas: self.law_gas(theta, omega, &kin.q, gas.as_ref()),
-        };
-        let mut law_samples = Vec::new();
-        let mut idx = 0;
-        let comps = self.components(&e.reactions);
-        let reaction_n = e.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
-        for j in &self.joints {
-            let mut input = j.input(&instant, &bodies[j.id]);
-            let moment = if j.id == JointId::Piston {
-                e.reactions.slide_moment_nm
-            } else {
-                0.0
-            };
-            set_load(&mut input, comps[j.id], moment, e.normals[j.id]);
-            for law in &j.laws {
-                let out = sample_output(j.id.name(), j.id.kind(), law, &input, reaction_n)?;
-                let regimes: Vec<f64> = (0..4).map(|r| e.rates[layout.regime(idx, r)]).collect();
-                let power = e.rates[layout.power(idx)];
-                law_samples.push(LawSample::new(power, omega, &regimes, &input, &out));
-                idx += 1;
-            }
-        }
-        // Without gas loads both sides are at the standard atmosphere.
-        let pressures_pa = match &e.gas {
-            Some(g) => [g.cylinder_pa, g.crankcase_pa],
-            None => [crate::model::ATMOSPHERE_PA; 2],
-        };
-        Ok(AngleSample {
-            crank_angle_deg: theta.to_degrees(),
-            laws: law_samples,
-            big_end_n: [e.reactions.big_end_n.x, e.reactions.big_end_n.y],
-            main_n: [e.reactions.main_n.x, e.reactions.main_n.y],
-            pressures_pa,
-            drive_torque_nm: e.drive_torque,
-            cylinders: Vec::new(),
-            mains_n: Vec::new(),
-        })
-    }
-}
-
-impl EngineSimulation {
-    /// Every plateau's cycle at the plateau's speed (the steady state), sampled every
-    /// `resolution_deg` degrees, as [`Simulation::crank_angle_traces`] with every joint of
-    /// the engine and each cylinder's and main bearing's loads. Laws start from zero state; a
-    /// stateful law runs one cycle first so the sampled one is settled.
-    pub fn crank_angle_traces(
-        &mut self,
-        resolution_deg: f64,
-    ) -> Result<Vec<CrankAngleTrace>, SimError> {
-        let cycle = self.window_spec().cycle_angle();
-        let n = samples_per_cycle(cycle, resolution_deg)?;
-        let h_angle = cycle / n as f64;
-        let laws: Vec<(String, String)> = self
-            .joints
+    /// Joint and law of every law, in the run-wide law order.
+    pub fn law_names(&self) -> Vec<(String, String)> {
+        self.joints
             .iter()
             .flat_map(|j| j.laws.iter().map(move |l| (j.name.clone(), l.name.clone())))
-            .collect();
-        let mut w = EngineWork::new(self);
-        let mut traces = Vec::new();
-        for pi in 0..self.cycle.plateaus().len() {
-            let omega = self.cycle.plateaus()[pi].omega;
-            let oil = (self.temps[pi], self.viscosities[pi]);
-            let h = h_angle / omega;
-            self.reset_states();
-            let mut samples = sample_buffer(n)?;
-            let passes = if self.stateful { 2 } else { 1 };
-            for pass in 0..passes {
-                for k in 0..n {
-                    let theta = k as f64 * h_angle;
-                    let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
-                    self.evaluate(&at, &mut w)?;
-                    if pass + 1 == passes {
-                        // Sampled before the commit, as on the single-cylinder rig.
-                        samples.push(self.angle_sample(&at, &w)?);
-                    }
-                    if self.stateful {
-                        self.commit(&w)?;
-                    }
-                }
-            }
-            traces.push(CrankAngleTrace {
-                speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
-                laws: laws.clone(),
-                samples,
-            });
-        }
-        self.reset_states();
-        Ok(traces)
+            .collect()
     }
 
-    /// The sample at point `at` from the settled evaluation `w`: each law's rates, and its
-    /// diagnostics at the settled loads.
-    fn angle_sample(&self, at: &Point, w: &EngineWork) -> Result<AngleSample, SimError> {
-        let (theta, omega) = (at.theta, at.omega);
+    /// Every law's sample at crank speed `omega` from the last evaluation in `w` (its law
+    /// inputs, the crank model's final solve and the laws' states), its settled normal loads
+    /// `normals` and rates `rates`: each law's rates, and its diagnostics at the settled loads.
+    pub(super) fn law_samples(
+        &self,
+        omega: f64,
+        w: &Work,
+        normals: &[f64],
+        rates: &[f64],
+    ) -> Result<Vec<LawSample>, SimError> {
         let layout = self.layout();
-        let mut law_samples = Vec::new();
-        let mut idx = 0;
-        let reaction_n = w.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
+        let mut law_samples = Vec::with_capacity(self.n_laws);
+        let reaction_n = normals.iter().fold(0.0, |m: f64, n| m.max(*n));
         for (ji, j) in self.joints.iter().enumerate() {
             // Without laws the inputs are not built (and nothing is sampled).
             let Some(mut input) = w.inputs.get(ji).copied() else {
                 continue;
             };
-            let (comp, moment) = self.joint_reaction(ji, &w.re);
-            set_load(&mut input, comp, moment, w.normals[ji]);
-            for law in &j.laws {
-                let out = sample_output(&j.name, input_kind(&input), law, &input, reaction_n)?;
-                let power = w.rates[layout.power(idx)];
-                let regimes: Vec<f64> = (0..4).map(|r| w.rates[layout.regime(idx, r)]).collect();
+            let (comp, moment) = w.crank.reaction(j.role);
+            set_load(&mut input, comp, moment, normals[ji]);
+            for (i, law) in j.laws.iter().enumerate() {
+                let k = j.first_law + i;
+                let state = &w.states.0[k];
+                let out = sample_output(&j.name, j.role.kind(), law, &input, state, reaction_n)?;
+                let power = rates[layout.power(k)];
+                let regimes: Vec<f64> = (0..4).map(|r| rates[layout.regime(k, r)]).collect();
                 law_samples.push(LawSample::new(power, omega, &regimes, &input, &out));
-                idx += 1;
             }
         }
-        let cylinders: Vec<CylinderSample> =
-            w.re.cylinders
-                .iter()
-                .zip(&w.law_gas)
-                .map(|(c, g)| CylinderSample {
-                    big_end_n: [c.big_end_n.x, c.big_end_n.y],
-                    side_thrust_n: c.slide_lateral_n,
-                    pressures_pa: [g.cylinder_pa, g.crankcase_pa],
+        Ok(law_samples)
+    }
+
+    /// The sample at crank angle `theta` and speed `omega` from the settled evaluation `e`
+    /// (its law inputs and the crank model's final solve in `w`).
+    fn angle_sample(
+        &self,
+        theta: f64,
+        omega: f64,
+        w: &Work,
+        e: &Eval,
+    ) -> Result<AngleSample, SimError> {
+        let law_samples = self.law_samples(omega, w, &e.normals, &e.rates)?;
+        let loads = w.crank.loads_sample();
+        let pressures = |k: usize| {
+            w.law_gas
+                .get(k)
+                .map_or([crate::model::ATMOSPHERE_PA; 2], |g| {
+                    [g.cylinder_pa, g.crankcase_pa]
                 })
-                .collect();
-        let first = cylinders.first();
+        };
+        let cylinders: Vec<CylinderSample> = loads
+            .cylinders
+            .iter()
+            .enumerate()
+            .map(|(k, (big_end_n, side_thrust_n))| CylinderSample {
+                big_end_n: *big_end_n,
+                side_thrust_n: *side_thrust_n,
+                pressures_pa: pressures(k),
+            })
+            .collect();
         Ok(AngleSample {
             crank_angle_deg: theta.to_degrees(),
             laws: law_samples,
-            big_end_n: first.map_or([0.0; 2], |c| c.big_end_n),
-            main_n: [w.re.main_total_n.x, w.re.main_total_n.y],
-            pressures_pa: first.map_or([crate::model::ATMOSPHERE_PA; 2], |c| c.pressures_pa),
-            drive_torque_nm: w.re.drive_torque_nm,
-            mains_n: w.re.mains_n.iter().map(|m| [m.x, m.y]).collect(),
+            big_end_n: loads.big_end_n,
+            main_n: loads.main_n,
+            pressures_pa: pressures(0),
+            drive_torque_nm: e.drive_torque,
+            mains_n: loads.mains_n,
             cylinders,
         })
     }
-}
-
-/// The joint kind an input says (revolute unless prismatic).
-fn input_kind(input: &LawInput) -> tribo_plugin_api::JointKind {
-    input
-        .kind()
-        .unwrap_or(tribo_plugin_api::JointKind::Revolute)
 }

@@ -1,19 +1,8 @@
-//! Energy bookkeeping: the mechanism's mechanical energy, and the balance of motor work,
-//! energy change and dissipation a run reports (its residual checks the integration).
+//! Energy bookkeeping: the balance of motor work, energy change (the crank model's
+//! mechanical energy, `Crank::mechanical_energy`), dissipation and gas work a run reports (its
+//! residual checks the integration).
 
 use super::results::EnergyBalance;
-use super::Simulation;
-use crate::mechanics::JointLoads;
-
-impl Simulation {
-    /// Kinetic plus potential energy of the mechanism at crank angle `theta` and speed
-    /// `omega`, J.
-    pub(super) fn mechanical_energy(&self, theta: f64, omega: f64) -> f64 {
-        // Positions and velocities only: the gas force does not change them.
-        let (st, _) = self.mech.solve(theta, omega, 0.0, &JointLoads::default());
-        self.mech.kinetic_energy(&st.qd) + self.mech.potential_energy(&st.q)
-    }
-}
 
 impl EnergyBalance {
     /// The balance of `motor_work` (J) against the mechanical energy's `change` and the

@@ -116,6 +116,14 @@ pub enum SimError {
     /// chain (`{:#}`) would print a second time.
     #[error("{0}")]
     Observer(crate::observe::ObserverError),
+    /// An input of a stepped run (`sim::Run`) that cannot be used: which, and why.
+    #[error("stepping input `{input}`: {message}")]
+    Input {
+        /// The input, e.g. `drive_torque_nm`.
+        input: &'static str,
+        /// What is wrong and what is allowed.
+        message: String,
+    },
 }
 
 /// The advice of [`SimError::Stalled`]: the drive's limit when it was the cause.

@@ -1,20 +1,19 @@
 //! Model evaluation at one instant: kinematics once, then the friction/reaction iteration
 //! (phase 1, the plain fixed-point iteration; phase 2, in `newton.rs`, when it stalls) until
-//! the joints' normal loads settle. Plain data in, plain data out.
+//! the joints' normal loads settle. The same for every crank train: the crank model
+//! ([`Crank`]) answers for kinematics and reactions, the joints' laws for the friction.
 
 use std::f64::consts::TAU;
 
-use nalgebra::Vector2;
-use tribo_plugin_api::{LawInput, Regime};
+use tribo_plugin_api::LawInput;
 
-use super::bind::{law_failed, set_load, Bodies, Instant};
+use super::bind::{set_load, Bodies, Instant, LawStates};
+use super::crank::Crank;
 use super::error::{SimError, Unsettled};
-use super::joint::JointId;
-use super::newton::{Distance, Trend, Verdict};
+use super::newton::{Trend, Verdict};
 use super::rates::RateLayout;
 use super::Simulation;
-use crate::gas::GasState;
-use crate::mechanics::{JointLoads, Kinematics, Reactions};
+use crate::gas::LawGas;
 
 /// How the crank is driven at an evaluation: its acceleration is known (prescribed crank,
 /// steady state), or a torque is applied and the acceleration follows from the dynamics.
@@ -60,13 +59,6 @@ impl Point {
     }
 }
 
-/// Number of switching functions in an evaluation.
-pub(super) const SWITCHES: usize = 7;
-/// The switching function of the piston's lateral reaction (after the five joints').
-pub(super) const SWITCH_LATERAL: usize = 5;
-/// The switching function of the PI drive's torque margin.
-pub(super) const SWITCH_DRIVE: usize = 6;
-
 /// Output of one evaluation.
 #[derive(Debug, Clone)]
 pub(super) struct Eval {
@@ -77,29 +69,68 @@ pub(super) struct Eval {
     /// Rates accumulated over time: motor power, then per law dissipated power, per law
     /// regime indicators (4), per law normal load (see `RateLayout`).
     pub(super) rates: Vec<f64>,
-    /// Normal load per joint.
-    pub(super) normals: [f64; 5],
+    /// Normal load per joint, N.
+    pub(super) normals: Vec<f64>,
     /// Where the rates stop being smooth when these change sign: each joint's relative
-    /// velocity (a friction force reverses), the piston's lateral reaction (its normal load,
-    /// an absolute value, has a kink) and the PI drive's margin to its torque limit (the
+    /// velocity (a friction force reverses), each cylinder's side thrust (its normal load, an
+    /// absolute value, has a kink) and last the PI drive's margin to its torque limit (the
     /// anti-windup switches its integrator).
-    pub(super) switches: [f64; SWITCHES],
+    pub(super) switches: Vec<f64>,
+    /// Each joint's law force or torque in the final solve: the friction the next evaluation
+    /// starts from.
+    pub(super) totals: Vec<f64>,
     pub(super) iterations: u32,
     /// Whether phase 2 (Newton) settled the loads; phase 1 otherwise. Read by the unit tests,
     /// which hold each phase to its own convergence test.
     #[cfg_attr(not(test), allow(dead_code))]
     pub(super) newton: bool,
-    /// The gas pressures, piston position and 4-stroke angle at this instant (rigs with gas
-    /// loads): what a law will be handed by contract v2.
-    pub(super) gas: Option<GasState>,
-    /// The settled joint reactions.
-    pub(super) reactions: Reactions,
 }
 
 impl Eval {
     /// Whether the PI drive sat at its torque limit.
     pub(super) fn saturated(&self) -> bool {
-        self.switches[SWITCH_DRIVE] < 0.0
+        self.switches.last().is_some_and(|m| *m < 0.0)
+    }
+}
+
+/// A run's evaluation scratch: the crank model with its configuration and last solve, each
+/// cylinder's gas state for its laws, the law inputs of the last round of laws (what a commit
+/// is given), every law's state, the normal loads of the solve before, and recycled
+/// evaluations. No allocation per evaluation once warmed up.
+#[derive(Clone)]
+pub(super) struct Work {
+    pub(super) crank: Crank,
+    pub(super) law_gas: Vec<LawGas>,
+    pub(super) inputs: Vec<LawInput>,
+    /// Each joint's two bodies and relative velocity in the configuration evaluated.
+    pub(super) bodies: Vec<Bodies>,
+    pub(super) rel: Vec<f64>,
+    pub(super) prev: Vec<f64>,
+    pub(super) states: LawStates,
+    /// Largest friction iteration count seen.
+    pub(super) max_it: u32,
+    pool: Vec<Eval>,
+}
+
+impl Work {
+    /// A recycled evaluation (or a new one while the pool warms up).
+    pub(super) fn eval(&mut self) -> Eval {
+        self.pool.pop().unwrap_or_else(|| Eval {
+            omega: 0.0,
+            alpha: 0.0,
+            drive_torque: 0.0,
+            rates: Vec::new(),
+            normals: Vec::new(),
+            switches: Vec::new(),
+            totals: Vec::new(),
+            iterations: 0,
+            newton: false,
+        })
+    }
+
+    /// Give an evaluation back for reuse.
+    pub(super) fn recycle(&mut self, e: Eval) {
+        self.pool.push(e);
     }
 }
 
@@ -117,302 +148,196 @@ pub(super) fn crank_angle(theta: f64) -> f64 {
     }
 }
 
-/// Each joint's two bodies from the mechanism's coordinates `q` and velocities `qd` (crank,
-/// rod and piston: x, y, angle each), body A first: the main bearings, crank and block (at
-/// rest); the big end, rod and crank; the small end, piston and rod (angles, rad/s); the
-/// slide, the piston's position and speed along the cylinder axis and the cylinder (m, m/s).
-pub(super) fn joint_bodies(kin: &Kinematics) -> [Bodies; 5] {
-    let (q, qd) = (&kin.q, &kin.qd);
-    let block = (0.0, 0.0);
-    let crank = (q[2], qd[2]);
-    let rod = (q[5], qd[5]);
-    let piston = (q[8], qd[8]);
-    [
-        Bodies { a: crank, b: block },
-        Bodies { a: crank, b: block },
-        Bodies { a: rod, b: crank },
-        Bodies { a: piston, b: rod },
-        Bodies {
-            a: (q[7], qd[7]),
-            b: block,
-        },
-    ]
-}
-
-/// Each joint's relative velocity ([`Bodies::relative`]): the main bearings turn with the
-/// crank, the big end at rod minus crank, the small end at piston minus rod (rad/s), the slide
-/// at the piston's axial speed (m/s).
-pub(super) fn relative_velocities(bodies: &[Bodies; 5]) -> [f64; 5] {
-    bodies.map(|b| b.relative())
-}
-
-/// The friction loads from each joint's total law force or torque (main bearings summed).
-pub(super) fn loads_from(totals: &[f64; 5]) -> JointLoads {
-    let mut loads = JointLoads::default();
-    for id in JointId::ALL {
-        add_load(&mut loads, id, totals[id]);
-    }
-    loads
-}
-
-/// Add joint `id`'s total law force or torque to the friction loads.
-#[inline(always)]
-fn add_load(loads: &mut JointLoads, id: JointId, total: f64) {
-    match id {
-        JointId::MainA | JointId::MainB => loads.main_torque_nm += total,
-        JointId::BigEnd => loads.big_end_torque_nm = total,
-        JointId::SmallEnd => loads.small_end_torque_nm = total,
-        JointId::Piston => loads.slide_force_n = total,
-    }
-}
-
-/// One evaluation's friction/reaction problem: what stays fixed while the loads settle (the
-/// factorised kinematics, the drive's control, the joints' relative velocities) and the law
-/// inputs, of which only the loads change. Borrowed, not moved: copying the kinematics and the
-/// inputs cost 2% of a PI run's instructions.
-pub(super) struct Problem<'a> {
-    pub(super) kin: &'a Kinematics,
-    pub(super) control: Control,
-    pub(super) inputs: &'a mut [LawInput; 5],
-    pub(super) t: f64,
-    /// The largest joint normal load of the solve the laws are evaluated at, N: the scale of
-    /// the bound on a law's force (`MAX_FORCE_PER_REACTION`).
-    pub(super) reaction_n: f64,
-}
-
-impl Problem<'_> {
-    /// Crank acceleration and reactions under the friction `loads`.
-    pub(super) fn solve(&self, loads: &JointLoads) -> (f64, Reactions) {
-        let alpha = match self.control {
-            Control::Acceleration(alpha) => alpha,
-            Control::Torque(torque) => self.kin.alpha_for_torque(torque, loads),
-        };
-        (alpha, self.kin.reactions(alpha, loads))
-    }
-}
-
-/// A round of laws and reactions, and the result of a settled iteration.
-pub(super) struct Settled {
-    pub(super) alpha: f64,
-    pub(super) re: Reactions,
-    pub(super) normals: [f64; 5],
-    pub(super) loads: JointLoads,
-    /// Total law force or torque per joint.
-    pub(super) totals: [f64; 5],
-    pub(super) iterations: u32,
-}
-
-/// Phase 1's view of its own progress: the normal loads of the last solve and the trend of
-/// its changes, from which convergence (the geometric remainder) and stalling are judged.
-#[derive(Default)]
-struct Progress {
-    prev: Option<[f64; 5]>,
-    trend: Trend,
-}
-
-impl Progress {
-    /// Take the solve's `normals` at iteration `it`: converged when their distance to the
-    /// fixed point is within `tol` of `scale` (the last change or, once the iteration is seen
-    /// to contract by a factor rho, the geometric remainder rho / (1 - rho) of it); stalled
-    /// when `plain_iteration_stalls` says so.
-    fn judge(&mut self, normals: &[f64; 5], tol: f64, scale: f64, remaining: u32) -> Verdict {
-        let change = self.prev.map(|p| {
-            p.iter()
-                .zip(normals)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max)
-        });
-        self.trend
-            .judge(change, Distance::Geometric, tol * scale, remaining)
-    }
-}
-
 impl Simulation {
-    /// Normal loads per joint from the reactions.
-    #[inline]
-    pub(super) fn normals(&self, re: &Reactions) -> [f64; 5] {
-        let main = re.main_n.norm();
-        [
-            main * self.shares[0],
-            main * self.shares[1],
-            re.big_end_n.norm(),
-            re.small_end_n.norm(),
-            re.slide_lateral_n.abs(),
-        ]
+    /// A fresh scratch for a run of this simulation, every law's state at zero.
+    pub(super) fn work(&self) -> Result<Work, SimError> {
+        let n = self.joints.len();
+        Ok(Work {
+            crank: self.crank.clone(),
+            law_gas: Vec::with_capacity(self.crank.cylinders()),
+            inputs: Vec::with_capacity(n),
+            bodies: vec![Bodies::default(); n],
+            rel: vec![0.0; n],
+            prev: vec![0.0; n],
+            states: LawStates::new(&self.joints)?,
+            max_it: 0,
+            pool: Vec::new(),
+        })
     }
 
-    /// The reaction components each joint's laws see: main bearings (each its share), big end,
-    /// small end (global x, y) and the slide (along and normal to its axis).
-    #[inline]
-    pub(super) fn components(&self, re: &Reactions) -> [Vector2<f64>; 5] {
-        [
-            re.main_n * self.shares[0],
-            re.main_n * self.shares[1],
-            re.big_end_n,
-            re.small_end_n,
-            Vector2::new(0.0, re.slide_lateral_n),
-        ]
-    }
-
-    /// Evaluate the rig at point `at`: the friction/reaction iteration from the loads `guess`,
-    /// the rates written into the recycled `buffer`. Returns the evaluation and the friction
-    /// loads it settled on (the next evaluation's guess).
+    /// Evaluate the rig at point `at`: the friction/reaction iteration from the law totals
+    /// `guess` (per joint), the result written into the recycled `e` (its `totals` the
+    /// friction the next evaluation starts from); the law inputs of its last round of laws
+    /// stay in `w`.
     pub(super) fn evaluate(
         &self,
         at: &Point,
-        guess: &JointLoads,
-        buffer: Vec<f64>,
-    ) -> Result<(Eval, JointLoads), SimError> {
-        let mut loads = *guess;
-        let mut progress = Progress::default();
-        // The caller's recycled buffer: no allocation per evaluation once warmed up.
-        let mut rates = buffer;
-        rates.clear();
-        rates.resize(self.layout().len(), 0.0);
-        // Positions, velocities and the factorised constraints do not depend on the loads:
-        // computed once, the iteration below only recombines the multipliers.
-        let (kin, gas) = self.kinematics(at.theta, at.omega, self.gas_speed(at));
-        let bodies = joint_bodies(&kin);
-        let rel = relative_velocities(&bodies);
-        // The power into the gas: the gas force's power on the piston, negated.
-        if let Some(g) = &gas {
-            rates[self.layout().gas()] = -g.force_n * kin.qd[7];
-        }
-        let instant = Instant {
-            t: at.t,
-            dt: at.dt,
-            crank_angle: crank_angle(at.theta),
-            omega: at.omega,
-            oil: at.oil,
-            gas: self.law_gas(at.theta, at.omega, &kin.q, gas.as_ref()),
-        };
-        check_inputs(at, &rel)?;
-        let mut inputs: [LawInput; 5] =
-            std::array::from_fn(|ji| self.joints[ji].input(&instant, &bodies[ji]));
-        let mut p = Problem {
-            kin: &kin,
-            control: at.control,
-            inputs: &mut inputs,
-            t: at.t,
-            reaction_n: 0.0,
-        };
+        guess: &[f64],
+        w: &mut Work,
+        e: &mut Eval,
+    ) -> Result<(), SimError> {
+        self.prepare(at, guess, w, e)?;
         // Phase 1: the plain fixed-point iteration (solve, evaluate the laws at the resulting
-        // normal loads, repeat). It settles every bundled law set in a few iterations.
+        // normal loads, repeat), abandoned for phase 2 (`newton.rs`) when it is seen not to
+        // contract. It settles every bundled law set in a few iterations.
+        let mut trend = Trend::default();
         for it in 1..=self.max_iter {
-            let (alpha, re) = p.solve(&loads);
-            let normals = self.normals(&re);
-            check_solve(at.t, alpha, &re, &normals)?;
-            let scale = normals.iter().fold(1.0_f64, |m, n| m.max(*n));
-            let verdict = progress.judge(&normals, self.tol, scale, self.max_iter - it);
+            let alpha = w.crank.solve(at.control, &self.roles, &e.totals);
+            w.crank.normals(&self.roles, &mut e.normals);
+            check_solve(self, at.t, alpha, w.crank.drive_torque(), &e.normals)?;
+            let scale = e.normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+            let change = (it > 1).then(|| {
+                w.prev
+                    .iter()
+                    .zip(&e.normals)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+            });
+            let verdict = trend.judge(
+                change,
+                self.rules.distance,
+                self.tol * scale,
+                self.max_iter - it,
+            );
             if matches!(verdict, Verdict::Converged) || self.n_laws == 0 {
-                let s = Settled {
-                    alpha,
-                    re,
-                    normals,
-                    loads,
-                    totals: [0.0; 5],
-                    iterations: it,
-                };
-                return Ok((finish(at, &rel, rates, &s, false, gas), loads));
+                self.finish(at, w, e, alpha, it, false);
+                return Ok(());
             }
             if matches!(verdict, Verdict::Stalls) {
-                let s = self.settle_by_newton(&mut p, it, &re, &normals, &mut rates)?;
-                return Ok((finish(at, &rel, rates, &s, true, gas), s.loads));
+                let (alpha, it) = self.settle_by_newton(at, w, e, it)?;
+                self.finish(at, w, e, alpha, it, true);
+                return Ok(());
             }
-            let new_loads = self.plain_round(&mut p, &re, &normals, &mut rates)?;
+            self.plain_round(w, e)?;
             if it == self.max_iter {
-                return Err(self.plain_failure(&p, &progress, &new_loads, &normals, scale, it));
+                return Err(self.plain_failure(at, w, e, it));
             }
-            progress.prev = Some(normals);
-            loads = new_loads;
+            w.prev.copy_from_slice(&e.normals);
         }
         // Not reached (the last iteration returns), but an error is the honest answer.
-        Err(self.no_convergence(at.t, self.max_iter, &[f64::NAN; 5], 1.0))
+        Err(self.no_convergence(at.t, self.max_iter, &[], 1.0))
     }
 
-    /// One round of phase 1: every law evaluated at the reactions `re` (normal loads
-    /// `normals`), powers, regimes and loads recorded in `rates`. Returns the friction loads.
+    /// Everything of an evaluation at `at` that does not depend on the loads: the rates
+    /// cleared (the gas power set), the friction started from `guess`, the configuration and
+    /// the relative velocities (checked finite), and the law inputs but for the loads.
     #[inline(always)]
-    fn plain_round(
+    fn prepare(
         &self,
-        p: &mut Problem<'_>,
-        re: &Reactions,
-        normals: &[f64; 5],
-        rates: &mut [f64],
-    ) -> Result<JointLoads, SimError> {
-        // Law inputs: only the loads change from one iteration to the next.
-        let comps = self.components(re);
-        p.reaction_n = normals.iter().fold(0.0, |m, n| m.max(*n));
-        let mut new_loads = JointLoads::default();
+        at: &Point,
+        guess: &[f64],
+        w: &mut Work,
+        e: &mut Eval,
+    ) -> Result<(), SimError> {
+        let layout = self.layout();
+        e.rates.clear();
+        e.rates.resize(layout.len(), 0.0);
+        e.normals.clear();
+        e.normals.resize(self.joints.len(), 0.0);
+        e.totals.clear();
+        e.totals.extend_from_slice(guess);
+        e.totals.resize(self.joints.len(), 0.0);
+        // Positions, velocities and the factorised constraints do not depend on the loads:
+        // computed once, the iteration below only recombines the multipliers.
+        let gas = self.gas_models();
+        let gas_power = w.crank.kinematics(
+            at.theta,
+            at.omega,
+            gas,
+            (self.gas_speed(at), self.held.cylinder_pa),
+            &mut w.law_gas,
+        );
+        if !gas.is_empty() {
+            e.rates[layout.gas()] = gas_power;
+        }
+        for ((b, r), j) in w.bodies.iter_mut().zip(&mut w.rel).zip(&self.joints) {
+            *b = w.crank.bodies(j.role);
+            *r = b.relative();
+        }
+        check_inputs(self, at, &w.rel)?;
+        // The law inputs but for the loads: built once, each round of laws sets only the loads.
+        w.inputs.clear();
+        if self.n_laws > 0 {
+            for (j, bodies) in self.joints.iter().zip(&w.bodies) {
+                // A cylinder's joints see its own gas state; the mains, cylinder 1's.
+                let instant = Instant {
+                    t: at.t,
+                    dt: at.dt,
+                    crank_angle: crank_angle(at.theta),
+                    omega: at.omega,
+                    oil: at.oil,
+                    gas: w.law_gas[j.role.cylinder()],
+                };
+                w.inputs.push(j.input(&instant, bodies));
+            }
+        }
+        Ok(())
+    }
+
+    /// One round of phase 1: every law evaluated at the last solve's reactions (its normal
+    /// loads in `e.normals`), powers, regimes and loads recorded in `e.rates`, each joint's law
+    /// total into `e.totals`.
+    #[inline(always)]
+    fn plain_round(&self, w: &mut Work, e: &mut Eval) -> Result<(), SimError> {
+        let layout = self.layout();
+        let reaction_n = e.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
         // Powers and mean loads are written for every law below; only the regime indicators
         // are set sparsely and need clearing.
-        rates[self.layout().regimes()].fill(0.0);
-        let mut k = 0;
-        for joint in &self.joints {
-            let id = joint.id;
-            let moment = if id == JointId::Piston {
-                re.slide_moment_nm
-            } else {
-                0.0
-            };
-            set_load(&mut p.inputs[id], comps[id], moment, normals[id]);
-            let total = self.joint_force(p, id, Some((rates, k)))?;
-            add_load(&mut new_loads, id, total);
-            k += joint.laws.len();
+        e.rates[layout.regimes()].fill(0.0);
+        for (ji, j) in self.joints.iter().enumerate() {
+            if j.laws.is_empty() {
+                e.totals[ji] = 0.0;
+                continue;
+            }
+            let (comp, moment) = w.crank.reaction(j.role);
+            let input = &mut w.inputs[ji];
+            set_load(input, comp, moment, e.normals[ji]);
+            e.totals[ji] = j.force(input, &w.states, reaction_n, Some(&mut e.rates), layout)?;
         }
-        Ok(new_loads)
+        Ok(())
+    }
+
+    /// The settled evaluation at `at` from the final solve (crank acceleration `alpha`, after
+    /// `it` iterations; `newton` if phase 2 settled it): motor power, drive torque and the
+    /// switching functions.
+    fn finish(&self, at: &Point, w: &mut Work, e: &mut Eval, alpha: f64, it: u32, newton: bool) {
+        let torque = w.crank.drive_torque();
+        e.rates[RateLayout::MOTOR] = torque * at.omega;
+        e.omega = at.omega;
+        e.alpha = alpha;
+        e.drive_torque = torque;
+        e.iterations = it;
+        e.newton = newton;
+        e.switches.clear();
+        e.switches.extend_from_slice(&w.rel);
+        e.switches
+            .extend((0..w.crank.cylinders()).map(|k| w.crank.lateral(k)));
+        e.switches.push(at.margin);
+        w.max_it = w.max_it.max(it);
     }
 
     /// The error when phase 1 reached `solver.friction_max_iter`: the joints whose loads were
     /// still moving, by the last change or, after a single solve, the one the next solve makes.
     #[cold]
-    fn plain_failure(
-        &self,
-        p: &Problem<'_>,
-        progress: &Progress,
-        new_loads: &JointLoads,
-        normals: &[f64; 5],
-        scale: f64,
-        it: u32,
-    ) -> SimError {
-        let before = progress
-            .prev
-            .unwrap_or_else(|| self.normals(&p.solve(new_loads).1));
-        let changes = std::array::from_fn(|ji| (before[ji] - normals[ji]).abs());
-        let scale = before.iter().fold(scale, |m, n| m.max(*n));
-        self.no_convergence(p.t, it, &changes, scale)
-    }
-
-    /// The friction force (slide) or torque (revolute) of all laws on joint `id` for its input
-    /// in `p`, checked (finite; a stateless law must not add energy). With `record`, each law's
-    /// power, regime and load are written into the rate vector from law index `k` on.
-    #[inline(always)]
-    pub(super) fn joint_force(
-        &self,
-        p: &Problem<'_>,
-        id: JointId,
-        record: Option<(&mut [f64], usize)>,
-    ) -> Result<f64, SimError> {
-        let joint = &self.joints[id.index()];
-        let layout = self.layout();
-        let input = &p.inputs[id];
-        let mut record = record;
-        let mut total = 0.0;
-        for (i, law) in joint.laws.iter().enumerate() {
-            let out = match law.call(input) {
-                Ok(out) => out,
-                Err(e) => return Err(law_failed(id, input, e)),
-            };
-            let power = joint.checked_power(law, input, &out, p.reaction_n)?;
-            total += out.force;
-            if let Some((rates, k)) = record.as_mut() {
-                let regime = out.regime().unwrap_or(Regime::None) as usize;
-                rates[layout.power(*k + i)] = -power;
-                rates[layout.regime(*k + i, regime)] = 1.0;
-                rates[layout.normal(*k + i)] = input.normal_load_n;
-            }
-        }
-        Ok(total)
+    fn plain_failure(&self, at: &Point, w: &mut Work, e: &Eval, it: u32) -> SimError {
+        let mut next = vec![0.0; self.joints.len()];
+        w.crank.solve(at.control, &self.roles, &e.totals);
+        w.crank.normals(&self.roles, &mut next);
+        let (before, after) = if it > 1 {
+            (&w.prev, &e.normals)
+        } else {
+            (&e.normals, &next)
+        };
+        let changes: Vec<f64> = before
+            .iter()
+            .zip(after)
+            .map(|(a, b)| (a - b).abs())
+            .collect();
+        let scale = before
+            .iter()
+            .chain(after.iter())
+            .fold(1.0_f64, |m, n| m.max(*n));
+        self.no_convergence(at.t, it, &changes, scale)
     }
 
     /// The error for an iteration that did not settle: `changes` per joint (N), the joints
@@ -422,7 +347,7 @@ impl Simulation {
         &self,
         t: f64,
         iterations: u32,
-        changes: &[f64; 5],
+        changes: &[f64],
         scale: f64,
     ) -> SimError {
         let tol_n = self.tol * scale;
@@ -432,9 +357,10 @@ impl Simulation {
             .iter()
             .zip(changes)
             .filter(|(j, _)| !j.laws.is_empty())
+            // A NaN change (loads that ran off to infinity) is unsettled too.
             .filter(|(_, c)| c.is_nan() || **c > tol_n)
             .map(|(j, c)| Unsettled {
-                joint: j.id.name().into(),
+                joint: j.name.clone(),
                 laws: j.laws.iter().map(|l| l.name.clone()).collect(),
                 change_n: *c,
             })
@@ -442,7 +368,7 @@ impl Simulation {
         SimError::NoConvergence {
             time_s: t,
             iterations,
-            change_n: changes.iter().fold(0.0, |m, c| m.max(*c)),
+            change_n: changes.iter().fold(0.0, |m: f64, c| m.max(*c)),
             tol: self.tol,
             unsettled,
         }
@@ -453,7 +379,7 @@ impl Simulation {
 /// relative velocity `rel`) must be finite: a non-finite one is the model's fault, reported as
 /// such before any law could be blamed for it.
 #[inline(always)]
-fn check_inputs(at: &Point, rel: &[f64; 5]) -> Result<(), SimError> {
+fn check_inputs(sim: &Simulation, at: &Point, rel: &[f64]) -> Result<(), SimError> {
     let all = at.omega.is_finite()
         & at.oil.1.is_finite()
         & at.theta.is_finite()
@@ -474,11 +400,13 @@ fn check_inputs(at: &Point, rel: &[f64; 5]) -> Result<(), SimError> {
     } else if !at.oil.1.is_finite() {
         model("oil viscosity", None, at.oil.1)
     } else {
-        let id = JointId::ALL
-            .into_iter()
-            .find(|id| !rel[*id].is_finite())
-            .unwrap_or(JointId::MainA);
-        model("relative velocity", Some(id.name()), rel[id])
+        let (j, v) = sim
+            .joints
+            .iter()
+            .zip(rel)
+            .find(|(_, v)| !v.is_finite())
+            .map_or((None, f64::NAN), |(j, v)| (Some(sim.model_name(j)), *v));
+        model("relative velocity", j, v)
     })
 }
 
@@ -486,13 +414,14 @@ fn check_inputs(at: &Point, rel: &[f64; 5]) -> Result<(), SimError> {
 /// given the loads next): a non-finite one is the model's fault, named with its joint.
 #[inline(always)]
 pub(super) fn check_solve(
+    sim: &Simulation,
     t: f64,
     alpha: f64,
-    re: &Reactions,
-    normals: &[f64; 5],
+    drive_torque: f64,
+    normals: &[f64],
 ) -> Result<(), SimError> {
     let all = alpha.is_finite()
-        & re.drive_torque_nm.is_finite()
+        & drive_torque.is_finite()
         & normals.iter().fold(true, |ok, n| ok & n.is_finite());
     if all {
         return Ok(());
@@ -504,43 +433,10 @@ pub(super) fn check_solve(
         value,
     };
     Err(
-        match JointId::ALL
-            .into_iter()
-            .find(|id| !normals[*id].is_finite())
-        {
-            Some(id) => model("normal load", Some(id.name()), normals[id]),
+        match sim.joints.iter().zip(normals).find(|(_, n)| !n.is_finite()) {
+            Some((j, n)) => model("normal load", Some(sim.model_name(j)), *n),
             None if !alpha.is_finite() => model("crank acceleration", None, alpha),
-            None => model("drive torque", None, re.drive_torque_nm),
+            None => model("drive torque", None, drive_torque),
         },
     )
-}
-
-/// The evaluation at `at` from the final solve `s`: its reactions, normal loads and
-/// iterations, the motor power, and the switching functions (`rel`: the joints' relative
-/// velocities).
-fn finish(
-    at: &Point,
-    rel: &[f64; 5],
-    mut rates: Vec<f64>,
-    s: &Settled,
-    newton: bool,
-    gas: Option<GasState>,
-) -> Eval {
-    rates[RateLayout::MOTOR] = s.re.drive_torque_nm * at.omega;
-    let mut switches = [0.0; SWITCHES];
-    switches[..5].copy_from_slice(rel);
-    switches[SWITCH_LATERAL] = s.re.slide_lateral_n;
-    switches[SWITCH_DRIVE] = at.margin;
-    Eval {
-        omega: at.omega,
-        alpha: s.alpha,
-        drive_torque: s.re.drive_torque_nm,
-        rates,
-        normals: s.normals,
-        switches,
-        iterations: s.iterations,
-        newton,
-        gas,
-        reactions: s.re,
-    }
 }

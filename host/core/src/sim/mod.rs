@@ -1,78 +1,136 @@
-//! The motored-rig simulation, composed of named stages:
+//! The simulation of any rig, whatever its crank train: the single-cylinder rig of the thesis
+//! and multi-cylinder engines run through one solver, composed of named stages:
 //!
-//! - `bind`: laws bound to joints ([`JointId`]), law calls with sampled timing, commits;
-//! - `evaluate` (with `newton`): model evaluation at one instant, the friction/reaction
-//!   iteration (`crank state -> reactions -> law inputs -> laws -> joint loads -> reactions
-//!   ...` until the normal loads settle);
+//! - `joints` + `bind`: the rig's joints (names from the rig, a `Role` each) and their
+//!   laws, law calls with sampled timing, output checks, commits of stateful laws;
+//! - `crank`: the crank model behind one type (the single-cylinder rig's `Mechanism`, an
+//!   engine's `CrankTrain`): kinematics once per evaluation, reactions under any friction;
+//! - `evaluate` (with `newton`): one instant, the friction/reaction iteration (`crank state ->
+//!   reactions -> law inputs -> laws -> friction -> reactions ...` until the normal loads
+//!   settle; phase 2's Newton iteration where the plain one stalls);
 //! - `stepper` (with `adaptive`): one trait for a step method: Simpson quadrature of the
 //!   prescribed crank, the error-controlled Dormand-Prince 5(4) pair of the PI drive with its
 //!   step-size controller and switch handling, fixed-step RK4 (stateful laws or
 //!   `solver.integrator = "rk4"`);
-//! - `plateau`: whole-revolution windows and plateau measurement; `steady`: the steady state;
-//!   `energy`: the energy balance; `results`: what a run returns.
+//! - `transient`: the run over the test cycle, a value advanced in time; `steady`: the steady
+//!   state; `crank_angle`: one cycle per plateau resolved in crank angle;
+//! - `plateau`: whole-revolution windows and plateau measurement; `energy`: the energy
+//!   balance; `results`: what a run returns.
 //!
 //! The core does no I/O: per-step output (a time series, progress) goes to a
 //! [`StepObserver`].
 
 mod adaptive;
-mod any;
 mod bind;
+mod crank;
 mod crank_angle;
 mod energy;
-mod engine_newton;
-mod engine_run;
-mod engine_transient;
 mod error;
 mod evaluate;
-mod joint;
+mod joints;
 mod newton;
 mod plateau;
 mod rates;
 mod results;
 mod steady;
 mod stepper;
+mod stepping;
 #[cfg(test)]
 mod tests;
+mod transient;
 
-use std::f64::consts::TAU;
+use std::f64::consts::PI;
 
 use tribo_plugin_api::loader::LawRegistry;
 
 use crate::cycle::Cycle;
-use crate::erk::{Controller, DORMAND_PRINCE_54};
+use crate::engine::{cylinder_phases, geometry, top_dead_centres, CrankTrain};
 use crate::gas::GasModel;
-use crate::mechanics::{JointLoads, Mechanism, RigGeometry};
-use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature, JOINT_NAMES};
-use crate::observe::{NoObserver, StepObserver, StepSample};
+use crate::mechanics::{Mechanism, RigGeometry};
+use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature};
+use crate::observe::{NoObserver, StepObserver};
 
-pub use any::{suitability_notes, RigSimulation, NO_LAWS_WARNING};
+pub use bind::suitability_notes;
+
+/// The warning of a run with no law on any joint.
+pub const NO_LAWS_WARNING: &str = "no law on any joint: every joint is frictionless, so the motoring torque is the mechanism's alone (zero on average at a constant speed); attach laws with a law set or --law (a frictionless reference rig is meant to give this)";
 pub use crank_angle::{AngleSample, CrankAngleTrace, CylinderSample, LawSample};
-pub use engine_run::EngineSimulation;
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
-pub use joint::JointId;
 pub use results::{
     ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
     PlateauFmep, PlateauResult, RegimeShare, RunResult,
 };
+pub use stepping::{Inputs, JointOutput, Outputs, Run, Snapshot};
 
-use adaptive::Adaptive;
 use bind::BoundJoint;
-use evaluate::{SWITCHES, SWITCH_DRIVE, SWITCH_LATERAL};
-use plateau::Plateaus;
+use crank::{Crank, Role};
+use newton::Distance;
 use rates::RateLayout;
-use stepper::{Quadrature, Rk4, Stepper, Work};
 
 /// Standard gravity, m/s^2.
 pub const GRAVITY_M_S2: f64 = 9.80665;
 
-/// A ready-to-run simulation: mechanism, cycle, laws and drive.
+/// What a commit hands a stateful law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Commit {
+    /// The last round's inputs loaded with the final solve's normal loads and reactions (the
+    /// single-cylinder rig's rule before the solvers were one).
+    Rebuilt,
+    /// The last round's inputs as the laws were evaluated at them (the engines' rule).
+    LastInputs,
+}
+
+/// The rules in which the single-cylinder rig's solver and the engines' differed before they
+/// were one; each kept as it was, until settled in changes of their own.
+#[derive(Debug, Clone, Copy)]
+struct Rules {
+    /// Phase 1's distance to the fixed point.
+    distance: Distance,
+    /// What a stateful law is committed at.
+    commit: Commit,
+    /// RK4 evaluates a step's first stage again when a stateful law's state moved at the
+    /// commit before it (rather than reusing the previous step's end).
+    fresh_first_stage: bool,
+    /// Each plateau of the crank-angle traces starts its friction iteration from zero
+    /// (rather than from the previous plateau's last point).
+    fresh_trace_guess: bool,
+    /// The PI drive runs fixed-step RK4 whatever `solver.integrator` says.
+    fixed_step_pi: bool,
+}
+
+impl Rules {
+    /// The single-cylinder rig's.
+    const RIG: Rules = Rules {
+        distance: Distance::Geometric,
+        commit: Commit::Rebuilt,
+        fresh_first_stage: false,
+        fresh_trace_guess: true,
+        fixed_step_pi: false,
+    };
+    /// The engines'.
+    const ENGINE: Rules = Rules {
+        distance: Distance::LastChange,
+        commit: Commit::LastInputs,
+        fresh_first_stage: true,
+        fresh_trace_guess: false,
+        fixed_step_pi: true,
+    };
+}
+
+/// A rig ready to run, whatever its crank train: crank model, cycle, laws bound to the joints,
+/// drive, oil, gas and solver settings.
 pub struct Simulation {
     rig_name: String,
-    mech: Mechanism,
-    cycle: Cycle,
-    /// The five joints in `JointId::ALL` order, with their laws.
+    /// Whether the rig is a multi-cylinder engine (`[engine]`): its results name its groups
+    /// and its crank-angle traces every cylinder and main.
+    engine: bool,
+    /// The crank model (its scratch is each run's own copy).
+    crank: Crank,
+    /// The joints in order, with their laws.
     joints: Vec<BoundJoint>,
-    shares: [f64; 2],
+    /// Each joint's role, in joint order (what the crank model solves with).
+    roles: Vec<Role>,
+    cycle: Cycle,
     drive: Drive,
     temps: Vec<f64>,
     viscosities: Vec<f64>,
@@ -85,21 +143,33 @@ pub struct Simulation {
     max_step_rad: f64,
     /// The adaptive integrator's step-size controller.
     step_control: StepControl,
-    /// Which of an evaluation's `switches` matter: those of joints that carry a law.
-    switch_mask: [bool; SWITCHES],
+    /// Which of an evaluation's `switches` matter: the relative velocities of joints that
+    /// carry a law, the side thrust of cylinders whose piston does, the PI drive's margin.
+    switch_mask: Vec<bool>,
     /// Whether any bound law keeps state (then steps are fixed and committed).
     stateful: bool,
     tol: f64,
     max_iter: u32,
     n_laws: usize,
     progress: Option<crate::observe::Position>,
-    /// The gas pressures on the piston, if the rig has any.
-    gas: Option<GasModel>,
-    /// Displacement (swept volume), m^3.
+    /// Each cylinder's gas pressures (none without `[gas]`), with its own 4-stroke phase.
+    gas: Vec<GasModel>,
+    /// Swept volume of all cylinders, m^3.
     displacement_m3: f64,
+    rules: Rules,
+    /// Warnings about the laws on this rig (a law on a bearing type it does not suit), first
+    /// among every result's warnings.
+    notes: Vec<String>,
+    /// What a stepped run's inputs set instead of the rig's own (nothing in a plain run).
+    held: stepping::Held,
+    /// Each cylinder's ambient gas model on a rig without gas loads (else empty): what a
+    /// cylinder pressure set from outside acts on.
+    ambient_gas: Vec<GasModel>,
+    /// The oil's viscosity model and density (kg/m^3), for an oil temperature set from outside.
+    oil: (crate::oil::ViscosityModel, f64),
 }
 
-/// The mechanism of the model: its bodies reduced to the rig's geometry (the crank's
+/// The single-cylinder rig's mechanism: its bodies reduced to the rig's geometry (the crank's
 /// unbalance folded into its mass, centre and inertia; the PI drive's motor inertia reflected
 /// through the belt).
 fn rig_geometry(f: &RigFile) -> RigGeometry {
@@ -133,62 +203,96 @@ fn rig_geometry(f: &RigFile) -> RigGeometry {
     }
 }
 
-/// A multi-cylinder engine rig is run by [`EngineSimulation`] (or [`RigSimulation`], which
-/// picks either): the single-cylinder solver refuses it rather than give one cylinder's answer.
-fn not_an_engine(f: &RigFile) -> Result<(), SimError> {
-    match &f.engine {
-        None => Ok(()),
-        Some(e) => Err(SimError::Setup {
-            at: None,
-            field: "engine".into(),
-            law: None,
-            param: None,
-            message: format!(
-                "this rig is a {}-cylinder engine: the single-cylinder solver cannot run it; use EngineSimulation or RigSimulation (tribo_config::rig::any_simulation)",
-                e.cylinders.len()
-            ),
-        }),
-    }
+/// The crank model of `f` and each cylinder's gas model (the rig's, and on a rig without gas
+/// loads the ambient one a cylinder pressure set from outside acts on): an engine's crank
+/// train with each cylinder's 4-stroke phase from the firing order, or the single-cylinder
+/// mechanism.
+fn crank_and_gas(f: &RigFile) -> Result<(Crank, [Vec<GasModel>; 2]), SimError> {
+    let setup = |message: String| SimError::Setup {
+        at: None,
+        field: "engine".into(),
+        law: None,
+        param: None,
+        message,
+    };
+    let (Some(e), Some(geo)) = (&f.engine, geometry(f)) else {
+        let shares = [f.joints.main_a.load_share, f.joints.main_b.load_share];
+        let crank = Crank::rig(Mechanism::new(rig_geometry(f)), shares);
+        let gas: Vec<GasModel> = GasModel::from_rig(f).into_iter().collect();
+        let ambient = if gas.is_empty() {
+            vec![GasModel::ambient(f)]
+        } else {
+            Vec::new()
+        };
+        return Ok((crank, [gas, ambient]));
+    };
+    let phases = cylinder_phases(
+        &top_dead_centres(&geo),
+        &e.firing_order,
+        f.gas.cycle_angle_at_zero_deg.to_radians(),
+    )
+    .map_err(|err| setup(err.to_string()))?;
+    let train = CrankTrain::new(geo).map_err(|err| setup(err.to_string()))?;
+    // Each cylinder's gas: the rig's model with the cylinder's own 4-stroke phase, evaluated
+    // at the cylinder's own crank angle.
+    let phased = |phase: &f64| {
+        let mut fk = f.clone();
+        fk.gas.cycle_angle_at_zero_deg = phase.to_degrees();
+        fk
+    };
+    let gas: Vec<GasModel> = phases
+        .iter()
+        .filter_map(|phase| GasModel::from_rig(&phased(phase)))
+        .collect();
+    let ambient = if gas.is_empty() {
+        phases
+            .iter()
+            .map(|p| GasModel::ambient(&phased(p)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    Ok((Crank::train(train, phases), [gas, ambient]))
 }
 
-/// Which step method a transient run uses.
-enum Method {
-    /// Prescribed crank: Simpson quadrature of the exact reference motion.
-    Quadrature,
-    /// PI drive, stateless laws: error-controlled Dormand-Prince 5(4).
-    Adaptive,
-    /// PI drive with stateful laws, or `solver.integrator = "rk4"`: fixed-step RK4.
-    Rk4,
+/// Which of an evaluation's switching functions matter (see `Simulation::switch_mask`).
+fn switch_mask(joints: &[BoundJoint], cylinders: usize, drive: &Drive) -> Vec<bool> {
+    let mut mask: Vec<bool> = joints.iter().map(|j| !j.laws.is_empty()).collect();
+    mask.extend((0..cylinders).map(|k| {
+        joints
+            .iter()
+            .any(|j| j.role == Role::Piston(k) && !j.laws.is_empty())
+    }));
+    mask.push(matches!(drive, Drive::Pi { .. }));
+    mask
 }
 
 impl Simulation {
     /// Check `model`'s laws against `registry` (each law known, its parameters' names, types
     /// and ranges) without creating an instance: no law code beyond its description runs.
     pub fn check_laws(model: &RigFile, registry: &LawRegistry) -> Result<(), SimError> {
-        not_an_engine(model)?;
         bind::check_laws(model, registry)
     }
 
-    /// Bind the model's laws (from `registry`) and prepare the mechanism and cycle.
+    /// Bind the model's laws (from `registry`) and prepare the crank model, cycle and gas; the
+    /// laws' suitability to the rig's bearings is judged here ([`suitability_notes`]).
     pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
         let f = model;
-        not_an_engine(f)?;
+        let (crank, [gas, ambient_gas]) = crank_and_gas(f)?;
         let (joints, n_laws) = bind::bind_joints(f, registry)?;
-        let mut switch_mask = [false; SWITCHES];
-        for j in &joints {
-            switch_mask[j.id.index()] = !j.laws.is_empty();
-        }
-        switch_mask[SWITCH_LATERAL] = switch_mask[JointId::Piston.index()];
-        switch_mask[SWITCH_DRIVE] = matches!(f.drive, Drive::Pi { .. });
-        let stateful = joints.iter().any(BoundJoint::is_stateful);
+        let cylinders = crank.cylinders();
         let cycle = Cycle::new(&f.cycle.segments());
         let (temps, viscosities) = oil_schedule(f, &cycle);
+        let engine = f.engine.is_some();
         Ok(Self {
             rig_name: f.name.clone(),
-            mech: Mechanism::new(rig_geometry(f)),
-            cycle,
+            engine,
+            switch_mask: switch_mask(&joints, cylinders, &f.drive),
+            stateful: joints.iter().any(BoundJoint::is_stateful),
+            roles: joints.iter().map(|j| j.role).collect(),
+            crank,
             joints,
-            shares: [f.joints.main_a.load_share, f.joints.main_b.load_share],
+            cycle,
             drive: f.drive.clone(),
             temps,
             viscosities,
@@ -200,20 +304,46 @@ impl Simulation {
             rel_tol: f.solver.rel_tol,
             max_step_rad: f.solver.max_step_deg.to_radians(),
             step_control: f.solver.step_control,
-            switch_mask,
-            stateful,
             tol: f.solver.friction_tol,
             max_iter: f.solver.friction_max_iter,
             n_laws,
             progress: None,
-            gas: GasModel::from_rig(f),
-            displacement_m3: std::f64::consts::PI
+            gas,
+            displacement_m3: cylinders as f64
+                * PI
                 * 0.25
                 * f.geometry.bore_m
                 * f.geometry.bore_m
                 * 2.0
                 * f.geometry.crank_radius_m,
+            rules: if engine { Rules::ENGINE } else { Rules::RIG },
+            notes: bind::suitability_notes(f, registry),
+            held: stepping::Held::default(),
+            ambient_gas,
+            oil: (f.oil.viscosity.clone(), f.oil.density_kg_m3),
         })
+    }
+
+    /// The warnings about the laws on this rig, which every result carries first.
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// Laws bound on all joints together; zero when every joint is frictionless.
+    pub fn law_count(&self) -> usize {
+        self.n_laws
+    }
+
+    /// Every result's warnings: this rig's notes, then the run's own `warnings`, then the
+    /// warning of a run without any law (its torque is the frictionless mechanism's, about
+    /// zero, which a user rarely meant to compute).
+    fn result_warnings(&self, warnings: Vec<String>) -> Vec<String> {
+        let mut all = self.notes.clone();
+        all.extend(warnings);
+        if self.law_count() == 0 {
+            all.push(NO_LAWS_WARNING.to_string());
+        }
+        all
     }
 
     /// Report progress (permille of the simulated cycle) to `p`.
@@ -221,27 +351,44 @@ impl Simulation {
         self.progress = Some(p);
     }
 
-    /// The mechanism (for tests and studies).
-    pub fn mechanism(&self) -> &Mechanism {
-        &self.mech
+    /// Whether the rig is a multi-cylinder engine (`[engine]`).
+    pub fn is_engine(&self) -> bool {
+        self.engine
     }
 
-    /// The gas model, if the rig has gas loads.
+    /// The joints' names in order, as in the results and a time series' normal loads (the
+    /// single-cylinder rig's `main_a`, `main_b`, `big_end`, `small_end`, `piston`; an
+    /// engine's `main_1 .. main_n`, then per cylinder `big_end_k`, `small_end_k`, `piston_k`).
+    pub fn joint_names(&self) -> Vec<String> {
+        self.joints.iter().map(|j| j.name.clone()).collect()
+    }
+
+    /// The single-cylinder rig's mechanism (`None` on an engine).
+    pub fn mechanism(&self) -> Option<&Mechanism> {
+        self.crank.mechanism()
+    }
+
+    /// An engine's crank train (`None` on the single-cylinder rig).
+    pub fn train(&self) -> Option<&CrankTrain> {
+        self.crank.crank_train()
+    }
+
+    /// The (first) cylinder's gas model, if the rig has gas loads.
     pub fn gas(&self) -> Option<&GasModel> {
-        self.gas.as_ref()
+        self.gas.first()
     }
 
     /// Crank revolutions per cycle: 2 when the gas pressure makes the cycle 4-stroke, else 1.
     pub fn revolutions_per_cycle(&self) -> u32 {
-        if self.gas.as_ref().is_some_and(GasModel::four_stroke) {
+        if self.gas.iter().any(GasModel::four_stroke) {
             2
         } else {
             1
         }
     }
 
-    /// The run's FMEP definition: 4-stroke when the gas pressure makes the cycle 4-stroke,
-    /// else per revolution.
+    /// The run's FMEP definition: the displacement of all cylinders, 4-stroke when the gas
+    /// pressure makes the cycle 4-stroke, else per revolution.
     pub fn fmep(&self) -> Fmep {
         Fmep {
             basis: if self.revolutions_per_cycle() == 2 {
@@ -250,28 +397,6 @@ impl Simulation {
                 FmepBasis::TwoStroke
             },
             displacement_m3: self.displacement_m3,
-        }
-    }
-
-    /// The load-independent kinematics at `theta`, `omega` with the gas force applied, and the
-    /// gas state (if any), a vented crankcase read at the crank speed `gas_omega`.
-    #[inline]
-    pub(super) fn kinematics(
-        &self,
-        theta: f64,
-        omega: f64,
-        gas_omega: f64,
-    ) -> (crate::mechanics::Kinematics, Option<crate::gas::GasState>) {
-        match &self.gas {
-            None => (self.mech.kinematics(theta, omega), None),
-            Some(g) => {
-                let s = g.at(theta, gas_omega);
-                (
-                    self.mech
-                        .kinematics_with_piston_force(theta, omega, s.force_n),
-                    Some(s),
-                )
-            }
         }
     }
 
@@ -284,48 +409,61 @@ impl Simulation {
     fn gas_speed(&self, at: &evaluate::Point) -> f64 {
         match at.control {
             evaluate::Control::Torque(_)
-                if self.gas.as_ref().is_some_and(GasModel::depends_on_speed) =>
+                if self.held.torque_nm.is_none()
+                    && self.gas.iter().any(GasModel::depends_on_speed) =>
             {
-                self.cycle.reference(at.t).1
+                self.reference(at.t).1
             }
             _ => at.omega,
         }
     }
 
-    /// The gas state the laws are handed at crank angle `theta` (accumulated): the gas
-    /// model's `state` when the rig has one (the same evaluation's, so nothing is computed
-    /// twice), else both pressures at the standard atmosphere, the piston travel read from the
-    /// solve's positions `q` and the angle modulo one 4-stroke cycle. With a gas model but no
-    /// `state`, the model is evaluated here (a vented crankcase at the crank speed `omega`).
+    /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
+    /// and the ramp leading to it; after the last plateau, the last value; a temperature set
+    /// from outside (the stepping API) while it is set.
     #[inline]
-    pub(super) fn law_gas(
-        &self,
-        theta: f64,
-        omega: f64,
-        q: &crate::mechanics::Q,
-        state: Option<&crate::gas::GasState>,
-    ) -> crate::gas::LawGas {
-        let travel = self.mech.piston_travel(q);
-        match (state, &self.gas) {
-            (Some(s), _) => s.into(),
-            (None, Some(g)) => (&g.at_travel(theta, omega, travel)).into(),
-            (None, None) => {
-                let ambient = tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
-                crate::gas::LawGas {
-                    cylinder_pa: ambient,
-                    crankcase_pa: ambient,
-                    piston_from_tdc_m: travel,
-                    cycle_angle_rad: crate::gas::cycle_angle(theta),
-                }
-            }
+    fn oil_at(&self, t: f64) -> (f64, f64) {
+        if let Some(oil) = self.held.oil {
+            return oil;
+        }
+        let i = self
+            .cycle
+            .plateaus()
+            .iter()
+            .position(|p| t <= p.t_end)
+            .unwrap_or(self.temps.len().saturating_sub(1));
+        (self.temps[i], self.viscosities[i])
+    }
+
+    /// The crank's reference motion (angle, speed, acceleration) at `t`: the cycle's, or a
+    /// speed set from outside held from where it was set.
+    #[inline]
+    fn reference(&self, t: f64) -> (f64, f64, f64) {
+        match self.held.speed {
+            Some(held) => held.at(t),
+            None => self.cycle.reference(t),
         }
     }
 
-    /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
-    /// and the ramp leading to it; after the last plateau, the last value.
+    /// [`Simulation::reference`] on the side of `t` that starts there (the cycle's
+    /// acceleration jumps at segment boundaries).
     #[inline]
-    fn oil_at(&self, t: f64) -> (f64, f64) {
-        oil_at(&self.cycle, &self.temps, &self.viscosities, t)
+    fn reference_after(&self, t: f64) -> (f64, f64, f64) {
+        match self.held.speed {
+            Some(held) => held.at(t),
+            None => self.cycle.reference_after(t),
+        }
+    }
+
+    /// The cylinders' gas models: the rig's, or the ambient ones while a cylinder pressure set
+    /// from outside acts on a rig without gas loads.
+    #[inline]
+    fn gas_models(&self) -> &[GasModel] {
+        if self.held.cylinder_pa.is_some() && self.gas.is_empty() {
+            &self.ambient_gas
+        } else {
+            &self.gas
+        }
     }
 
     #[inline]
@@ -333,129 +471,35 @@ impl Simulation {
         RateLayout { n: self.n_laws }
     }
 
+    /// The name a model error gives joint `j`: the single-cylinder rig's joint name, an
+    /// engine's joint group.
+    fn model_name(&self, j: &BoundJoint) -> &'static str {
+        match (self.engine, j.role) {
+            (true, role) => role.group(),
+            (false, Role::Main(0)) => "main_a",
+            (false, Role::Main(_)) => "main_b",
+            (false, Role::BigEnd(_)) => "big_end",
+            (false, Role::SmallEnd(_)) => "small_end",
+            (false, Role::Piston(_)) => "piston",
+        }
+    }
+
     /// Run the whole test cycle without per-step output.
     pub fn run(&mut self) -> Result<RunResult, SimError> {
         self.run_with(&mut NoObserver)
     }
 
-    /// Run the whole test cycle, handing every accepted step to `observer` (a failing
-    /// observer stops the run with its error). Every law's state starts from zero, so a
-    /// simulation run twice gives the same result.
+    /// Run the whole test cycle, handing every accepted step to `observer` (the joints'
+    /// normal loads in [`Simulation::joint_names`] order; a failing observer stops the run
+    /// with its error). Every law's state starts from zero, so a simulation run twice gives
+    /// the same result.
     pub fn run_with(&mut self, observer: &mut dyn StepObserver) -> Result<RunResult, SimError> {
-        observer.start(&JOINT_NAMES).map_err(SimError::Observer)?;
-        bind::reset_states(&mut self.joints);
-        let method = match self.drive {
-            Drive::Prescribed => Method::Quadrature,
-            // A stateful law's state is advanced with the step's length, which must then not
-            // vary: the adaptive integrator is for stateless laws only.
-            Drive::Pi { .. } if self.integrator == Integrator::Adaptive && !self.stateful => {
-                Method::Adaptive
-            }
-            Drive::Pi { .. } => Method::Rk4,
-        };
-        let e0 = self.mechanical_energy(0.0, 0.0);
-        let mut w = Work::new(self.layout().len());
-        let (e_start, l_start) = self.step_eval(0.0, 0.0, (0.0, 0.0, 0.0), &w.guess, Vec::new())?;
-        w.last_rates = e_start.rates.clone();
-        let (w, steps, plateaus) = match method {
-            Method::Quadrature => self.transient(Quadrature, w, observer)?,
-            Method::Rk4 => self.transient(Rk4::default(), w, observer)?,
-            Method::Adaptive => {
-                let n = self.layout().len();
-                let control = match self.step_control {
-                    StepControl::Integral => Controller::new(&DORMAND_PRINCE_54),
-                    StepControl::Pi => Controller::pi(&DORMAND_PRINCE_54),
-                };
-                let stepper = Adaptive::new(&DORMAND_PRINCE_54, control, (e_start, l_start), n);
-                self.transient(stepper, w, observer)?
-            }
-        };
-        let change = self.mechanical_energy(w.y.0, w.y.1) - e0;
-        let dissipated: f64 = w.acc[self.layout().powers()].iter().sum();
-        let gas_work = w.acc[self.layout().gas()];
-        let energy = EnergyBalance::from_terms_with_gas(
-            w.acc[RateLayout::MOTOR],
-            change,
-            dissipated,
-            gas_work,
-        )
-        .relative_to(e0.abs().max((e0 + change).abs()));
-        let (results, warnings) = plateaus.results(|pi, m| self.plateau_result(pi, m))?;
-        Ok(RunResult {
-            rig: self.rig_name.clone(),
-            drive: match self.drive {
-                Drive::Prescribed => DriveKind::Prescribed,
-                Drive::Pi { .. } => DriveKind::Pi,
-            },
-            plateaus: results,
-            fmep: self.fmep(),
-            energy_residual_j: energy.residual_j,
-            energy,
-            steps,
-            rejected_steps: w.rejected,
-            max_friction_iterations: w.max_it,
-            warnings,
-            law_time: bind::law_time(&self.joints),
-        })
-    }
-
-    /// The run's grid: segment ends, and for a prescribed crank the exact window starts, so
-    /// every window begins and ends on a step.
-    fn grid(&self) -> Vec<f64> {
-        grid(&self.cycle, &self.window_spec(), &self.drive)
-    }
-
-    /// The transient run with `stepper` over the grid: every accepted step is committed,
-    /// observed, filtered and recorded for the plateau windows. Returns the final work state,
-    /// the steps taken and the plateau records.
-    fn transient<S: Stepper>(
-        &mut self,
-        mut stepper: S,
-        mut w: Work,
-        observer: &mut dyn StepObserver,
-    ) -> Result<(Work, u64, Plateaus), SimError> {
-        let duration = self.cycle.duration();
-        let mut plateaus = Plateaus::new(
-            self.cycle.plateaus(),
-            self.window_spec(),
-            self.layout().len(),
-        );
-        let (mut filtered, mut steps) = (0.0, 0_u64);
-        for b in self.grid() {
-            let (_, w_end, _) = self.cycle.reference(b);
-            let w_max = w_end.max(self.cycle.reference(w.t).1).max(w.y.1);
-            let dt_target = self.time_step(self.step_rad, w_max);
-            let m = ((b - w.t) / dt_target).ceil().max(1.0) as u64;
-            let dt = (b - w.t) / m as f64;
-            stepper.begin_interval(self, &mut w, dt)?;
-            let mut i = 0_u64;
-            while w.t < b {
-                i += 1;
-                let t1 = if i == m { b } else { w.t + dt };
-                let step = stepper.step(self, &mut w, t1, b)?;
-                w.y = step.y;
-                self.commit(step.t1, step.h, w.y.0, &step.end, self.oil_at(step.t1))?;
-                w.last_rates.copy_from_slice(&step.end.rates);
-                steps += 1;
-                if steps % 4096 == 0 {
-                    let permille = (1000.0 * step.t1 / duration) as u64;
-                    if let Some(p) = &self.progress {
-                        p.set(permille);
-                    }
-                    observer.progress(permille);
-                }
-                // Low-pass filter of the motoring torque (first order, exact discretisation).
-                let a = (-TAU * self.lowpass_hz * step.h).exp();
-                filtered = a * filtered + (1.0 - a) * step.end.drive_torque;
-                observe(observer, &step, w.y, filtered)?;
-                let crank = (w.y.0, w.y.1);
-                let sat = step.end.saturated();
-                plateaus.record(step.t1, step.h, crank, sat, &w.acc, &w.last_rates);
-                stepper.recycle(step.end, step.h, &mut w);
-                w.t = step.t1;
-            }
-        }
-        Ok((w, steps, plateaus))
+        let names = self.joint_names();
+        let refs: Vec<&str> = names.iter().map(String::as_str).collect();
+        observer.start(&refs).map_err(SimError::Observer)?;
+        let mut run = self.start_transient()?;
+        self.advance(&mut run, f64::INFINITY, u64::MAX, observer)?;
+        self.finish_transient(&run)
     }
 }
 
@@ -470,68 +514,4 @@ fn oil_schedule(f: &RigFile, cycle: &Cycle) -> (Vec<f64>, Vec<f64>) {
         .map(|t| f.oil.viscosity.kinematic_cst(*t) * 1e-6 * f.oil.density_kg_m3)
         .collect();
     (temps, viscosities)
-}
-
-/// Oil temperature and viscosity in force at time `t` of `cycle` (per plateau `temps`,
-/// `viscosities`): the plateau's value during a hold and the ramp leading to it; after the
-/// last plateau, the last value.
-#[inline]
-fn oil_at(cycle: &Cycle, temps: &[f64], viscosities: &[f64], t: f64) -> (f64, f64) {
-    let i = cycle
-        .plateaus()
-        .iter()
-        .position(|p| t <= p.t_end)
-        .unwrap_or(temps.len().saturating_sub(1));
-    (temps[i], viscosities[i])
-}
-
-/// A transient run's grid over `cycle`: segment ends, and for a prescribed crank the exact
-/// window starts (`spec`), so every window begins and ends on a step.
-fn grid(cycle: &Cycle, spec: &plateau::WindowSpec, drive: &Drive) -> Vec<f64> {
-    let duration = cycle.duration();
-    let mut breaks: Vec<f64> = cycle.breakpoints();
-    if matches!(drive, Drive::Prescribed) {
-        for p in cycle.plateaus() {
-            let revs = spec.window_revs(p.omega);
-            breaks.push(p.t_end - revs as f64 * TAU / p.omega);
-        }
-    }
-    breaks.retain(|b| *b > 0.0 && *b <= duration);
-    breaks.sort_by(f64::total_cmp);
-    breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
-    breaks
-}
-
-/// Hand the accepted `step` (crank state `y` at its end, filtered torque) to the observer.
-fn observe(
-    observer: &mut dyn StepObserver,
-    step: &stepper::Step,
-    y: stepper::CrankState,
-    filtered: f64,
-) -> Result<(), SimError> {
-    let sample = StepSample {
-        time_s: step.t1,
-        crank_angle_rad: y.0,
-        speed_rad_s: y.1,
-        motoring_torque_nm: step.end.drive_torque,
-        filtered_torque_nm: filtered,
-        normal_loads_n: &step.end.normals,
-    };
-    observer.step(&sample).map_err(SimError::Observer)
-}
-
-impl Work {
-    /// The start of a run: crank at rest at time 0, nothing accumulated, for `n` quantities.
-    fn new(n: usize) -> Self {
-        Self {
-            t: 0.0,
-            y: (0.0, 0.0, 0.0),
-            acc: vec![0.0; n],
-            last_rates: Vec::new(),
-            guess: JointLoads::default(),
-            pool: Vec::new(),
-            max_it: 0,
-            rejected: 0,
-        }
-    }
 }

@@ -2,19 +2,18 @@
 //! of the normal loads, with a bracketing fallback per joint, for laws whose load sensitivity
 //! is unbounded at zero load (docs/solver.md). Entered only when phase 1 is seen to stall.
 //!
-//! The iteration itself (`settle`: convergence test, backtracking, bracketing fallback) and
-//! phase 1's judgement of its own progress (`Trend`) are shared by the single-cylinder rig
-//! (`Simulation`, below) and the multi-cylinder engine (`engine_newton.rs`); each supplies its
-//! rounds of laws and reactions through `SquareRoots`.
+//! The iteration itself (`settle`: convergence test, backtracking, bracketing fallback) is
+//! written over a `SquareRoots` system; the rig's (`Iterate`, below) has as unknowns the
+//! law-bearing joints' loads of any crank train, its Jacobian dense over them, one column per
+//! joint from one round of that joint's laws and one solve of the crank model's reactions
+//! (the kinematics stay as computed once per evaluation).
 
-use nalgebra::{Matrix5, Vector2, Vector5};
+use nalgebra::{DMatrix, DVector, Vector2};
 use tribo_plugin_api::LawInput;
 
 use super::error::SimError;
-use super::evaluate::{check_solve, loads_from, Problem, Settled};
-use super::joint::JointId;
+use super::evaluate::{check_solve, Eval, Point, Work};
 use super::Simulation;
-use crate::mechanics::Reactions;
 
 /// Relative finite-difference step of phase 2's Jacobian, in `u = sqrt(W)` (about the square
 /// root of the machine epsilon: half the digits for the derivative, ample for Newton).
@@ -50,10 +49,11 @@ pub(super) fn plain_iteration_stalls(d: f64, d2: f64, tol_n: f64, remaining: u32
 /// How phase 1 measures its distance to the fixed point.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Distance {
-    /// The last change of any normal load (the engine's test).
+    /// The last change of any normal load (the engines' test before the solvers were one).
     LastChange,
     /// The last change or, once the iteration is seen to contract by a factor rho < 0.5, the
-    /// geometric remainder rho / (1 - rho) of it (the single-cylinder rig's test).
+    /// geometric remainder rho / (1 - rho) of it (the single-cylinder rig's test before the
+    /// solvers were one).
     Geometric,
 }
 
@@ -303,59 +303,108 @@ fn bracket(
     Ok(None)
 }
 
-/// The reactions where phase 2 began: their directions give the law inputs' components.
-struct Base {
-    comps: [Vector2<f64>; 5],
-    normals: [f64; 5],
-    moment: f64,
+/// One round's values per joint: the unknowns `u = sqrt(W)` the laws were evaluated at, the
+/// normal loads `N` of the solve under their friction, the law totals per joint and the
+/// solve's crank acceleration.
+#[derive(Clone)]
+struct Round {
+    u: Vec<f64>,
+    normals: Vec<f64>,
+    totals: Vec<f64>,
+    alpha: f64,
 }
 
-impl Base {
-    /// Set joint `id`'s law input to the normal load `w` (N), its components along the base
-    /// reaction's direction.
-    fn load_input(&self, input: &mut LawInput, id: JointId, w: f64) {
-        let moment = if id == JointId::Piston {
-            self.moment
+/// Phase 2's iterate. A round writes the run's scratch (law inputs, the crank model's
+/// reactions) and the evaluation's rates: every path to convergence ends with a round at the
+/// current `u` (the first, an accepted trial, or the one after bracketing), so what they hold
+/// then is the converged round's, as after phase 1. Jacobian columns and bracketing solve
+/// without recording.
+struct Iterate<'s> {
+    sim: &'s Simulation,
+    w: &'s mut Work,
+    rates: &'s mut [f64],
+    at: &'s Point,
+    /// The largest normal load where phase 2 began: the bound on a law's force.
+    reaction_n: f64,
+    /// Per joint: the reaction's direction (components), normal load and moment at entry.
+    comps: Vec<Vector2<f64>>,
+    entry_normals: Vec<f64>,
+    moments: Vec<f64>,
+    /// The law-bearing joints, in joint order (the Jacobian's rows and columns).
+    active: Vec<usize>,
+    cur: Round,
+    trial: Round,
+    /// Scratch of a Jacobian column or a bracketing evaluation.
+    totals: Vec<f64>,
+    normals: Vec<f64>,
+}
+
+impl Iterate<'_> {
+    /// A round at the trial's `u` (`trial`) or the current one's: every law-bearing joint's laws
+    /// at its load `u^2` (rates recorded), the reactions and normal loads under their friction.
+    fn round(&mut self, trial: bool) -> Result<(), SimError> {
+        let r = if trial {
+            &mut self.trial
         } else {
-            0.0
+            &mut self.cur
         };
-        scaled_input(input, self.comps[id], self.normals[id], moment, w);
+        let (sim, w) = (self.sim, &mut *self.w);
+        let layout = sim.layout();
+        self.rates[layout.regimes()].fill(0.0);
+        for (ji, j) in sim.joints.iter().enumerate() {
+            r.totals[ji] = 0.0;
+            if !j.laws.is_empty() {
+                let input = &mut w.inputs[ji];
+                let load = r.u[ji] * r.u[ji];
+                let moment = self.moments[ji];
+                scaled_input(input, self.comps[ji], self.entry_normals[ji], moment, load);
+                let record = Some(&mut self.rates[..]);
+                r.totals[ji] = j.force(input, &w.states, self.reaction_n, record, layout)?;
+            }
+        }
+        r.alpha = w.crank.solve(self.at.control, &sim.roles, &r.totals);
+        w.crank.normals(&sim.roles, &mut r.normals);
+        check_solve(sim, self.at.t, r.alpha, w.crank.drive_torque(), &r.normals)
+    }
+
+    /// The normal loads (into the scratch `normals`) with joint `j`'s laws at the load `load`
+    /// and every other joint's friction that of the current round.
+    fn column(&mut self, j: usize, load: f64) -> Result<(), SimError> {
+        let (sim, w) = (self.sim, &mut *self.w);
+        let input = &mut w.inputs[j];
+        scaled_input(
+            input,
+            self.comps[j],
+            self.entry_normals[j],
+            self.moments[j],
+            load,
+        );
+        self.totals.clone_from(&self.cur.totals);
+        let layout = sim.layout();
+        self.totals[j] = sim.joints[j].force(input, &w.states, self.reaction_n, None, layout)?;
+        w.crank.solve(self.at.control, &sim.roles, &self.totals);
+        w.crank.normals(&sim.roles, &mut self.normals);
+        Ok(())
     }
 }
 
-/// Phase 2's iterate on the single-cylinder rig: the unknowns `u = sqrt(W)`, which joints
-/// carry laws, the round at `u` and the pending trial, with the problem and the rates the
-/// rounds write.
-struct Iterate<'s, 'a> {
-    sim: &'s Simulation,
-    p: &'s mut Problem<'a>,
-    rates: &'s mut [f64],
-    base: Base,
-    active: [bool; 5],
-    u: [f64; 5],
-    cur: Settled,
-    trial: Option<([f64; 5], Settled)>,
-}
-
-impl SquareRoots for Iterate<'_, '_> {
-    type Vector = [f64; 5];
+impl SquareRoots for Iterate<'_> {
+    type Vector = Vec<f64>;
 
     fn is_active(&self, j: usize) -> bool {
-        self.active[j]
+        !self.sim.joints[j].laws.is_empty()
     }
 
     fn u(&self, j: usize) -> f64 {
-        self.u[j]
+        self.cur.u[j]
     }
 
-    fn residual(&self) -> [f64; 5] {
-        std::array::from_fn(|ji| {
-            if self.active[ji] {
-                self.cur.normals[ji] - self.u[ji] * self.u[ji]
-            } else {
-                0.0
-            }
-        })
+    fn residual(&self) -> Vec<f64> {
+        let mut r = vec![0.0; self.cur.u.len()];
+        for &i in &self.active {
+            r[i] = self.cur.normals[i] - self.cur.u[i] * self.cur.u[i];
+        }
+        r
     }
 
     fn scale(&self) -> f64 {
@@ -364,166 +413,129 @@ impl SquareRoots for Iterate<'_, '_> {
 
     fn newton_step(
         &mut self,
-        residual: &[f64; 5],
+        residual: &Vec<f64>,
         scale: f64,
-    ) -> Result<Option<[f64; 5]>, SimError> {
-        let step = self
-            .jacobian(scale)?
-            .lu()
-            .solve(&Vector5::from_fn(|i, _| -residual[i]));
-        Ok(step.map(|s| std::array::from_fn(|i| s[i])))
+    ) -> Result<Option<Vec<f64>>, SimError> {
+        let n = self.active.len();
+        let mut jac = DMatrix::<f64>::zeros(n, n);
+        for c in 0..n {
+            let j = self.active[c];
+            let h = NEWTON_FD_STEP * self.cur.u[j].max(scale.sqrt());
+            let uj = self.cur.u[j] + h;
+            self.column(j, uj * uj)?;
+            for (row, &i) in self.active.iter().enumerate() {
+                let own = if i == j { 2.0 * self.cur.u[j] + h } else { 0.0 };
+                jac[(row, c)] = (self.normals[i] - self.cur.normals[i]) / h - own;
+            }
+        }
+        let rhs = DVector::from_iterator(n, self.active.iter().map(|&i| -residual[i]));
+        Ok(jac.lu().solve(&rhs).map(|step| {
+            let mut full = vec![0.0; residual.len()];
+            for (row, &i) in self.active.iter().enumerate() {
+                full[i] = step[row];
+            }
+            full
+        }))
     }
 
-    fn trial(&mut self, step: &[f64; 5], length: f64) -> Result<f64, SimError> {
-        let trial_u: [f64; 5] = std::array::from_fn(|ji| (self.u[ji] + length * step[ji]).abs());
-        let trial = self
-            .sim
-            .round(self.p, &self.base, &trial_u, &mut *self.rates)?;
-        let norm = (0..5)
-            .filter(|&ji| self.active[ji])
-            .map(|ji| (trial.normals[ji] - trial_u[ji] * trial_u[ji]).powi(2))
+    fn trial(&mut self, step: &Vec<f64>, length: f64) -> Result<f64, SimError> {
+        for (t, (u, s)) in self.trial.u.iter_mut().zip(self.cur.u.iter().zip(step)) {
+            *t = (u + length * s).abs();
+        }
+        self.round(true)?;
+        let t = &self.trial;
+        Ok(self
+            .active
+            .iter()
+            .map(|&i| (t.normals[i] - t.u[i] * t.u[i]).powi(2))
             .sum::<f64>()
-            .sqrt();
-        self.trial = Some((trial_u, trial));
-        Ok(norm)
+            .sqrt())
     }
 
     fn accept(&mut self) {
-        if let Some((u, cur)) = self.trial.take() {
-            self.u = u;
-            self.cur = cur;
-        }
+        std::mem::swap(&mut self.cur, &mut self.trial);
     }
 
     fn alone(&mut self, j: usize, x: f64) -> Result<f64, SimError> {
-        let id = JointId::ALL[j];
-        self.base.load_input(&mut self.p.inputs[id], id, x * x);
-        let mut totals = self.cur.totals;
-        totals[j] = self.sim.joint_force(self.p, id, None)?;
-        let (_, re) = self.p.solve(&loads_from(&totals));
-        Ok(self.sim.normals(&re)[j] - x * x)
+        self.column(j, x * x)?;
+        Ok(self.normals[j] - x * x)
     }
 
     fn settle_joint(&mut self, j: usize, x: f64) -> Result<(), SimError> {
-        self.u[j] = x;
-        self.cur = self
-            .sim
-            .round(self.p, &self.base, &self.u, &mut *self.rates)?;
-        Ok(())
+        self.cur.u[j] = x;
+        self.round(false)
     }
 
-    fn unsettled(&self, iterations: u32, residual: &[f64; 5], scale: f64) -> SimError {
-        let changes = residual.map(f64::abs);
+    fn unsettled(&self, iterations: u32, residual: &Vec<f64>, scale: f64) -> SimError {
+        let changes: Vec<f64> = residual.iter().map(|r| r.abs()).collect();
         self.sim
-            .no_convergence(self.p.t, iterations, &changes, scale)
-    }
-}
-
-impl Iterate<'_, '_> {
-    /// Jacobian of `rho(u) = N(u^2) - u^2` by one-sided differences; joints without laws keep
-    /// an identity row.
-    fn jacobian(&mut self, scale: f64) -> Result<Matrix5<f64>, SimError> {
-        let mut jac = Matrix5::<f64>::identity();
-        for j in (0..5).filter(|&j| self.active[j]) {
-            let h = NEWTON_FD_STEP * self.u[j].max(scale.sqrt());
-            let uj = self.u[j] + h;
-            let id = JointId::ALL[j];
-            self.base.load_input(&mut self.p.inputs[id], id, uj * uj);
-            let mut totals = self.cur.totals;
-            totals[j] = self.sim.joint_force(self.p, id, None)?;
-            let (_, re) = self.p.solve(&loads_from(&totals));
-            let n = self.sim.normals(&re);
-            for i in (0..5).filter(|&i| self.active[i]) {
-                let own = if i == j { 2.0 * self.u[j] + h } else { 0.0 };
-                jac[(i, j)] = (n[i] - self.cur.normals[i]) / h - own;
-            }
-        }
-        Ok(jac)
+            .no_convergence(self.at.t, iterations, &changes, scale)
     }
 }
 
 impl Simulation {
-    /// Phase 2 of the friction/reaction iteration, entered when the plain iteration does not
-    /// contract (see `plain_iteration_stalls`): a damped Newton iteration on the normal loads
-    /// the laws see, `W`, solving `N(W) = W` where `N` is one round of laws and reactions.
+    /// Phase 2 of the friction/reaction iteration at `at`, entered after phase 1's iteration
+    /// `it` was seen to stall (`plain_iteration_stalls`), from the reactions and normal loads
+    /// of its last solve (the crank model's, and `e.normals`): a damped Newton iteration on the
+    /// normal loads the laws see, `W`, solving `N(W) = W` where `N` is one round of laws and
+    /// reactions.
     ///
     /// The unknowns are `u = sqrt(W)` per joint that carries laws. A law whose force grows like
     /// `sqrt(W)` (hydrodynamic friction) has an unbounded load sensitivity at `W = 0`, which makes
     /// the plain iteration (and Newton in `W`) oscillate; in `u` it is smooth, and laws smooth in
     /// `W` stay smooth. The Jacobian of `N(u^2) - u^2` comes from one-sided differences, one
-    /// joint's laws and one re-combination of the multipliers per column (the kinematics stay
+    /// joint's laws and one solve of the reactions per column (the kinematics stay
     /// factorised); each step is halved until the residual's 2-norm decreases, so a step over
     /// the kink where a reaction changes sign cannot make it diverge (`settle`). The law
     /// inputs' reaction components keep the direction of the reactions at entry, scaled to the
     /// trial load.
     ///
-    /// Converged by the same test as phase 1: every law-bearing joint's `|N(W) - W|` within
-    /// `solver.friction_tol` times the largest normal load. The result is that last round: its
-    /// loads are exactly those of the final solve and of the powers recorded in `rates`.
+    /// Converged when every law-bearing joint's `|N(W) - W|` is within `solver.friction_tol`
+    /// times the largest normal load, within `solver.friction_max_iter` iterations in all;
+    /// else a `NoConvergence` naming the joints and their laws. On return the scratch and `e`
+    /// hold the final round, as after phase 1: the law inputs at the loads the laws saw, their
+    /// rates, the reactions and normal loads of the solve under their friction. Returns the
+    /// crank acceleration of that solve and the iteration count.
     pub(super) fn settle_by_newton(
         &self,
-        p: &mut Problem<'_>,
+        at: &Point,
+        w: &mut Work,
+        e: &mut Eval,
         it: u32,
-        entry: &Reactions,
-        entry_normals: &[f64; 5],
-        rates: &mut [f64],
-    ) -> Result<Settled, SimError> {
-        let base = Base {
-            comps: self.components(entry),
-            normals: *entry_normals,
-            moment: entry.slide_moment_nm,
+    ) -> Result<(f64, u32), SimError> {
+        let n = self.joints.len();
+        let (comps, moments): (Vec<_>, Vec<_>) =
+            self.joints.iter().map(|j| w.crank.reaction(j.role)).unzip();
+        let entry_normals = e.normals.clone();
+        let start = Round {
+            u: entry_normals.iter().map(|n| n.sqrt()).collect(),
+            normals: vec![0.0; n],
+            totals: vec![0.0; n],
+            alpha: 0.0,
         };
-        p.reaction_n = entry_normals.iter().fold(0.0, |m, n| m.max(*n));
-        let u: [f64; 5] = std::array::from_fn(|ji| entry_normals[ji].sqrt());
-        let cur = self.round(p, &base, &u, rates)?;
+        let active = (0..n)
+            .filter(|&ji| !self.joints[ji].laws.is_empty())
+            .collect();
         let mut x = Iterate {
             sim: self,
-            p,
-            rates,
-            base,
-            active: std::array::from_fn(|ji| !self.joints[ji].laws.is_empty()),
-            u,
-            cur,
-            trial: None,
+            reaction_n: entry_normals.iter().fold(0.0, |m: f64, n| m.max(*n)),
+            at,
+            comps,
+            entry_normals,
+            moments,
+            active,
+            trial: start.clone(),
+            cur: start,
+            totals: vec![0.0; n],
+            normals: vec![0.0; n],
+            w,
+            rates: &mut e.rates,
         };
+        x.round(false)?;
         let iterations = settle(&mut x, it, self.max_iter, self.tol)?;
-        Ok(Settled {
-            iterations,
-            ..x.cur
-        })
-    }
-
-    /// One round of phase 2: every law evaluated at the loads `u^2` (powers, regimes and loads
-    /// recorded in `rates`), then the reactions under the resulting friction loads.
-    fn round(
-        &self,
-        p: &mut Problem<'_>,
-        base: &Base,
-        u: &[f64; 5],
-        rates: &mut [f64],
-    ) -> Result<Settled, SimError> {
-        rates[self.layout().regimes()].fill(0.0);
-        let mut totals = [0.0; 5];
-        let mut k = 0;
-        for joint in &self.joints {
-            let id = joint.id;
-            if !joint.laws.is_empty() {
-                base.load_input(&mut p.inputs[id], id, u[id] * u[id]);
-                totals[id] = self.joint_force(p, id, Some((rates, k)))?;
-            }
-            k += joint.laws.len();
-        }
-        let loads = loads_from(&totals);
-        let (alpha, re) = p.solve(&loads);
-        let normals = self.normals(&re);
-        check_solve(p.t, alpha, &re, &normals)?;
-        Ok(Settled {
-            alpha,
-            normals,
-            re,
-            loads,
-            totals,
-            iterations: 0,
-        })
+        let Iterate { cur, .. } = x;
+        e.normals.copy_from_slice(&cur.normals);
+        e.totals.copy_from_slice(&cur.totals);
+        Ok((cur.alpha, iterations))
     }
 }

@@ -5,13 +5,16 @@
 use std::f64::consts::TAU;
 
 use super::rates::RateLayout;
-use super::results::{ComponentFmep, Fmep, LawResult, PlateauFmep, PlateauResult, RegimeShare};
+use super::results::{
+    ComponentFmep, Fmep, GroupTotal, LawResult, PlateauFmep, PlateauResult, RegimeShare,
+};
 use super::{SimError, Simulation};
 use crate::cycle::{rad_s_to_rpm, Plateau};
 
 /// The steps stored near the end of one hold, for its whole-revolution window: time, crank
 /// angle and speed of each, and in one flat buffer its accumulated quantities followed by their
 /// rates. Sized before the run, so stepping through the window does not allocate.
+#[derive(Clone)]
 struct Window {
     points: Vec<(f64, f64, f64)>,
     data: Vec<f64>,
@@ -90,6 +93,7 @@ pub(super) struct Measured {
 }
 
 /// The recorder of every plateau's window, and the time the drive sat at its limit near it.
+#[derive(Clone)]
 pub(super) struct Plateaus {
     plateaus: Vec<Plateau>,
     records: Vec<Window>,
@@ -261,13 +265,14 @@ impl Simulation {
     }
 
     /// Plateau `pi`'s values from the change of the accumulated quantities over its measured
-    /// `window`.
+    /// `window`; an engine's with its groups (per component and per cylinder).
     pub(super) fn plateau_result(&self, pi: usize, window: &Measured) -> PlateauResult {
-        let laws = self
-            .joints
-            .iter()
-            .flat_map(|j| j.laws.iter().map(move |l| (j.id.name(), l.name.as_str())));
-        plateau_values(
+        let laws = self.joints.iter().flat_map(|j| {
+            j.laws
+                .iter()
+                .map(move |l| (j.name.as_str(), l.name.as_str()))
+        });
+        let mut result = plateau_values(
             laws,
             self.layout(),
             &self.fmep(),
@@ -275,15 +280,51 @@ impl Simulation {
             self.cycle.plateaus()[pi].speed_rpm,
             window.dtheta / window.dt,
             (self.temps[pi], self.viscosities[pi]),
-        )
+        );
+        if self.engine {
+            result.groups = group_totals(&result.joints, self.crank.cylinders());
+        }
+        result
     }
+}
+
+/// Per-component (all mains, every cylinder's big ends, ...) and per-cylinder totals of the
+/// friction torque and power.
+fn group_totals(joints: &[LawResult], cylinders: usize) -> Vec<GroupTotal> {
+    let total = |name: String, pick: &dyn Fn(&str) -> bool| {
+        let (t, p) = joints
+            .iter()
+            .filter(|l| pick(&l.joint))
+            .fold((0.0, 0.0), |(t, p), l| {
+                (t + l.friction_torque_nm, p + l.power_w)
+            });
+        GroupTotal {
+            group: name,
+            friction_torque_nm: t,
+            power_w: p,
+        }
+    };
+    let mut out = Vec::new();
+    for kind in crate::model::JOINT_KINDS {
+        let prefix = format!("{kind}_");
+        out.push(total(format!("{kind}_*"), &|j: &str| {
+            j.starts_with(&prefix)
+        }));
+    }
+    for k in 1..=cylinders {
+        let suffix = format!("_{k}");
+        out.push(total(format!("cylinder {k}"), &|j: &str| {
+            !j.starts_with("main_") && j.ends_with(&suffix)
+        }));
+    }
+    out
 }
 
 /// A plateau's result from the change of the accumulated quantities (in `layout`) over its
 /// measured `window`: each law's values (`laws`: joint and law names in rate order), the FMEP
 /// breakdown by `fmep`, the set speed (rpm), the mean speed `mean_omega` (rad/s) and the oil
-/// (C, Pa s). Both solvers read their plateaus through it; an engine adds its groups.
-pub(super) fn plateau_values<'a>(
+/// (C, Pa s).
+fn plateau_values<'a>(
     laws: impl Iterator<Item = (&'a str, &'a str)>,
     layout: RateLayout,
     fmep: &Fmep,

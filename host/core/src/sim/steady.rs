@@ -1,53 +1,69 @@
 //! The steady state: each plateau speed computed directly, the crank turning at exactly that
-//! speed, every quantity integrated over whole revolutions with the periodic trapezoid rule.
+//! speed, every quantity integrated over one cycle (a revolution, two for a 4-stroke
+//! pressure) with the periodic trapezoid rule.
 
-use super::bind::reset_states;
 use super::error::SimError;
-use super::evaluate::Point;
+use super::evaluate::{Control, Point, Work};
+use super::plateau::Measured;
+use super::rates::RateLayout;
 use super::results::{DriveKind, EnergyBalance, RunResult};
-use super::stepper::Work;
 use super::Simulation;
-use crate::mechanics::JointLoads;
+
+/// Cycles of the plateau's length (a revolution, two for a 4-stroke pressure) over which the
+/// steady state spins the crank up from rest where its stateful laws need it.
+const SPIN_UP_CYCLES: f64 = 4.0;
 
 impl Simulation {
     /// Steady state at every plateau speed, computed directly: the crank turns at exactly the
     /// plateau speed and each quantity is integrated over one cycle, a revolution or two for
-    /// a 4-stroke cycle (periodic trapezoid rule at the run's crank-angle step). Stateless laws need one revolution; with stateful
-    /// laws revolutions are repeated until the revolution's mean torque repeats to 1e-9 (at
-    /// most 200). Every law's state starts from zero at every plateau.
+    /// a 4-stroke cycle (periodic trapezoid rule at the run's crank-angle step). Stateless
+    /// laws need one cycle; with stateful laws cycles are repeated until the cycle's mean
+    /// torque repeats to 1e-9 (at most 200). Every law's state starts from zero at every
+    /// plateau; where stateful laws find no consistent load in that start (LuGre's bristles
+    /// at zero deflection under the full sliding speed), the crank is first spun up from rest
+    /// ([`Simulation::spin_up`]) and the cycles measured from there.
     pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
         let n_plateaus = self.cycle.plateaus().len();
         let mut results = Vec::with_capacity(n_plateaus);
         let (mut motor, mut dissipated, mut gas) = (0.0, 0.0, 0.0);
-        let mut w = Work::new(self.layout().len());
+        let mut w = self.work()?;
         let mut steps = 0_u64;
+        let layout = self.layout();
         for pi in 0..n_plateaus {
             let omega = self.cycle.plateaus()[pi].omega;
-            reset_states(&mut self.joints);
-            let (delta, t) = self.steady_plateau(pi, omega, &mut w, &mut steps)?;
-            motor += delta[0];
-            dissipated += delta[self.layout().powers()].iter().sum::<f64>();
-            gas += delta[self.layout().gas()];
+            w.states.reset();
+            let before = steps;
+            let (delta, t) = match self.steady_plateau(pi, omega, (0.0, 0.0), &mut w, &mut steps) {
+                Err(_) if self.stateful => {
+                    steps = before;
+                    w.states.reset();
+                    let start = self.spin_up(pi, omega, &mut w, &mut steps)?;
+                    self.steady_plateau(pi, omega, start, &mut w, &mut steps)?
+                }
+                other => other?,
+            };
+            motor += delta[RateLayout::MOTOR];
+            dissipated += delta[layout.powers()].iter().sum::<f64>();
+            gas += delta[layout.gas()];
             let cycle = self.cycle_angle();
-            let window = [t - cycle / omega, t];
-            let revs = self.revolutions_per_cycle();
-            let measured = super::plateau::Measured {
+            let measured = Measured {
                 delta,
                 dt: cycle / omega,
                 dtheta: cycle,
-                window_s: window,
-                revs,
+                window_s: [t - cycle / omega, t],
+                revs: self.revolutions_per_cycle(),
             };
             results.push(self.plateau_result(pi, &measured));
         }
-        // Over a periodic revolution the mechanical energy returns to its start value, so the
+        // Over a periodic cycle the mechanical energy returns to its start value, so the
         // balance is motor work = dissipation + gas work.
         let inertial: f64 = self
             .cycle
             .plateaus()
             .iter()
             .map(|p| {
-                self.mechanical_energy(std::f64::consts::FRAC_PI_2, p.omega)
+                self.crank
+                    .mechanical_energy(std::f64::consts::FRAC_PI_2, p.omega)
                     .abs()
             })
             .sum();
@@ -63,55 +79,95 @@ impl Simulation {
             steps,
             rejected_steps: 0,
             max_friction_iterations: w.max_it,
-            warnings: Vec::new(),
+            warnings: self.result_warnings(Vec::new()),
             law_time: super::bind::law_time(&self.joints),
         })
     }
 
-    /// Plateau `pi` at speed `omega`: the accumulated quantities over its last revolution, and
-    /// the time at its end (from 0 at the plateau's start).
+    /// Plateau `pi` at speed `omega` from time `start.0` and crank angle `start.1`: the
+    /// accumulated quantities over its last cycle, and the time at its end (from 0 at the
+    /// plateau's start).
     fn steady_plateau(
-        &mut self,
+        &self,
         pi: usize,
         omega: f64,
+        start: (f64, f64),
         w: &mut Work,
         steps: &mut u64,
     ) -> Result<(Vec<f64>, f64), SimError> {
+        let (t0, theta0) = start;
         let oil = (self.temps[pi], self.viscosities[pi]);
-        // One cycle: a revolution, or two for a 4-stroke cycle.
         let cycle = self.cycle_angle();
         let m = ((cycle / self.step_rad).ceil() as usize).max(16);
         let h = cycle / omega / m as f64;
-        w.guess = JointLoads::default();
+        let mut guess = vec![0.0; self.joints.len()];
         let mut last_torque = f64::NAN;
         let mut delta = vec![0.0; self.layout().len()];
-        let max_revs = if self.stateful { 200 } else { 1 };
-        let mut t = 0.0;
-        for _ in 0..max_revs {
+        let max_cycles = if self.stateful { 200 } else { 1 };
+        let mut t = t0;
+        let mut e = w.eval();
+        for _ in 0..max_cycles {
             delta.iter_mut().for_each(|x| *x = 0.0);
-            // Over one whole revolution the integrand is periodic: the trapezoid rule on
-            // equally spaced samples converges spectrally for smooth laws (and like Simpson's
-            // for kinked ones) with one evaluation per step instead of two.
+            // Over one whole cycle the integrand is periodic: the trapezoid rule on equally
+            // spaced samples converges spectrally for smooth laws (and like Simpson's for
+            // kinked ones) with one evaluation per step instead of two.
             for _ in 0..m {
-                let at = Point::steady(t + h, h, omega * (t + h), omega, oil);
-                let buffer = w.buffer();
-                let (e1, l1) = self.evaluate(&at, &w.guess, buffer)?;
-                for (d, r) in delta.iter_mut().zip(&e1.rates) {
+                let at = Point::steady(t + h, h, theta0 + omega * (t + h - t0), omega, oil);
+                self.evaluate(&at, &guess, w, &mut e)?;
+                for (d, r) in delta.iter_mut().zip(&e.rates) {
                     *d += h * r;
                 }
-                w.max_it = w.max_it.max(e1.iterations);
                 t += h;
-                self.commit(t, h, omega * t, &e1, oil)?;
-                w.pool.push(e1.rates);
-                w.guess = l1;
+                self.commit(w, &e)?;
+                guess.copy_from_slice(&e.totals);
                 *steps += 1;
             }
-            let torque = delta[0] / cycle;
+            let torque = delta[RateLayout::MOTOR] / cycle;
             if !self.stateful || (torque - last_torque).abs() <= 1e-9 * torque.abs().max(1e-12) {
                 break;
             }
             last_torque = torque;
         }
+        w.recycle(e);
         Ok((delta, t))
+    }
+
+    /// Spin the crank up from rest to plateau `pi`'s speed `omega` at a constant acceleration
+    /// over [`SPIN_UP_CYCLES`] cycles, every step committed, as a transient run brings the
+    /// stateful laws to speed. Returns the time and crank angle at its end.
+    fn spin_up(
+        &self,
+        pi: usize,
+        omega: f64,
+        w: &mut Work,
+        steps: &mut u64,
+    ) -> Result<(f64, f64), SimError> {
+        let oil = (self.temps[pi], self.viscosities[pi]);
+        let angle = SPIN_UP_CYCLES * self.cycle_angle();
+        let alpha = omega * omega / (2.0 * angle);
+        let duration = omega / alpha;
+        // At most the run's crank-angle step at the end, where the crank is fastest.
+        let m = ((2.0 * angle / self.step_rad).ceil() as usize).max(16);
+        let h = duration / m as f64;
+        let mut guess = vec![0.0; self.joints.len()];
+        let mut e = w.eval();
+        for k in 1..=m {
+            let t = h * k as f64;
+            let at = Point {
+                t,
+                dt: h,
+                theta: 0.5 * alpha * t * t,
+                omega: alpha * t,
+                control: Control::Acceleration(alpha),
+                margin: f64::INFINITY,
+                oil,
+            };
+            self.evaluate(&at, &guess, w, &mut e)?;
+            self.commit(w, &e)?;
+            guess.copy_from_slice(&e.totals);
+            *steps += 1;
+        }
+        w.recycle(e);
+        Ok((duration, angle))
     }
 }

@@ -1,20 +1,19 @@
 //! Time stepping: one [`Stepper`] trait for a step method, with the prescribed crank's Simpson
 //! quadrature and fixed-step RK4 here and the error-controlled Dormand-Prince pair in
-//! `adaptive.rs`; the PI drive's torque; what the run loop hands a stepper ([`Work`]).
+//! `adaptive.rs`; the PI drive's torque; what the run loop hands a stepper ([`Integration`]).
 
 use super::error::SimError;
-use super::evaluate::{Control, Eval, Point};
+use super::evaluate::{Control, Eval, Point, Work};
 use super::Simulation;
-use crate::mechanics::JointLoads;
 use crate::model::Drive;
 
 /// Crank angle (rad), speed (rad/s) and the PI controller's integral (rad).
 pub(super) type CrankState = (f64, f64, f64);
 
 /// What the run loop and its stepper share: the time and crank state, the accumulated
-/// quantities, the friction loads that start the next evaluation, recycled rate buffers and
-/// the run's counters.
-pub(super) struct Work {
+/// quantities, the friction the next evaluation starts from and the run's counters.
+#[derive(Debug, Clone)]
+pub(super) struct Integration {
     /// Time at the start of the next step, s.
     pub(super) t: f64,
     /// Crank state there.
@@ -23,20 +22,40 @@ pub(super) struct Work {
     pub(super) acc: Vec<f64>,
     /// The rates at `t` (the last accepted evaluation), for the quadrature and the windows.
     pub(super) last_rates: Vec<f64>,
-    /// Start of the next friction iteration.
-    pub(super) guess: JointLoads,
-    /// Rate buffers to reuse: no allocation per evaluation once warmed up.
-    pub(super) pool: Vec<Vec<f64>>,
-    /// Largest friction iteration count seen.
-    pub(super) max_it: u32,
+    /// The normal loads (per joint) and drive torque (N m) there.
+    pub(super) last_normals: Vec<f64>,
+    pub(super) last_torque: f64,
+    /// Each joint's law total where the next friction iteration starts.
+    pub(super) guess: Vec<f64>,
     /// Steps rejected by error control.
     pub(super) rejected: u64,
 }
 
-impl Work {
-    /// A recycled rate buffer (or a new one while the pool warms up).
-    pub(super) fn buffer(&mut self) -> Vec<f64> {
-        self.pool.pop().unwrap_or_default()
+impl Integration {
+    /// The start of a run: crank at rest at time 0, nothing accumulated, for `n` quantities.
+    pub(super) fn new(n: usize) -> Self {
+        Self {
+            t: 0.0,
+            y: (0.0, 0.0, 0.0),
+            acc: vec![0.0; n],
+            last_rates: vec![0.0; n],
+            last_normals: Vec::new(),
+            last_torque: 0.0,
+            guess: Vec::new(),
+            rejected: 0,
+        }
+    }
+
+    /// Keep what the accepted evaluation `e` at `t` gives the windows and the outputs.
+    pub(super) fn record(&mut self, e: &Eval) {
+        self.last_rates.copy_from_slice(&e.rates);
+        self.last_normals.clone_from(&e.normals);
+        self.last_torque = e.drive_torque;
+    }
+
+    /// Take `e`'s settled friction as the next evaluation's start.
+    pub(super) fn settle_from(&mut self, e: &Eval) {
+        self.guess.clone_from(&e.totals);
     }
 }
 
@@ -56,54 +75,92 @@ pub(super) struct Step {
 /// intervals; within one it asks the stepper for accepted steps, then hands each step's end
 /// evaluation back once used (the next step's first stage, or a buffer to recycle).
 pub(super) trait Stepper {
-    /// An interval of the grid starts at `w.t`, to be covered by fixed steps of `dt`.
-    fn begin_interval(&mut self, sim: &Simulation, w: &mut Work, dt: f64) -> Result<(), SimError> {
-        let _ = (sim, w, dt);
+    /// An interval of the grid starts at `s.t`, to be covered by fixed steps of `dt`.
+    fn begin_interval(
+        &mut self,
+        sim: &Simulation,
+        w: &mut Work,
+        s: &mut Integration,
+        dt: f64,
+    ) -> Result<(), SimError> {
+        let _ = (sim, w, s, dt);
         Ok(())
     }
 
-    /// One accepted step from `w.t`: a fixed-step method ends at `t1`, an adaptive one where its
-    /// error control says, at most at the interval's end `b`. The step's increments are added to
-    /// `w.acc` and the loads at its end become `w.guess`.
-    fn step(&mut self, sim: &Simulation, w: &mut Work, t1: f64, b: f64) -> Result<Step, SimError>;
+    /// One accepted step from `s.t`: a fixed-step method ends at `t1`, an adaptive one where
+    /// its error control says, at most at the interval's end `b`. The step's increments are
+    /// added to `s.acc` and the friction at its end becomes `s.guess`.
+    fn step(
+        &mut self,
+        sim: &Simulation,
+        w: &mut Work,
+        s: &mut Integration,
+        t1: f64,
+        b: f64,
+    ) -> Result<Step, SimError>;
 
     /// Take back the end evaluation of the step of length `h` once the run has used it.
     fn recycle(&mut self, end: Eval, h: f64, w: &mut Work);
+
+    /// The inputs changed at `s.t` (the stepping API): forget every evaluation made with the
+    /// old ones.
+    fn restart(&mut self, sim: &Simulation, w: &mut Work, s: &Integration) -> Result<(), SimError> {
+        let _ = (sim, w, s);
+        Ok(())
+    }
 }
 
 /// Prescribed crank: the reference motion is exact, so each step evaluates its midpoint and
 /// end and integrates every rate with Simpson's rule.
+#[derive(Clone)]
 pub(super) struct Quadrature;
 
 impl Stepper for Quadrature {
-    fn begin_interval(&mut self, sim: &Simulation, w: &mut Work, dt: f64) -> Result<(), SimError> {
+    fn begin_interval(
+        &mut self,
+        sim: &Simulation,
+        w: &mut Work,
+        s: &mut Integration,
+        dt: f64,
+    ) -> Result<(), SimError> {
         // The reference acceleration may jump at t: start this interval from its own side of
         // the jump so Simpson's rule never straddles it.
-        let (theta, omega, alpha) = sim.cycle.reference_after(w.t);
-        let at = sim.prescribed_point(w.t, dt, (theta, omega, alpha));
-        let buffer = w.buffer();
-        let (e0, l0) = sim.evaluate(&at, &w.guess, buffer)?;
-        let old = std::mem::replace(&mut w.last_rates, e0.rates);
-        w.pool.push(old);
-        w.guess = l0;
+        let (theta, omega, alpha) = sim.reference_after(s.t);
+        let at = sim.prescribed_point(s.t, dt, (theta, omega, alpha));
+        let mut e0 = w.eval();
+        sim.evaluate(&at, &s.guess, w, &mut e0)?;
+        s.record(&e0);
+        s.settle_from(&e0);
+        w.recycle(e0);
         Ok(())
     }
 
-    fn step(&mut self, sim: &Simulation, w: &mut Work, t1: f64, _b: f64) -> Result<Step, SimError> {
-        let (t, h) = (w.t, t1 - w.t);
-        let at = sim.prescribed_point(t + 0.5 * h, h, sim.cycle.reference(t + 0.5 * h));
-        let buffer = w.buffer();
-        let (em, lm) = sim.evaluate(&at, &w.guess, buffer)?;
-        let (th1, w1, a1) = sim.cycle.reference(t1);
-        let buffer = w.buffer();
-        let (e1, l1) = sim.evaluate(&sim.prescribed_point(t1, h, (th1, w1, a1)), &lm, buffer)?;
-        w.guess = l1;
-        w.max_it = w.max_it.max(em.iterations).max(e1.iterations);
+    fn step(
+        &mut self,
+        sim: &Simulation,
+        w: &mut Work,
+        s: &mut Integration,
+        t1: f64,
+        _b: f64,
+    ) -> Result<Step, SimError> {
+        let (t, h) = (s.t, t1 - s.t);
+        let at = sim.prescribed_point(t + 0.5 * h, h, sim.reference(t + 0.5 * h));
+        let mut em = w.eval();
+        sim.evaluate(&at, &s.guess, w, &mut em)?;
+        let (th1, w1, a1) = sim.reference(t1);
+        let mut e1 = w.eval();
+        sim.evaluate(
+            &sim.prescribed_point(t1, h, (th1, w1, a1)),
+            &em.totals,
+            w,
+            &mut e1,
+        )?;
+        s.settle_from(&e1);
         // Simpson's rule on every accumulated rate.
-        for k in 0..w.acc.len() {
-            w.acc[k] += h / 6.0 * (w.last_rates[k] + 4.0 * em.rates[k] + e1.rates[k]);
+        for k in 0..s.acc.len() {
+            s.acc[k] += h / 6.0 * (s.last_rates[k] + 4.0 * em.rates[k] + e1.rates[k]);
         }
-        w.pool.push(em.rates);
+        w.recycle(em);
         Ok(Step {
             t1,
             h,
@@ -113,35 +170,54 @@ impl Stepper for Quadrature {
     }
 
     fn recycle(&mut self, end: Eval, _h: f64, w: &mut Work) {
-        w.pool.push(end.rates);
+        w.recycle(end);
     }
 }
 
 /// Classical RK4 with fixed steps of crank angle, crank speed and controller integral (a PI
 /// drive with stateful laws, or `solver.integrator = "rk4"`).
-#[derive(Default)]
+#[derive(Default, Clone)]
 pub(super) struct Rk4 {
-    /// The previous step's end evaluation, its loads and the step length: the next step's
-    /// first stage when the step size (which the laws see) is the same.
-    carried: Option<(Eval, JointLoads, f64)>,
+    /// The previous step's end evaluation and its length: the next step's first stage when
+    /// the step size (which the laws see) is the same and no law's state has moved since.
+    carried: Option<(Eval, f64)>,
 }
 
 impl Stepper for Rk4 {
-    fn step(&mut self, sim: &Simulation, w: &mut Work, t1: f64, _b: f64) -> Result<Step, SimError> {
-        let h = t1 - w.t;
-        let omega = w.y.1;
-        let first = self
-            .carried
-            .take()
-            .filter(|(e, _, hh)| *hh == h && e.omega == omega)
-            .map(|(e, l, _)| (e, l));
-        let (end, loads, y) = sim.rk4_step(w, h, first)?;
-        w.guess = loads;
+    fn step(
+        &mut self,
+        sim: &Simulation,
+        w: &mut Work,
+        s: &mut Integration,
+        t1: f64,
+        _b: f64,
+    ) -> Result<Step, SimError> {
+        let h = t1 - s.t;
+        let omega = s.y.1;
+        let reuse = !(sim.rules.fresh_first_stage && sim.stateful);
+        let first = match self.carried.take() {
+            Some((e, hh)) if reuse && hh == h && e.omega == omega => Some(e),
+            Some((e, _)) => {
+                w.recycle(e);
+                None
+            }
+            None => None,
+        };
+        let (end, y) = sim.rk4_step(w, s, h, first)?;
         Ok(Step { t1, h, end, y })
     }
 
     fn recycle(&mut self, end: Eval, h: f64, w: &mut Work) {
-        self.carried = Some((end, w.guess, h));
+        if let Some((old, _)) = self.carried.replace((end, h)) {
+            w.recycle(old);
+        }
+    }
+
+    fn restart(&mut self, _: &Simulation, w: &mut Work, _: &Integration) -> Result<(), SimError> {
+        if let Some((old, _)) = self.carried.take() {
+            w.recycle(old);
+        }
+        Ok(())
     }
 }
 
@@ -193,7 +269,11 @@ impl Simulation {
     /// (negative while saturated) for a PI drive.
     #[inline]
     pub(super) fn pi_torque(&self, t: f64, omega: f64, z: f64) -> (f64, f64, f64) {
-        pi_drive(&self.drive, self.cycle.reference(t).1, omega, z)
+        match self.held.torque_nm {
+            // A drive torque set from outside replaces the controller (which holds still).
+            Some(torque) => (torque, 0.0, f64::INFINITY),
+            None => pi_drive(&self.drive, self.reference(t).1, omega, z),
+        }
     }
 
     /// The evaluation at the end of a step (or the run's start) in state `y`: the reference
@@ -204,63 +284,61 @@ impl Simulation {
         t: f64,
         dt: f64,
         y: CrankState,
-        guess: &JointLoads,
-        buffer: Vec<f64>,
-    ) -> Result<(Eval, JointLoads), SimError> {
+        guess: &[f64],
+        w: &mut Work,
+    ) -> Result<Eval, SimError> {
         let at = match self.drive {
-            Drive::Prescribed => self.prescribed_point(t, dt, self.cycle.reference(t)),
+            Drive::Prescribed => self.prescribed_point(t, dt, self.reference(t)),
             Drive::Pi { .. } => self.driven_point(t, dt, y).0,
         };
-        self.evaluate(&at, guess, buffer)
+        let mut e = w.eval();
+        self.evaluate(&at, guess, w, &mut e)?;
+        Ok(e)
     }
 
-    /// One classical RK4 step of length `h` from `w.t`, every rate accumulated into `w.acc`
+    /// One classical RK4 step of length `h` from `s.t`, every rate accumulated into `s.acc`
     /// by the same weights. `first` is the evaluation at the step's start if already known.
-    /// Returns the evaluation at the step's end, its loads and the end state.
+    /// Returns the evaluation at the step's end and the end state.
     fn rk4_step(
         &self,
         w: &mut Work,
+        s: &mut Integration,
         h: f64,
-        first: Option<(Eval, JointLoads)>,
-    ) -> Result<(Eval, JointLoads, CrankState), SimError> {
-        let (t, (theta, omega, z)) = (w.t, w.y);
-        let stage = |tt: f64, y: CrankState, g: &JointLoads, w: &mut Work| {
+        first: Option<Eval>,
+    ) -> Result<(Eval, CrankState), SimError> {
+        let (t, (theta, omega, z)) = (s.t, s.y);
+        let stage = |tt: f64, y: CrankState, g: &[f64], w: &mut Work| {
             let (at, dz) = self.driven_point(tt, h, y);
-            let buffer = w.buffer();
-            let (e, l) = self.evaluate(&at, g, buffer)?;
+            let mut e = w.eval();
+            self.evaluate(&at, g, w, &mut e)?;
             let k = [y.1, e.alpha, dz];
-            Ok::<_, SimError>((e, l, k))
+            Ok::<_, SimError>((e, k))
         };
-        let (e1, l1, k1) = match first {
-            Some((e, l)) => {
+        let (e1, k1) = match first {
+            Some(e) => {
                 let (_, dz, _) = self.pi_torque(t, omega, z);
                 let k = [omega, e.alpha, dz];
-                (e, l, k)
+                (e, k)
             }
-            None => {
-                let g = w.guess;
-                stage(t, w.y, &g, w)?
-            }
+            None => stage(t, s.y, &s.guess, w)?,
         };
         let at =
             |k: &[f64; 3], f: f64| (theta + f * h * k[0], omega + f * h * k[1], z + f * h * k[2]);
-        let (e2, l2, k2) = stage(t + 0.5 * h, at(&k1, 0.5), &l1, w)?;
-        let (e3, l3, k3) = stage(t + 0.5 * h, at(&k2, 0.5), &l2, w)?;
-        let (e4, l4, k4) = stage(t + h, at(&k3, 1.0), &l3, w)?;
+        let (e2, k2) = stage(t + 0.5 * h, at(&k1, 0.5), &e1.totals, w)?;
+        let (e3, k3) = stage(t + 0.5 * h, at(&k2, 0.5), &e2.totals, w)?;
+        let (e4, k4) = stage(t + h, at(&k3, 1.0), &e3.totals, w)?;
         let mix = |c: usize| h / 6.0 * (k1[c] + 2.0 * k2[c] + 2.0 * k3[c] + k4[c]);
         let (th1, w1, z1) = (theta + mix(0), omega + mix(1), z + mix(2));
-        for (k, a) in w.acc.iter_mut().enumerate() {
+        for (k, a) in s.acc.iter_mut().enumerate() {
             *a += h / 6.0 * (e1.rates[k] + 2.0 * e2.rates[k] + 2.0 * e3.rates[k] + e4.rates[k]);
         }
-        let its = [e1.iterations, e2.iterations, e3.iterations, e4.iterations];
-        w.max_it = its.into_iter().fold(w.max_it, u32::max);
-        w.pool.extend([e1.rates, e2.rates, e3.rates, e4.rates]);
         // The state at the step end, for output, commit and the next step's first stage.
-        let buffer = w.buffer();
-        let (end, lend) = self.step_eval(t + h, h, (th1, w1, z1), &l4, buffer)?;
-        w.guess = lend;
-        w.max_it = w.max_it.max(end.iterations);
-        Ok((end, lend, (th1, w1, z1)))
+        let end = self.step_eval(t + h, h, (th1, w1, z1), &e4.totals, w)?;
+        s.settle_from(&end);
+        for e in [e1, e2, e3, e4] {
+            w.recycle(e);
+        }
+        Ok((end, (th1, w1, z1)))
     }
 }
 

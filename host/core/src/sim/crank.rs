@@ -1,0 +1,496 @@
+//! The crank models the solver runs on, behind one type: the single-cylinder rig's
+//! [`Mechanism`] (absolute coordinates, 9 x 9, the thesis rig's own solve) and an engine's
+//! [`CrankTrain`] (closed form per cylinder). Each owns its scratch (the configuration's
+//! kinematics and the last solve's reactions), so one evaluation asks the model for kinematics
+//! once, then for reactions under any number of friction loads, and reads per joint what the
+//! laws need: relative velocity, normal load, reaction components.
+
+use nalgebra::Vector2;
+
+use super::bind::Bodies;
+use super::evaluate::Control;
+use crate::engine::{CrankTrain, CylinderLoads, TrainKinematics, TrainLoads, TrainReactions};
+use crate::gas::{cycle_angle, GasModel, GasState, LawGas};
+use crate::mechanics::{JointLoads, Kinematics, Mechanism, Reactions};
+use tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
+
+/// What a joint is on the crank train: the law-bearing joints of any crank train.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Role {
+    /// Main bearing `i` (0-based, in axial order).
+    Main(usize),
+    /// Cylinder `k`'s big end (crank pin - rod).
+    BigEnd(usize),
+    /// Cylinder `k`'s small end (rod - piston pin).
+    SmallEnd(usize),
+    /// Cylinder `k`'s piston slide.
+    Piston(usize),
+}
+
+impl Role {
+    /// The joint's group, naming it in a model error and in law-set groups.
+    pub(crate) fn group(self) -> &'static str {
+        match self {
+            Role::Main(_) => "main_*",
+            Role::BigEnd(_) => "big_end_*",
+            Role::SmallEnd(_) => "small_end_*",
+            Role::Piston(_) => "piston_*",
+        }
+    }
+
+    /// The cylinder whose gas state the joint's laws see (the mains: cylinder 1's).
+    pub(crate) fn cylinder(self) -> usize {
+        match self {
+            Role::Main(_) => 0,
+            Role::BigEnd(k) | Role::SmallEnd(k) | Role::Piston(k) => k,
+        }
+    }
+
+    /// Which of the joint's bodies is the inner member: the crank's journal (A) in a main
+    /// bearing, the crank pin (B, the crank) in the big end, the piston pin (A, the piston) in
+    /// the small end, the piston (A) in the cylinder.
+    pub(crate) fn inner(self) -> tribo_plugin_api::InnerBody {
+        match self {
+            Role::BigEnd(_) => tribo_plugin_api::InnerBody::B,
+            _ => tribo_plugin_api::InnerBody::A,
+        }
+    }
+
+    /// Revolute for bearings and pins, prismatic for a piston slide: what a law is told.
+    pub(crate) fn kind(self) -> tribo_plugin_api::JointKind {
+        match self {
+            Role::Piston(_) => tribo_plugin_api::JointKind::Prismatic,
+            _ => tribo_plugin_api::JointKind::Revolute,
+        }
+    }
+}
+
+/// A crank model with its scratch.
+#[derive(Clone)]
+pub(crate) enum Crank {
+    /// The single-cylinder rig's mechanism, its main reaction split by the rig's load shares.
+    Rig(Box<RigCrank>),
+    /// A multi-cylinder engine's crank train.
+    Train(Box<TrainCrank>),
+}
+
+/// The single-cylinder rig: [`Mechanism`], the two mains' shares of its main reaction.
+#[derive(Clone)]
+pub(crate) struct RigCrank {
+    mech: Mechanism,
+    shares: [f64; 2],
+    kin: Kinematics,
+    re: Reactions,
+}
+
+/// An engine: [`CrankTrain`], each cylinder's piston position at its TDC and 4-stroke phase.
+#[derive(Clone)]
+pub(crate) struct TrainCrank {
+    train: CrankTrain,
+    /// Each cylinder's piston position at its top dead centre from the crank centre along its
+    /// axis, m: `sqrt((l + r)^2 - e^2)` for the offset `e`.
+    tdc_position: Vec<f64>,
+    /// Each cylinder's 4-stroke phase from the firing order, rad.
+    phases: Vec<f64>,
+    kin: TrainKinematics,
+    re: TrainReactions,
+    loads: TrainLoads,
+}
+
+impl Crank {
+    /// The single-cylinder rig's model: `mech` with the mains' load `shares`.
+    pub(crate) fn rig(mech: Mechanism, shares: [f64; 2]) -> Self {
+        let kin = mech.kinematics(0.0, 0.0);
+        let re = kin.reactions(0.0, &JointLoads::default());
+        Crank::Rig(Box::new(RigCrank {
+            mech,
+            shares,
+            kin,
+            re,
+        }))
+    }
+
+    /// An engine's model: `train` with its cylinders' 4-stroke `phases`.
+    pub(crate) fn train(train: CrankTrain, phases: Vec<f64>) -> Self {
+        let geo = train.geometry();
+        let tdc_position = geo
+            .cylinders
+            .iter()
+            .map(|c| {
+                let reach = c.rod.length_m + geo.crank_radius_m;
+                let e = c.pin_offset_m + c.crank_offset_m;
+                (reach * reach - e * e).sqrt()
+            })
+            .collect();
+        let n = geo.cylinders.len();
+        Crank::Train(Box::new(TrainCrank {
+            tdc_position,
+            phases,
+            kin: TrainKinematics::default(),
+            re: TrainReactions::default(),
+            loads: TrainLoads {
+                main_torque_nm: 0.0,
+                cylinders: vec![CylinderLoads::default(); n],
+            },
+            train,
+        }))
+    }
+
+    /// Number of cylinders.
+    pub(crate) fn cylinders(&self) -> usize {
+        match self {
+            Crank::Rig(_) => 1,
+            Crank::Train(t) => t.train.geometry().cylinders.len(),
+        }
+    }
+
+    /// The mechanism of the single-cylinder rig (`None` on an engine).
+    pub(crate) fn mechanism(&self) -> Option<&Mechanism> {
+        match self {
+            Crank::Rig(r) => Some(&r.mech),
+            Crank::Train(_) => None,
+        }
+    }
+
+    /// The crank train of an engine (`None` on the single-cylinder rig).
+    pub(crate) fn crank_train(&self) -> Option<&CrankTrain> {
+        match self {
+            Crank::Rig(_) => None,
+            Crank::Train(t) => Some(&t.train),
+        }
+    }
+
+    /// The configuration at crank angle `theta` (accumulated) and speed `omega`, with each
+    /// cylinder's gas force from `gas` (one model per cylinder, none without gas loads; a
+    /// vented crankcase read at the crank speed `gas_omega`; every cylinder's pressure
+    /// `cylinder_pa` instead of its model's where given). Each cylinder's gas state as its
+    /// laws are handed it goes to `law_gas`. Returns the power into the gas (minus the gas
+    /// forces' power on the pistons), W.
+    #[inline]
+    pub(crate) fn kinematics(
+        &mut self,
+        theta: f64,
+        omega: f64,
+        gas: &[GasModel],
+        (gas_omega, cylinder_pa): (f64, Option<f64>),
+        law_gas: &mut Vec<LawGas>,
+    ) -> f64 {
+        law_gas.clear();
+        let state = |g: &GasModel, s: GasState| match cylinder_pa {
+            Some(p) => g.with_cylinder_pressure(s, p),
+            None => s,
+        };
+        match self {
+            Crank::Rig(r) => r.kinematics(theta, omega, gas.first(), gas_omega, state, law_gas),
+            Crank::Train(t) => t.kinematics(theta, omega, gas, gas_omega, state, law_gas),
+        }
+    }
+
+    /// The two bodies of the joint `role` in the current configuration, body A first: a main
+    /// bearing, crank and block (at rest); a big end, rod and crank; a small end, piston and
+    /// rod (angles in the plane, rad, and angular velocities, rad/s; an engine's piston is
+    /// turned by its bank angle and does not rotate); a slide, the piston's position and speed
+    /// along the cylinder axis (m, m/s) and the cylinder. Their relative velocity
+    /// ([`Bodies::relative`]) is the crank speed, rod minus crank, piston minus rod, the piston
+    /// speed.
+    #[inline]
+    pub(crate) fn bodies(&self, role: Role) -> Bodies {
+        let block = (0.0, 0.0);
+        match self {
+            Crank::Rig(r) => {
+                let (q, qd) = (&r.kin.q, &r.kin.qd);
+                let crank = (q[2], qd[2]);
+                let rod = (q[5], qd[5]);
+                match role {
+                    Role::Main(_) => Bodies { a: crank, b: block },
+                    Role::BigEnd(_) => Bodies { a: rod, b: crank },
+                    Role::SmallEnd(_) => Bodies {
+                        a: (q[8], qd[8]),
+                        b: rod,
+                    },
+                    Role::Piston(_) => Bodies {
+                        a: (q[7], qd[7]),
+                        b: block,
+                    },
+                }
+            }
+            Crank::Train(t) => {
+                let kin = &t.kin;
+                let crank = (kin.theta, kin.omega);
+                let bank = |k: usize| t.train.geometry().cylinders[k].bank_rad;
+                let rod = |k: usize| {
+                    let c = &kin.cylinders[k];
+                    (bank(k) + c.rod_angle_rad, c.rod_rate_rad_s)
+                };
+                match role {
+                    Role::Main(_) => Bodies { a: crank, b: block },
+                    Role::BigEnd(k) => Bodies {
+                        a: rod(k),
+                        b: crank,
+                    },
+                    Role::SmallEnd(k) => Bodies {
+                        a: (bank(k), 0.0),
+                        b: rod(k),
+                    },
+                    Role::Piston(k) => Bodies {
+                        a: (
+                            kin.cylinders[k].piston_position_m,
+                            kin.cylinders[k].piston_speed_m_s,
+                        ),
+                        b: block,
+                    },
+                }
+            }
+        }
+    }
+
+    /// Solve the reactions in the current configuration under the friction of each joint's
+    /// laws, `totals[j]` for the joint `roles[j]` (the mains' torques add up); returns the
+    /// crank acceleration (the control's, or the one the drive torque causes).
+    #[inline]
+    pub(crate) fn solve(&mut self, control: Control, roles: &[Role], totals: &[f64]) -> f64 {
+        match self {
+            Crank::Rig(r) => {
+                let mut loads = JointLoads::default();
+                for (role, total) in roles.iter().zip(totals) {
+                    match role {
+                        Role::Main(_) => loads.main_torque_nm += total,
+                        Role::BigEnd(_) => loads.big_end_torque_nm = *total,
+                        Role::SmallEnd(_) => loads.small_end_torque_nm = *total,
+                        Role::Piston(_) => loads.slide_force_n = *total,
+                    }
+                }
+                let alpha = match control {
+                    Control::Acceleration(alpha) => alpha,
+                    Control::Torque(torque) => r.kin.alpha_for_torque(torque, &loads),
+                };
+                r.re = r.kin.reactions(alpha, &loads);
+                alpha
+            }
+            Crank::Train(t) => {
+                let loads = &mut t.loads;
+                loads.main_torque_nm = 0.0;
+                loads
+                    .cylinders
+                    .iter_mut()
+                    .for_each(|c| *c = CylinderLoads::default());
+                for (role, total) in roles.iter().zip(totals) {
+                    match *role {
+                        Role::Main(_) => loads.main_torque_nm += total,
+                        Role::BigEnd(c) => loads.cylinders[c].big_end_torque_nm = *total,
+                        Role::SmallEnd(c) => loads.cylinders[c].small_end_torque_nm = *total,
+                        Role::Piston(c) => loads.cylinders[c].slide_force_n = *total,
+                    }
+                }
+                let alpha = match control {
+                    Control::Acceleration(alpha) => alpha,
+                    Control::Torque(torque) => t.train.alpha_for_torque(&t.kin, torque, loads),
+                };
+                t.train.reactions_into(&t.kin, alpha, loads, &mut t.re);
+                alpha
+            }
+        }
+    }
+
+    /// Each joint's normal load from the last solve, `out[j]` for `roles[j]`, N.
+    #[inline]
+    pub(crate) fn normals(&self, roles: &[Role], out: &mut [f64]) {
+        match self {
+            Crank::Rig(r) => {
+                let main = r.re.main_n.norm();
+                for (o, role) in out.iter_mut().zip(roles) {
+                    *o = match *role {
+                        Role::Main(i) => main * r.shares[i],
+                        Role::BigEnd(_) => r.re.big_end_n.norm(),
+                        Role::SmallEnd(_) => r.re.small_end_n.norm(),
+                        Role::Piston(_) => r.re.slide_lateral_n.abs(),
+                    };
+                }
+            }
+            Crank::Train(t) => {
+                for (o, role) in out.iter_mut().zip(roles) {
+                    *o = t.reaction(*role).0.norm();
+                }
+            }
+        }
+    }
+
+    /// The reaction the laws of joint `role` see in the last solve: its force (components:
+    /// global frame for bearings and pins; for a slide, along its axis and across it) and
+    /// moment.
+    #[inline]
+    pub(crate) fn reaction(&self, role: Role) -> (Vector2<f64>, f64) {
+        match self {
+            Crank::Rig(r) => match role {
+                Role::Main(i) => (r.re.main_n * r.shares[i], 0.0),
+                Role::BigEnd(_) => (r.re.big_end_n, 0.0),
+                Role::SmallEnd(_) => (r.re.small_end_n, 0.0),
+                Role::Piston(_) => (
+                    Vector2::new(0.0, r.re.slide_lateral_n),
+                    r.re.slide_moment_nm,
+                ),
+            },
+            Crank::Train(t) => t.reaction(role),
+        }
+    }
+
+    /// The drive torque of the last solve, N m.
+    #[inline]
+    pub(crate) fn drive_torque(&self) -> f64 {
+        match self {
+            Crank::Rig(r) => r.re.drive_torque_nm,
+            Crank::Train(t) => t.re.drive_torque_nm,
+        }
+    }
+
+    /// Cylinder `k`'s side thrust (the lateral reaction of its slide, signed) in the last
+    /// solve, N.
+    #[inline]
+    pub(crate) fn lateral(&self, k: usize) -> f64 {
+        match self {
+            Crank::Rig(r) => r.re.slide_lateral_n,
+            Crank::Train(t) => t.re.cylinders[k].slide_lateral_n,
+        }
+    }
+
+    /// Kinetic plus potential energy of the moving parts at crank angle `theta` and speed
+    /// `omega`, J: what the motor's work changes over a transient run.
+    pub(crate) fn mechanical_energy(&self, theta: f64, omega: f64) -> f64 {
+        match self {
+            Crank::Rig(r) => {
+                // Positions and velocities only: the gas force does not change them.
+                let (st, _) = r.mech.solve(theta, omega, 0.0, &JointLoads::default());
+                r.mech.kinetic_energy(&st.qd) + r.mech.potential_energy(&st.q)
+            }
+            Crank::Train(t) => t.train.mechanical_energy(theta, omega),
+        }
+    }
+
+    /// The last solve's loads for a crank-angle sample: cylinder 1's big-end force and the
+    /// mains' total (x, y), N; each cylinder's big-end force and side thrust, and each main's
+    /// force (empty on the single-cylinder rig, whose one cylinder is the first two).
+    pub(crate) fn loads_sample(&self) -> LoadsSample {
+        match self {
+            Crank::Rig(r) => LoadsSample {
+                big_end_n: [r.re.big_end_n.x, r.re.big_end_n.y],
+                main_n: [r.re.main_n.x, r.re.main_n.y],
+                cylinders: Vec::new(),
+                mains_n: Vec::new(),
+            },
+            Crank::Train(t) => {
+                let first = t.re.cylinders.first().map(|c| c.big_end_n);
+                LoadsSample {
+                    big_end_n: first.map_or([0.0; 2], |b| [b.x, b.y]),
+                    main_n: [t.re.main_total_n.x, t.re.main_total_n.y],
+                    cylinders: t
+                        .re
+                        .cylinders
+                        .iter()
+                        .map(|c| ([c.big_end_n.x, c.big_end_n.y], c.slide_lateral_n))
+                        .collect(),
+                    mains_n: t.re.mains_n.iter().map(|m| [m.x, m.y]).collect(),
+                }
+            }
+        }
+    }
+}
+
+/// The loads of one solve, as a crank-angle sample reports them (see [`Crank::loads_sample`]).
+pub(crate) struct LoadsSample {
+    pub(crate) big_end_n: [f64; 2],
+    pub(crate) main_n: [f64; 2],
+    /// Per cylinder: big-end force (x, y) and side thrust, N.
+    pub(crate) cylinders: Vec<([f64; 2], f64)>,
+    pub(crate) mains_n: Vec<[f64; 2]>,
+}
+
+impl RigCrank {
+    /// The mechanism's configuration with the gas force of `gas` (if any), and the gas state
+    /// its laws see: the gas model's, or the atmosphere, the piston travel read from the
+    /// positions and the angle within one 4-stroke cycle.
+    #[inline]
+    fn kinematics(
+        &mut self,
+        theta: f64,
+        omega: f64,
+        gas: Option<&GasModel>,
+        gas_omega: f64,
+        state: impl Fn(&GasModel, GasState) -> GasState,
+        law_gas: &mut Vec<LawGas>,
+    ) -> f64 {
+        match gas {
+            None => {
+                self.kin = self.mech.kinematics(theta, omega);
+                law_gas.push(LawGas {
+                    cylinder_pa: STANDARD_ATMOSPHERE_PA,
+                    crankcase_pa: STANDARD_ATMOSPHERE_PA,
+                    piston_from_tdc_m: self.mech.piston_travel(&self.kin.q),
+                    cycle_angle_rad: cycle_angle(theta),
+                });
+                0.0
+            }
+            Some(g) => {
+                let s = state(g, g.at(theta, gas_omega));
+                self.kin = self
+                    .mech
+                    .kinematics_with_piston_force(theta, omega, s.force_n);
+                law_gas.push((&s).into());
+                -s.force_n * self.kin.qd[7]
+            }
+        }
+    }
+}
+
+impl TrainCrank {
+    /// The train's configuration with each cylinder's gas force (its model at its own local
+    /// angle and piston travel), and the gas state each cylinder's laws see.
+    #[inline]
+    fn kinematics(
+        &mut self,
+        theta: f64,
+        omega: f64,
+        gas: &[GasModel],
+        gas_omega: f64,
+        state: impl Fn(&GasModel, GasState) -> GasState,
+        law_gas: &mut Vec<LawGas>,
+    ) -> f64 {
+        self.train.kinematics_into(theta, omega, &[], &mut self.kin);
+        let mut power = 0.0;
+        for (k, c) in self.kin.cylinders.iter_mut().enumerate() {
+            let travel = self.tdc_position[k] - c.piston_position_m;
+            match gas.get(k) {
+                // The volume follows the piston's true travel (with offsets, its dead centres
+                // are not at local angles 0 and pi); the valve events stay at those angles.
+                Some(g) => {
+                    let state = state(g, g.at_travel(c.local_angle_rad, gas_omega, travel));
+                    c.piston_force_n = state.force_n;
+                    power += state.force_n * c.piston_speed_m_s;
+                    law_gas.push((&state).into());
+                }
+                None => law_gas.push(LawGas {
+                    cylinder_pa: STANDARD_ATMOSPHERE_PA,
+                    crankcase_pa: STANDARD_ATMOSPHERE_PA,
+                    piston_from_tdc_m: travel,
+                    cycle_angle_rad: cycle_angle(c.local_angle_rad + self.phases[k]),
+                }),
+            }
+        }
+        -power
+    }
+
+    /// The reaction a joint's laws see: its force (components, global frame) and moment.
+    #[inline]
+    fn reaction(&self, role: Role) -> (Vector2<f64>, f64) {
+        let re = &self.re;
+        match role {
+            Role::Main(i) => (re.mains_n[i], 0.0),
+            Role::BigEnd(k) => (re.cylinders[k].big_end_n, 0.0),
+            Role::SmallEnd(k) => (re.cylinders[k].small_end_n, 0.0),
+            // As on the single-cylinder rig: the side thrust as the y component.
+            Role::Piston(k) => (
+                Vector2::new(0.0, re.cylinders[k].slide_lateral_n),
+                re.cylinders[k].slide_moment_nm,
+            ),
+        }
+    }
+}

@@ -1,0 +1,334 @@
+//! The transient run: the whole test cycle, ramps included, stepped over the cycle's grid
+//! (segment ends, and for a prescribed crank the windows' starts) by one [`Stepper`], every
+//! accepted step committed (stateful laws), observed, filtered and recorded for the plateau
+//! windows. A run is a value ([`Transient`]) advanced in time, so it can stop and go on.
+
+use std::f64::consts::TAU;
+
+use super::adaptive::Adaptive;
+use super::error::SimError;
+use super::evaluate::{Eval, Work};
+use super::plateau::Plateaus;
+use super::rates::RateLayout;
+use super::results::{DriveKind, EnergyBalance, RunResult};
+use super::stepper::{CrankState, Integration, Quadrature, Rk4, Step, Stepper};
+use super::{Commit, Simulation};
+use crate::erk::{Controller, DORMAND_PRINCE_54};
+use crate::model::{Drive, Integrator, StepControl};
+use crate::observe::{StepObserver, StepSample};
+
+/// The step method of a transient run.
+#[derive(Clone)]
+pub(super) enum Method {
+    /// Prescribed crank: Simpson quadrature of the exact reference motion.
+    Quadrature(Quadrature),
+    /// PI drive, stateless laws: error-controlled Dormand-Prince 5(4).
+    Adaptive(Box<Adaptive>),
+    /// PI drive with stateful laws, or `solver.integrator = "rk4"`: fixed-step RK4.
+    Rk4(Rk4),
+}
+
+impl Method {
+    fn stepper(&mut self) -> &mut dyn Stepper {
+        match self {
+            Method::Quadrature(q) => q,
+            Method::Adaptive(a) => a.as_mut(),
+            Method::Rk4(r) => r,
+        }
+    }
+}
+
+/// The grid interval being stepped: its end `b`, its `m` equal steps of `dt` and how many
+/// are done.
+#[derive(Debug, Clone, Copy)]
+struct Interval {
+    b: f64,
+    m: u64,
+    dt: f64,
+    done: u64,
+}
+
+/// A transient run in progress: the evaluation scratch (with every law's state), what the
+/// stepper integrates, the stepper, the plateau records, the filtered torque and the counts.
+#[derive(Clone)]
+pub(super) struct Transient {
+    pub(super) w: Work,
+    pub(super) s: Integration,
+    method: Method,
+    plateaus: Plateaus,
+    grid: Vec<f64>,
+    next: usize,
+    interval: Option<Interval>,
+    /// The motoring torque through the first-order low-pass filter, N m.
+    filtered: f64,
+    steps: u64,
+    /// The mechanism's energy at the start, J.
+    e0: f64,
+}
+
+impl Simulation {
+    /// Which step method a transient run uses.
+    fn method(&self, first: Eval, w: &mut Work) -> Method {
+        match self.drive {
+            Drive::Prescribed => {
+                w.recycle(first);
+                Method::Quadrature(Quadrature)
+            }
+            // A stateful law's state is advanced with the step's length, which must then not
+            // vary: the adaptive integrator is for stateless laws only.
+            Drive::Pi { .. }
+                if self.integrator == Integrator::Adaptive
+                    && !self.stateful
+                    && !self.rules.fixed_step_pi =>
+            {
+                let control = match self.step_control {
+                    StepControl::Integral => Controller::new(&DORMAND_PRINCE_54),
+                    StepControl::Pi => Controller::pi(&DORMAND_PRINCE_54),
+                };
+                let n = self.layout().len();
+                Method::Adaptive(Box::new(Adaptive::new(
+                    &DORMAND_PRINCE_54,
+                    control,
+                    first,
+                    n,
+                )))
+            }
+            Drive::Pi { .. } => {
+                w.recycle(first);
+                Method::Rk4(Rk4::default())
+            }
+        }
+    }
+
+    /// A transient run at its start: every law's state at zero, the crank at rest, the start
+    /// evaluated.
+    pub(super) fn start_transient(&self) -> Result<Transient, SimError> {
+        let mut w = self.work()?;
+        let n = self.layout().len();
+        let mut s = Integration::new(n);
+        let first = self.step_eval(0.0, 0.0, (0.0, 0.0, 0.0), &[], &mut w)?;
+        s.record(&first);
+        s.settle_from(&first);
+        Ok(Transient {
+            method: self.method(first, &mut w),
+            plateaus: Plateaus::new(self.cycle.plateaus(), self.window_spec(), n),
+            grid: self.grid(),
+            next: 0,
+            interval: None,
+            filtered: 0.0,
+            steps: 0,
+            e0: w.crank.mechanical_energy(0.0, 0.0),
+            w,
+            s,
+        })
+    }
+
+    /// Advance the run `r` by accepted steps until it reaches `target` (s), the end of its
+    /// grid (the cycle's end) or `max_steps` steps, handing each step to `observer`. Returns
+    /// the number of steps taken.
+    pub(super) fn advance(
+        &self,
+        r: &mut Transient,
+        target: f64,
+        max_steps: u64,
+        observer: &mut dyn StepObserver,
+    ) -> Result<u64, SimError> {
+        let mut taken = 0;
+        loop {
+            if r.s.t >= target || taken >= max_steps {
+                return Ok(taken);
+            }
+            let iv = match r.interval {
+                Some(iv) if r.s.t < iv.b => iv,
+                _ => {
+                    let Some(&b) = r.grid.get(r.next) else {
+                        return Ok(taken);
+                    };
+                    r.next += 1;
+                    let iv = self.plan_interval(r, b);
+                    r.method
+                        .stepper()
+                        .begin_interval(self, &mut r.w, &mut r.s, iv.dt)?;
+                    r.interval = Some(iv);
+                    continue;
+                }
+            };
+            let done = iv.done + 1;
+            r.interval = Some(Interval { done, ..iv });
+            let t1 = if done == iv.m { iv.b } else { r.s.t + iv.dt };
+            let step = r
+                .method
+                .stepper()
+                .step(self, &mut r.w, &mut r.s, t1, iv.b)?;
+            self.accept(r, step, observer)?;
+            taken += 1;
+        }
+    }
+
+    /// Make `t` (s, after the run's time) a point of the run's grid, so the run lands on it:
+    /// the interval under way, if it reaches past `t`, is planned again from the run's time.
+    /// Beyond the end of the cycle the grid goes on to `t`.
+    pub(super) fn land_on(&self, r: &mut Transient, t: f64) {
+        if t <= r.s.t {
+            return;
+        }
+        let pos = r.grid.partition_point(|g| *g < t);
+        let on_grid = r.grid.get(pos).is_some_and(|g| *g == t);
+        if !on_grid {
+            r.grid.insert(pos, t);
+            if pos < r.next {
+                // `t` falls inside the interval under way (which ends at the point now at
+                // `pos + 1`): plan it again, to `t` first.
+                r.next = pos;
+                r.interval = None;
+            }
+        }
+    }
+
+    /// Plan the interval under way again from the run's time (its step, and for a prescribed
+    /// crank its start evaluation): after the inputs changed, or a state was restored.
+    pub(super) fn replan(&self, r: &mut Transient) -> Result<(), SimError> {
+        if let Some(iv) = r.interval.take() {
+            if r.s.t < iv.b {
+                r.next -= 1;
+            }
+        }
+        r.method.stepper().restart(self, &mut r.w, &r.s)
+    }
+
+    /// The interval of the grid from the run's time to `b`: whole steps of at most
+    /// `solver.step_deg` at the fastest speed the interval reaches.
+    fn plan_interval(&self, r: &Transient, b: f64) -> Interval {
+        let (t, y) = (r.s.t, r.s.y);
+        let (_, w_end, _) = self.reference(b);
+        let w_max = w_end.max(self.reference(t).1).max(y.1);
+        let dt_target = self.time_step(self.step_rad, w_max);
+        let m = ((b - t) / dt_target).ceil().max(1.0) as u64;
+        Interval {
+            b,
+            m,
+            dt: (b - t) / m as f64,
+            done: 0,
+        }
+    }
+
+    /// Take the accepted `step`: commit the laws' states, report progress, filter the torque,
+    /// hand it to the observer, record it for the plateau windows.
+    fn accept(
+        &self,
+        r: &mut Transient,
+        step: Step,
+        observer: &mut dyn StepObserver,
+    ) -> Result<(), SimError> {
+        r.s.y = step.y;
+        self.commit(&mut r.w, &step.end)?;
+        r.s.record(&step.end);
+        r.steps += 1;
+        if r.steps % 4096 == 0 {
+            let permille = (1000.0 * step.t1 / self.cycle.duration()) as u64;
+            if let Some(p) = &self.progress {
+                p.set(permille);
+            }
+            observer.progress(permille);
+        }
+        // Low-pass filter of the motoring torque (first order, exact discretisation).
+        let a = (-TAU * self.lowpass_hz * step.h).exp();
+        r.filtered = a * r.filtered + (1.0 - a) * step.end.drive_torque;
+        observe(observer, &step, r.s.y, r.filtered)?;
+        let crank = (r.s.y.0, r.s.y.1);
+        let sat = step.end.saturated();
+        r.plateaus
+            .record(step.t1, step.h, crank, sat, &r.s.acc, &r.s.last_rates);
+        r.s.t = step.t1;
+        r.method.stepper().recycle(step.end, step.h, &mut r.w);
+        Ok(())
+    }
+
+    /// The finished run's result: energy balance and every plateau's window.
+    pub(super) fn finish_transient(&self, r: &Transient) -> Result<RunResult, SimError> {
+        let layout = self.layout();
+        let change = r.w.crank.mechanical_energy(r.s.y.0, r.s.y.1) - r.e0;
+        let dissipated: f64 = r.s.acc[layout.powers()].iter().sum();
+        let energy = EnergyBalance::from_terms_with_gas(
+            r.s.acc[RateLayout::MOTOR],
+            change,
+            dissipated,
+            r.s.acc[layout.gas()],
+        )
+        .relative_to(r.e0.abs().max((r.e0 + change).abs()));
+        let (results, run_warnings) = r.plateaus.results(|pi, m| self.plateau_result(pi, m))?;
+        let warnings = self.result_warnings(run_warnings);
+        Ok(RunResult {
+            rig: self.rig_name.clone(),
+            drive: match self.drive {
+                Drive::Prescribed => DriveKind::Prescribed,
+                Drive::Pi { .. } => DriveKind::Pi,
+            },
+            plateaus: results,
+            fmep: self.fmep(),
+            energy_residual_j: energy.residual_j,
+            energy,
+            steps: r.steps,
+            rejected_steps: r.s.rejected,
+            max_friction_iterations: r.w.max_it,
+            warnings,
+            law_time: super::bind::law_time(&self.joints),
+        })
+    }
+
+    /// Commit every stateful law over the accepted step whose end evaluation is `e`, at the
+    /// law inputs of that evaluation's last round of laws (in `w`).
+    pub(super) fn commit(&self, w: &mut Work, e: &Eval) -> Result<(), SimError> {
+        if !self.stateful {
+            return Ok(());
+        }
+        for (ji, j) in self.joints.iter().enumerate() {
+            if !j.is_stateful() {
+                continue;
+            }
+            let mut input = w.inputs[ji];
+            if self.rules.commit == Commit::Rebuilt {
+                let (comp, moment) = w.crank.reaction(j.role);
+                super::bind::set_load(&mut input, comp, moment, e.normals[ji]);
+            }
+            j.commit(&input, &mut w.states)?;
+        }
+        Ok(())
+    }
+
+    /// The run's grid over the cycle: segment ends, and for a prescribed crank the exact
+    /// window starts, so every window begins and ends on a step.
+    fn grid(&self) -> Vec<f64> {
+        let spec = self.window_spec();
+        let duration = self.cycle.duration();
+        let mut breaks: Vec<f64> = self.cycle.breakpoints();
+        if matches!(self.drive, Drive::Prescribed) {
+            for p in self.cycle.plateaus() {
+                let revs = spec.window_revs(p.omega);
+                breaks.push(p.t_end - revs as f64 * TAU / p.omega);
+            }
+        }
+        breaks.retain(|b| *b > 0.0 && *b <= duration);
+        breaks.sort_by(f64::total_cmp);
+        breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+        breaks
+    }
+}
+
+/// Hand the accepted `step` (crank state `y` at its end, filtered torque) to the observer.
+fn observe(
+    observer: &mut dyn StepObserver,
+    step: &Step,
+    y: CrankState,
+    filtered: f64,
+) -> Result<(), SimError> {
+    let sample = StepSample {
+        time_s: step.t1,
+        crank_angle_rad: y.0,
+        speed_rad_s: y.1,
+        motoring_torque_nm: step.end.drive_torque,
+        filtered_torque_nm: filtered,
+        normal_loads_n: &step.end.normals,
+    };
+    observer.step(&sample).map_err(SimError::Observer)
+}

@@ -212,7 +212,7 @@ fn bad_engine_descriptions_are_refused_naming_the_field() {
 fn a_single_cylinder_rig_still_needs_both_main_bearings() {
     let thesis = tribo::bundled::rig("crf250r-motored").expect("bundled");
     let cut = thesis.replace(
-        "[joints.main_b]\nradius_m = 0.020           # [T table 9.5]\nlength_m = 0.015           # estimate: roller bearing width\nload_share = 0.5           # [T 9.2]\n",
+        "[joints.main_b]\nradius_m = 0.020           # [T table 9.5]\nlength_m = 0.015           # estimate: roller bearing width\nload_share = 0.5           # [T 9.2]\nbearing = \"rolling\"        # [T 5.6]\n",
         "",
     );
     assert_ne!(cut, thesis);
@@ -1061,7 +1061,7 @@ fn the_bundled_engines_and_their_frictionless_references_run() {
             dir.path(),
             &["run", rig, "--steady", "--lawset", "fedem-baseline"],
         );
-        assert_eq!(v["fmep"]["basis"], "two-stroke");
+        assert_eq!(v["fmep"]["basis"], "four-stroke"); // issue 25: a four-stroke engine, head-less
         for p in v["plateaus"].as_array().expect("plateaus") {
             let groups = p["groups"].as_array().expect("groups");
             let by = |g: &str| {

@@ -233,11 +233,13 @@ fn fmep_of_the_thesis_rig_at_9000_rpm_is_the_plateau_torque_converted_by_hand() 
         .iter()
         .find(|p| p.set_speed_rpm == 9000.0)
         .expect("a 9000 rpm plateau");
-    // By hand: V_d = pi/4 (76.8 mm)^2 (53.8 mm) = 249.23 cm^3; the head-less rig repeats every
-    // revolution, so FMEP = 2 pi T / V_d: 1 N m is 2 pi / 249.23e-6 Pa = 25.210 kPa.
-    let kpa_per_nm = 2.0 * PI / 249.23e-6 / 1000.0;
+    // By hand: V_d = pi/4 (76.8 mm)^2 (53.8 mm) = 249.23 cm^3; the CRF 250 R is a four-stroke,
+    // so FMEP = 4 pi T / V_d even head-less (issue 25: the basis engine literature and every
+    // correlation use; it was 2 pi T / V_d before): 1 N m is 4 pi / 249.23e-6 Pa = 50.421 kPa.
+    let kpa_per_nm = 4.0 * PI / 249.23e-6 / 1000.0;
+    assert!((kpa_per_nm - 50.421).abs() < 1e-3);
     let friction: f64 = p.joints.iter().map(|j| j.friction_torque_nm).sum();
-    assert_eq!(res.fmep.basis, tribo::sim::FmepBasis::TwoStroke);
+    assert_eq!(res.fmep.basis, tribo::sim::FmepBasis::FourStroke);
     assert!((p.fmep.total_kpa - friction * kpa_per_nm).abs() <= 1e-4 * p.fmep.total_kpa);
     assert!(
         (p.fmep.motoring_kpa - p.motoring_torque_nm * kpa_per_nm).abs()
@@ -269,7 +271,41 @@ fn fmep_of_the_thesis_rig_at_9000_rpm_is_the_plateau_torque_converted_by_hand() 
 }
 
 #[test]
-fn a_four_stroke_pressure_switches_fmep_to_the_4_pi_basis() {
+fn a_two_stroke_rig_takes_the_2_pi_basis_and_refuses_a_4_stroke_pressure() {
+    let mut r = rig(
+        "crf250r-motored",
+        &[
+            SHORT_CYCLE,
+            "oil.temperature_c=80.0",
+            "geometry.engine_cycle=\"two-stroke\"",
+        ],
+    );
+    tribo::lawset::LawSet::load("fedem-baseline")
+        .expect("bundled law set")
+        .apply(&mut r);
+    let mut sim = tribo::rig::simulation(&r, &plugins()).expect("simulation");
+    let res = sim.run_steady().expect("run");
+    assert_eq!(res.fmep.basis, tribo::sim::FmepBasis::TwoStroke);
+    for p in &res.plateaus {
+        let friction: f64 = p.joints.iter().map(|j| j.friction_torque_nm).sum();
+        let by_hand = 2.0 * PI * friction / 249.23e-6 / 1000.0;
+        assert!((p.fmep.total_kpa - by_hand).abs() <= 1e-4 * by_hand);
+    }
+    let sets: Vec<String> = [MOTORED_4S, "geometry.engine_cycle=\"two-stroke\""]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let err = load_rig(Path::new("crf250r-motored"), &sets)
+        .expect_err("a two-stroke with 4-stroke valves")
+        .to_string();
+    assert!(
+        err.contains("geometry.engine_cycle") && err.contains("two-stroke"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_four_stroke_pressure_keeps_the_4_pi_basis() {
     let mut r = rig(
         "crf250r-motored",
         &[SHORT_CYCLE, MOTORED_4S, "oil.temperature_c=80.0"],
@@ -1036,5 +1072,174 @@ fn a_drive_too_weak_for_the_compression_stalls_with_a_clear_error() {
             }
         }
         other => panic!("expected a stall error, got {other:?}"),
+    }
+}
+
+/// Issue 25: every bundled rig is a four-stroke engine, so `run --fmep` writes `four-stroke` in
+/// `fmep.csv`, and every row is 4 pi T / V_d of the torque the same run reports in its JSON
+/// (V_d = cylinders x pi/4 bore^2 x 2 x crank radius, written out here from the rig file).
+#[test]
+fn every_bundled_rigs_fmep_csv_is_on_the_four_stroke_basis() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for name in tribo::bundled::rig_names() {
+        let r = rig(name, &[]);
+        let f = r.model();
+        let cylinders = f.engine.as_ref().map_or(1, |e| e.cylinders.len()) as f64;
+        let vd = cylinders * PI / 4.0 * f.geometry.bore_m.powi(2) * 2.0 * f.geometry.crank_radius_m;
+        let out_dir = dir.path().join(name);
+        let out = common::run_tribo(
+            &[
+                "run",
+                name,
+                "--steady",
+                "--lawset",
+                "fedem-baseline",
+                "--json",
+                "--set",
+                SHORT_CYCLE,
+                "--set",
+                "oil.temperature_c=90.0",
+                "--fmep",
+                out_dir.to_str().expect("utf-8"),
+            ],
+            None,
+        );
+        let (stdout, stderr) = common::text(&out);
+        assert!(out.status.success(), "{name}: {stderr}");
+        let v: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+        assert_eq!(v["fmep"]["basis"], "four-stroke", "{name}");
+        let csv = std::fs::read_to_string(out_dir.join("fmep.csv")).expect("fmep.csv");
+        let mut header = csv.lines().next().expect("header").split(',');
+        assert_eq!(header.nth(4), Some("basis"));
+        let mut rows = 0;
+        for line in csv.lines().skip(1) {
+            let cols: Vec<&str> = line.split(',').collect();
+            assert_eq!(cols[4], "four-stroke", "{name}: {line}");
+            let rpm: f64 = cols[0].parse().expect("rpm");
+            let p = v["plateaus"]
+                .as_array()
+                .expect("plateaus")
+                .iter()
+                .find(|p| p["set_speed_rpm"].as_f64() == Some(rpm))
+                .expect("the plateau");
+            let joints = p["joints"].as_array().expect("joints");
+            let torque: f64 = match cols[1] {
+                "motoring" => p["motoring_torque_nm"].as_f64().expect("T"),
+                "total" => joints
+                    .iter()
+                    .map(|j| j["friction_torque_nm"].as_f64().expect("T"))
+                    .sum(),
+                joint => joints
+                    .iter()
+                    .filter(|j| j["joint"] == joint)
+                    .map(|j| j["friction_torque_nm"].as_f64().expect("T"))
+                    .sum(),
+            };
+            let by_hand = 4.0 * PI * torque / vd / 1000.0;
+            let kpa: f64 = cols[2].parse().expect("kPa");
+            assert!(
+                (kpa - by_hand).abs() <= 1e-9 * by_hand.abs().max(1e-9),
+                "{name} {line}: {kpa} vs 4 pi T / V_d = {by_hand}"
+            );
+            let bar: f64 = cols[3].parse().expect("bar");
+            assert!((bar - kpa / 100.0).abs() <= 1e-12 * kpa.abs().max(1.0));
+            rows += 1;
+        }
+        assert!(rows >= 4, "{name}: {rows} rows");
+    }
+}
+
+/// Issue 25: the Sandoval-Heywood correlation beside the laws. `run --fmep` writes
+/// `fmep_correlation.csv` and `.svg`: the main-bearing row's correlation is PNH's
+/// `3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c)` written out here for the 4B11's five
+/// 50 x 20 mm mains, and Tribo's value is the mains' rows of `fmep.csv` summed; `compare` and
+/// `sweep` write theirs, and the JSON carries the terms.
+#[test]
+fn the_correlation_stands_beside_the_laws_in_run_compare_and_sweep() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fmep_dir = dir.path().join("fmep");
+    let out = common::run_tribo(
+        &[
+            "run",
+            "inline4-4b11",
+            "--steady",
+            "--lawset",
+            "physical-bearings",
+            "--json",
+            "--set",
+            SHORT_CYCLE,
+            "--fmep",
+            fmep_dir.to_str().expect("utf-8"),
+        ],
+        None,
+    );
+    let (stdout, stderr) = common::text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    let mu0 = tribo::correlation::reference_viscosity_pa_s();
+    let fmep = std::fs::read_to_string(fmep_dir.join("fmep.csv")).expect("fmep.csv");
+    let beside =
+        std::fs::read_to_string(fmep_dir.join("fmep_correlation.csv")).expect("correlation csv");
+    assert!(fmep_dir.join("fmep_correlation.svg").is_file());
+    for p in v["plateaus"].as_array().expect("plateaus") {
+        let rpm = p["set_speed_rpm"].as_f64().expect("rpm");
+        let mu = p["viscosity_pa_s"].as_f64().expect("mu");
+        let by_hand = 3.03e-4 * (mu / mu0).sqrt() * rpm * 50f64.powi(3) * 20.0 * 5.0
+            / (86.0 * 86.0 * 86.0 * 4.0);
+        let mains: f64 = fmep
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|c| c[0].parse::<f64>().ok() == Some(rpm) && c[1].starts_with("main_"))
+            .map(|c| c[2].parse::<f64>().expect("kPa"))
+            .sum();
+        let row: Vec<String> = beside
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(String::from).collect::<Vec<_>>())
+            .find(|c| c[0].parse::<f64>().ok() == Some(rpm) && c[1] == "main bearings")
+            .expect("a main-bearing row");
+        let corr: f64 = row[4].parse().expect("correlation kPa");
+        let tribo_kpa: f64 = row[3].parse().expect("Tribo kPa");
+        assert!(
+            (corr - by_hand).abs() <= 1e-9 * by_hand,
+            "{rpm}: {corr} vs {by_hand}"
+        );
+        assert!(
+            (tribo_kpa - mains).abs() <= 1e-9 * mains,
+            "{rpm}: {tribo_kpa} vs {mains}"
+        );
+        let terms = p["correlation"]["terms"].as_array().expect("terms");
+        assert!(terms
+            .iter()
+            .any(|t| t["term"] == "valvetrain" && t["kpa"].is_null()));
+    }
+    for (cmd, file) in [
+        ("compare", "correlation.csv"),
+        ("sweep", "sweep_correlation.csv"),
+    ] {
+        let out_dir = dir.path().join(cmd);
+        // The thesis rig (its measured data for compare), one law set, few points.
+        let mut args = vec![
+            cmd,
+            "--lawset",
+            "physical-bearings",
+            "--out",
+            out_dir.to_str().expect("utf-8"),
+        ];
+        if cmd == "compare" {
+            args.extend(["--steady", "--no-cv"]);
+        } else {
+            args.extend(["--temps", "80", "--speeds", "3000"]);
+        }
+        let out = common::run_tribo(&args, None);
+        let (stdout, stderr) = common::text(&out);
+        assert!(out.status.success(), "{cmd}: {stderr}");
+        assert!(stdout.contains("Beside the correlation"), "{cmd}: {stdout}");
+        let csv = std::fs::read_to_string(out_dir.join(file)).expect("csv");
+        assert!(
+            csv.lines().any(|l| l.contains("main bearings")),
+            "{cmd}: {csv}"
+        );
     }
 }

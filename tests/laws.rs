@@ -16,7 +16,7 @@ use tribo::plugin_api::{JointKind, Law, LawInput, LawOutput, ParamError, ParamSp
 const SHORT_CYCLE: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.5}, {kind=\"hold\", duration_s=0.8}]";
 
 /// (law, joint, parameter TOML)
-const CASES: [(&str, &str, &str); 9] = [
+const CASES: [(&str, &str, &str); 10] = [
     ("coulomb", "piston", "mu = 0.08"),
     ("c-coulomb", "piston", "mu = 0.08"),
     ("fedem-friction", "big_end", "mu = 0.0025"),
@@ -37,6 +37,7 @@ const CASES: [(&str, &str, &str); 9] = [
         "mu_b = 0.1\nc_h = 1.884\nface_width_m = 1e-3\nsigma_m = 0.3e-6\npreload_n = 220.0",
     ),
     ("rolling-bearing", "main_b", "mu = 0.0011"),
+    ("crank-churning", "main_a", "immersion_m = 0.01"),
     // The paper's sigma2 = 0.4 s/m per newton is mu ~ 4 at piston speeds; scaled for an engine.
     (
         "lugre",
@@ -188,7 +189,7 @@ fn fedem_friction_plateau_torques_do_not_depend_on_the_sign_smoothing() {
 /// Joint of the bundled rig each law is plotted on (its natural place in the engine).
 fn plot_joint(law: &str) -> &'static str {
     match law {
-        "petroff-journal" | "rolling-bearing" | "polyline-damper" => "main_a",
+        "petroff-journal" | "rolling-bearing" | "polyline-damper" | "crank-churning" => "main_a",
         "fedem-friction" => "big_end",
         _ => "piston",
     }

@@ -181,7 +181,8 @@ fn run_case(case: &Case, registry: &LawRegistry) -> Value {
 }
 
 /// A run's result without what is not a result of the solver (law timing, the iteration count
-/// diagnostic). FMEP is checked for consistency with the torques instead (`fmep_follows`).
+/// diagnostic, the correlation beside it). FMEP is checked for consistency with the torques
+/// instead (`fmep_follows`).
 fn run_json(r: &tribo::sim::RunResult) -> Value {
     fmep_follows(r);
     let mut v = serde_json::to_value(r).expect("result serialises");
@@ -204,6 +205,9 @@ fn run_json(r: &tribo::sim::RunResult) -> Value {
     for p in v["plateaus"].as_array_mut().into_iter().flatten() {
         if let Some(o) = p.as_object_mut() {
             o.remove("fmep");
+            // The Sandoval-Heywood correlation beside the laws (issue 25): computed from the
+            // rig's geometry and oil, not by the solver.
+            o.remove("correlation");
         }
     }
     v

@@ -17,4 +17,6 @@ petroff-journal main_a
 mixed-film piston
 rolling-bearing main_a
 lugre piston
+plain-journal main_a
+crank-churning main_a
 LAWS

@@ -8,6 +8,7 @@
 //!
 //! - [`report`]: tables for people, CSV tables (through the `csv` writer);
 //! - [`plots`]: SVG plots of comparisons, mass responses and sweeps, with the files beside them;
+//! - [`beside`]: the Sandoval-Heywood correlation beside the laws' FMEP (tables, CSV, plots);
 //! - [`output`]: results written atomically: a result directory swapped in whole, a single
 //!   file renamed into place;
 //! - [`timeseries`]: the per-step CSV of `tribo run --timeseries`, an observer of the run;
@@ -19,10 +20,11 @@
 //!
 //! The layers are re-exported under the names the binary, tests and benches have always used:
 //! [`rig`], [`lawset`], [`bundled`] from `tribo_config`; [`model`], [`cycle`], [`oil`],
-//! [`mechanics`], [`erk`], [`observe`], [`sim`] from `tribo_core`; [`study`], [`fit`],
+//! [`mechanics`], [`erk`], [`observe`], [`sim`], [`correlation`] from `tribo_core`; [`study`], [`fit`],
 //! [`score`], [`uncertainty`] from `tribo_studies`. Laws are never linked in; they are found and
 //! loaded through `tribo_plugin_api::loader`.
 
+pub mod beside;
 pub mod check;
 pub mod isolate;
 pub mod laws;
@@ -35,7 +37,7 @@ pub mod timeseries;
 
 // The layers below the CLI, under the names the binary, tests and benches use.
 pub use tribo_config::{bundled, lawset, rig};
-pub use tribo_core::{cycle, engine, erk, gas, mechanics, model, observe, oil, sim};
+pub use tribo_core::{correlation, cycle, engine, erk, gas, mechanics, model, observe, oil, sim};
 pub use tribo_studies::{fit, score, study, uncertainty};
 
 pub use tribo_plugin_api as plugin_api;

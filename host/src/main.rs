@@ -801,6 +801,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
             )
         )?;
         write!(out_text, "{}", tribo::report::to_text(&result))?;
+        write!(out_text, "{}", tribo::beside::run_text(&result))?;
     }
     emit(&out_text)
 }
@@ -1070,6 +1071,7 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&cmp)?)?;
     } else {
         write!(out_text, "{}", tribo::report::comparison_text(&cmp))?;
+        write!(out_text, "{}", tribo::beside::comparison_text(&cmp))?;
         let mut files = vec![
             "comparison.csv".to_string(),
             "scores.csv".into(),
@@ -1078,6 +1080,8 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
             "torque_vs_speed.svg".into(),
             "contributions_*.svg".into(),
             "piston_regimes.svg".into(),
+            "correlation.csv".into(),
+            "correlation_*.svg".into(),
         ];
         files.extend(cmp.sets.iter().filter_map(tribo::plots::fitted_file));
         write!(out_text, "\n{}", wrote_into(out, &files))?;
@@ -1435,6 +1439,7 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
         write!(out_text, "{}", tribo::report::sweep_text(&result))?;
+        write!(out_text, "{}", tribo::beside::sweep_text(&result))?;
         write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;

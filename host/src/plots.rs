@@ -68,6 +68,7 @@ pub fn write_comparison(c: &Comparison, dir: &Path) -> Result<(), OutputError> {
             out.write(&name, text.as_bytes())?;
         }
     }
+    crate::beside::write_comparison(c, &mut out)?;
     out.commit()
 }
 
@@ -143,7 +144,7 @@ pub const AXIS_LIMIT: f64 = 1e9;
 /// An axis range covering the finite `values` (clipped to [`AXIS_LIMIT`]), widened by `pad`
 /// times the span on each side. Non-finite values are skipped; no finite value gives `0..1`.
 /// The result is always finite with `lo < hi`.
-fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
+pub(crate) fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
         .map(|v| v.clamp(-AXIS_LIMIT, AXIS_LIMIT))
@@ -671,6 +672,7 @@ pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> Result<Vec<String>, O
     }
     let json = rendered("sweep.json", serde_json::to_string_pretty(s).map_err(io))?;
     out.write("sweep.json", json.as_bytes())?;
+    crate::beside::write_sweep(s, &mut out)?;
     let files = out.files().to_vec();
     out.commit()?;
     Ok(files)

@@ -306,6 +306,7 @@ pub fn write_fmep(r: &RunResult, dir: &Path) -> Result<(), crate::output::Output
     out.write("fmep.csv", f.as_bytes())?;
     let svg = crate::plots::fmep_svg(r).map_err(|source| render("fmep.svg", source))?;
     out.write("fmep.svg", svg.as_bytes())?;
+    crate::beside::write_run(r, &mut out)?;
     out.commit()
 }
 
@@ -900,7 +901,7 @@ fn joint_table(s: &crate::study::SetResult) -> String {
 
 /// CSV text from a header and rows (through the `csv` writer, so names with commas or quotes
 /// stay one field).
-fn csv_text(header: &[&str], rows: Vec<Vec<String>>) -> std::io::Result<String> {
+pub(crate) fn csv_text(header: &[&str], rows: Vec<Vec<String>>) -> std::io::Result<String> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(header).map_err(std::io::Error::other)?;
     for r in rows {
@@ -1384,6 +1385,7 @@ mod tests {
                 gas_torque_nm: 0.0,
                 fmep: Default::default(),
                 groups: Vec::new(),
+                correlation: None,
             }],
             fmep: Default::default(),
             energy_residual_j: 0.0,

@@ -60,6 +60,10 @@ const LAWSETS: &[(&str, &str)] = &[
         "physical-bearings.toml",
         include_str!("../../../rigs/lawsets/physical-bearings.toml"),
     ),
+    (
+        "4b11-physical.toml",
+        include_str!("../../../rigs/lawsets/4b11-physical.toml"),
+    ),
 ];
 
 /// Bundled data files.

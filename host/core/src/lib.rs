@@ -6,6 +6,7 @@
 //! laws on the joints ([`sim`]). It reads no file and writes nothing but what the caller hands
 //! it; progress is reported through [`observe`]. Laws come through `tribo_plugin_api`.
 
+pub mod correlation;
 pub mod cycle;
 pub mod engine;
 pub mod erk;

@@ -555,6 +555,23 @@ pub struct Geometry {
     /// Include gravity (9.81 m/s^2 along -y, the cylinder axis pointing up).
     #[serde(default = "yes")]
     pub gravity: bool,
+    /// The engine's working cycle, which defines FMEP (work per cycle over the displacement):
+    /// `four-stroke` (the default, and every bundled rig, head or no head) or `two-stroke`.
+    #[serde(default)]
+    pub engine_cycle: EngineCycle,
+}
+
+/// The working cycle of the engine a rig stands for. It sets the FMEP basis only: a head-less
+/// motored four-stroke still repeats every revolution, but engine literature and every friction
+/// correlation quote its FMEP per four-stroke cycle, 4 pi T / V_d.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde", rename_all = "kebab-case")]
+pub enum EngineCycle {
+    /// One cycle per two revolutions: FMEP = 4 pi T / V_d.
+    #[default]
+    FourStroke,
+    /// One cycle per revolution: FMEP = 2 pi T / V_d.
+    TwoStroke,
 }
 
 fn yes() -> bool {

@@ -1349,6 +1349,9 @@ pub struct SweepPoint {
     /// Per joint of the rig, in its report order (`RigFile::joint_names`: the single-cylinder
     /// rig's five, or an engine's mains and cylinder joints); joints without a law give zero.
     pub joints: Vec<JointTorque>,
+    /// The Sandoval-Heywood correlation at this point (`tribo_core::correlation`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<tribo_core::correlation::Correlation>,
 }
 
 /// One law set's sweep: points ordered by temperature, then speed (the input order).
@@ -1391,6 +1394,9 @@ pub struct Sweep {
     pub speeds_rpm: Vec<f64>,
     /// Each law set.
     pub sets: Vec<SweepSet>,
+    /// How FMEP is defined on this rig (basis, displacement), for the correlation's tables.
+    #[serde(default)]
+    pub fmep: tribo_core::sim::Fmep,
     /// Law sets that gave no results (only when sets run in separate processes).
     #[serde(default)]
     pub failed: Vec<FailedSet>,
@@ -1635,6 +1641,7 @@ pub fn sweep(
                     viscosity_pa_s: p.viscosity_pa_s,
                     torque_nm: p.motoring_torque_nm,
                     joints,
+                    correlation: p.correlation.clone(),
                 });
             }
         }
@@ -1652,6 +1659,7 @@ pub fn sweep(
         mode: RunMode::Steady,
         temps_c: temps_c.to_vec(),
         speeds_rpm: speeds_rpm.to_vec(),
+        fmep: runs.first().map(|r| r.fmep).unwrap_or_default(),
         sets,
         failed: Vec::new(),
     })

@@ -156,6 +156,10 @@ pub struct Simulation {
     gas: Vec<GasModel>,
     /// Swept volume of all cylinders, m^3.
     displacement_m3: f64,
+    /// The engine's working cycle (the FMEP basis).
+    engine_cycle: crate::model::EngineCycle,
+    /// The correlation's view of the engine (`crate::correlation`).
+    correlation: crate::correlation::EngineData,
     rules: Rules,
     /// Warnings about the laws on this rig (a law on a bearing type it does not suit), first
     /// among every result's warnings.
@@ -316,6 +320,8 @@ impl Simulation {
                 * f.geometry.bore_m
                 * 2.0
                 * f.geometry.crank_radius_m,
+            engine_cycle: f.geometry.engine_cycle,
+            correlation: crate::correlation::EngineData::from_rig(f),
             rules: if engine { Rules::ENGINE } else { Rules::RIG },
             notes: bind::suitability_notes(f, registry),
             held: stepping::Held::default(),
@@ -387,15 +393,11 @@ impl Simulation {
         }
     }
 
-    /// The run's FMEP definition: the displacement of all cylinders, 4-stroke when the gas
-    /// pressure makes the cycle 4-stroke, else per revolution.
+    /// The run's FMEP definition: the basis of the rig's engine cycle (`geometry.engine_cycle`),
+    /// whatever the gas model.
     pub fn fmep(&self) -> Fmep {
         Fmep {
-            basis: if self.revolutions_per_cycle() == 2 {
-                FmepBasis::FourStroke
-            } else {
-                FmepBasis::TwoStroke
-            },
+            basis: FmepBasis::from(self.engine_cycle),
             displacement_m3: self.displacement_m3,
         }
     }

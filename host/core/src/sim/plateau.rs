@@ -281,6 +281,10 @@ impl Simulation {
             window.dtheta / window.dt,
             (self.temps[pi], self.viscosities[pi]),
         );
+        result.correlation = Some(
+            self.correlation
+                .at(self.cycle.plateaus()[pi].speed_rpm, self.viscosities[pi]),
+        );
         if self.engine {
             result.groups = group_totals(&result.joints, self.crank.cylinders());
         }
@@ -380,6 +384,7 @@ fn plateau_values<'a>(
         revolutions: window.revs,
         joints,
         groups: Vec::new(),
+        correlation: None,
     }
 }
 

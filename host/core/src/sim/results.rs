@@ -96,6 +96,10 @@ pub struct PlateauResult {
     /// (and left out of the JSON) for the single-cylinder rig.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub groups: Vec<GroupTotal>,
+    /// The Sandoval-Heywood correlation for the rig's engine at this plateau's speed and oil
+    /// (`tribo_core::correlation`), term by term beside the laws' FMEP.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<crate::correlation::Correlation>,
 }
 
 /// The friction of a group of an engine's joints: a component over every cylinder
@@ -111,26 +115,33 @@ pub struct GroupTotal {
     pub power_w: f64,
 }
 
-/// How FMEP is defined for a run: the work per cycle over the displacement.
+/// How FMEP is defined for a run: the work per cycle of the rig's engine (`geometry.engine_cycle`)
+/// over the displacement.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(crate = "tribo_plugin_api::serde", rename_all = "kebab-case")]
 pub enum FmepBasis {
-    /// One cycle per revolution, FMEP = 2 pi T / V_d: the motored rig without a 4-stroke
-    /// pressure (every revolution the same, "2-stroke averaged").
-    #[default]
+    /// One cycle per revolution, FMEP = 2 pi T / V_d: a two-stroke engine.
     TwoStroke,
-    /// One cycle per two revolutions, FMEP = 4 pi T / V_d.
+    /// One cycle per two revolutions, FMEP = 4 pi T / V_d: a four-stroke engine, head-less or not.
+    #[default]
     FourStroke,
+}
+
+impl From<crate::model::EngineCycle> for FmepBasis {
+    fn from(c: crate::model::EngineCycle) -> Self {
+        match c {
+            crate::model::EngineCycle::FourStroke => FmepBasis::FourStroke,
+            crate::model::EngineCycle::TwoStroke => FmepBasis::TwoStroke,
+        }
+    }
 }
 
 impl FmepBasis {
     /// The formula, for reports.
     pub fn formula(self) -> &'static str {
         match self {
-            FmepBasis::TwoStroke => {
-                "FMEP = 2 pi T / V_d (per revolution: the 2-stroke-averaged motored rig)"
-            }
-            FmepBasis::FourStroke => "FMEP = 4 pi T / V_d (4-stroke cycle)",
+            FmepBasis::TwoStroke => "FMEP = 2 pi T / V_d (two-stroke engine)",
+            FmepBasis::FourStroke => "FMEP = 4 pi T / V_d (four-stroke engine)",
         }
     }
 }

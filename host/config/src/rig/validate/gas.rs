@@ -5,7 +5,8 @@ use crate::rig::{readable, CrankcasePressure, CylinderPressure, RigError};
 
 impl Check<'_> {
     /// The gas pressures: ambient, the 4-stroke phase 0 or 360 degrees (the rig's angle 0 is a
-    /// top dead centre), then the cylinder's and the crankcase's.
+    /// top dead centre), no 4-stroke pressure on a two-stroke engine, then the cylinder's and
+    /// the crankcase's.
     pub(super) fn gas(&self) -> Result<(), RigError> {
         let f = &self.rig.file;
         let g = &f.gas;
@@ -17,6 +18,12 @@ impl Check<'_> {
                     "must be 0 (crank angle 0 is the gas-exchange TDC) or 360 (the firing TDC), got {}",
                     readable(g.cycle_angle_at_zero_deg)
                 ),
+            ));
+        }
+        if f.geometry.engine_cycle == tribo_core::model::EngineCycle::TwoStroke && g.four_stroke() {
+            return Err(self.rig.error(
+                "geometry.engine_cycle",
+                "a two-stroke engine cannot have a 4-stroke cylinder pressure (four-stroke valves or a 720-degree trace in [gas.cylinder])",
             ));
         }
         let displacement = std::f64::consts::PI

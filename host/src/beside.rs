@@ -1,0 +1,464 @@
+//! The Sandoval-Heywood correlation (`tribo_core::correlation`) beside Tribo's per-component
+//! FMEP: the tables, CSV files and plots of `run --fmep`, `compare` and `sweep`.
+
+use std::fmt::Write as _;
+
+use plotters::prelude::*;
+
+use crate::output::{OutputError, ResultDir};
+use crate::sim::{Fmep, PlateauResult, RunResult};
+use tribo_core::correlation::{beside, Beside, Correlation};
+
+/// The components of one plateau side by side (`None` if the plateau has no correlation).
+pub fn plateau_rows(p: &PlateauResult) -> Option<Vec<Beside>> {
+    let c = p.correlation.as_ref()?;
+    Some(beside(
+        p.fmep.components.iter().map(|c| (c.joint.as_str(), c.kpa)),
+        c,
+    ))
+}
+
+/// The components side by side from per-joint torques (a sweep point).
+pub fn torque_rows<'a>(
+    joints: impl Iterator<Item = (&'a str, f64)>,
+    fmep: &Fmep,
+    c: &Correlation,
+) -> Vec<Beside> {
+    let kpa: Vec<(&str, f64)> = joints.map(|(j, t)| (j, fmep.kpa(t))).collect();
+    beside(kpa.into_iter(), c)
+}
+
+fn num(x: Option<f64>, width: usize) -> String {
+    match x {
+        Some(v) => format!("{v:>width$.3}"),
+        None => format!("{:>width$}", "-"),
+    }
+}
+
+/// The heading: source, basis and the viscosity ratio, wrapped to the reports' width.
+fn heading(basis: &str, c: &Correlation) -> String {
+    let text = format!(
+        "Beside the correlation: {} ({basis}, kPa; the rig's geometry and oil, mu/mu0 = {:.2})",
+        c.source, c.viscosity_ratio
+    );
+    let wrapped = crate::report::wrap(&text, crate::report::MAX_COLUMNS, "  ");
+    format!("\n{}", wrapped.trim_end_matches('\n'))
+}
+
+/// `run`: every plateau's components, Tribo beside the correlation, with the ratio.
+pub fn run_text(r: &RunResult) -> String {
+    let mut out = String::new();
+    let Some(first) = r.plateaus.iter().find_map(|p| p.correlation.as_ref()) else {
+        return out;
+    };
+    if r.plateaus.iter().all(|p| p.joints.is_empty()) {
+        return out;
+    }
+    let _ = writeln!(out, "{}", heading(r.fmep.basis.formula(), first));
+    let _ = writeln!(
+        out,
+        "{:>8}  {:<22} {:<12} {:>9} {:>11} {:>7}  terms",
+        "set rpm", "component", "joints", "Tribo", "correlation", "ratio"
+    );
+    for p in &r.plateaus {
+        let Some(rows) = plateau_rows(p) else {
+            continue;
+        };
+        for (k, row) in rows.iter().enumerate() {
+            let rpm = if k == 0 {
+                format!("{:.0}", p.set_speed_rpm)
+            } else {
+                String::new()
+            };
+            let _ = writeln!(
+                out,
+                "{rpm:>8}  {:<22} {:<12} {} {} {}  {}",
+                row.component,
+                row.joints,
+                num(row.tribo_kpa, 9),
+                num(row.correlation_kpa, 11),
+                row.ratio()
+                    .map_or(format!("{:>7}", "-"), |x| format!("{x:>7.2}")),
+                row.note
+            );
+        }
+    }
+    out
+}
+
+/// `fmep_correlation.csv` of `run --fmep`: one row per plateau and component.
+pub fn run_csv(r: &RunResult) -> std::io::Result<String> {
+    let mut rows = Vec::new();
+    for p in &r.plateaus {
+        for row in plateau_rows(p).unwrap_or_default() {
+            rows.push(csv_row(&[p.set_speed_rpm.to_string()], &row));
+        }
+    }
+    crate::report::csv_text(&header(&["set_speed_rpm"]), rows)
+}
+
+/// A CSV header: the leading columns, then a row's.
+fn header<'a>(lead: &[&'a str]) -> Vec<&'a str> {
+    let mut h = lead.to_vec();
+    h.extend([
+        "component",
+        "joints",
+        "tribo_kpa",
+        "correlation_kpa",
+        "ratio",
+        "terms",
+    ]);
+    h
+}
+
+/// A CSV row: the leading columns, then the components side by side.
+fn csv_row(lead: &[String], row: &Beside) -> Vec<String> {
+    let opt = |x: Option<f64>| x.map_or(String::new(), |v| v.to_string());
+    let mut v: Vec<String> = lead.to_vec();
+    v.extend([
+        row.component.clone(),
+        row.joints.clone(),
+        opt(row.tribo_kpa),
+        opt(row.correlation_kpa),
+        opt(row.ratio()),
+        row.note.clone(),
+    ]);
+    v
+}
+
+/// `compare`: per law set and plateau, the components both sides give a number for.
+pub fn comparison_text(c: &crate::study::Comparison) -> String {
+    let mut out = String::new();
+    let Some(first) = c
+        .sets
+        .iter()
+        .flat_map(|s| s.run.plateaus.iter())
+        .find_map(|p| p.correlation.as_ref())
+    else {
+        return out;
+    };
+    let basis = c.sets[0].run.fmep.basis.formula();
+    let _ = writeln!(out, "{}", heading(basis, first));
+    let _ = write!(
+        out,
+        "{:>7}  {:<16} {:>11}",
+        "rpm", "component", "correlation"
+    );
+    for s in &c.sets {
+        let _ = write!(out, " {:>16}", s.lawset);
+    }
+    let _ = writeln!(out);
+    let speeds: Vec<f64> = c.sets[0]
+        .run
+        .plateaus
+        .iter()
+        .map(|p| p.set_speed_rpm)
+        .collect();
+    for (i, rpm) in speeds.iter().enumerate() {
+        let per_set: Vec<Vec<Beside>> = c
+            .sets
+            .iter()
+            .map(|s| {
+                s.run
+                    .plateaus
+                    .get(i)
+                    .and_then(plateau_rows)
+                    .unwrap_or_default()
+            })
+            .collect();
+        let Some(rows) = per_set.first() else {
+            continue;
+        };
+        for (k, row) in rows.iter().enumerate() {
+            if row.correlation_kpa.is_none() {
+                continue;
+            }
+            let lead = if k == 0 {
+                format!("{rpm:.0}")
+            } else {
+                String::new()
+            };
+            let _ = write!(
+                out,
+                "{lead:>7}  {:<16} {}",
+                row.component,
+                num(row.correlation_kpa, 11)
+            );
+            for rows in &per_set {
+                let t = rows.iter().find(|r| r.component == row.component);
+                let cell = match t.and_then(|r| r.tribo_kpa) {
+                    Some(v) => format!(
+                        "{v:.3} ({:.2}x)",
+                        t.and_then(Beside::ratio).unwrap_or(f64::NAN)
+                    ),
+                    None => "not modelled".into(),
+                };
+                let _ = write!(out, " {cell:>16}");
+            }
+            let _ = writeln!(out);
+        }
+    }
+    out
+}
+
+/// `correlation.csv` of `compare --out`: law set, plateau, component.
+pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
+    let mut rows = Vec::new();
+    for s in &c.sets {
+        for p in &s.run.plateaus {
+            for row in plateau_rows(p).unwrap_or_default() {
+                rows.push(csv_row(
+                    &[s.lawset.clone(), p.set_speed_rpm.to_string()],
+                    &row,
+                ));
+            }
+        }
+    }
+    crate::report::csv_text(&header(&["lawset", "set_speed_rpm"]), rows)
+}
+
+/// The rows of a sweep point (`None` without a correlation).
+fn sweep_rows(s: &crate::study::Sweep, p: &crate::study::SweepPoint) -> Option<Vec<Beside>> {
+    let c = p.correlation.as_ref()?;
+    Some(torque_rows(
+        p.joints
+            .iter()
+            .map(|j| (j.joint.as_str(), j.friction_torque_nm)),
+        &s.fmep,
+        c,
+    ))
+}
+
+/// `sweep`: per law set, temperature and speed, the components both sides give a number for.
+pub fn sweep_text(s: &crate::study::Sweep) -> String {
+    let mut out = String::new();
+    let Some(first) = s
+        .sets
+        .iter()
+        .flat_map(|x| x.points.iter())
+        .find_map(|p| p.correlation.as_ref())
+    else {
+        return out;
+    };
+    let _ = writeln!(out, "{}", heading(s.fmep.basis.formula(), first));
+    for set in &s.sets {
+        let _ = writeln!(
+            out,
+            "{}: Tribo / correlation, kPa (main bearings | rod bearings | pistons | total)",
+            set.lawset
+        );
+        let _ = writeln!(
+            out,
+            "{:>7} {:>7}  {:<28} {:<28} {:<28} {:<28}",
+            "oil C", "rpm", "main bearings", "rod bearings", "pistons", "total"
+        );
+        for p in &set.points {
+            let Some(rows) = sweep_rows(s, p) else {
+                continue;
+            };
+            let cell = |name: &str| {
+                rows.iter()
+                    .find(|r| r.component == name)
+                    .map_or("-".to_string(), |r| {
+                        format!(
+                            "{} / {}",
+                            r.tribo_kpa.map_or("-".into(), |v| format!("{v:.3}")),
+                            r.correlation_kpa.map_or("-".into(), |v| format!("{v:.3}"))
+                        )
+                    })
+            };
+            let _ = writeln!(
+                out,
+                "{:>7.1} {:>7.0}  {:<28} {:<28} {:<28} {:<28}",
+                p.oil_temp_c,
+                p.speed_rpm,
+                cell("main bearings"),
+                cell("rod bearings"),
+                cell("pistons"),
+                cell("total")
+            );
+        }
+    }
+    out
+}
+
+/// `sweep_correlation.csv` of `sweep --out`: law set, temperature, speed, component.
+pub fn sweep_csv(s: &crate::study::Sweep) -> std::io::Result<String> {
+    let mut rows = Vec::new();
+    for set in &s.sets {
+        for p in &set.points {
+            for row in sweep_rows(s, p).unwrap_or_default() {
+                rows.push(csv_row(
+                    &[
+                        set.lawset.clone(),
+                        p.oil_temp_c.to_string(),
+                        p.speed_rpm.to_string(),
+                    ],
+                    &row,
+                ));
+            }
+        }
+    }
+    crate::report::csv_text(&header(&["lawset", "oil_temp_c", "speed_rpm"]), rows)
+}
+
+/// One colour per component.
+const COLORS: [RGBColor; 4] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(0, 0, 0),
+];
+
+/// A rendered file's text, or the error naming it.
+fn rendered(what: &str, r: std::io::Result<String>) -> Result<String, OutputError> {
+    r.map_err(|error| OutputError::Render {
+        what: what.to_string(),
+        error,
+    })
+}
+
+/// `run --fmep`: `fmep_correlation.csv` and `fmep_correlation.svg` into the result set.
+pub fn write_run(r: &RunResult, out: &mut ResultDir) -> Result<(), OutputError> {
+    if r.plateaus.iter().all(|p| p.correlation.is_none()) {
+        return Ok(());
+    }
+    out.write(
+        "fmep_correlation.csv",
+        rendered("fmep_correlation.csv", run_csv(r))?.as_bytes(),
+    )?;
+    out.write(
+        "fmep_correlation.svg",
+        rendered("fmep_correlation.svg", run_svg(r))?.as_bytes(),
+    )
+}
+
+/// `compare --out`: `correlation.csv` and `correlation_<lawset>.svg` per law set.
+pub fn write_comparison(
+    c: &crate::study::Comparison,
+    out: &mut ResultDir,
+) -> Result<(), OutputError> {
+    out.write(
+        "correlation.csv",
+        rendered("correlation.csv", comparison_csv(c))?.as_bytes(),
+    )?;
+    for s in &c.sets {
+        let name = format!("correlation_{}.svg", crate::plots::file_stem(&s.lawset));
+        out.write(&name, rendered(&name, run_svg(&s.run))?.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// `sweep --out`: `sweep_correlation.csv`.
+pub fn write_sweep(s: &crate::study::Sweep, out: &mut ResultDir) -> Result<(), OutputError> {
+    out.write(
+        "sweep_correlation.csv",
+        rendered("sweep_correlation.csv", sweep_csv(s))?.as_bytes(),
+    )
+}
+
+/// The components both sides model, for the plots.
+const PLOTTED: [&str; 4] = ["main bearings", "rod bearings", "pistons", "total"];
+
+/// A plot of FMEP against speed: one colour per component, Tribo solid, the correlation
+/// dashed.
+fn speed_plot(title: &str, series: &[Series]) -> std::io::Result<String> {
+    let mut s = String::new();
+    draw_speed_plot(&mut s, title, series).map_err(|e| std::io::Error::other(e.to_string()))?;
+    Ok(s)
+}
+
+/// Label, speeds, Tribo's values and the correlation's (each `None` where it has none).
+type Series = (String, Vec<f64>, Vec<Option<f64>>, Vec<Option<f64>>);
+
+fn draw_speed_plot(
+    out: &mut String,
+    title: &str,
+    series: &[Series],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let root = SVGBackend::with_string(out, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let xs = series.iter().flat_map(|x| x.1.iter().copied());
+    let (x0, x1) = crate::plots::range(xs, 0.05);
+    let ys: Vec<f64> = series
+        .iter()
+        .flat_map(|x| x.2.iter().chain(x.3.iter()).filter_map(|v| *v))
+        .collect();
+    let (_, y1) = crate::plots::range(ys.into_iter().chain([0.0]), 0.1);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, 0.0..y1)?;
+    chart
+        .configure_mesh()
+        .x_desc("engine speed (rpm)")
+        .y_desc("FMEP (kPa)")
+        .draw()?;
+    for (k, (label, x, tribo, corr)) in series.iter().enumerate() {
+        let color = COLORS[k % COLORS.len()];
+        let points = |v: &[Option<f64>]| -> Vec<(f64, f64)> {
+            x.iter()
+                .zip(v)
+                .filter_map(|(a, b)| b.map(|y| (*a, y)))
+                .collect()
+        };
+        chart
+            .draw_series(LineSeries::new(points(tribo), color.stroke_width(2)))?
+            .label(format!("{label}: Tribo"))
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
+        chart
+            .draw_series(DashedLineSeries::new(
+                points(corr),
+                6,
+                4,
+                color.stroke_width(2),
+            ))?
+            .label(format!("{label}: correlation (dashed)"))
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 8, y)], color.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// `fmep_correlation.svg` of `run --fmep`: Tribo's and the correlation's FMEP per component
+/// against speed.
+pub fn run_svg(r: &RunResult) -> std::io::Result<String> {
+    let speeds: Vec<f64> = r.plateaus.iter().map(|p| p.set_speed_rpm).collect();
+    let rows: Vec<Vec<Beside>> = r
+        .plateaus
+        .iter()
+        .map(|p| plateau_rows(p).unwrap_or_default())
+        .collect();
+    let series = PLOTTED
+        .iter()
+        .map(|name| {
+            let get = |f: fn(&Beside) -> Option<f64>| -> Vec<Option<f64>> {
+                rows.iter()
+                    .map(|rs| rs.iter().find(|x| x.component == *name).and_then(f))
+                    .collect()
+            };
+            (
+                name.to_string(),
+                speeds.clone(),
+                get(|b| b.tribo_kpa),
+                get(|b| b.correlation_kpa),
+            )
+        })
+        .collect::<Vec<_>>();
+    speed_plot(
+        &format!("{}: Tribo (solid) beside Sandoval-Heywood (dashed)", r.rig),
+        &series,
+    )
+}

@@ -1,0 +1,154 @@
+//! Writes `src/tables_data.rs`: the finite bearing's mobility tables (`src/table.rs`) from the
+//! finite-volume Reynolds solver with the `p >= 0` projection (`src/reynolds.rs`).
+//!
+//! `cargo run --release -p tribo-law-plain-journal --example tabulate > plugins/plain-journal/src/tables_data.rs`
+//!
+//! For each `L / D` and each eccentricity ratio on the grid, the squeeze direction `gamma` is
+//! swept over `[0, pi]`; the film force direction `psi(gamma)` rises monotonically over the same
+//! range (checked here), so the inverse (the squeeze direction for a load direction `beta`) is
+//! read off by monotone cubic interpolation in `psi` and written on a uniform `beta` grid.
+
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+
+use tribo_law_plain_journal::reynolds::{solve_squeeze, Grid};
+use tribo_law_plain_journal::tables::{GRID, LAMBDAS, N_BETA, N_GAMMA, N_S, S_MAX};
+
+/// One `L / D`'s tabulated columns.
+struct Columns {
+    gamma: Vec<f64>,
+    ln_g: Vec<f64>,
+    ln_peak: Vec<f64>,
+    steady_ln_g: Vec<f64>,
+    steady_attitude: Vec<f64>,
+}
+
+/// Monotone cubic Hermite interpolation (Fritsch-Carlson slopes) of `y(x)` at `at`, `x` rising.
+fn pchip(x: &[f64], y: &[f64], at: f64) -> f64 {
+    let n = x.len();
+    let k = x.partition_point(|&v| v <= at).clamp(1, n - 1) - 1;
+    let slope = |i: usize| (y[i + 1] - y[i]) / (x[i + 1] - x[i]);
+    let tangent = |i: usize| -> f64 {
+        if i == 0 {
+            slope(0)
+        } else if i == n - 1 {
+            slope(n - 2)
+        } else {
+            let (a, b) = (slope(i - 1), slope(i));
+            if a * b <= 0.0 {
+                0.0
+            } else {
+                let (h0, h1) = (x[i] - x[i - 1], x[i + 1] - x[i]);
+                let (w1, w2) = (2.0 * h1 + h0, h1 + 2.0 * h0);
+                (w1 + w2) / (w1 / a + w2 / b)
+            }
+        }
+    };
+    let h = x[k + 1] - x[k];
+    let t = (at - x[k]) / h;
+    let (t2, t3) = (t * t, t * t * t);
+    (2.0 * t3 - 3.0 * t2 + 1.0) * y[k]
+        + (t3 - 2.0 * t2 + t) * h * tangent(k)
+        + (-2.0 * t3 + 3.0 * t2) * y[k + 1]
+        + (t3 - t2) * h * tangent(k + 1)
+}
+
+fn tabulate(lambda: f64, grid: &Grid) -> Columns {
+    let mut c = Columns {
+        gamma: Vec::new(),
+        ln_g: Vec::new(),
+        ln_peak: Vec::new(),
+        steady_ln_g: Vec::new(),
+        steady_attitude: Vec::new(),
+    };
+    let scale_g = 3.0 * lambda.ln();
+    let scale_p = 2.0 * lambda.ln();
+    for i in 0..N_S {
+        let s = S_MAX * i as f64 / (N_S - 1) as f64;
+        let eps = 1.0 - (-s).exp();
+        let mut warm: Option<Vec<f64>> = None;
+        let (mut psi, mut gam, mut lg, mut lp) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for j in 0..N_GAMMA {
+            let gamma = PI * j as f64 / (N_GAMMA - 1) as f64;
+            let sol = solve_squeeze(eps, gamma, lambda, grid, warm.as_deref());
+            let mut angle = sol.g[1].atan2(sol.g[0]);
+            if j == 0 {
+                angle = 0.0;
+            } else if j == N_GAMMA - 1 {
+                angle = PI;
+            } else if angle < 0.0 {
+                angle += 2.0 * PI;
+            }
+            assert!(
+                psi.last().is_none_or(|&p: &f64| angle > p),
+                "film force direction not monotone at L/D {lambda}, eps {eps}, gamma {gamma}"
+            );
+            psi.push(angle);
+            gam.push(gamma);
+            lg.push((sol.g[0].hypot(sol.g[1])).ln() - scale_g);
+            lp.push(sol.peak.ln() - scale_p);
+            if 2 * j == N_GAMMA - 1 {
+                // gamma = pi/2 mirrors the steady load's -pi/2: same |G|, attitude = psi.
+                c.steady_ln_g.push(lg[j]);
+                c.steady_attitude.push(angle);
+            }
+            warm = Some(sol.p);
+        }
+        for k in 0..N_BETA {
+            let beta = PI * k as f64 / (N_BETA - 1) as f64;
+            c.gamma.push(pchip(&psi, &gam, beta));
+            c.ln_g.push(pchip(&psi, &lg, beta));
+            c.ln_peak.push(pchip(&psi, &lp, beta));
+        }
+        eprintln!("L/D {lambda}: eps {eps:.4} done");
+    }
+    c
+}
+
+fn list(out: &mut String, name: &str, v: &[f64]) {
+    let _ = writeln!(out, "        {name}: &[");
+    for chunk in v.chunks(6) {
+        let line: Vec<String> = chunk.iter().map(|x| format!("{x:.12e}")).collect();
+        let _ = writeln!(out, "            {},", line.join(", "));
+    }
+    let _ = writeln!(out, "        ],");
+}
+
+fn main() {
+    let grid = GRID;
+    let columns: Vec<Columns> = std::thread::scope(|scope| {
+        let handles: Vec<_> = LAMBDAS
+            .iter()
+            .map(|&l| scope.spawn(move || tabulate(l, &grid)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a tabulating thread"))
+            .collect()
+    });
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "// Generated by `cargo run --release -p tribo-law-plain-journal --example tabulate`\n\
+         // from the Reynolds solver in `reynolds.rs` (grid `tables::GRID`); do not edit.\n\
+         // `tables::tests::the_committed_tables_are_what_the_solver_gives` re-solves entries.\n"
+    );
+    let _ = writeln!(out, "use crate::table::Table;\n");
+    let _ = writeln!(out, "/// One table per `tables::LAMBDAS` entry.");
+    let _ = writeln!(out, "pub static TABLES: [Table; {}] = [", LAMBDAS.len());
+    for (l, c) in LAMBDAS.iter().zip(&columns) {
+        let _ = writeln!(out, "    Table {{");
+        let _ = writeln!(out, "        lambda: {l:?},");
+        let _ = writeln!(out, "        s_max: {S_MAX:?},");
+        let _ = writeln!(out, "        n_s: {N_S},");
+        let _ = writeln!(out, "        n_beta: {N_BETA},");
+        list(&mut out, "gamma", &c.gamma);
+        list(&mut out, "ln_g", &c.ln_g);
+        list(&mut out, "ln_peak", &c.ln_peak);
+        list(&mut out, "steady_ln_g", &c.steady_ln_g);
+        list(&mut out, "steady_attitude", &c.steady_attitude);
+        let _ = writeln!(out, "    }},");
+    }
+    let _ = writeln!(out, "];");
+    print!("{out}");
+}

@@ -70,8 +70,7 @@ pub fn run_text(r: &RunResult) -> String {
             } else {
                 String::new()
             };
-            let _ = writeln!(
-                out,
+            let line = format!(
                 "{rpm:>8}  {:<22} {:<12} {} {} {}  {}",
                 row.component,
                 row.joints,
@@ -81,6 +80,12 @@ pub fn run_text(r: &RunResult) -> String {
                     .map_or(format!("{:>7}", "-"), |x| format!("{x:>7.2}")),
                 row.note
             );
+            // A long note continues under the component column.
+            out.push_str(&crate::report::wrap(
+                &line,
+                crate::report::MAX_COLUMNS,
+                &" ".repeat(10),
+            ));
         }
     }
     out

@@ -236,10 +236,22 @@ pub struct AtomicFile {
 /// of files tribo did not write), without creating anything. The check is repeated at write.
 pub fn check_result_dir(out: &Path, flag: &str) -> Result<(), OutputError> {
     let target = show(flag, out);
-    if out.file_name().is_none() {
+    let Some(name) = out.file_name().map(|n| n.to_string_lossy().into_owned()) else {
         return Err(OutputError::NoName { target });
+    };
+    match inspect(out, &target) {
+        Err(e @ OutputError::Foreign { .. }) => {
+            // Another tribo run may be swapping its set in while this one reads: look again
+            // under the lock such a run holds (only if one has ever been taken there).
+            let lock = parent_of(out).join(format!(".{name}.lock"));
+            if !std::fs::symlink_metadata(&lock).is_ok_and(|m| m.is_file()) {
+                return Err(e);
+            }
+            let _held = DirLock::acquire(&lock, &target, LOCK_WAIT)?;
+            inspect(out, &target).map(|_| ())
+        }
+        other => other.map(|_| ()),
     }
-    inspect(out, &target).map(|_| ())
 }
 
 /// Check before a long computation that `path` can take a single result file (a new name or a
@@ -453,6 +465,16 @@ enum Existing {
 
 /// Inspect `out` without following a link: absent, or a directory that may be replaced.
 fn inspect(out: &Path, target: &str) -> Result<Existing, OutputError> {
+    let existing = inspect_kind(out, target)?;
+    if existing == Existing::Replaceable {
+        check_replaceable(out, target)?;
+    }
+    Ok(existing)
+}
+
+/// What kind of thing is at `out` (without following a link): absent or a directory; a link,
+/// file or device is refused. The directory's contents are not looked at.
+fn inspect_kind(out: &Path, target: &str) -> Result<Existing, OutputError> {
     match std::fs::symlink_metadata(out) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Existing::Absent),
         Err(e) => Err(io_err("inspecting", out)(e)),
@@ -463,10 +485,7 @@ fn inspect(out: &Path, target: &str) -> Result<Existing, OutputError> {
             target: target.to_string(),
             found: kind(m.file_type()),
         }),
-        Ok(_) => {
-            check_replaceable(out, target)?;
-            Ok(Existing::Replaceable)
-        }
+        Ok(_) => Ok(Existing::Replaceable),
     }
 }
 
@@ -665,9 +684,11 @@ impl ResultDir {
             return Err(OutputError::NoName { target });
         };
         let parent = parent_of(out);
-        // Refused before anything is created (not even the lock file, which would otherwise
-        // land beside a device such as /dev/null).
-        inspect(out, &target)?;
+        // A link, file or device is refused before anything is created (not even the lock
+        // file, which would otherwise land beside a device such as /dev/null). The contents
+        // are checked only under the lock: read outside it, another run's swap can pair the
+        // old marker with the new files.
+        inspect_kind(out, &target)?;
         std::fs::create_dir_all(parent).map_err(io_err("creating", parent))?;
         let lock = DirLock::acquire(&parent.join(format!(".{name}.lock")), &target, wait)?;
         // Checked under the lock, so no other tribo run changes it until the swap.

@@ -21,7 +21,7 @@ impl Simulation {
     /// torque repeats to 1e-9 (at most 200). Every law's state starts from zero at every
     /// plateau; where stateful laws find no consistent load in that start (LuGre's bristles
     /// at zero deflection under the full sliding speed), the crank is first spun up from rest
-    /// ([`Simulation::spin_up`]) and the cycles measured from there.
+    /// (`Simulation::spin_up`) and the cycles measured from there.
     pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
         let n_plateaus = self.cycle.plateaus().len();
         let mut results = Vec::with_capacity(n_plateaus);

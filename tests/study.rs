@@ -1036,6 +1036,28 @@ fn reports_fit_100_columns_and_say_their_units_files_and_defaults() {
         "--fmep",
         "fmep",
     ]);
+    // The correlation tables beside Tribo: an engine's run (long notes on the terms no law
+    // models) and a comparison of more sets than fit side by side.
+    fits(&[
+        "run",
+        "inline4-4b11",
+        "--steady",
+        "--lawset",
+        "4b11-physical",
+        "--fmep",
+        "fmep4",
+    ]);
+    fits(&[
+        "compare",
+        "--lawset",
+        "fedem-baseline",
+        "--lawset",
+        "stribeck-duty",
+        "--lawset",
+        "mixed-film",
+        "--lawset",
+        "physical-bearings",
+    ]);
     let svg = std::fs::read_to_string(dir.path().join("fmep/fmep.svg")).expect("svg");
     assert!(svg.contains("engine speed (rpm)") && svg.contains("FMEP (kPa)"));
     let colours: std::collections::BTreeSet<&str> = svg

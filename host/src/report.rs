@@ -565,18 +565,19 @@ pub const MAX_COLUMNS: usize = 100;
 /// Columns `(header, cells)` side by side after a shared left part, split into as many tables
 /// as it takes for every line to fit [`MAX_COLUMNS`]: each block is a group of columns under a
 /// title, separated by ` | `; the left part (`left_header`, `left_rows`) repeats in every table.
-struct Blocks<'a> {
-    left_header: [String; 2],
-    left_rows: Vec<String>,
+pub(crate) struct Blocks<'a> {
+    pub(crate) left_header: [String; 2],
+    pub(crate) left_rows: Vec<String>,
     /// Per block: its title and its columns (header, cells right-aligned).
-    blocks: Vec<(String, Vec<Column<'a>>)>,
+    pub(crate) blocks: Vec<(String, Vec<Column<'a>>)>,
 }
 
 /// A column of a [`Blocks`] table: its header and its cells, one per left row.
-type Column<'a> = (&'a str, Vec<String>);
+pub(crate) type Column<'a> = (&'a str, Vec<String>);
 
 impl Blocks<'_> {
-    fn render(&self) -> String {
+    /// The table as text, split into as many tables as it takes to fit [`MAX_COLUMNS`].
+    pub(crate) fn render(&self) -> String {
         let left_w = self
             .left_header
             .iter()

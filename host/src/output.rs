@@ -239,18 +239,23 @@ pub fn check_result_dir(out: &Path, flag: &str) -> Result<(), OutputError> {
     let Some(name) = out.file_name().map(|n| n.to_string_lossy().into_owned()) else {
         return Err(OutputError::NoName { target });
     };
-    match inspect(out, &target) {
+    inspect_settled(out, &target, &name).map(|_| ())
+}
+
+/// [`inspect`] without taking the lock, so a refusal creates nothing; but strangers seen while
+/// another tribo run may be swapping its set in are looked at again under the lock that run
+/// holds (only where a lock has been taken before, so no lock file is created for a refusal).
+fn inspect_settled(out: &Path, target: &str, name: &str) -> Result<Existing, OutputError> {
+    match inspect(out, target) {
         Err(e @ OutputError::Foreign { .. }) => {
-            // Another tribo run may be swapping its set in while this one reads: look again
-            // under the lock such a run holds (only if one has ever been taken there).
             let lock = parent_of(out).join(format!(".{name}.lock"));
             if !std::fs::symlink_metadata(&lock).is_ok_and(|m| m.is_file()) {
                 return Err(e);
             }
-            let _held = DirLock::acquire(&lock, &target, LOCK_WAIT)?;
-            inspect(out, &target).map(|_| ())
+            let _held = DirLock::acquire(&lock, target, LOCK_WAIT)?;
+            inspect(out, target)
         }
-        other => other.map(|_| ()),
+        other => other,
     }
 }
 
@@ -684,11 +689,9 @@ impl ResultDir {
             return Err(OutputError::NoName { target });
         };
         let parent = parent_of(out);
-        // A link, file or device is refused before anything is created (not even the lock
-        // file, which would otherwise land beside a device such as /dev/null). The contents
-        // are checked only under the lock: read outside it, another run's swap can pair the
-        // old marker with the new files.
-        inspect_kind(out, &target)?;
+        // Refused before anything is created (not even the lock file, which would otherwise
+        // land beside a device such as /dev/null); strangers are confirmed under the lock.
+        inspect_settled(out, &target, &name)?;
         std::fs::create_dir_all(parent).map_err(io_err("creating", parent))?;
         let lock = DirLock::acquire(&parent.join(format!(".{name}.lock")), &target, wait)?;
         // Checked under the lock, so no other tribo run changes it until the swap.

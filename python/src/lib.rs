@@ -91,14 +91,23 @@ fn chain(e: &dyn std::error::Error) -> String {
 
 impl From<RigError> for Failure {
     fn from(e: RigError) -> Self {
-        Self::new(Kind::Input, chain(&e))
+        Self::new(Kind::Input, chain(&pythonic(e)))
     }
 }
 
 impl From<Box<RigError>> for Failure {
     fn from(e: Box<RigError>) -> Self {
-        Self::new(Kind::Input, chain(&*e))
+        Self::new(Kind::Input, chain(&pythonic(*e)))
     }
+}
+
+/// A rig error located where a Python user put the value: an override the CLI calls `--set`
+/// is the `set=` of `Rig(...)`, `Rig.set` or a study function.
+fn pythonic(mut e: RigError) -> RigError {
+    if e.file.as_os_str() == "--set" {
+        e.file = PathBuf::from("set=");
+    }
+    e
 }
 
 impl From<SimError> for Failure {
@@ -429,6 +438,19 @@ fn free_params<'py>(
             })
             .collect::<Vec<_>>();
         Ok(rows)
+    })
+}
+
+/// `check_lawset(lawset_json, plugin_paths)`: every entry's parameters checked against its
+/// law's declaration (names, types, ranges) without running anything, so that
+/// `LawSet.set_params` refuses a bad value when it is called rather than when a run starts.
+#[pyfunction]
+fn check_lawset(py: Python<'_>, lawset: &str, plugin_paths: Vec<PathBuf>) -> PyResult<()> {
+    detached(py, || {
+        let spec: LawSetSpec = serde_json::from_str(lawset)?;
+        let ls = spec.load()?;
+        let registry = registry(&plugin_paths)?;
+        Ok(ls.check_params(&registry)?)
     })
 }
 
@@ -854,6 +876,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_rig, m)?)?;
     m.add_function(wrap_pyfunction!(load_lawset, m)?)?;
     m.add_function(wrap_pyfunction!(free_params, m)?)?;
+    m.add_function(wrap_pyfunction!(check_lawset, m)?)?;
     m.add_function(wrap_pyfunction!(laws, m)?)?;
     m.add_function(wrap_pyfunction!(plugin_search_path, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;

@@ -92,7 +92,7 @@ const FORTRAN_MODULE_SYMBOLS: [&[u8]; 3] = [
 
 /// The language a law library was written in, as far as can be told: `rust` for the
 /// abi_stable path, `fortran` for a C-ABI library that holds the Fortran interface module
-/// ([`FORTRAN_MODULE_SYMBOLS`]), otherwise `c` (C, C++ or anything else behind the C header),
+/// (the Fortran module symbols), otherwise `c` (C, C++ or anything else behind the C header),
 /// `in-process` for a law linked into this program.
 pub fn language(lib: &LawLibrary) -> &'static str {
     use tribo_plugin_api::loader::Abi;

@@ -19,4 +19,5 @@ rolling-bearing main_a
 lugre piston
 plain-journal main_a
 crank-churning main_a
+ring-pack piston
 LAWS

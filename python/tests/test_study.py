@@ -40,13 +40,13 @@ def test_a_point_equals_the_cli_sweep_of_that_rig_and_temperature(cli):
 def test_law_factors_move_the_torque_the_way_the_law_does():
     ls = tribo.LawSet("stribeck-duty")
     free = ls.free_params()
-    p = free[free["param"] == "mu_b"].iloc[0]
+    p = free[free["param"] == "c"].iloc[0]
     d = study.full_factorial({f"law:{p['id']}": [float(p["lower"]), float(p["upper"])]})
     out = study.run_design(d, lawset=ls, speeds=[3000, 9000])
     lo = out[out["point"] == 0]["torque_nm"].to_numpy()
     hi = out[out["point"] == 1]["torque_nm"].to_numpy()
     assert len(lo) == len(hi) == 2
-    # The boundary coefficient at its upper bound: more friction wherever the piston touches.
+    # The hydrodynamic scale at its upper bound: more full-film friction at every speed.
     assert np.all(hi > lo), (lo, hi)
 
 

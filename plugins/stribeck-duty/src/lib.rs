@@ -23,11 +23,14 @@
 //! for comparison. With `mu_h(H_h) < mu_b` the minimum of the coefficient lies inside the mixed
 //! regime: the Stribeck shape.
 //!
-//! Which load defines H (physics notes section 2): `load = "instantaneous"` uses `N_eff` at each
-//! instant; in a motored engine the inertia loads grow with speed squared, so H *falls* with
-//! speed. `load = "nominal"` uses `nominal_load_n` (plus preload) instead, a fixed load (ring
-//! tension, say), so H grows with speed as the thesis assumed (chapter 11). The friction force
-//! always uses the instantaneous `N_eff`.
+//! Which load defines H (physics notes section 2): by default (`load = "instantaneous"`) the
+//! load the force uses, `N_eff`, floored at `load_floor_n` so that H stays finite where the
+//! reaction vanishes (an unloaded slide at the dead centres without preload: `0/0`); the floor
+//! only caps H, the force still uses `N_eff`. In a motored engine the inertia loads grow with
+//! speed squared, so this H *falls* with speed. `load = "nominal"` defines H from
+//! `nominal_load_n` (plus preload) instead, a fixed load, so H grows with speed as the thesis
+//! read its curve (chapter 11); it is inconsistent with the force on purpose (kept to compare
+//! with that reading, used by no bundled law set).
 
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::{
@@ -55,6 +58,8 @@ pub struct Params {
     pub load: String,
     /// Nominal load for `load = "nominal"`, N.
     pub nominal_load_n: f64,
+    /// Smallest load defining H (`load = "instantaneous"`), N.
+    pub load_floor_n: f64,
     /// `smooth` (C1 blend) or `hard` (jump at the geometric mean of the thresholds).
     pub switch: String,
     /// Sliding-velocity scale of the smoothed sign, m/s.
@@ -74,6 +79,9 @@ impl Default for Params {
             preload_n: 0.0,
             load: "instantaneous".into(),
             nominal_load_n: 100.0,
+            // estimate: far below any working load of a ring or skirt (tens to thousands of
+            // N), so it acts only where the reaction vanishes.
+            load_floor_n: 1.0,
             switch: "smooth".into(),
             v_smooth: 1e-3,
         }
@@ -117,10 +125,10 @@ impl StribeckDuty {
     /// Duty parameter for an input.
     pub fn duty(&self, input: &LawInput) -> f64 {
         let load = if self.nominal {
-            self.p.nominal_load_n
+            self.p.nominal_load_n + self.p.preload_n
         } else {
-            input.normal_load_n
-        } + self.p.preload_n;
+            (input.normal_load_n + self.p.preload_n).max(self.p.load_floor_n)
+        };
         let length = match input.kind() {
             Some(JointKind::Revolute) => input.contact_length_m,
             _ => 2.0 * std::f64::consts::PI * input.contact_radius_m,
@@ -146,8 +154,9 @@ impl Law for StribeckDuty {
             ParamSpec::number("h_boundary", "-", "duty parameter where boundary lubrication ends", 1e-15, 1e3),
             ParamSpec::number("h_hydrodynamic", "-", "duty parameter where full-film lubrication begins (> h_boundary)", 1e-15, 1e3),
             ParamSpec::number("preload_n", "N", "load added to the joint reaction (piston ring tension)", 0.0, 1e5),
-            ParamSpec::choice("load", "load defining H: the instantaneous reaction, or nominal_load_n (both plus preload)", &["instantaneous", "nominal"]),
+            ParamSpec::choice("load", "load defining H: the load the force uses (reaction plus preload, floored at load_floor_n), or nominal_load_n plus preload (the thesis's reading, inconsistent with the force)", &["instantaneous", "nominal"]),
             ParamSpec::number("nominal_load_n", "N", "fixed load defining H when load = \"nominal\"", 1e-6, 1e6),
+            ParamSpec::number("load_floor_n", "N", "smallest load defining H when load = \"instantaneous\" (H stays finite where the reaction vanishes; the force uses the actual load)", 1e-6, 1e4),
             ParamSpec::choice("switch", "smooth (C1 blend between the thresholds) or hard (jump at their geometric mean)", &["smooth", "hard"]),
             ParamSpec::number("v_smooth", "m/s", "sliding-velocity scale of the smoothed sign at reversal", 1e-9, 1.0),
         ]
@@ -294,6 +303,41 @@ mod tests {
             (hard.coefficient(m * (1.0 - 1e-9)).0 - hard.coefficient(m * (1.0 + 1e-9)).0).abs()
                 > 0.05
         );
+    }
+
+    /// The duty parameter is computed from the load the force uses: H = eta |U| 2 pi R /
+    /// max(N + preload, floor), evaluated here independently over loads from zero (a dead
+    /// centre without thrust) to 5 kN, and the force is the coefficient of that H times the
+    /// same load.
+    #[test]
+    fn duty_parameter_uses_the_load_the_force_uses_with_a_floor() {
+        let l = law("mu_b = 0.12\nc = 2.0\nk = 0.5\nh_boundary = 1e-6\nh_hydrodynamic = 1e-5\nload_floor_n = 5.0\nv_smooth = 1e-9")
+            .expect("valid");
+        let with_preload = law("mu_b = 0.12\nc = 2.0\nk = 0.5\nh_boundary = 1e-6\nh_hydrodynamic = 1e-5\npreload_n = 220.0\nload_floor_n = 5.0\nv_smooth = 1e-9")
+            .expect("valid");
+        let circumference = 2.0 * std::f64::consts::PI * 0.0384;
+        for (law, preload) in [(&l, 0.0), (&with_preload, 220.0)] {
+            for n in [0.0, 1.0, 4.999, 5.0, 30.0, 800.0, 5000.0] {
+                for (u, eta) in [(0.01, 0.1), (3.0, 0.024), (15.0, 0.012)] {
+                    let out = law.evaluate(&slide(u, n, eta), &[]);
+                    let load = f64::max(n + preload, 5.0);
+                    let h = eta * u * circumference / load;
+                    let got = out.duty_parameter().expect("reported");
+                    assert!(
+                        (got - h).abs() <= 1e-14 * h,
+                        "N {n} + {preload}: H {got} vs {h}"
+                    );
+                    let (mu, _) = law.coefficient(h);
+                    let force = -mu * (n + preload);
+                    assert!(
+                        (out.force - force).abs() <= 1e-12 * force.abs().max(1e-300),
+                        "N {n}: {} vs {force}",
+                        out.force
+                    );
+                    assert!(got.is_finite() && out.force.is_finite());
+                }
+            }
+        }
     }
 
     #[test]

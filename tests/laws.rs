@@ -16,7 +16,7 @@ use tribo::plugin_api::{JointKind, Law, LawInput, LawOutput, ParamError, ParamSp
 const SHORT_CYCLE: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.5}, {kind=\"hold\", duration_s=0.8}]";
 
 /// (law, joint, parameter TOML)
-const CASES: [(&str, &str, &str); 11] = [
+const CASES: [(&str, &str, &str); 12] = [
     ("coulomb", "piston", "mu = 0.08"),
     ("c-coulomb", "piston", "mu = 0.08"),
     ("fedem-friction", "big_end", "mu = 0.0025"),
@@ -38,6 +38,11 @@ const CASES: [(&str, &str, &str); 11] = [
     ),
     ("rolling-bearing", "main_b", "mu = 0.0011"),
     ("crank-churning", "main_a", "immersion_m = 0.01"),
+    (
+        "piston-skirt",
+        "piston",
+        "clearance_m = 25e-6\nskirt_height_m = 0.022\ncrown_m = 15e-6\nsigma_m = 0.8e-6",
+    ),
     // The paper's sigma2 = 0.4 s/m per newton is mu ~ 4 at piston speeds; scaled for an engine.
     (
         "lugre",
@@ -338,10 +343,10 @@ fn check_law_passes_every_bundled_law_with_defaults_and_rig_parameters() {
                             | "polyline-damper"
                             | "rolling-bearing"
                     ),
-                    "commit" => law == "lugre" || law == "ring-pack",
-                    // Contract version 3's outputs: the ring pack reports film diagnostics; no
-                    // law here reports dF/dN.
-                    "diagnostics" => law == "ring-pack",
+                    "commit" => matches!(law, "lugre" | "ring-pack" | "piston-skirt"),
+                    // Contract version 3's outputs: the ring pack and the skirt report film
+                    // diagnostics; no law here reports dF/dN.
+                    "diagnostics" => matches!(law, "ring-pack" | "piston-skirt"),
                     "load-derivative" => false,
                     _ => true,
                 };

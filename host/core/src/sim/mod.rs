@@ -91,8 +91,6 @@ struct Rules {
     /// Each plateau of the crank-angle traces starts its friction iteration from zero
     /// (rather than from the previous plateau's last point).
     fresh_trace_guess: bool,
-    /// The PI drive runs fixed-step RK4 whatever `solver.integrator` says.
-    fixed_step_pi: bool,
 }
 
 impl Rules {
@@ -102,7 +100,6 @@ impl Rules {
         commit: Commit::Rebuilt,
         fresh_first_stage: false,
         fresh_trace_guess: true,
-        fixed_step_pi: false,
     };
     /// The engines'.
     const ENGINE: Rules = Rules {
@@ -110,7 +107,6 @@ impl Rules {
         commit: Commit::LastInputs,
         fresh_first_stage: true,
         fresh_trace_guess: false,
-        fixed_step_pi: true,
     };
 }
 

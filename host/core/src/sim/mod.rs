@@ -299,7 +299,7 @@ impl Simulation {
             max_step_s: f.solver.max_step_s,
             integrator: f.solver.integrator,
             rel_tol: f.solver.rel_tol,
-            max_step_rad: f.solver.max_step_deg.to_radians(),
+            max_step_rad: f.solver.max_step_deg(engine).to_radians(),
             step_control: f.solver.step_control,
             tol: f.solver.friction_tol,
             max_iter: f.solver.friction_max_iter,

@@ -260,7 +260,26 @@ fn trial_points_that_do_not_run_are_counted_and_named() {
     assert!(fit["failed_evaluations"].as_u64().expect("count") > 0);
     let first = fit["first_failure"].as_str().expect("first failure");
     assert!(first.contains("out of order"), "{first}");
-    assert_eq!(fit["starts"].as_array().expect("starts").len(), 4);
+    // The start points: the law set's own, the 2^2 corners of the bounds, the 4
+    // Latin-hypercube points asked for, and the polish of the best.
+    let kinds: Vec<&str> = fit["starts"]
+        .as_array()
+        .expect("starts")
+        .iter()
+        .map(|s| s["kind"].as_str().expect("kind"))
+        .collect();
+    let count = |k: &str| kinds.iter().filter(|x| **x == k).count();
+    assert_eq!(
+        (
+            kinds.len(),
+            count("own values"),
+            count("corner"),
+            count("latin hypercube"),
+            count("polish")
+        ),
+        (10, 1, 4, 4, 1),
+        "{kinds:?}"
+    );
     assert!(fit["warnings"].to_string().contains("did not run"));
 }
 

@@ -193,6 +193,15 @@ fn run_json(r: &tribo::sim::RunResult) -> Value {
         // largest count over every evaluation; the single-cylinder solver counted step ends).
         o.remove("max_friction_iterations");
     }
+    // Two definitions issue 27 changed, checked for consistency instead (`energy_follows`):
+    // the relative residual's scale, and the warning of a run without any law.
+    energy_follows(r);
+    if let Some(e) = v["energy"].as_object_mut() {
+        e.remove("relative_residual");
+    }
+    if let Some(w) = v["warnings"].as_array_mut() {
+        w.retain(|x| x.as_str() != Some(tribo::sim::NO_LAWS_WARNING));
+    }
     for p in v["plateaus"].as_array_mut().into_iter().flatten() {
         if let Some(o) = p.as_object_mut() {
             o.remove("fmep");
@@ -202,6 +211,34 @@ fn run_json(r: &tribo::sim::RunResult) -> Value {
         }
     }
     v
+}
+
+/// The energy balance's relative residual is the residual over a scale at least as large as
+/// each of its terms (so never above |residual| / |term|), and a run warns that it has no law
+/// exactly when no plateau has a law.
+fn energy_follows(r: &tribo::sim::RunResult) {
+    let e = &r.energy;
+    let largest = [
+        e.motor_work_j,
+        e.mechanical_energy_change_j,
+        e.dissipated_j,
+        e.gas_work_j,
+    ]
+    .iter()
+    .fold(0.0_f64, |a, x| a.max(x.abs()));
+    assert!(e.relative_residual >= 0.0, "{}", r.rig);
+    if largest > 0.0 {
+        assert!(
+            e.relative_residual <= e.residual_j.abs() / largest * (1.0 + 1e-12),
+            "{}: {} vs {}",
+            r.rig,
+            e.relative_residual,
+            e.residual_j.abs() / largest
+        );
+    }
+    let lawless = r.plateaus.iter().all(|p| p.joints.is_empty());
+    let warned = r.warnings.iter().any(|w| w == tribo::sim::NO_LAWS_WARNING);
+    assert_eq!(lawless, warned, "{}", r.rig);
 }
 
 /// Each plateau's FMEP follows from its torques by the run's own definition.
@@ -356,6 +393,13 @@ fn regression_harness_every_bundled_rig_and_law_set_gives_the_captured_numbers()
             eprintln!("{name}: not in the capture (bundled since), not compared");
             continue;
         };
+        // The relative residual's scale changed on purpose (issue 27; `energy_follows` checks
+        // it instead): left out of both sides, every other number compared as before.
+        let mut want = want.clone();
+        if let Some(e) = want.get_mut("energy").and_then(|e| e.as_object_mut()) {
+            e.remove("relative_residual");
+        }
+        let want = &want;
         let got = run_case(case, &registry);
         let mut diffs = Vec::new();
         match (want.get("error"), got.get("error")) {

@@ -33,6 +33,23 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
             "per-joint contributions",
         ],
     );
+    // The verdict, in words, above the ranking; and every line fits 100 columns.
+    let verdict = stdout
+        .lines()
+        .position(|l| l.starts_with("Verdict: "))
+        .unwrap_or_else(|| panic!("no `Verdict:` line in:\n{stdout}"));
+    let ranking = stdout
+        .lines()
+        .position(|l| l.starts_with("scores, ranked by"))
+        .expect("ranking");
+    assert!(verdict < ranking, "the verdict comes before the ranking");
+    for line in stdout.lines() {
+        assert!(
+            line.chars().count() <= 100,
+            "{} columns: {line}",
+            line.chars().count()
+        );
+    }
     let results = dir.path().join("results");
     for f in [
         "comparison.csv",
@@ -82,8 +99,12 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
     assert_eq!(measured, TABLE_10_4);
 }
 
+/// A regression test of the calibration, not a validation: table 10.5 equals table 10.4, the
+/// measurements the thesis tuned its FEDEM model to, and the piston mass here was chosen to
+/// match them. It guards the rebuilt model against drifting from what it was tuned to; what was
+/// not tuned is checked by `light_rod_change_of_the_fedem_baseline_against_table_10_6_minus_10_5`.
 #[test]
-fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
+fn regression_fedem_baseline_with_the_thesis_pi_drive_stays_on_table_10_5_it_was_tuned_to() {
     // docs/crf250r-study.md: the poly-line dampers read as torques at the plateau speed, and a
     // piston assembly of 0.225 kg (the rig's 0.27 kg is an estimate) close the gaps.
     let dir = tempfile::tempdir().expect("temp dir");
@@ -138,6 +159,69 @@ fn fedem_baseline_with_the_thesis_pi_drive_reproduces_table_10_5() {
         .map(|e| e.as_f64().unwrap_or(f64::NAN))
         .collect();
     assert!(errors.iter().all(|e| e.abs() <= 0.05), "{errors:?}");
+}
+
+/// Validation with what the calibration never saw: the thesis ran its tuned model again with a
+/// rod at 60% mass (table 10.6). Its change, table 10.6 minus 10.5, is known to 0.01 N m (both
+/// tables are rounded to 0.01). The rebuilt model must agree in what the physics fixes: a lighter
+/// rod lowers every joint reaction, so the torque falls at every speed, and the inertia loads
+/// grow with speed, so the fall does not shrink as the speed rises. The size does not agree: the
+/// rebuilt Coulomb friction falls up to 0.18 N m where FEDEM's fell 0.02 (a finding explained in
+/// docs/crf250r-study.md, "The reduced-mass rod"; the per-joint size is checked against closed
+/// form by `rod_mass_response_of_coulomb_laws_matches_an_independent_computation`).
+#[test]
+fn light_rod_change_of_the_fedem_baseline_against_table_10_6_minus_10_5() {
+    const TABLE_10_6: [f64; 7] = [1.01, 1.57, 1.57, 1.34, 1.25, 1.29, 1.48];
+    let dir = tempfile::tempdir().expect("temp dir");
+    let json = json_in(
+        &[
+            "mass-response",
+            "--steady",
+            "--lawset",
+            "fedem-baseline",
+            "--set",
+            "bodies.piston.mass_kg=0.225",
+            "--body",
+            "rod",
+            "--scale",
+            "0.6",
+            "--out",
+            "mr",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let changes = json[0]["changes"].as_array().expect("changes");
+    assert_eq!(
+        changes.len(),
+        TABLE_10_5.len(),
+        "one change per plateau of table 10.5"
+    );
+    let mut previous = 0.0_f64;
+    for (i, c) in changes.iter().enumerate() {
+        let rpm = 3000.0 + 1000.0 * i as f64;
+        assert_eq!(c["speed_rpm"].as_f64(), Some(rpm));
+        let thesis = TABLE_10_6[i] - TABLE_10_5[i];
+        let shown = c["fedem_change_nm"]
+            .as_f64()
+            .expect("the thesis's change is shown");
+        assert!(
+            (shown - thesis).abs() < 1e-9,
+            "{rpm} rpm: shown {shown}, table {thesis}"
+        );
+        // The thesis's own change never rose (to its rounding): a lighter rod never cost torque.
+        assert!(thesis <= 0.005, "{rpm} rpm: {thesis}");
+        let change = c["change_nm"].as_f64().expect("change");
+        assert!(
+            change < 0.0,
+            "{rpm} rpm: a lighter rod raised the torque by {change}"
+        );
+        assert!(
+            change <= previous + 1e-9,
+            "{rpm} rpm: the fall {change} is smaller than at the speed below ({previous})"
+        );
+        previous = change;
+    }
 }
 
 #[test]
@@ -509,4 +593,481 @@ fn library_example_runs_the_bundled_comparison_and_agrees_with_the_cli() {
         .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
         .count();
     assert_eq!(rows, cli["data"].as_array().expect("data").len());
+}
+
+/// The out-of-sample errors of a set in a comparison's JSON, point by point.
+fn f64_list(v: &serde_json::Value) -> Vec<Option<f64>> {
+    v.as_array()
+        .expect("array")
+        .iter()
+        .map(serde_json::Value::as_f64)
+        .collect()
+}
+
+#[test]
+fn compare_fits_every_set_before_it_ranks_and_no_fit_is_labelled_everywhere() {
+    // A fitted set minimises its in-sample error; leaving a point out can only make that point
+    // worse: with both fits at their optimum, |LOO error| >= |in-sample error| at every point
+    // (the full fit is no worse on all points than the fold's values, the fold no worse on the
+    // others than the full fit's). A violation means a fit stopped short of its optimum.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let start = workspace().join("tests/fixtures/lawsets/stribeck-duty-start.toml");
+    let start = start.to_str().expect("utf-8");
+    std::fs::write(
+        dir.path().join("user.toml"),
+        "name = \"user\"\n[[laws]]\njoint = \"main_*\"\nlaw = \"rolling-bearing\"\nparams = { mu = 0.0011 }\n\
+         [[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\nparams = { mu = 0.3, c_viscous = 0.0 }\nfree = { mu = [0.01, 0.5], c_viscous = [0.0, 2.0] }\n",
+    )
+    .expect("write");
+    let sets = [
+        "--lawset",
+        start,
+        "--lawset",
+        "mixed-film",
+        "--lawset",
+        "user.toml",
+    ];
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec!["compare", "--steady", "--out", out, "--json"];
+        args.extend_from_slice(&sets);
+        args.extend_from_slice(extra);
+        json_in(&args, dir.path())
+    };
+    let fitted = run(&[], "fitted");
+    let as_is = run(&["--no-fit"], "as-is");
+    for (s, u) in fitted["sets"]
+        .as_array()
+        .expect("sets")
+        .iter()
+        .zip(as_is["sets"].as_array().expect("sets"))
+    {
+        let name = s["lawset"].as_str().expect("name");
+        assert_eq!(s["calibration"]["status"], "fitted", "{name}");
+        let rmse = s["rmse_nm"].as_f64().expect("rmse");
+        let loo = s["scores"]["cv_rmse_nm"].as_f64().expect("loo");
+        assert!(rmse <= loo + 1e-9, "{name}: in sample {rmse} > LOO {loo}");
+        let errors = f64_list(&s["errors_nm"]);
+        for (i, (e, l)) in errors
+            .iter()
+            .zip(f64_list(&s["scores"]["cv_errors_nm"]))
+            .enumerate()
+        {
+            let (e, l) = (e.expect("error"), l.expect("LOO error"));
+            assert!(
+                l.abs() >= e.abs() - 1e-6,
+                "{name}, point {i}: LOO error {l} smaller than the fitted error {e}"
+            );
+        }
+        // Fitting never does worse than the file's values.
+        let file_rmse = u["rmse_nm"].as_f64().expect("rmse");
+        assert!(rmse <= file_rmse + 1e-12, "{name}: {rmse} vs {file_rmse}");
+    }
+    // The start fixture and the user's set begin away from their optimum: compare moved them.
+    for k in [0, 2] {
+        let (a, b) = (
+            fitted["sets"][k]["rmse_nm"].as_f64().expect("rmse"),
+            as_is["sets"][k]["rmse_nm"].as_f64().expect("rmse"),
+        );
+        assert!(
+            a < 0.9 * b,
+            "{}: fitted {a} vs as is {b}",
+            fitted["sets"][k]["lawset"]
+        );
+    }
+    // The same calibration as `tribo fit`: the same values and error.
+    let fit = json_in(
+        &[
+            "fit", "--lawset", start, "--no-cv", "--out", "f.toml", "--json",
+        ],
+        dir.path(),
+    );
+    let values = f64_list(&fit["values"]);
+    let params = fitted["sets"][0]["calibration"]["params"]
+        .as_array()
+        .expect("params");
+    assert_eq!(params.len(), values.len());
+    for (p, v) in params.iter().zip(&values) {
+        let (a, b) = (p["value"].as_f64().expect("value"), v.expect("value"));
+        assert!(
+            (a - b).abs() <= 1e-12 * b.abs(),
+            "{}: {a} vs fit {b}",
+            p["id"]
+        );
+    }
+    // Not fitted: labelled so in every output, and scored as it is.
+    let u = &as_is["sets"][0];
+    assert_eq!(u["calibration"]["status"], "not fitted");
+    assert_eq!(u["scores"]["cv_rmse_nm"], u["rmse_nm"]);
+    assert!(u["fitted_lawset_toml"].is_null());
+    let scores = std::fs::read_to_string(dir.path().join("as-is/scores.csv")).expect("csv");
+    let mut r = csv::Reader::from_reader(scores.as_bytes());
+    let col = r
+        .headers()
+        .expect("headers")
+        .iter()
+        .position(|h| h == "calibration")
+        .expect("calibration column");
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.expect("row")).collect();
+    assert_eq!(rows.len(), 3);
+    assert!(rows.iter().all(|x| &x[col] == "not fitted"), "{scores}");
+    let svg = std::fs::read_to_string(dir.path().join("as-is/torque_vs_speed.svg")).expect("svg");
+    assert!(
+        svg.contains("not fitted"),
+        "the plot's legend says not fitted"
+    );
+    let out = tribo_in(
+        &[
+            &["compare", "--steady", "--no-fit", "--out", "as-is"][..],
+            &sets,
+        ]
+        .concat(),
+        dir.path(),
+    );
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    assert_mentions(
+        &stdout,
+        &["stribeck-duty-start (not fitted)", "user (not fitted)"],
+    );
+    // A fitted set's values are written beside the results, and they give its error.
+    let toml = dir.path().join("fitted/fitted_stribeck-duty-start.toml");
+    assert!(toml.is_file());
+    let again = json_in(
+        &[
+            "compare",
+            "--steady",
+            "--no-fit",
+            "--lawset",
+            toml.to_str().expect("utf-8"),
+            "--out",
+            "again",
+            "--json",
+        ],
+        dir.path(),
+    );
+    let (a, b) = (
+        again["sets"][0]["rmse_nm"].as_f64().expect("rmse"),
+        fitted["sets"][0]["rmse_nm"].as_f64().expect("rmse"),
+    );
+    assert!((a - b).abs() <= 1e-9 * b, "{a} vs {b}");
+}
+
+#[test]
+fn data_belong_to_their_rig_and_a_rig_without_measurements_asks_for_them() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fails = |args: &[&str], words: &[&str]| {
+        let out = tribo_in(args, dir.path());
+        let (_, stderr) = text(&out);
+        assert!(!out.status.success(), "{args:?} ran");
+        assert_mentions(&stderr, words);
+    };
+    // The engine has no bundled measurements: nothing is compared silently.
+    fails(
+        &["compare", "inline4-4b11"],
+        &["inline4-4b11", "no bundled measurements", "--data"],
+    );
+    fails(
+        &["fit", "inline4-4b11", "--lawset", "stribeck-duty"],
+        &["inline4-4b11", "no bundled measurements"],
+    );
+    // The CRF 250 R's measurements declare their rig.
+    fails(
+        &["compare", "inline4-4b11", "--data", "crf250r-measured.csv"],
+        &["crf250r-motored", "inline4-4b11", "--data-for-any-rig"],
+    );
+    // Told they apply, the speeds above the engine's top speed are still refused.
+    fails(
+        &[
+            "compare",
+            "inline4-4b11",
+            "--data",
+            "crf250r-measured.csv",
+            "--data-for-any-rig",
+        ],
+        &["8000 rpm", "top speed", "max_speed_rpm = 7000"],
+    );
+    fails(
+        &[
+            "sweep",
+            "inline4-4b11",
+            "--speeds",
+            "3000,9000",
+            "--temps",
+            "80",
+        ],
+        &["--speeds", "9000 rpm", "max_speed_rpm = 7000"],
+    );
+    // A user's file naming another rig is refused, and accepted when told it applies.
+    let data = dir.path().join("light.csv");
+    std::fs::write(
+        &data,
+        "# rig: crf250r-light-rod\nspeed_rpm,torque_nm,oil_temp_c\n3000,0.9,80\n6000,1.2,80\n9000,1.4,80\n",
+    )
+    .expect("write");
+    let data = data.to_str().expect("utf-8");
+    let args = [
+        "compare",
+        "--steady",
+        "--no-cv",
+        "--lawset",
+        "physical-bearings",
+        "--data",
+        data,
+        "--json",
+    ];
+    fails(&args, &["crf250r-light-rod", "crf250r-motored"]);
+    let ok = json_in(&[&args[..], &["--data-for-any-rig"]].concat(), dir.path());
+    assert_eq!(ok["data"].as_array().expect("data").len(), 3);
+    // A declared noise must be a positive number, reported at its line.
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(
+        &bad,
+        "# a comment\n# noise_nm: -0.1\nspeed_rpm,torque_nm,oil_temp_c\n3000,1,80\n",
+    )
+    .expect("write");
+    fails(
+        &["compare", "--data", bad.to_str().expect("utf-8")],
+        &["bad.csv:2", "noise_nm", "positive"],
+    );
+}
+
+#[test]
+fn a_run_without_laws_warns_and_require_laws_refuses_it() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let run = json_in(
+        &["run", "reference-frictionless", "--steady", "--json"],
+        dir.path(),
+    );
+    let warnings = run["warnings"].to_string();
+    assert!(warnings.contains("no law on any joint"), "{warnings}");
+    // The energy line: the residual of a frictionless run is roundoff on the mechanism's
+    // energy, not a ratio of two roundoff errors.
+    let e = &run["energy"];
+    assert!(e["motor_work_j"].as_f64().expect("work").abs() < 1e-6);
+    let rel = e["relative_residual"].as_f64().expect("relative");
+    assert!(rel < 1e-9, "relative residual {rel}");
+    let out = tribo_in(&["run", "reference-frictionless", "--steady"], dir.path());
+    let (stdout, _) = text(&out);
+    assert!(stdout.contains("warning: no law on any joint"), "{stdout}");
+    let out = tribo_in(
+        &[
+            "run",
+            "reference-frictionless",
+            "--steady",
+            "--require-laws",
+        ],
+        dir.path(),
+    );
+    let (_, stderr) = text(&out);
+    assert!(!out.status.success());
+    assert_mentions(
+        &stderr,
+        &["--require-laws", "reference-frictionless", "no law"],
+    );
+    // With laws there is nothing to warn about.
+    let run = json_in(
+        &[
+            "run",
+            "reference-frictionless",
+            "--steady",
+            "--lawset",
+            "physical-bearings",
+            "--require-laws",
+            "--json",
+        ],
+        dir.path(),
+    );
+    assert!(!run["warnings"].to_string().contains("no law on any joint"));
+}
+
+#[test]
+fn bands_of_a_positive_torque_stay_above_zero_and_a_missing_band_says_why() {
+    // Data the one-parameter Coulomb set cannot follow (a torque at 3000 rpm fifty times the
+    // others): its coefficient is poorly determined, and the linear band's half-width exceeds
+    // the torque itself, so `T - h` would be below zero.
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(
+        dir.path().join("odd.csv"),
+        "speed_rpm,torque_nm,oil_temp_c\n3000,1.5,80\n4000,0.02,80\n5000,0.02,80\n6000,0.02,80\n7000,0.02,80\n8000,0.02,80\n9000,0.02,80\n",
+    )
+    .expect("write");
+    std::fs::write(
+        dir.path().join("one.toml"),
+        "name = \"one\"\n[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\nparams = { mu = 0.05 }\nfree = { mu = [0.001, 0.5] }\n",
+    )
+    .expect("write");
+    let args = [
+        "compare",
+        "--steady",
+        "--no-cv",
+        "--lawset",
+        "one.toml",
+        "--lawset",
+        "mixed-film",
+        "--lawset",
+        "physical-bearings",
+        "--data",
+        "odd.csv",
+        "--out",
+        "o",
+    ];
+    let cmp = json_in(&[&args[..], &["--json"]].concat(), dir.path());
+    let one = &cmp["sets"][0];
+    let model: Vec<f64> = one["run"]["plateaus"]
+        .as_array()
+        .expect("plateaus")
+        .iter()
+        .map(|p| p["motoring_torque_nm"].as_f64().expect("torque"))
+        .collect();
+    let half = f64_list(&one["uncertainty"]["band_half_width_nm"]);
+    let (lo, hi) = (
+        f64_list(&one["band_lower_nm"]),
+        f64_list(&one["band_upper_nm"]),
+    );
+    assert!(
+        half.iter().zip(&model).any(|(h, t)| h.expect("h") > *t),
+        "the linear band should reach below zero somewhere: {half:?} vs {model:?}"
+    );
+    for i in 0..model.len() {
+        let (l, u, t) = (lo[i].expect("lower"), hi[i].expect("upper"), model[i]);
+        assert!(l > 0.0 && l <= t && t <= u, "{l} {t} {u}");
+        assert!(
+            (l * u - t * t).abs() <= 1e-9 * t * t,
+            "log band: {l} * {u} vs {t}^2"
+        );
+    }
+    // Every set either has a band or says why not; never a "wider than data" without a band.
+    for s in cmp["sets"].as_array().expect("sets") {
+        let band = !s["band_lower_nm"].is_null();
+        assert_eq!(band, s["band_note"].is_null(), "{}", s["lawset"]);
+        assert_eq!(
+            band,
+            !s["band_wider_than_data"].is_null(),
+            "{}",
+            s["lawset"]
+        );
+    }
+    let scores = std::fs::read_to_string(dir.path().join("o/scores.csv")).expect("csv");
+    let mut r = csv::Reader::from_reader(scores.as_bytes());
+    let h = r.headers().expect("headers").clone();
+    let (w, n) = (
+        h.iter()
+            .position(|x| x == "band_wider_than_data")
+            .expect("col"),
+        h.iter().position(|x| x == "band_note").expect("col"),
+    );
+    for row in r.records() {
+        let row = row.expect("row");
+        assert_eq!(row[w].is_empty(), !row[n].is_empty(), "{scores}");
+    }
+    let out = tribo_in(&args, dir.path());
+    let (stdout, _) = text(&out);
+    assert_mentions(
+        &stdout,
+        &["no band for physical-bearings: no free parameters"],
+    );
+}
+
+#[test]
+fn reports_fit_100_columns_and_say_their_units_files_and_defaults() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fits = |args: &[&str]| -> String {
+        let out = tribo_in(args, dir.path());
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "{args:?}: {stderr}");
+        for line in stdout.lines() {
+            assert!(line.chars().count() <= 100, "{args:?}: {line}");
+        }
+        stdout
+    };
+    fits(&["laws"]);
+    fits(&[
+        "run",
+        "inline4-4b11",
+        "--steady",
+        "--lawset",
+        "stribeck-duty",
+    ]);
+    fits(&[
+        "fit",
+        "--lawset",
+        "stribeck-duty",
+        "--no-cv",
+        "--out",
+        "f.toml",
+    ]);
+    fits(&[
+        "sweep",
+        "--lawset",
+        "mixed-film",
+        "--temps",
+        "40,50,60,70,80,90,100,110",
+    ]);
+    let mass = fits(&[
+        "mass-response",
+        "--steady",
+        "--lawset",
+        "fedem-baseline",
+        "--out",
+        "mr",
+    ]);
+    assert_mentions(
+        &mass,
+        &[
+            "rod mass and inertia scaled; motoring torque and its change, N m",
+            "FEDEM thesis (T 10.6-10.5): the change the thesis's own FEDEM model gave",
+            "wrote into mr: mass_response.json",
+        ],
+    );
+    // Each study's --help names the law sets it runs without --lawset.
+    for cmd in ["compare", "mass-response", "sweep"] {
+        let help = fits(&[cmd, "--help"]).replace('\n', " ");
+        for set in tribo::bundled::DEFAULT_LAWSETS {
+            assert!(help.contains(set), "`{cmd} --help` does not name {set}");
+        }
+    }
+    // The FMEP plot: engine speed along x, and each component its own colour.
+    fits(&[
+        "run",
+        "crf250r-motored",
+        "--steady",
+        "--lawset",
+        "fedem-baseline",
+        "--fmep",
+        "fmep",
+    ]);
+    // The correlation tables beside Tribo: an engine's run (long notes on the terms no law
+    // models) and a comparison of more sets than fit side by side.
+    fits(&[
+        "run",
+        "inline4-4b11",
+        "--steady",
+        "--lawset",
+        "4b11-physical",
+        "--fmep",
+        "fmep4",
+    ]);
+    fits(&[
+        "compare",
+        "--lawset",
+        "fedem-baseline",
+        "--lawset",
+        "stribeck-duty",
+        "--lawset",
+        "mixed-film",
+        "--lawset",
+        "physical-bearings",
+    ]);
+    let svg = std::fs::read_to_string(dir.path().join("fmep/fmep.svg")).expect("svg");
+    assert!(svg.contains("engine speed (rpm)") && svg.contains("FMEP (kPa)"));
+    let colours: std::collections::BTreeSet<&str> = svg
+        .split("stroke=\"")
+        .skip(1)
+        .filter_map(|s| s.get(..7))
+        .filter(|c| c.starts_with('#'))
+        .collect();
+    for joint in ["main_a", "main_b", "big_end", "piston"] {
+        assert!(svg.contains(joint), "{joint} missing from the FMEP plot");
+    }
+    assert!(colours.len() >= 5, "{colours:?}");
 }

@@ -19,4 +19,6 @@ rolling-bearing main_a
 lugre piston
 plain-journal main_a
 crank-churning main_a
+piston-skirt piston
+ring-pack piston
 LAWS

@@ -35,12 +35,14 @@ fn num(x: Option<f64>, width: usize) -> String {
     }
 }
 
-/// The heading: source, basis and the viscosity ratio.
+/// The heading: source, basis and the viscosity ratio, wrapped to the reports' width.
 fn heading(basis: &str, c: &Correlation) -> String {
-    format!(
-        "\nBeside the correlation: {} ({basis}, kPa; the rig's geometry and oil, mu/mu0 = {:.2})",
+    let text = format!(
+        "Beside the correlation: {} ({basis}, kPa; the rig's geometry and oil, mu/mu0 = {:.2})",
         c.source, c.viscosity_ratio
-    )
+    );
+    let wrapped = crate::report::wrap(&text, crate::report::MAX_COLUMNS, "  ");
+    format!("\n{}", wrapped.trim_end_matches('\n'))
 }
 
 /// `run`: every plateau's components, Tribo beside the correlation, with the ratio.
@@ -68,17 +70,29 @@ pub fn run_text(r: &RunResult) -> String {
             } else {
                 String::new()
             };
-            let _ = writeln!(
-                out,
-                "{rpm:>8}  {:<22} {:<12} {} {} {}  {}",
+            let cols = format!(
+                "{rpm:>8}  {:<22} {:<12} {} {} {}",
                 row.component,
                 row.joints,
                 num(row.tribo_kpa, 9),
                 num(row.correlation_kpa, 11),
                 row.ratio()
                     .map_or(format!("{:>7}", "-"), |x| format!("{x:>7.2}")),
-                row.note
             );
+            // The terms beside the numbers where they fit; a longer note goes on its own
+            // line(s) under the component column, so the numbers stay in their columns.
+            let one_line = format!("{cols}  {}", row.note);
+            if one_line.chars().count() <= crate::report::MAX_COLUMNS {
+                let _ = writeln!(out, "{one_line}");
+            } else {
+                let _ = writeln!(out, "{}", cols.trim_end());
+                let indent = " ".repeat(12);
+                out.push_str(&crate::report::wrap(
+                    &format!("{indent}{}", row.note),
+                    crate::report::MAX_COLUMNS,
+                    &indent,
+                ));
+            }
         }
     }
     out
@@ -137,65 +151,100 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     };
     let basis = c.sets[0].run.fmep.basis.formula();
     let _ = writeln!(out, "{}", heading(basis, first));
-    let _ = write!(
-        out,
-        "{:>7}  {:<16} {:>11}",
-        "rpm", "component", "correlation"
-    );
-    for s in &c.sets {
-        let _ = write!(out, " {:>16}", s.lawset);
-    }
-    let _ = writeln!(out);
     let speeds: Vec<f64> = c.sets[0]
         .run
         .plateaus
         .iter()
         .map(|p| p.set_speed_rpm)
         .collect();
-    for (i, rpm) in speeds.iter().enumerate() {
-        let per_set: Vec<Vec<Beside>> = c
-            .sets
-            .iter()
-            .map(|s| {
-                s.run
-                    .plateaus
-                    .get(i)
-                    .and_then(plateau_rows)
-                    .unwrap_or_default()
-            })
-            .collect();
-        let Some(rows) = per_set.first() else {
-            continue;
-        };
-        for (k, row) in rows.iter().enumerate() {
-            if row.correlation_kpa.is_none() {
-                continue;
-            }
+    let per_plateau: Vec<Vec<Vec<Beside>>> = (0..speeds.len())
+        .map(|i| {
+            c.sets
+                .iter()
+                .map(|s| {
+                    s.run
+                        .plateaus
+                        .get(i)
+                        .and_then(plateau_rows)
+                        .unwrap_or_default()
+                })
+                .collect()
+        })
+        .collect();
+    // One table row per plateau and component the correlation gives a number for.
+    let rows: Vec<(usize, usize, &Beside)> = per_plateau
+        .iter()
+        .enumerate()
+        .flat_map(|(i, per_set)| {
+            per_set
+                .first()
+                .into_iter()
+                .flatten()
+                .filter(|row| row.correlation_kpa.is_some())
+                .enumerate()
+                .map(move |(k, row)| (i, k, row))
+        })
+        .collect();
+    let cw = rows
+        .iter()
+        .map(|(_, _, r)| r.component.chars().count())
+        .chain(["component".len()])
+        .max()
+        .unwrap_or(0);
+    let left_rows = rows
+        .iter()
+        .map(|&(i, k, row)| {
             let lead = if k == 0 {
-                format!("{rpm:.0}")
+                format!("{:.0}", speeds[i])
             } else {
                 String::new()
             };
-            let _ = write!(
-                out,
-                "{lead:>7}  {:<16} {}",
+            format!(
+                "{lead:>7}  {:<cw$} {}",
                 row.component,
                 num(row.correlation_kpa, 11)
-            );
-            for rows in &per_set {
-                let t = rows.iter().find(|r| r.component == row.component);
-                let cell = match t.and_then(|r| r.tribo_kpa) {
-                    Some(v) => format!(
-                        "{v:.3} ({:.2}x)",
-                        t.and_then(Beside::ratio).unwrap_or(f64::NAN)
-                    ),
-                    None => "not modelled".into(),
-                };
-                let _ = write!(out, " {cell:>16}");
-            }
-            let _ = writeln!(out);
-        }
-    }
+            )
+        })
+        .collect();
+    let blocks = c
+        .sets
+        .iter()
+        .enumerate()
+        .map(|(j, s)| {
+            let found = |&(i, _, row): &(usize, usize, &Beside)| {
+                per_plateau[i][j]
+                    .iter()
+                    .find(|r| r.component == row.component)
+                    .filter(|r| r.tribo_kpa.is_some())
+            };
+            let tribo = rows
+                .iter()
+                .map(|r| {
+                    found(r)
+                        .and_then(|t| t.tribo_kpa)
+                        .map_or("not modelled".into(), |v| format!("{v:.3}"))
+                })
+                .collect();
+            let ratio = rows
+                .iter()
+                .map(|r| {
+                    found(r)
+                        .and_then(Beside::ratio)
+                        .map_or("-".into(), |x| format!("{x:.2}x"))
+                })
+                .collect();
+            (s.lawset.clone(), vec![("Tribo", tribo), ("ratio", ratio)])
+        })
+        .collect();
+    let table = crate::report::Blocks {
+        left_header: [
+            String::new(),
+            format!("{:>7}  {:<cw$} {:>11}", "rpm", "component", "correlation"),
+        ],
+        left_rows,
+        blocks,
+    };
+    out.push_str(&table.render());
     out
 }
 
@@ -239,43 +288,51 @@ pub fn sweep_text(s: &crate::study::Sweep) -> String {
         return out;
     };
     let _ = writeln!(out, "{}", heading(s.fmep.basis.formula(), first));
+    const COMPONENTS: [&str; 4] = ["main bearings", "rod bearings", "pistons", "total"];
     for set in &s.sets {
+        let points: Vec<(&crate::study::SweepPoint, Vec<Beside>)> = set
+            .points
+            .iter()
+            .filter_map(|p| Some((p, sweep_rows(s, p)?)))
+            .collect();
         let _ = writeln!(
             out,
-            "{}: Tribo / correlation, kPa (main bearings | rod bearings | pistons | total)",
+            "\n{}: FMEP, kPa: Tribo beside the correlation (corr.)",
             set.lawset
         );
-        let _ = writeln!(
-            out,
-            "{:>7} {:>7}  {:<28} {:<28} {:<28} {:<28}",
-            "oil C", "rpm", "main bearings", "rod bearings", "pistons", "total"
-        );
-        for p in &set.points {
-            let Some(rows) = sweep_rows(s, p) else {
-                continue;
-            };
-            let cell = |name: &str| {
-                rows.iter()
-                    .find(|r| r.component == name)
-                    .map_or("-".to_string(), |r| {
-                        format!(
-                            "{} / {}",
-                            r.tribo_kpa.map_or("-".into(), |v| format!("{v:.3}")),
-                            r.correlation_kpa.map_or("-".into(), |v| format!("{v:.3}"))
-                        )
-                    })
-            };
-            let _ = writeln!(
-                out,
-                "{:>7.1} {:>7.0}  {:<28} {:<28} {:<28} {:<28}",
-                p.oil_temp_c,
-                p.speed_rpm,
-                cell("main bearings"),
-                cell("rod bearings"),
-                cell("pistons"),
-                cell("total")
-            );
-        }
+        let cell = |rows: &[Beside], name: &str, pick: fn(&Beside) -> Option<f64>| {
+            rows.iter()
+                .find(|r| r.component == name)
+                .and_then(pick)
+                .map_or("-".to_string(), |v| format!("{v:.3}"))
+        };
+        let blocks = COMPONENTS
+            .iter()
+            .map(|&name| {
+                let column = |pick: fn(&Beside) -> Option<f64>| {
+                    points
+                        .iter()
+                        .map(|(_, rows)| cell(rows, name, pick))
+                        .collect()
+                };
+                (
+                    name.to_string(),
+                    vec![
+                        ("Tribo", column(|r| r.tribo_kpa)),
+                        ("corr.", column(|r| r.correlation_kpa)),
+                    ],
+                )
+            })
+            .collect();
+        let table = crate::report::Blocks {
+            left_header: [String::new(), format!("{:>7} {:>7}", "oil C", "rpm")],
+            left_rows: points
+                .iter()
+                .map(|(p, _)| format!("{:>7.1} {:>7.0}", p.oil_temp_c, p.speed_rpm))
+                .collect(),
+            blocks,
+        };
+        out.push_str(&table.render());
     }
     out
 }

@@ -1,7 +1,7 @@
 //! `tribo laws`: what plugins were found, as a table for people and JSON for programs, and the
 //! warnings about the plugin search path every command prints.
 
-use std::fmt::{Display, Write as _};
+use std::fmt::Display;
 use std::io::Write as _;
 
 use serde_json::{json, Value};
@@ -74,10 +74,47 @@ fn law_json(lib: &LawLibrary) -> Value {
         .collect();
     json!({
         "name": d.name, "version": d.version, "abi": lib.abi().to_string(),
+        "language": language(lib),
         "contract_version": lib.contract_version(),
         "file": lib.path().display().to_string(), "summary": d.summary,
         "suits": tribo_plugin_api::suits_words(lib.suits()), "parameters": params,
     })
+}
+
+/// The names the Fortran interface module's procedure `tribo_set_error` gets from the
+/// compilers: gfortran, Intel Fortran (classic and ifx), LLVM Flang. Every Fortran law built
+/// with the module (`tribo new-law --lang fortran` compiles it in) exports one of them.
+const FORTRAN_MODULE_SYMBOLS: [&[u8]; 3] = [
+    b"__tribo_law_MOD_tribo_set_error\0",
+    b"tribo_law_mp_tribo_set_error_\0",
+    b"_QMtribo_lawPtribo_set_error\0",
+];
+
+/// The language a law library was written in, as far as can be told: `rust` for the
+/// abi_stable path, `fortran` for a C-ABI library that holds the Fortran interface module
+/// (the Fortran module symbols), otherwise `c` (C, C++ or anything else behind the C header),
+/// `in-process` for a law linked into this program.
+pub fn language(lib: &LawLibrary) -> &'static str {
+    use tribo_plugin_api::loader::Abi;
+    match lib.abi() {
+        Abi::Rust => "rust",
+        Abi::InProcess => "in-process",
+        Abi::C => {
+            // SAFETY: the library is already loaded by the registry (its constructors ran
+            // then); opening it again only takes another reference to the same mapping, and
+            // the symbols are only looked up, never called or read.
+            let fortran = unsafe { libloading::Library::new(lib.path()) }.is_ok_and(|l| {
+                FORTRAN_MODULE_SYMBOLS
+                    .iter()
+                    .any(|name| unsafe { l.get::<*const ()>(name) }.is_ok())
+            });
+            if fortran {
+                "fortran"
+            } else {
+                "c"
+            }
+        }
+    }
 }
 
 /// Human-readable listing of the laws (the warnings go to standard error).
@@ -95,33 +132,49 @@ pub fn to_text(listing: &LawListing<'_>) -> String {
         } else {
             format!(", contract v{}", lib.contract_version())
         };
-        let _ = writeln!(
-            out,
-            "{} {} [{}{adapted}]  {}",
-            d.name,
-            d.version,
-            lib.abi(),
-            lib.path().display()
-        );
-        let _ = writeln!(out, "    {}", d.summary);
+        out.push_str(&crate::report::wrap(
+            &format!(
+                "{} {} [{}{adapted}]  {}",
+                d.name,
+                d.version,
+                language(lib),
+                lib.path().display()
+            ),
+            crate::report::MAX_COLUMNS,
+            "    ",
+        ));
+        out.push_str(&crate::report::wrap(
+            &format!("    {}", d.summary),
+            crate::report::MAX_COLUMNS,
+            "    ",
+        ));
         if lib.suits() != 0 {
-            let _ = writeln!(
-                out,
-                "    made for {}",
-                tribo_plugin_api::suits_text(lib.suits())
-            );
+            out.push_str(&crate::report::wrap(
+                &format!("    made for {}", tribo_plugin_api::suits_text(lib.suits())),
+                crate::report::MAX_COLUMNS,
+                "    ",
+            ));
         }
+        // One line per parameter: name, default, unit and range; its meaning wrapped below.
         let width = d.parameters.iter().map(|p| p.name.len()).max().unwrap_or(0);
         for p in &d.parameters {
-            let _ = writeln!(
-                out,
-                "    {:width$} = {:<10} {:<18} {:<18} {}",
+            let head = format!(
+                "    {:width$} = {:<10} {:<18} {}",
                 p.name,
                 p.default.to_toml_string(),
                 p.unit,
                 p.range_text(),
-                p.doc,
             );
+            out.push_str(&crate::report::wrap(
+                head.trim_end(),
+                crate::report::MAX_COLUMNS,
+                "        ",
+            ));
+            out.push_str(&crate::report::wrap(
+                &format!("        {}", p.doc),
+                crate::report::MAX_COLUMNS,
+                "        ",
+            ));
         }
         out.push('\n');
     }

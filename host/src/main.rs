@@ -15,7 +15,7 @@ use tribo_plugin_api::loader::{discover, LawRegistry};
 
 /// Tribo: a virtual engine-friction test bench with friction and damping laws as plugins.
 #[derive(Parser)]
-#[command(version, about, long_about = None)]
+#[command(version, about, long_about = None, max_term_width = 100)]
 struct Cli {
     /// Extra plugin library or directory (searched before TRIBO_PLUGIN_PATH and the tribo
     /// executable's directory); may be repeated.
@@ -226,6 +226,10 @@ struct RunArgs {
     /// per cycle).
     #[arg(long = "resolution-deg", default_value_t = 0.5, value_name = "DEG", value_parser = resolution_deg, allow_negative_numbers = true)]
     resolution_deg: f64,
+    /// Refuse to run a rig with no law on any joint (which gives a frictionless mechanism's
+    /// torque, zero on average; without this flag it is a warning).
+    #[arg(long)]
+    require_laws: bool,
     /// Worker process and its limits.
     #[command(flatten)]
     isolation: IsolationArgs,
@@ -255,20 +259,35 @@ fn resolution_deg(text: &str) -> Result<f64, String> {
 struct CompareArgs {
     /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
     rig: Option<PathBuf>,
-    /// Law set (bundled name or file); repeat to compare several (default: fedem-baseline
-    /// and stribeck-duty).
+    /// Law set (bundled name or file); repeat to compare several (default: fedem-baseline,
+    /// stribeck-duty and mixed-film).
     #[arg(long = "lawset")]
     lawsets: Vec<String>,
     /// Attach a law to every law set: JOINT=LAW[:PARAMS.toml] (added to the set's laws there).
     #[arg(long = "law", value_name = "JOINT=LAW[:PARAMS_TOML_FILE]")]
     laws: Vec<String>,
-    /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the thesis's table 10.4).
+    /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the bundled measurements of
+    /// the rig, the thesis's table 10.4 on crf250r-motored; a rig without any needs --data).
     #[arg(long)]
     data: Option<String>,
+    /// Use data whose `# rig:` line names another rig than the one compared.
+    #[arg(long)]
+    #[serde(default)]
+    data_for_any_rig: bool,
+    /// Score law sets with free parameters at their file's values instead of fitting them to
+    /// the data first (each is then labelled "not fitted").
+    #[arg(long)]
+    #[serde(default)]
+    no_fit: bool,
+    /// Latin-hypercube start points of each set's calibration, besides its own values and the
+    /// corners of its bounds.
+    #[arg(long, default_value_t = tribo::fit::DEFAULT_STARTS as u32, value_parser = clap::value_parser!(u32).range(0..=64))]
+    #[serde(default)]
+    starts: u32,
     /// Override rig values, as for `run`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
-    /// Output directory for comparison.csv, comparison.json and the plots.
+    /// Output directory for comparison.csv, comparison.json, the plots and the fitted law sets.
     #[arg(long, default_value = "tribo-compare")]
     out: PathBuf,
     /// Steady state at each speed instead of the full test cycle.
@@ -303,8 +322,8 @@ struct MassResponseArgs {
     /// A sweep of scale factors instead (e.g. 0.5,0.6,...,1.1); writes a plot.
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     scales: Option<Vec<f64>>,
-    /// Law set (bundled name or file); repeat for several (default: fedem-baseline and
-    /// stribeck-duty).
+    /// Law set (bundled name or file); repeat for several (default: fedem-baseline,
+    /// stribeck-duty and mixed-film).
     #[arg(long = "lawset")]
     lawsets: Vec<String>,
     /// Override rig values, as for `run`.
@@ -335,17 +354,22 @@ struct FitArgs {
     /// Parameters to fit, JOINT.LAW.PARAM,... (default: those the law set marks free).
     #[arg(long, value_delimiter = ',')]
     params: Option<Vec<String>>,
-    /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the thesis's table 10.4);
-    /// repeat for several runs: one parameter set is fitted to all, each point at its own
-    /// oil temperature.
+    /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the bundled measurements of
+    /// the rig, the thesis's table 10.4 on crf250r-motored); repeat for several runs: one
+    /// parameter set is fitted to all, each point at its own oil temperature.
     #[arg(long = "data", value_name = "FILE")]
     data: Vec<String>,
+    /// Use data whose `# rig:` line names another rig than the one fitted.
+    #[arg(long)]
+    #[serde(default)]
+    data_for_any_rig: bool,
     /// Data never used in fitting, scored with the fitted values; repeatable.
     #[arg(long = "validate", value_name = "FILE")]
     validate: Vec<String>,
-    /// Start points: the law set's values, then quasi-random points over the bounds; the
-    /// best result is kept and the spread of the others reported.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    /// Latin-hypercube start points over the bounds, besides the law set's own values and the
+    /// corners of the bounds (all of them up to four parameters, 16 beyond); the best result is
+    /// polished and kept, and the spread of the others reported.
+    #[arg(long, default_value_t = tribo::fit::DEFAULT_STARTS as u32, value_parser = clap::value_parser!(u32).range(0..=64))]
     starts: u32,
     /// Skip the leave-one-out cross-validation.
     #[arg(long)]
@@ -369,8 +393,8 @@ struct FitArgs {
 struct SweepArgs {
     /// Rig file or bundled rig name (default: the bundled CRF 250 R rig).
     rig: Option<PathBuf>,
-    /// Law set (bundled name or file); repeat for several (default: fedem-baseline and
-    /// stribeck-duty).
+    /// Law set (bundled name or file); repeat for several (default: fedem-baseline,
+    /// stribeck-duty and mixed-film).
     #[arg(long = "lawset")]
     lawsets: Vec<String>,
     /// Attach a law to every law set: JOINT=LAW[:PARAMS.toml] (added to the set's laws there).
@@ -384,14 +408,10 @@ struct SweepArgs {
         allow_hyphen_values = true
     )]
     temps: String,
-    /// Engine speeds, rpm, comma-separated.
-    #[arg(
-        long,
-        value_name = "RPM,RPM,...",
-        default_value = "3000,4000,5000,6000,7000,8000,9000",
-        allow_hyphen_values = true
-    )]
-    speeds: String,
+    /// Engine speeds, rpm, comma-separated (default: the plateau speeds of the rig's own test
+    /// cycle, 3000-9000 rpm on the CRF 250 R; at most the rig's max_speed_rpm).
+    #[arg(long, value_name = "RPM,RPM,...", allow_hyphen_values = true)]
+    speeds: Option<String>,
     /// Another oil: a TOML file with an [oil] table (name, grade, source, viscosity,
     /// density_kg_m3), applied before --set.
     #[arg(long, value_name = "FILE.toml")]
@@ -595,6 +615,8 @@ struct RunJob {
     timeseries: bool,
     /// `--crank-angle` at this resolution, degrees.
     crank_angle_deg: Option<f64>,
+    /// `--require-laws`: refuse a rig with no law on any joint.
+    require_laws: bool,
 }
 
 /// What a run hands back: its result and the crank-angle traces asked for. The result's
@@ -622,6 +644,12 @@ impl RunJob {
     ) -> anyhow::Result<RunOutput> {
         let rig = self.rig()?;
         let mut sim = tribo::rig::simulation(&rig, registry)?;
+        if self.require_laws && sim.law_count() == 0 {
+            anyhow::bail!(
+                "--require-laws: rig `{}` has no law on any joint; attach laws with --lawset NAME or --law JOINT=LAW",
+                rig.file.name
+            );
+        }
         sim.report_progress(progress);
         let result = match series {
             _ if self.steady => sim.run_steady()?,
@@ -657,6 +685,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         crank_angle,
         fmep,
         resolution_deg,
+        require_laws,
         isolation,
     } = a;
     let limits = isolation.limits()?;
@@ -675,6 +704,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         steady,
         timeseries: timeseries.is_some(),
         crank_angle_deg: crank_angle.as_ref().map(|_| resolution_deg),
+        require_laws,
     };
     // Every input is checked here, before any law is loaded.
     let rig = job.rig()?;
@@ -761,11 +791,29 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     if json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
-        writeln!(out_text, "oil: {}", rig.file.oil.describe())?;
+        write!(
+            out_text,
+            "{}",
+            tribo::report::wrap(
+                &format!("oil: {}", rig.file.oil.describe()),
+                tribo::report::MAX_COLUMNS,
+                "     "
+            )
+        )?;
         write!(out_text, "{}", tribo::report::to_text(&result))?;
         write!(out_text, "{}", tribo::beside::run_text(&result))?;
     }
     emit(&out_text)
+}
+
+/// The closing line of a study's text report: the directory and the files written into it,
+/// wrapped to the report width.
+fn wrote_into(out: &std::path::Path, files: &[String]) -> String {
+    tribo::report::wrap(
+        &format!("wrote into {}: {}", out.display(), files.join(", ")),
+        tribo::report::MAX_COLUMNS,
+        "  ",
+    )
 }
 
 /// The law-set names (bundled names or files) a study command runs: those given, or the
@@ -956,12 +1004,14 @@ fn compare_study(
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
-    let data =
-        tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+    let data = tribo::study::DataRun::read(&data_arg(a.data.as_deref(), &rig)?)?;
     let options = tribo::study::CompareOptions {
         steady: a.steady,
         no_cv: a.no_cv,
+        no_fit: a.no_fit,
+        starts: a.starts as usize,
         validate: read_data_runs(&a.validate)?,
+        data_for_any_rig: a.data_for_any_rig,
     };
     Ok(tribo::study::compare(
         &rig,
@@ -983,11 +1033,12 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
         ls.add_law_args(&a.laws)?;
     }
     tribo::study::check_unique_names(&sets_loaded)?;
-    let data =
-        tribo::study::DataRun::read(a.data.as_deref().unwrap_or(tribo::bundled::DEFAULT_DATA))?;
+    let data = tribo::study::DataRun::read(&data_arg(a.data.as_deref(), &rig)?)?;
     let validate = read_data_runs(&a.validate)?;
-    // Once, here, before any worker: data whose cycle the rig cannot run fails the command.
+    // Once, here, before any worker: data measured on another rig, or whose cycle the rig
+    // cannot run, fail the command.
     for d in std::iter::once(&data).chain(&validate) {
+        tribo::study::check_data_rig(&rig, d, a.data_for_any_rig)?;
         tribo::study::check_data(&rig, d)?;
     }
     tribo::output::check_result_dir(&a.out, "--out")?;
@@ -1021,11 +1072,19 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     } else {
         write!(out_text, "{}", tribo::report::comparison_text(&cmp))?;
         write!(out_text, "{}", tribo::beside::comparison_text(&cmp))?;
-        writeln!(
-            out_text,
-            "\nwrote into {}: comparison.csv, scores.csv, validation.csv, comparison.json,\n  torque_vs_speed.svg, contributions_*.svg, piston_regimes.svg, correlation.csv,\n  correlation_*.svg",
-            out.display()
-        )?;
+        let mut files = vec![
+            "comparison.csv".to_string(),
+            "scores.csv".into(),
+            "validation.csv".into(),
+            "comparison.json".into(),
+            "torque_vs_speed.svg".into(),
+            "contributions_*.svg".into(),
+            "piston_regimes.svg".into(),
+            "correlation.csv".into(),
+            "correlation_*.svg".into(),
+        ];
+        files.extend(cmp.sets.iter().filter_map(tribo::plots::fitted_file));
+        write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
     failures_error(&cmp.failed, specs.len(), Some(out))
@@ -1060,8 +1119,8 @@ fn merge_comparisons(
         anyhow::bail!("no law set to compare");
     };
     cmp.sets.extend(parts.flat_map(|c| c.sets));
-    tribo::study::rank_sets(&mut cmp.sets, no_cv);
     cmp.failed = failed;
+    cmp.rank(no_cv);
     Ok(cmp)
 }
 
@@ -1160,12 +1219,13 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     };
     drop(progress);
     let out = &a.out;
-    tribo::plots::write_mass_response(&result, out, a.scales.is_some())
+    let files = tribo::plots::write_mass_response(&result, out, a.scales.is_some())
         .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
     } else {
         write!(out_text, "{}", tribo::report::mass_text(&result))?;
+        write!(out_text, "{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
     failures_error(&failed, specs.len(), Some(out))
@@ -1182,13 +1242,14 @@ fn fit_study(
         .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
     let rig = tribo::rig::load_rig(&rig_path, &a.sets)?;
     let ls = tribo::lawset::LawSet::load(&a.lawset)?;
-    let runs = read_data_runs(&fit_data(a))?;
+    let runs = read_data_runs(&fit_data(a, &rig)?)?;
     let validate = read_data_runs(&a.validate)?;
     let free = ls.free_params(registry, a.params.as_deref())?;
     let options = tribo::fit::FitOptions {
         starts: a.starts as usize,
         cross_validate: !a.no_cv,
         validate,
+        data_for_any_rig: a.data_for_any_rig,
     };
     let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &runs, registry, &options)?;
     let header = format!(
@@ -1209,12 +1270,21 @@ fn fit_study(
     Ok((result, text))
 }
 
-/// The data a fit uses: those given, or the thesis's table.
-fn fit_data(a: &FitArgs) -> Vec<String> {
+/// The data a fit uses: those given, or the rig's bundled measurements.
+fn fit_data(a: &FitArgs, rig: &tribo::rig::Rig) -> anyhow::Result<Vec<String>> {
     if a.data.is_empty() {
-        vec![tribo::bundled::DEFAULT_DATA.to_string()]
+        Ok(vec![data_arg(None, rig)?])
     } else {
-        a.data.clone()
+        Ok(a.data.clone())
+    }
+}
+
+/// The data a study on `rig` compares against: `given`, or the rig's own bundled measurements
+/// ([`tribo::study::default_data`]).
+fn data_arg(given: Option<&str>, rig: &tribo::rig::Rig) -> anyhow::Result<String> {
+    match given {
+        Some(d) => Ok(d.to_string()),
+        None => Ok(tribo::study::default_data(rig)?.to_string()),
     }
 }
 
@@ -1229,11 +1299,13 @@ fn cmd_fit(g: &Globals, a: FitArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
     let rig = tribo::rig::load_rig(&rig_path, &a.sets)?;
     let ls = tribo::lawset::LawSet::load(&a.lawset)?;
-    // Data whose cycle the rig cannot run fails here, before the worker starts.
-    for d in read_data_runs(&fit_data(&a))?
+    // Data measured on another rig, or whose cycle the rig cannot run, fail here, before the
+    // worker starts.
+    for d in read_data_runs(&fit_data(&a, &rig)?)?
         .iter()
         .chain(&read_data_runs(&a.validate)?)
     {
+        tribo::study::check_data_rig(&rig, d, a.data_for_any_rig)?;
         tribo::study::check_data(&rig, d)?;
     }
     let out = a
@@ -1282,8 +1354,8 @@ fn sweep_study(
     progress: Option<&tribo::progress::Position>,
 ) -> anyhow::Result<tribo::study::Sweep> {
     let temps_c = tribo::study::parse_list("--temps", &a.temps)?;
-    let speeds_rpm = tribo::study::parse_list("--speeds", &a.speeds)?;
     let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), sets, a.lawsets.clone())?;
+    let speeds_rpm = sweep_speeds(a.speeds.as_deref(), &rig)?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
@@ -1297,17 +1369,25 @@ fn sweep_study(
     )?)
 }
 
+/// The speeds a sweep runs: `--speeds`, or the plateau speeds of the rig's own cycle.
+fn sweep_speeds(given: Option<&str>, rig: &tribo::rig::Rig) -> anyhow::Result<Vec<f64>> {
+    match given {
+        Some(text) => Ok(tribo::study::parse_list("--speeds", text)?),
+        None => Ok(tribo::study::plateau_speeds(rig)),
+    }
+}
+
 /// `tribo sweep`: torque over oil temperature and speed per law set; tables or JSON on stdout,
 /// sweep.csv, sweep.json and plots in the output directory.
 fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     // Inputs are checked before anything is loaded or run.
     let temps_c = tribo::study::parse_list("--temps", &a.temps)?;
-    let speeds_rpm = tribo::study::parse_list("--speeds", &a.speeds)?;
-    tribo::study::check_sweep_inputs(&temps_c, &speeds_rpm)?;
     let sets = with_oil_file(a.oil.as_deref(), a.sets.clone())?;
     let specs = lawset_specs(&a.lawsets);
     let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &sets, specs.clone())?;
+    let speeds_rpm = sweep_speeds(a.speeds.as_deref(), &rig)?;
+    tribo::study::check_speeds_for_rig(&rig, &speeds_rpm, "--speeds")?;
     for ls in &mut sets_loaded {
         ls.add_law_args(&a.laws)?;
     }
@@ -1360,7 +1440,7 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
     } else {
         write!(out_text, "{}", tribo::report::sweep_text(&result))?;
         write!(out_text, "{}", tribo::beside::sweep_text(&result))?;
-        writeln!(out_text, "\nwrote {}/{}", out.display(), files.join(", "))?;
+        write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
     failures_error(&result.failed, specs.len(), Some(out))

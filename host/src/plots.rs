@@ -28,7 +28,8 @@ fn io(e: impl std::fmt::Display) -> std::io::Error {
 }
 
 /// Write the result set of a comparison into `dir` (`compare --out`): `comparison.csv`,
-/// `scores.csv`, `validation.csv`, the SVG plots and `comparison.json`. The set is rendered
+/// `scores.csv`, `validation.csv`, the SVG plots, `comparison.json`, and each fitted set with
+/// its fitted values as `fitted_<set>.toml` (the values it was ranked by). The set is rendered
 /// into a temporary directory and swapped in whole ([`ResultDir`]), so `dir` is always the old
 /// set or the new one, and plots of law sets no longer compared disappear with the old set.
 pub fn write_comparison(c: &Comparison, dir: &Path) -> Result<(), OutputError> {
@@ -62,8 +63,20 @@ pub fn write_comparison(c: &Comparison, dir: &Path) -> Result<(), OutputError> {
         serde_json::to_string_pretty(c).map_err(io),
     )?;
     out.write("comparison.json", json.as_bytes())?;
+    for set in &c.sets {
+        if let (Some(name), Some(text)) = (fitted_file(set), &set.fitted_lawset_toml) {
+            out.write(&name, text.as_bytes())?;
+        }
+    }
     crate::beside::write_comparison(c, &mut out)?;
     out.commit()
+}
+
+/// The file a fitted set's calibrated law set is written to, `fitted_<set>.toml`.
+pub fn fitted_file(s: &crate::study::SetResult) -> Option<String> {
+    s.fitted_lawset_toml
+        .as_ref()
+        .map(|_| format!("fitted_{}.toml", file_stem(&s.lawset)))
 }
 
 /// A rendered file's text, or the error naming the file.
@@ -155,11 +168,21 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
     let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
     let speeds: Vec<f64> = c.data.iter().map(|d| d.speed_rpm).collect();
     let (x0, x1) = range(speeds.iter().copied(), 0.05);
-    let all = c.data.iter().map(|d| d.torque_nm).chain(
-        c.sets
-            .iter()
-            .flat_map(|s| s.run.plateaus.iter().map(|p| p.motoring_torque_nm)),
-    );
+    // The bands are part of the picture: the axis reaches their upper edges too.
+    let all = c
+        .data
+        .iter()
+        .map(|d| d.torque_nm)
+        .chain(
+            c.sets
+                .iter()
+                .flat_map(|s| s.run.plateaus.iter().map(|p| p.motoring_torque_nm)),
+        )
+        .chain(
+            c.sets
+                .iter()
+                .flat_map(|s| s.band_upper_nm.iter().flatten().copied()),
+        );
     let (y0, y1) = range(all, 0.15);
     let mut chart = frame(
         &root,
@@ -206,15 +229,19 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
             .scores
             .cv_rmse_nm
             .map_or("-".to_string(), |v| format!("{v:.3}"));
-        let band = if s.band_lower_nm.is_some() && s.scores.free_params > 0 {
+        let band = if s.band_lower_nm.is_some() {
             ", shaded: 95% band"
         } else {
             ""
         };
+        let status = match s.calibration.status {
+            crate::study::CalibrationStatus::NotFitted => ", not fitted",
+            _ => "",
+        };
         chart
             .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
             .label(format!(
-                "{} (RMSE {:.3}, LOO {loo} N m{band})",
+                "{} (RMSE {:.3}, LOO {loo} N m{band}{status})",
                 s.lawset, s.rmse_nm
             ))
             .legend(move |(x, y)| {
@@ -284,18 +311,29 @@ fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotRe
 }
 
 fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
-    let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
+    let root = SVGBackend::with_string(out, (1000, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let names = ["boundary", "mixed", "hydrodynamic"];
+    let labels: Vec<String> = c
+        .sets
+        .iter()
+        .flat_map(|s| names.iter().map(move |n| format!("{}: {n}", s.lawset)))
+        .collect();
+    // The legend in its own column beside the plot, never over the curves.
+    let (plot, side) = root.split_horizontally(1000 - legend_width(&labels));
     let speeds: Vec<f64> = c.data.iter().map(|d| d.speed_rpm).collect();
     let (x0, x1) = range(speeds.iter().copied(), 0.02);
+    // Below zero and above one, so a share that is 0 (or 1) at every speed is drawn clear of
+    // the axes instead of hidden under them.
     let mut chart = frame(
-        &root,
-        "Lubrication regime of the piston (time share; an engine: mean over its pistons)",
+        &plot,
+        "Piston lubrication regime (time share; an engine: mean over its pistons)",
         x0..x1,
-        0.0..1.05,
+        -0.06..1.06,
         "engine speed (rpm)",
         "time share of the regime (-)",
     )?;
-    let mut any = false;
+    let mut entries: Vec<(String, Swatch)> = Vec::new();
     for (i, s) in c.sets.iter().enumerate() {
         // The single cylinder's piston, or the mean over an engine's pistons (`piston_k`).
         let piston: Vec<_> = s
@@ -315,44 +353,37 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
                     let mean = |f: fn(&crate::sim::RegimeShare) -> f64| {
                         shares.iter().map(f).sum::<f64>() / n
                     };
-                    let share = crate::sim::RegimeShare {
-                        none: mean(|r| r.none),
-                        boundary: mean(|r| r.boundary),
-                        mixed: mean(|r| r.mixed),
-                        hydrodynamic: mean(|r| r.hydrodynamic),
-                    };
-                    (p.set_speed_rpm, share)
+                    (
+                        p.set_speed_rpm,
+                        [
+                            mean(|r| r.boundary),
+                            mean(|r| r.mixed),
+                            mean(|r| r.hydrodynamic),
+                        ],
+                    )
                 })
             })
             .collect();
         if piston.is_empty() {
             continue;
         }
-        any = true;
-        let names = ["boundary", "mixed", "hydrodynamic"];
+        // One colour per law set, one marker per regime.
+        let color = COLORS[i % COLORS.len()];
         for (r, name) in names.iter().enumerate() {
-            let color = COLORS[(3 * i + r) % COLORS.len()];
-            let pts: Vec<(f64, f64)> = piston
-                .iter()
-                .map(|(v, sh)| (*v, [sh.boundary, sh.mixed, sh.hydrodynamic][r]))
-                .collect();
-            chart
-                .draw_series(LineSeries::new(pts, color.stroke_width(2)))?
-                .label(format!("{}: {name}", s.lawset))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+            let pts: Vec<(f64, f64)> = piston.iter().map(|(v, sh)| (*v, sh[r])).collect();
+            chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
+            draw_markers(&mut chart, r, &pts, color)?;
+            entries.push((format!("{}: {name}", s.lawset), Swatch::Marked(color, r)));
         }
     }
-    if !any {
+    if entries.is_empty() {
         chart.draw_series(std::iter::once(Text::new(
             "no law set reports a piston regime",
             (x0 + 0.05 * (x1 - x0), 0.5),
             ("sans-serif", 18),
         )))?;
-    } else {
-        legend(&mut chart, SeriesLabelPosition::UpperRight)?;
     }
+    legend_beside(&side, "law set: regime", &entries)?;
     root.present()?;
     Ok(())
 }
@@ -434,6 +465,64 @@ fn mass_sweep_svg(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
 enum Swatch {
     Line(RGBColor),
     Fill(RGBColor),
+    /// A line with the marker number `k` of [`draw_markers`] on it.
+    Marked(RGBColor, usize),
+}
+
+/// Marker shapes in the order [`marker`] uses them.
+const MARKERS: usize = 5;
+
+/// Marker number `k` (circle, triangle, square, diamond, cross, then again) at each of
+/// `pts`, in `color`: with the colours, it tells lines apart in print and for readers who do
+/// not see colour.
+fn draw_markers(
+    chart: &mut Chart<'_, '_>,
+    k: usize,
+    pts: &[(f64, f64)],
+    color: RGBColor,
+) -> PlotResult {
+    let style = color.filled();
+    let at = pts.iter().map(|q| EmptyElement::at(*q));
+    match k % MARKERS {
+        0 => chart.draw_series(at.map(|e| e + Circle::new((0, 0), 4, style)))?,
+        1 => chart.draw_series(at.map(|e| e + TriangleMarker::new((0, 0), 5, style)))?,
+        2 => chart.draw_series(at.map(|e| e + Rectangle::new([(-4, -4), (4, 4)], style)))?,
+        3 => chart.draw_series(
+            at.map(|e| e + Polygon::new(vec![(0, -5), (5, 0), (0, 5), (-5, 0)], style)),
+        )?,
+        _ => chart.draw_series(at.map(|e| e + Cross::new((0, 0), 4, color.stroke_width(2))))?,
+    };
+    Ok(())
+}
+
+/// [`draw_markers`]'s marker `k` at pixel `at` of `area` (a legend).
+fn draw_marker_px(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    k: usize,
+    at: (i32, i32),
+    color: RGBColor,
+) -> PlotResult {
+    let style = color.filled();
+    let e = EmptyElement::at(at);
+    match k % MARKERS {
+        0 => area.draw(&(e + Circle::new((0, 0), 4, style)))?,
+        1 => area.draw(&(e + TriangleMarker::new((0, 0), 5, style)))?,
+        2 => area.draw(&(e + Rectangle::new([(-4, -4), (4, 4)], style)))?,
+        3 => area.draw(&(e + Polygon::new(vec![(0, -5), (5, 0), (0, 5), (-5, 0)], style)))?,
+        _ => area.draw(&(e + Cross::new((0, 0), 4, color.stroke_width(2))))?,
+    };
+    Ok(())
+}
+
+/// Colour `k` of `n` lines that must all differ: the ten-colour palette while it lasts, else
+/// hues spread evenly around the colour wheel.
+fn distinct_color(k: usize, n: usize) -> RGBColor {
+    if n <= COLORS.len() {
+        return COLORS[k % COLORS.len()];
+    }
+    let hsl = HSLColor(k as f64 / n as f64, 0.65, 0.42);
+    let (r, g, b) = hsl.rgb();
+    RGBColor(r, g, b)
 }
 
 /// Width in pixels of a legend column for `labels` at 14 px sans-serif, with its swatch.
@@ -466,6 +555,13 @@ fn legend_beside(
                 [(x0, y - 6), (x0 + 24, y + 6)],
                 c.mix(0.75).filled(),
             ))?,
+            Swatch::Marked(c, k) => {
+                area.draw(&PathElement::new(
+                    vec![(x0, y), (x0 + 24, y)],
+                    c.stroke_width(2),
+                ))?;
+                draw_marker_px(area, k, (x0 + 12, y), c)?;
+            }
         }
         area.draw(&Text::new(
             label.clone(),
@@ -754,13 +850,19 @@ fn fmep_plot(r: &crate::sim::RunResult, out: &mut String) -> PlotResult {
         .first()
         .map(|x| x.fmep.components.iter().map(|c| c.joint.clone()).collect())
         .unwrap_or_default();
-    let (plot, side) = root.split_horizontally(1000 - legend_width(&labels));
-    let n = p.len().max(1) as f64;
-    let tops: Vec<f64> = p
-        .iter()
-        .map(|x| x.fmep.components.iter().map(|c| c.kpa.max(0.0)).sum())
-        .collect();
-    let (_, y1) = range(tops.iter().copied().chain([0.0]), 0.1);
+    let mut legend_labels = labels.clone();
+    legend_labels.push("total".into());
+    let (plot, side) = root.split_horizontally(1000 - legend_width(&legend_labels));
+    let speeds: Vec<f64> = p.iter().map(|x| x.set_speed_rpm).collect();
+    let (x0, x1) = range(speeds.iter().copied(), 0.05);
+    let values = p.iter().flat_map(|x| {
+        x.fmep
+            .components
+            .iter()
+            .map(|c| c.kpa)
+            .chain([x.fmep.total_kpa])
+    });
+    let (y0, y1) = range(values.chain([0.0]), 0.08);
     let basis = match r.fmep.basis {
         crate::sim::FmepBasis::TwoStroke => "2 pi T / V_d",
         crate::sim::FmepBasis::FourStroke => "4 pi T / V_d",
@@ -768,36 +870,32 @@ fn fmep_plot(r: &crate::sim::RunResult, out: &mut String) -> PlotResult {
     let mut chart = frame(
         &plot,
         &format!("FMEP by component: {} ({basis})", r.rig),
-        -0.5..n - 0.5,
-        0.0..y1,
-        "plateau (index; speeds in the legend column)",
+        x0..x1,
+        y0..y1,
+        "engine speed (rpm)",
         "FMEP (kPa)",
     )?;
-    for (i, x) in p.iter().enumerate() {
-        let mut base = 0.0;
-        for (k, c) in x.fmep.components.iter().enumerate() {
-            let h = c.kpa.max(0.0);
-            let color = COLORS[k % COLORS.len()];
-            let xi = i as f64;
-            chart.draw_series(std::iter::once(Rectangle::new(
-                [(xi - 0.35, base), (xi + 0.35, base + h)],
-                color.mix(0.8).filled(),
-            )))?;
-            base += h;
-        }
+    let n = labels.len();
+    for k in 0..n {
+        let color = distinct_color(k, n);
+        let pts: Vec<(f64, f64)> = p
+            .iter()
+            .filter_map(|x| x.fmep.components.get(k).map(|c| (x.set_speed_rpm, c.kpa)))
+            .collect();
+        chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
+        draw_markers(&mut chart, k, &pts, color)?;
     }
+    let total: Vec<(f64, f64)> = p
+        .iter()
+        .map(|x| (x.set_speed_rpm, x.fmep.total_kpa))
+        .collect();
+    chart.draw_series(LineSeries::new(total, BLACK.stroke_width(3)))?;
     let mut entries: Vec<(String, Swatch)> = labels
         .iter()
         .enumerate()
-        .rev()
-        .map(|(k, l)| (l.clone(), Swatch::Fill(COLORS[k % COLORS.len()])))
+        .map(|(k, l)| (l.clone(), Swatch::Marked(distinct_color(k, n), k)))
         .collect();
-    for (i, x) in p.iter().enumerate() {
-        entries.push((
-            format!("{i}: {:.0} rpm", x.set_speed_rpm),
-            Swatch::Fill(WHITE),
-        ));
-    }
+    entries.push(("total".into(), Swatch::Line(BLACK)));
     legend_beside(&side, "component", &entries)?;
     root.present()?;
     Ok(())

@@ -94,7 +94,7 @@ pub fn to_text(r: &RunResult) -> String {
     for w in &r.warnings {
         let _ = writeln!(out, "warning: {w}");
     }
-    out
+    fit_width(&out)
 }
 
 /// The FMEP breakdown per plateau and component (kPa and bar), with its basis; empty when no
@@ -104,35 +104,89 @@ pub fn fmep_text(r: &RunResult) -> String {
     if r.plateaus.iter().all(|p| p.joints.is_empty()) {
         return out;
     }
-    let _ = writeln!(
-        out,
-        "\nFMEP, kPa (bar = kPa / 100); {}, V_d = {:.1} cm^3",
-        r.fmep.basis.formula(),
-        r.fmep.displacement_m3 * 1e6
-    );
+    out.push('\n');
+    out.push_str(&wrap(
+        &format!(
+            "FMEP, kPa (bar = kPa / 100); {}, V_d = {:.1} cm^3",
+            r.fmep.basis.formula(),
+            r.fmep.displacement_m3 * 1e6
+        ),
+        MAX_COLUMNS,
+        "  ",
+    ));
     let names: Vec<&str> = r
         .plateaus
         .first()
         .map(|p| p.fmep.components.iter().map(|c| c.joint.as_str()).collect())
         .unwrap_or_default();
-    let _ = write!(out, "{:>10} {:>9} {:>7}", "set rpm", "total", "bar");
-    for n in &names {
-        let _ = write!(out, " {n:>9}");
-    }
-    let _ = writeln!(out, " {:>9}", "motoring");
-    for p in &r.plateaus {
-        let f = &p.fmep;
-        let _ = write!(
-            out,
-            "{:>10.0} {:>9.3} {:>7.4}",
-            p.set_speed_rpm,
-            f.total_kpa,
-            f.total_kpa / 100.0
-        );
-        for c in &f.components {
-            let _ = write!(out, " {:>9.3}", c.kpa);
+    // A row per plateau while the components fit across; an engine's many joints turn the
+    // table: a row per component, a column per plateau.
+    if 10 + 10 + 8 + 10 * (names.len() + 1) <= MAX_COLUMNS {
+        let _ = write!(out, "{:>10} {:>9} {:>7}", "set rpm", "total", "bar");
+        for n in &names {
+            let _ = write!(out, " {n:>9}");
         }
-        let _ = writeln!(out, " {:>9.3}", f.motoring_kpa);
+        let _ = writeln!(out, " {:>9}", "motoring");
+        for p in &r.plateaus {
+            let f = &p.fmep;
+            let _ = write!(
+                out,
+                "{:>10.0} {:>9.3} {:>7.4}",
+                p.set_speed_rpm,
+                f.total_kpa,
+                f.total_kpa / 100.0
+            );
+            for c in &f.components {
+                let _ = write!(out, " {:>9.3}", c.kpa);
+            }
+            let _ = writeln!(out, " {:>9.3}", f.motoring_kpa);
+        }
+        return out;
+    }
+    let w = names.iter().map(|n| n.len()).chain([9]).max().unwrap_or(9);
+    let mut rows: Vec<(String, Vec<f64>)> = vec![(
+        "total".into(),
+        r.plateaus.iter().map(|p| p.fmep.total_kpa).collect(),
+    )];
+    for (k, n) in names.iter().enumerate() {
+        let v = r
+            .plateaus
+            .iter()
+            .map(|p| p.fmep.components.get(k).map_or(f64::NAN, |c| c.kpa))
+            .collect();
+        rows.push((n.to_string(), v));
+    }
+    rows.push((
+        "motoring".into(),
+        r.plateaus.iter().map(|p| p.fmep.motoring_kpa).collect(),
+    ));
+    // As many plateaus per table as fit across.
+    let per = ((MAX_COLUMNS - w) / 10).max(1);
+    for chunk in r.plateaus.chunks(per).enumerate() {
+        let (i, plateaus) = chunk;
+        let _ = write!(out, "{:>w$}", "set rpm");
+        for p in plateaus {
+            let _ = write!(out, " {:>9.0}", p.set_speed_rpm);
+        }
+        out.push('\n');
+        for (name, v) in &rows {
+            let _ = write!(out, "{name:>w$}");
+            for x in &v[i * per..i * per + plateaus.len()] {
+                let _ = write!(out, " {x:>9.3}");
+            }
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// `text` with every line longer than [`MAX_COLUMNS`] wrapped ([`wrap`]), its continuation
+/// indented four spaces more than the line.
+pub fn fit_width(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        let lead = line.len() - line.trim_start_matches(' ').len();
+        out.push_str(&wrap(line, MAX_COLUMNS, &" ".repeat(lead + 4)));
     }
     out
 }
@@ -448,23 +502,53 @@ const JOINTS_CSV_HEADER: [&str; 10] = [
     "share_hydrodynamic",
 ];
 
-/// `text` broken into lines of at most `width` characters at spaces, continuation lines
-/// starting with `indent`.
-fn wrap(text: &str, width: usize, indent: &str) -> String {
+/// `text` broken into lines of at most `width` characters at spaces (its own line breaks
+/// kept, and a line that fits left as it is), continuation lines starting with `indent`; a
+/// word longer than a line is cut.
+pub fn wrap(text: &str, width: usize, indent: &str) -> String {
     let mut out = String::new();
-    let mut line = String::new();
-    for word in text.split(' ') {
-        if !line.is_empty() && line.len() + 1 + word.len() > width {
-            out.push_str(&line);
+    for paragraph in text.split('\n') {
+        // A line that fits is kept as it is (its spacing may align columns).
+        if paragraph.chars().count() <= width {
+            out.push_str(paragraph);
             out.push('\n');
-            line = indent.to_string();
-        } else if !line.is_empty() && line != indent {
-            line.push(' ');
+            continue;
         }
-        line.push_str(word);
+        // Leading spaces are the paragraph's own indentation.
+        let body = paragraph.trim_start_matches(' ');
+        let mut line = paragraph[..paragraph.len() - body.len()].to_string();
+        let mut line_w = line.len();
+        let mut fresh = true;
+        for word in body.split(' ').filter(|w| !w.is_empty()) {
+            let mut word: Vec<char> = word.chars().collect();
+            if !fresh && line_w + 1 + word.len() > width {
+                out.push_str(&line);
+                out.push('\n');
+                line = indent.to_string();
+                line_w = indent.chars().count();
+                fresh = true;
+            }
+            if !fresh {
+                line.push(' ');
+                line_w += 1;
+            }
+            // A word that cannot fit on a line of its own is cut.
+            while line_w + word.len() > width && width > line_w {
+                let take = width - line_w;
+                line.extend(&word[..take]);
+                out.push_str(&line);
+                out.push('\n');
+                word.drain(..take);
+                line = indent.to_string();
+                line_w = indent.chars().count();
+            }
+            line_w += word.len();
+            line.extend(word);
+            fresh = false;
+        }
+        out.push_str(&line);
+        out.push('\n');
     }
-    out.push_str(&line);
-    out.push('\n');
     out
 }
 
@@ -474,64 +558,206 @@ fn opt(x: Option<f64>, prec: usize) -> String {
         .map_or("-".to_string(), |v| format!("{v:.prec$}"))
 }
 
-/// The side-by-side table with each set's 95% band, the out-of-sample scores and ranking,
-/// validation scores, and per-joint contributions (joints as rows, speeds as columns).
+/// The widest line any text report prints, in columns: tables are split into blocks of sets
+/// and prose is wrapped so that every line fits.
+pub const MAX_COLUMNS: usize = 100;
+
+/// Columns `(header, cells)` side by side after a shared left part, split into as many tables
+/// as it takes for every line to fit [`MAX_COLUMNS`]: each block is a group of columns under a
+/// title, separated by ` | `; the left part (`left_header`, `left_rows`) repeats in every table.
+pub(crate) struct Blocks<'a> {
+    pub(crate) left_header: [String; 2],
+    pub(crate) left_rows: Vec<String>,
+    /// Per block: its title and its columns (header, cells right-aligned).
+    pub(crate) blocks: Vec<(String, Vec<Column<'a>>)>,
+}
+
+/// A column of a [`Blocks`] table: its header and its cells, one per left row.
+pub(crate) type Column<'a> = (&'a str, Vec<String>);
+
+impl Blocks<'_> {
+    /// The table as text, split into as many tables as it takes to fit [`MAX_COLUMNS`].
+    pub(crate) fn render(&self) -> String {
+        let left_w = self
+            .left_header
+            .iter()
+            .chain(&self.left_rows)
+            .map(|l| l.chars().count())
+            .max()
+            .unwrap_or(0);
+        // Each block's columns at their widest cell; the block as wide as its title needs.
+        let laid: Vec<(usize, Vec<usize>)> = self
+            .blocks
+            .iter()
+            .map(|(title, cols)| {
+                let widths: Vec<usize> = cols
+                    .iter()
+                    .map(|(h, cells)| {
+                        cells
+                            .iter()
+                            .map(|c| c.chars().count())
+                            .chain([h.chars().count()])
+                            .max()
+                            .unwrap_or(0)
+                    })
+                    .collect();
+                let inner = widths.iter().sum::<usize>() + widths.len().saturating_sub(1);
+                (inner.max(title.chars().count()), widths)
+            })
+            .collect();
+        let mut out = String::new();
+        let mut start = 0;
+        while start < self.blocks.len() {
+            // As many blocks as fit (at least one).
+            let mut end = start + 1;
+            let mut width = left_w + 3 + laid[start].0;
+            while end < self.blocks.len() && width + 3 + laid[end].0 <= MAX_COLUMNS {
+                width += 3 + laid[end].0;
+                end += 1;
+            }
+            if start > 0 {
+                out.push('\n');
+            }
+            let mut title = format!("{:<left_w$}", self.left_header[0]);
+            let mut head = format!("{:>left_w$}", self.left_header[1]);
+            let shown = || laid[start..end].iter().zip(&self.blocks[start..end]);
+            for ((w, widths), (block_title, block)) in shown() {
+                let _ = write!(title, " | {block_title:<w$}");
+                let cols: Vec<String> = block
+                    .iter()
+                    .zip(widths)
+                    .map(|((h, _), cw)| format!("{h:>cw$}"))
+                    .collect();
+                let _ = write!(head, " | {:>w$}", cols.join(" "));
+            }
+            out.push_str(title.trim_end());
+            out.push('\n');
+            out.push_str(&head);
+            out.push('\n');
+            for (i, l) in self.left_rows.iter().enumerate() {
+                let mut row = format!("{l:>left_w$}");
+                for ((w, widths), (_, block)) in shown() {
+                    let cols: Vec<String> = block
+                        .iter()
+                        .zip(widths)
+                        .map(|((_, cells), cw)| {
+                            format!("{:>cw$}", cells.get(i).map_or("", String::as_str))
+                        })
+                        .collect();
+                    let _ = write!(row, " | {:>w$}", cols.join(" "));
+                }
+                out.push_str(&row);
+                out.push('\n');
+            }
+            start = end;
+        }
+        out
+    }
+}
+
+/// A law set's name with its calibration status where it is not the plain case.
+fn set_title(s: &crate::study::SetResult) -> String {
+    match s.calibration.status {
+        crate::study::CalibrationStatus::NotFitted => format!("{} (not fitted)", s.lawset),
+        _ => s.lawset.clone(),
+    }
+}
+
+/// The side-by-side table with each set's 95% band, the verdict, the out-of-sample scores and
+/// ranking, the fitted values, validation scores, and per-joint contributions (joints as rows,
+/// speeds as columns). Every line fits [`MAX_COLUMNS`].
 pub fn comparison_text(c: &crate::study::Comparison) -> String {
     let mut out = String::new();
-    let _ = writeln!(
-        out,
-        "rig {}  data {}  mode {}\n",
-        c.rig, c.data_file, c.mode
-    );
-    // One block of 22 characters per set (model, error, band), whatever its name's length,
-    // so three or four sets stay within 100 columns.
-    let _ = write!(out, "{:>7} {:>9}", "", "");
-    for s in &c.sets {
-        let name: String = s.lawset.chars().take(21).collect();
-        let _ = write!(out, " | {name:<21}");
-    }
-    let _ = write!(out, "\n{:>7} {:>9}", "rpm", "measured");
-    for _ in &c.sets {
-        let _ = write!(out, " | {:>6} {:>6} {:>7}", "model", "error", "+-95%");
-    }
+    out.push_str(&wrap(
+        &format!("rig {}  data {}  mode {}", c.rig, c.data_file, c.mode),
+        MAX_COLUMNS,
+        "  ",
+    ));
     out.push('\n');
-    for (i, d) in c.data.iter().enumerate() {
-        let _ = write!(out, "{:>7.0} {:>9.3}", d.speed_rpm, d.torque_nm);
-        for s in &c.sets {
-            let m = s
-                .run
-                .plateaus
-                .get(i)
-                .map_or(f64::NAN, |p| p.motoring_torque_nm);
-            let band = s
-                .uncertainty
-                .band_half_width_nm
-                .as_ref()
-                .and_then(|b| b.get(i).copied())
-                .map_or("-".to_string(), |h| format!("{h:.3}"));
-            let _ = write!(
-                out,
-                " | {:>6.3} {:>+6.3} {:>7}",
-                m,
-                s.errors_nm.get(i).copied().unwrap_or(f64::NAN),
-                band
-            );
-        }
-        out.push('\n');
-    }
+    let blocks = Blocks {
+        left_header: [String::new(), format!("{:>7} {:>9}", "rpm", "measured")],
+        left_rows: c
+            .data
+            .iter()
+            .map(|d| format!("{:>7.0} {:>9.3}", d.speed_rpm, d.torque_nm))
+            .collect(),
+        blocks: c
+            .sets
+            .iter()
+            .map(|s| {
+                let n = c.data.len();
+                let model: Vec<String> = (0..n)
+                    .map(|i| {
+                        let m = s
+                            .run
+                            .plateaus
+                            .get(i)
+                            .map_or(f64::NAN, |p| p.motoring_torque_nm);
+                        format!("{m:.3}")
+                    })
+                    .collect();
+                let error: Vec<String> = (0..n)
+                    .map(|i| format!("{:+.3}", s.errors_nm.get(i).copied().unwrap_or(f64::NAN)))
+                    .collect();
+                let band: Vec<String> = (0..n)
+                    .map(|i| match (&s.band_lower_nm, &s.band_upper_nm) {
+                        (Some(lo), Some(hi)) => match (lo.get(i), hi.get(i)) {
+                            (Some(l), Some(h)) => format!("{l:.3}-{h:.3}"),
+                            _ => "-".into(),
+                        },
+                        _ => "-".into(),
+                    })
+                    .collect();
+                (
+                    set_title(s),
+                    vec![("model", model), ("error", error), ("95% band", band)],
+                )
+            })
+            .collect(),
+    };
+    out.push_str(&blocks.render());
     let _ = writeln!(
         out,
-        "(N m; +-95%: half-width of the 95% confidence band of the model torque from its fitted\n parameters; -: nothing fitted inside its range, no band)"
+        "(N m; 95% band: the model torque's 95% confidence band from its fitted parameters, on a\n log scale so it stays above zero)"
     );
+    for s in c.sets.iter().filter(|s| s.band_lower_nm.is_none()) {
+        if let Some(why) = &s.band_note {
+            out.push_str(&wrap(
+                &format!(" - no band for {}: {why}", s.lawset),
+                MAX_COLUMNS,
+                "   ",
+            ));
+        }
+    }
     out.push_str(&comparison_fmep(c));
     out.push('\n');
-    out.push_str(&wrap(&format!("scores, ranked by {}", c.ranked_by), 98, ""));
+    out.push_str(&wrap(
+        &format!("Verdict: {}.", c.verdict.sentence),
+        MAX_COLUMNS,
+        "  ",
+    ));
+    out.push('\n');
+    out.push_str(&wrap(
+        &format!("scores, ranked by {}", c.ranked_by),
+        MAX_COLUMNS,
+        "",
+    ));
+    let mut ranked: Vec<&crate::study::SetResult> = c.sets.iter().collect();
+    ranked.sort_by_key(|s| s.rank);
+    let name_w = ranked
+        .iter()
+        .map(|s| set_title(s).chars().count())
+        .chain([7])
+        .max()
+        .unwrap_or(7)
+        // The numbers take 76 columns: a longer title goes on a line of its own.
+        .min(MAX_COLUMNS - 76);
     let _ = writeln!(
         out,
-        "{:>4}  {:<22} {:>5} {:>6} {:>8} {:>8} {:>11} {:>8} {:>8} {:>9}",
+        "{:>4}  {:<name_w$} {:>6} {:>6} {:>8} {:>8} {:>11} {:>7} {:>7} {:>9}",
         "rank",
         "law set",
-        "free",
+        "params",
         "points",
         "RMSE",
         "LOO RMSE",
@@ -540,18 +766,23 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
         "BIC",
         "+10C max"
     );
-    let mut ranked: Vec<&crate::study::SetResult> = c.sets.iter().collect();
-    ranked.sort_by_key(|s| s.rank);
     for s in &ranked {
+        let title = set_title(s);
+        let (rank, title) = if title.chars().count() > name_w {
+            let _ = writeln!(out, "{:>4}  {title}", s.rank);
+            (String::new(), String::new())
+        } else {
+            (s.rank.to_string(), title)
+        };
         let _ = writeln!(
             out,
-            "{:>4}  {:<22} {:>5} {:>6} {:>8.3} {:>8} {:>11.3} {:>8} {:>8} {:>+8.1}%{}",
-            s.rank,
-            s.lawset,
+            "{:>4}  {:<name_w$} {:>6} {:>6} {:>8.3} {:>8} {:>11.3} {:>7} {:>7} {:>+8.1}%{}",
+            rank,
+            title,
             if s.scores.prior_fitted_params > 0 {
                 format!("0+{}", s.scores.prior_fitted_params)
             } else {
-                s.scores.free_params.to_string()
+                s.calibration.params.len().to_string()
             },
             s.scores.points,
             s.rmse_nm,
@@ -571,15 +802,40 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     }
     let _ = writeln!(
         out,
-        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; free: parameters fitted here\n   + tuned to these data elsewhere; AICc and BIC count those and the noise variance,\n   lower is better; +10C max: largest torque change per 10 C of oil warming, ! above 10%)"
+        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; params: free parameters, fitted\n   to these data before scoring unless marked not fitted, + numbers tuned to these data\n   elsewhere; AICc and BIC count those and the noise variance, lower is better; +10C max:\n   largest torque change per 10 C of oil warming, ! above 10%)"
     );
     for s in &ranked {
+        if s.calibration.params.is_empty() {
+            continue;
+        }
+        let what = match s.calibration.status {
+            crate::study::CalibrationStatus::Fitted => "fitted",
+            _ => "not fitted, the file's values",
+        };
+        let values: Vec<String> = s
+            .calibration
+            .params
+            .iter()
+            .map(|p| {
+                let short = p.id.rsplit('.').next().unwrap_or(&p.id);
+                let state = match (&p.at_bound, p.std_dev) {
+                    (Some(side), _) => format!(" (on its {side} bound)"),
+                    (None, Some(sd)) => format!(" +- {sd:.2e}"),
+                    (None, None) => String::new(),
+                };
+                format!("{short} = {:.4e}{state}", p.value)
+            })
+            .collect();
+        out.push_str(&wrap(
+            &format!("  {} {what}: {}", s.lawset, values.join(", ")),
+            MAX_COLUMNS,
+            "      ",
+        ));
+    }
+    for s in &ranked {
         let mut notes: Vec<String> = Vec::new();
-        if s.band_wider_than_data {
-            notes.push(match &s.uncertainty.band_half_width_nm {
-                Some(_) => "its 95% band is wider than the spread of the measured torques: these data do not determine its prediction".into(),
-                None => "no band can be given (see below), so nothing bounds its prediction between the data points".into(),
-            });
+        if s.band_wider_than_data == Some(true) {
+            notes.push("its 95% band is wider than the spread of the measured torques: these data do not determine its prediction".into());
         }
         notes.extend(s.scores.notes.iter().cloned());
         notes.extend(s.uncertainty.statements.iter().cloned());
@@ -593,17 +849,21 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             ));
         }
         for n in notes {
-            out.push_str(&wrap(&format!("  {}: {n}", s.lawset), 98, "      "));
+            out.push_str(&wrap(
+                &format!("  {}: {n}", s.lawset),
+                MAX_COLUMNS,
+                "      ",
+            ));
         }
     }
     out.push_str("\nper-joint contributions (friction torque at the crank, N m)\n");
     for s in &c.sets {
         out.push_str(&joint_table(s));
         for w in &s.run.warnings {
-            let _ = writeln!(out, "  warning: {w}");
+            out.push_str(&wrap(&format!("  warning: {w}"), MAX_COLUMNS, "    "));
         }
     }
-    out
+    fit_width(&out)
 }
 
 /// One law set's per-joint friction torques: a row per joint and law, a column per speed, so
@@ -661,27 +921,44 @@ fn comparison_fmep(c: &crate::study::Comparison) -> String {
     let Some(first) = c.sets.first() else {
         return out;
     };
-    let _ = write!(out, "\n{:>7} {:>9}", "rpm", "measured");
-    for s in &c.sets {
-        let name: String = s.lawset.chars().take(21).collect();
-        let _ = write!(out, " | {name:>21}");
-    }
+    let blocks = Blocks {
+        left_header: [String::new(), format!("{:>7} {:>9}", "rpm", "measured")],
+        left_rows: c
+            .data
+            .iter()
+            .map(|d| {
+                format!(
+                    "{:>7.0} {:>9.2}",
+                    d.speed_rpm,
+                    first.run.fmep.kpa(d.torque_nm)
+                )
+            })
+            .collect(),
+        blocks: c
+            .sets
+            .iter()
+            .map(|s| {
+                let cells = (0..c.data.len())
+                    .map(|i| {
+                        let v = s.run.plateaus.get(i).map_or(f64::NAN, |p| p.fmep.total_kpa);
+                        format!("{v:.2}")
+                    })
+                    .collect();
+                (s.lawset.clone(), vec![("FMEP", cells)])
+            })
+            .collect(),
+    };
     out.push('\n');
-    for (i, d) in c.data.iter().enumerate() {
-        let measured = first.run.fmep.kpa(d.torque_nm);
-        let _ = write!(out, "{:>7.0} {:>9.2}", d.speed_rpm, measured);
-        for s in &c.sets {
-            let v = s.run.plateaus.get(i).map_or(f64::NAN, |p| p.fmep.total_kpa);
-            let _ = write!(out, " | {v:>21.2}");
-        }
-        out.push('\n');
-    }
-    let _ = writeln!(
-        out,
-        "(FMEP, kPa: {}, V_d = {:.1} cm^3; measured: the measured torque converted the same way)",
-        first.run.fmep.basis.formula(),
-        first.run.fmep.displacement_m3 * 1e6
-    );
+    out.push_str(&blocks.render());
+    out.push_str(&wrap(
+        &format!(
+            "(FMEP, kPa: {}, V_d = {:.1} cm^3; measured: the measured torque converted the same way)",
+            first.run.fmep.basis.formula(),
+            first.run.fmep.displacement_m3 * 1e6
+        ),
+        MAX_COLUMNS,
+        " ",
+    ));
     out
 }
 
@@ -750,7 +1027,10 @@ pub fn scores_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
                 cell(s.scores.aic),
                 cell(s.scores.aicc),
                 cell(s.scores.bic),
-                s.band_wider_than_data.to_string(),
+                s.calibration.status.as_str().to_string(),
+                s.band_wider_than_data
+                    .map_or(String::new(), |b| b.to_string()),
+                s.band_note.clone().unwrap_or_default(),
                 s.temperature_response.max_rise_percent_per_10c.to_string(),
                 s.validation
                     .iter()
@@ -773,7 +1053,9 @@ pub fn scores_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
             "aic",
             "aicc",
             "bic",
+            "calibration",
             "band_wider_than_data",
+            "band_note",
             "max_torque_rise_percent_per_10c",
             "validation_rmse_nm",
         ],
@@ -829,26 +1111,29 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
         r.failed_evaluations,
         r.termination
     );
+    let w = r
+        .params
+        .iter()
+        .map(|p| p.len())
+        .chain([9])
+        .max()
+        .unwrap_or(9);
     let _ = writeln!(
         out,
-        "{:<34} {:>11} {:>11} {:>10} {:>23}  bounds",
+        "{:<w$} {:>10} {:>10} {:>9} {:>21}  bounds",
         "parameter", "start", "fitted", "1 sigma", "95% interval"
     );
     for i in 0..r.params.len() {
         let interval = r.uncertainty.interval95.get(i).copied().flatten().map_or(
-            if r.at_bound[i].is_some() {
-                "held on its bound".to_string()
-            } else {
-                "not determined".to_string()
+            match &r.at_bound[i] {
+                Some(side) => format!("ON {side} BOUND"),
+                None => "not determined".to_string(),
             },
             |[a, b]| format!("[{a:.3e}, {b:.3e}]"),
         );
-        let bound = r.at_bound[i]
-            .as_ref()
-            .map_or(String::new(), |b| format!("  ON {b} BOUND"));
         let _ = writeln!(
             out,
-            "{:<34} {:>11.4e} {:>11.4e} {:>10} {:>23}  [{}, {}]{bound}",
+            "{:<w$} {:>10.4e} {:>10.4e} {:>9} {:>21}  [{:.3e}, {:.3e}]",
             r.params[i],
             r.start[i],
             r.values[i],
@@ -861,17 +1146,17 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
     for run in &r.runs {
         let _ = writeln!(
             out,
-            "\nrun {}: RMSE {:.4} N m\n{:>7} {:>6} {:>10} {:>10} {:>10} {:>8}",
-            run.file, run.rmse_nm, "rpm", "oil C", "measured", "model", "residual", "band95"
+            "\nrun {}: RMSE {:.4} N m\n{:>7} {:>6} {:>10} {:>10} {:>10} {:>13}",
+            run.file, run.rmse_nm, "rpm", "oil C", "measured", "model", "residual", "95% band"
         );
         for i in 0..run.speeds_rpm.len() {
-            let band = run
-                .band_half_width_nm
-                .as_ref()
-                .map_or("-".to_string(), |b| format!("+-{:.3}", b[i]));
+            let band = match (&run.band_lower_nm, &run.band_upper_nm) {
+                (Some(lo), Some(hi)) => format!("{:.3}-{:.3}", lo[i], hi[i]),
+                _ => "-".to_string(),
+            };
             let _ = writeln!(
                 out,
-                "{:>7.0} {:>6.1} {:>10.3} {:>10.3} {:>+10.4} {:>8}",
+                "{:>7.0} {:>6.1} {:>10.3} {:>10.3} {:>+10.4} {:>13}",
                 run.speeds_rpm[i],
                 run.oil_temp_c[i],
                 run.measured_nm[i],
@@ -880,6 +1165,12 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
                 band
             );
         }
+    }
+    if r.runs.iter().any(|run| run.band_lower_nm.is_some()) {
+        let _ = writeln!(
+            out,
+            "(95% band: the model torque's confidence band from the fitted parameters' covariance, on a\n log scale so it stays above zero)"
+        );
     }
     let sc = &r.scores;
     let _ = writeln!(
@@ -902,22 +1193,39 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
     if r.starts.len() > 1 {
         let _ = writeln!(out, "\nstart points:");
         for s in &r.starts {
-            let _ = writeln!(out, "  RMSE {:>8}  {}", opt(s.rmse_nm, 4), s.termination);
+            let _ = writeln!(
+                out,
+                "  {:<16} RMSE {:>8}  {}",
+                s.kind,
+                opt(s.rmse_nm, 4),
+                s.termination
+            );
         }
     }
     for w in &r.warnings {
         let _ = writeln!(out, "warning: {w}");
     }
-    out
+    fit_width(&out)
 }
 
 /// The mass-response tables. The FEDEM thesis's change (table 10.6 minus 10.5) is a column
 /// only beside the thesis's own law set, labelled as the thesis's; other law sets have none.
 pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
     let mut out = String::new();
+    let mut thesis_shown = false;
     for set in r {
         let thesis = set.changes.iter().any(|c| c.fedem_change_nm.is_some());
-        let _ = writeln!(out, "law set {}: {:?} scaled", set.lawset, set.body);
+        thesis_shown |= thesis;
+        let body = match set.body {
+            crate::study::ScaledBody::Rod => "rod mass and inertia",
+            crate::study::ScaledBody::Piston => "piston assembly mass",
+            crate::study::ScaledBody::Crank => "crankshaft mass and inertia",
+        };
+        let _ = writeln!(
+            out,
+            "law set {}: {body} scaled; motoring torque and its change, N m",
+            set.lawset
+        );
         let _ = write!(
             out,
             "{:>7} {:>6} {:>10} {:>10} {:>10}",
@@ -941,12 +1249,23 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
             }
             out.push('\n');
             for j in &c.joints {
-                let _ = writeln!(out, "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N", j.joint, j.law, j.change_nm, j.normal_load_change_n);
+                let _ = writeln!(
+                    out,
+                    "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N",
+                    j.joint, j.law, j.change_nm, j.normal_load_change_n
+                );
             }
         }
         out.push('\n');
     }
-    out
+    if thesis_shown {
+        out.push_str(&wrap(
+            "FEDEM thesis (T 10.6-10.5): the change the thesis's own FEDEM model gave for the rod at 60% (its table 10.6 minus table 10.5, N m), shown beside the thesis's law set only.",
+            MAX_COLUMNS,
+            "  ",
+        ));
+    }
+    fit_width(&out)
 }
 
 /// The sweep's tables for people: the oil and its viscosity at each temperature, then per law
@@ -979,7 +1298,7 @@ pub fn sweep_text(s: &crate::study::Sweep) -> String {
             let _ = writeln!(out, "warning: {w}");
         }
     }
-    out
+    fit_width(&out)
 }
 
 /// `sweep.csv`: one row per law set, temperature and speed (in the JSON's order: law set, then
@@ -1085,6 +1404,27 @@ mod tests {
             warnings: Vec::new(),
             law_time: Vec::new(),
         }
+    }
+
+    #[test]
+    fn wrap_keeps_lines_that_fit_and_breaks_the_others_within_the_width() {
+        // A table row that fits keeps its alignment.
+        assert_eq!(wrap("a    b", 10, "  "), "a    b\n");
+        let long = "  alpha beta gamma delta epsilon zeta eta theta iota kappa";
+        let w = wrap(long, 20, "    ");
+        for line in w.lines() {
+            assert!(line.chars().count() <= 20, "{line:?}");
+        }
+        assert!(w.starts_with("  alpha beta gamma\n    delta"), "{w}");
+        // Every word survives, in order.
+        let words: Vec<&str> = w.split_whitespace().collect();
+        assert_eq!(words, long.split_whitespace().collect::<Vec<_>>());
+        // A word longer than a line is cut into pieces that fit.
+        let w = wrap(&"x".repeat(45), 20, "  ");
+        assert!(w.lines().all(|l| l.chars().count() <= 20), "{w}");
+        assert_eq!(w.chars().filter(|c| *c == 'x').count(), 45);
+        // Its own line breaks are kept.
+        assert_eq!(wrap("one\ntwo", 10, ""), "one\ntwo\n");
     }
 
     #[test]

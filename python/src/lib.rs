@@ -91,14 +91,23 @@ fn chain(e: &dyn std::error::Error) -> String {
 
 impl From<RigError> for Failure {
     fn from(e: RigError) -> Self {
-        Self::new(Kind::Input, chain(&e))
+        Self::new(Kind::Input, chain(&pythonic(e)))
     }
 }
 
 impl From<Box<RigError>> for Failure {
     fn from(e: Box<RigError>) -> Self {
-        Self::new(Kind::Input, chain(&*e))
+        Self::new(Kind::Input, chain(&pythonic(*e)))
     }
+}
+
+/// A rig error located where a Python user put the value: an override the CLI calls `--set`
+/// is the `set=` of `Rig(...)`, `Rig.set` or a study function.
+fn pythonic(mut e: RigError) -> RigError {
+    if e.file.as_os_str() == "--set" {
+        e.file = PathBuf::from("set=");
+    }
+    e
 }
 
 impl From<SimError> for Failure {
@@ -432,6 +441,19 @@ fn free_params<'py>(
     })
 }
 
+/// `check_lawset(lawset_json, plugin_paths)`: every entry's parameters checked against its
+/// law's declaration (names, types, ranges) without running anything, so that
+/// `LawSet.set_params` refuses a bad value when it is called rather than when a run starts.
+#[pyfunction]
+fn check_lawset(py: Python<'_>, lawset: &str, plugin_paths: Vec<PathBuf>) -> PyResult<()> {
+    detached(py, || {
+        let spec: LawSetSpec = serde_json::from_str(lawset)?;
+        let ls = spec.load()?;
+        let registry = registry(&plugin_paths)?;
+        Ok(ls.check_params(&registry)?)
+    })
+}
+
 /// `laws(plugin_paths)`: every law found (name, version, file), and the files that could not
 /// be opened with the reason: `{"laws": [...], "broken": [...]}`.
 #[pyfunction]
@@ -556,7 +578,18 @@ struct CompareJob {
     #[serde(default)]
     no_cv: bool,
     #[serde(default)]
+    no_fit: bool,
+    #[serde(default = "default_starts")]
+    starts: usize,
+    #[serde(default)]
+    data_for_any_rig: bool,
+    #[serde(default)]
     plugin_paths: Vec<PathBuf>,
+}
+
+/// Latin-hypercube start points of a calibration when the job gives none.
+fn default_starts() -> usize {
+    tribo_studies::fit::DEFAULT_STARTS
 }
 
 /// `compare(job_json, isolation_json)`: law sets against measured data, as `tribo compare
@@ -587,11 +620,17 @@ fn compare_local(job: &str) -> Result<Box<study::Comparison>, Failure> {
     let rig = job.rig.load()?;
     let sets = lawsets(&job.lawsets)?;
     study::check_unique_names(&sets)?;
-    let data = DataRun::read(job.data.as_deref().unwrap_or(bundled::DEFAULT_DATA))?;
+    let data = match job.data.as_deref() {
+        Some(d) => DataRun::read(d)?,
+        None => DataRun::read(study::default_data(&rig)?)?,
+    };
     let options = study::CompareOptions {
         steady: job.steady,
         no_cv: job.no_cv,
+        no_fit: job.no_fit,
+        starts: job.starts,
         validate: data_runs(&job.validate)?,
+        data_for_any_rig: job.data_for_any_rig,
     };
     let registry = registry(&job.plugin_paths)?;
     Ok(Box::new(study::compare(
@@ -690,6 +729,8 @@ struct FitJob {
     #[serde(default)]
     no_cv: bool,
     #[serde(default)]
+    data_for_any_rig: bool,
+    #[serde(default)]
     plugin_paths: Vec<PathBuf>,
 }
 
@@ -720,16 +761,16 @@ fn fit<'py>(
 /// `fit` in this process: the report and the calibrated law set.
 fn fit_local(job: &str) -> Result<(Box<FitResult>, String), Failure> {
     let job: FitJob = serde_json::from_str(job)?;
-    if !(1..=64).contains(&job.starts) {
+    if job.starts > 64 {
         return Err(Failure::new(
             Kind::Input,
-            format!("starts: {} is not in 1..=64", job.starts),
+            format!("starts: {} is not in 0..=64", job.starts),
         ));
     }
     let rig = job.rig.load()?;
     let ls = job.lawset.load()?;
     let names = if job.data.is_empty() {
-        vec![bundled::DEFAULT_DATA.to_string()]
+        vec![study::default_data(&rig)?.to_string()]
     } else {
         job.data.clone()
     };
@@ -738,6 +779,7 @@ fn fit_local(job: &str) -> Result<(Box<FitResult>, String), Failure> {
         starts: job.starts,
         cross_validate: !job.no_cv,
         validate: data_runs(&job.validate)?,
+        data_for_any_rig: job.data_for_any_rig,
     };
     let registry = registry(&job.plugin_paths)?;
     let free = ls.free_params(&registry, job.params.as_deref())?;
@@ -834,6 +876,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_rig, m)?)?;
     m.add_function(wrap_pyfunction!(load_lawset, m)?)?;
     m.add_function(wrap_pyfunction!(free_params, m)?)?;
+    m.add_function(wrap_pyfunction!(check_lawset, m)?)?;
     m.add_function(wrap_pyfunction!(laws, m)?)?;
     m.add_function(wrap_pyfunction!(plugin_search_path, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;

@@ -43,3 +43,14 @@ def cli(tribo_bin, tmp_path):
 
     return call
 
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """A skipped test is a failed run: every test here has what it needs in the environment
+    `python/build-and-test.sh` makes, so a skip means a check silently did not happen."""
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    skipped = reporter.stats.get("skipped", []) if reporter is not None else []
+    if skipped and session.exitstatus == 0:
+        names = ", ".join(getattr(r, "nodeid", "?") for r in skipped)
+        print(f"\nerror: {len(skipped)} test(s) skipped, which counts as a failure: {names}")
+        session.exitstatus = 1

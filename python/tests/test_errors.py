@@ -30,8 +30,10 @@ def test_a_bad_rig_value_names_set_and_field(cli):
     want = cli_error(cli("run", "crf250r-motored", "--set", "geometry.bore_m=-1", "--json", fail=True))
     with pytest.raises(tribo.InputError) as e:
         tribo.Rig("crf250r-motored").set({"geometry.bore_m": -1})
-    assert str(e.value) == want
+    # The CLI's message word for word, located where a Python user gave the value (issue 27
+    # point 8: `set=`, the keyword, where the CLI says `--set`, its flag).
     assert want == "--set: geometry.bore_m: must be a positive number (m), got -1"
+    assert str(e.value) == "set=" + want[len("--set"):]
 
 
 def test_a_rig_file_with_an_unknown_key_gives_file_line_column(cli, tmp_path):
@@ -80,6 +82,28 @@ def test_a_broken_plugin_raises_plugin_error_with_the_cli_message(cli, tmp_path)
         tribo.run("crf250r-motored", steady=True, plugin_paths=[broken])
     assert str(e.value) == want
     assert str(broken) in want
+
+
+def test_set_params_checks_names_and_ranges_when_called_and_messages_say_set():
+    ls = tribo.LawSet("stribeck-duty")
+    free = ls.free_params()
+    mu_b = free[free["param"] == "mu_b"].iloc[0]
+    # A value outside the law's own range is refused by set_params itself, before any run.
+    with pytest.raises(tribo.InputError, match=r"mu_b") as e:
+        ls.set_params({mu_b["id"]: 7.0})
+    assert "laws[" in str(e.value), str(e.value)
+    # So is a parameter the law does not have.
+    with pytest.raises(tribo.InputError, match="no_such_param"):
+        ls.set_params({"piston.stribeck-duty.no_such_param": 0.1})
+    # An accepted value is in the law set as given.
+    ok = ls.set_params({mu_b["id"]: 0.1})
+    entry = [e for e in ok.file["laws"] if e["joint"] == "piston"][0]
+    assert entry["params"]["mu_b"] == 0.1
+    # A rig override is located where a Python user gave it: `set=`, not the CLI's `--set`.
+    with pytest.raises(tribo.InputError) as e:
+        tribo.run(set={"geometry.bore_m": -1.0}, steady=True)
+    assert str(e.value).startswith("set=: geometry.bore_m"), str(e.value)
+    assert "--set" not in str(e.value)
 
 
 def test_a_set_on_a_missing_joint_and_bad_sweep_inputs_are_input_errors():

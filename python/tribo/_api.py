@@ -257,10 +257,18 @@ class LawSet:
         spec["laws"] = spec.get("laws", []) + list(laws)
         return LawSet._from_spec(spec)
 
-    def set_params(self, values: Optional[Mapping[str, Any]] = None, **kw: Any) -> "LawSet":
+    def set_params(
+        self,
+        values: Optional[Mapping[str, Any]] = None,
+        *,
+        plugin_paths: Optional[Iterable[PathLike]] = None,
+        **kw: Any,
+    ) -> "LawSet":
         """A new law set with law parameters set by ``JOINT.LAW.PARAM`` (the ids of
         :meth:`free_params` and ``tribo fit --params``): every entry of that law on that joint
-        gets the value. An id that names no entry raises :class:`InputError`."""
+        gets the value. Checked now, against the law's own declaration (found as a run would
+        find it, ``plugin_paths`` first): an id that names no entry, a parameter the law does
+        not have, or a value outside its range raises :class:`InputError`."""
         from .errors import InputError
 
         values = dict(values or {})
@@ -270,7 +278,7 @@ class LawSet:
             parts = pid.split(".")
             if len(parts) != 3:
                 raise InputError(
-                    f"{self._path}: `{pid}`: a law parameter is named JOINT.LAW.PARAM, e.g. piston.stribeck-duty.mu_boundary"
+                    f"{self._path}: `{pid}`: a law parameter is named JOINT.LAW.PARAM, e.g. piston.stribeck-duty.mu_b"
                 )
             joint, law, param = parts
             hits = [e for e in table["laws"] if e["joint"] == joint and e["law"] == law]
@@ -285,7 +293,9 @@ class LawSet:
             name = self._spec.get("name", "<python>.toml")
         else:
             name = self._path
-        return LawSet._from_spec({"table": table, "name": name, "laws": self._spec.get("laws", [])})
+        out = LawSet._from_spec({"table": table, "name": name, "laws": self._spec.get("laws", [])})
+        _native.check_lawset(json.dumps(out._spec), _plugin_paths(plugin_paths))
+        return out
 
     @property
     def name(self) -> str:
@@ -535,6 +545,12 @@ class Comparison:
         self.joints = pd.DataFrame(joints)
 
     @property
+    def verdict(self) -> str:
+        """What the scores let a user conclude, in one sentence (the CLI's ``Verdict:`` line;
+        the rule that chose it is ``raw["verdict"]["rule"]``)."""
+        return str(self.raw["verdict"]["sentence"])
+
+    @property
     def errors(self) -> pd.DataFrame:
         """Model minus measurement at each speed, one column per law set."""
         df = pd.DataFrame({"speed_rpm": self.table["speed_rpm"]})
@@ -556,6 +572,9 @@ def compare(
     set: Optional[Union[Mapping[str, Any], Sequence[str]]] = None,
     steady: bool = False,
     no_cv: bool = False,
+    no_fit: bool = False,
+    starts: int = 4,
+    data_for_any_rig: bool = False,
     plugin_paths: Optional[Iterable[PathLike]] = None,
     in_process: bool = False,
     time_limit_s: Optional[float] = None,
@@ -563,7 +582,10 @@ def compare(
     call_limit_s: Optional[float] = None,
 ) -> Comparison:
     """``tribo compare``: law sets (default: the bundled three) against measured data (default:
-    the thesis's table), scored and ranked as the CLI does.
+    the rig's own bundled measurements), each set with free parameters fitted first (``no_fit``
+    keeps the file's values, labelled "not fitted"; ``starts`` Latin-hypercube starts besides
+    its own values and the corners of its bounds), scored, ranked and judged (``raw["verdict"]``)
+    as the CLI does. Data declaring another rig need ``data_for_any_rig=True``.
 
     ``in_process`` and the limits: as for :func:`run`."""
     job = {
@@ -573,6 +595,9 @@ def compare(
         "validate": _many(validate),
         "steady": bool(steady),
         "no_cv": bool(no_cv),
+        "no_fit": bool(no_fit),
+        "starts": int(starts),
+        "data_for_any_rig": bool(data_for_any_rig),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
     return Comparison(_native.compare(json.dumps(job), _isolation(in_process, time_limit_s, memory_limit_mb, call_limit_s)))
@@ -678,8 +703,9 @@ def fit(
     params: Optional[Sequence[str]] = None,
     data: Union[None, PathLike, Sequence[PathLike]] = None,
     validate: Union[None, PathLike, Sequence[PathLike]] = None,
-    starts: int = 1,
+    starts: int = 4,
     no_cv: bool = False,
+    data_for_any_rig: bool = False,
     set: Optional[Union[Mapping[str, Any], Sequence[str]]] = None,
     plugin_paths: Optional[Iterable[PathLike]] = None,
     in_process: bool = False,
@@ -688,7 +714,9 @@ def fit(
     call_limit_s: Optional[float] = None,
 ) -> FitResult:
     """``tribo fit --lawset L [--params ...] [--data ...] [--starts N]``: calibrate the law set's
-    free parameters (or ``params``, ``JOINT.LAW.PARAM``) on steady-state runs.
+    free parameters (or ``params``, ``JOINT.LAW.PARAM``) on steady-state runs, from its own
+    values, the corners of the bounds and ``starts`` Latin-hypercube points, polished from the
+    best (as the CLI; 0 to 64).
 
     ``in_process`` and the limits: as for :func:`run`."""
     spec = _lawset_spec(lawset)
@@ -700,6 +728,7 @@ def fit(
         "validate": _many(validate),
         "starts": int(starts),
         "no_cv": bool(no_cv),
+        "data_for_any_rig": bool(data_for_any_rig),
         "plugin_paths": _plugin_paths(plugin_paths),
     }
     raw, toml_text = _native.fit(json.dumps(job), _isolation(in_process, time_limit_s, memory_limit_mb, call_limit_s))

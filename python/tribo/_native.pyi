@@ -19,6 +19,9 @@ def load_lawset(spec: str) -> Dict[str, Any]:
 def free_params(lawset: str, plugin_paths: Sequence[_Path], ids: Optional[Sequence[str]] = None) -> List[Dict[str, Any]]:
     """A law set's free parameters as a list of ``{id, entry, param, lower, upper, value}``."""
 
+def check_lawset(lawset: str, plugin_paths: Sequence[_Path]) -> None:
+    """Check every entry's parameters against its law (names, types, ranges); raises ``tribo.InputError``."""
+
 def laws(plugin_paths: Sequence[_Path]) -> Dict[str, Any]:
     """Every law found and every file that could not be opened: ``{"laws", "broken"}``."""
 

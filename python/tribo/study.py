@@ -81,7 +81,7 @@ def evaluate_point(
     rig_obj = _api.Rig._from_spec(rig).set(sets) if sets else _api.Rig._from_spec(rig)
     ls = _api.LawSet._from_spec(lawset)
     if params:
-        ls = ls.set_params(params)
+        ls = ls.set_params(params, plugin_paths=plugin_paths)
     sw = _api.sweep(rig_obj, lawsets=ls, temps=[temp], speeds=speeds, plugin_paths=plugin_paths)
     rows = []
     for r in sw.table.to_dict("records"):
@@ -128,10 +128,10 @@ def run_design(
     _api.Rig._from_spec(rig_spec)
     base = _api.LawSet._from_spec(ls_spec)
     law_factors = [c[4:] for c in design.columns if c.startswith("law:")]
-    if law_factors and len(design):
-        first = design.iloc[0]
-        base.set_params({p: float(first[f"law:{p}"]) for p in law_factors})
     paths = _api._plugin_paths(plugin_paths)
+    # Every point's law values are checked against the laws' ranges before any task is sent.
+    for _, row in design.iterrows() if law_factors else ():
+        base.set_params({p: float(row[f"law:{p}"]) for p in law_factors}, plugin_paths=paths)
     env = os.environ.get("TRIBO_PLUGIN_PATH")
     speeds = [float(s) for s in speeds]
     points = design.to_dict("records")

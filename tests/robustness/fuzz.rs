@@ -162,7 +162,30 @@ proptest! {
 
     #[test]
     fn rig_parser_returns_a_rig_or_an_error(text in rig_edit()) {
-        let _ = load_rig_text(Path::new("fuzz.toml"), &text, &[]);
+        match load_rig_text(Path::new("fuzz.toml"), &text, &[]) {
+            // What is accepted is a rig a run can use: positive, finite sizes and masses.
+            Ok(rig) => {
+                let (g, b) = (&rig.file.geometry, &rig.file.bodies);
+                for (what, v) in [
+                    ("geometry.crank_radius_m", g.crank_radius_m),
+                    ("geometry.bore_m", g.bore_m),
+                    ("bodies.crank.inertia_kg_m2", b.crank.inertia_kg_m2),
+                    ("bodies.piston.mass_kg", b.piston.mass_kg),
+                ] {
+                    prop_assert!(v.is_finite() && v > 0.0, "accepted {what} = {v}:\n{text}");
+                }
+                if let Some(top) = rig.file.max_speed_rpm {
+                    prop_assert!(top.is_finite() && top > 0.0, "accepted max_speed_rpm = {top}");
+                }
+            }
+            // An error names the file and the field or the line.
+            Err(e) => {
+                let shown = e.to_string();
+                prop_assert!(!e.file.as_os_str().is_empty(), "{shown}");
+                prop_assert!(!e.field.is_empty() || e.line.is_some(), "{shown}");
+                prop_assert!(shown.starts_with(&e.file.display().to_string()), "{shown}");
+            }
+        }
     }
 }
 
@@ -175,9 +198,36 @@ proptest! {
             let rig = load_rig_text(Path::new("rig.toml"), rig_text(), &[]).expect("valid rig");
             let mut rig = rig;
             set.apply(&mut rig);
-            // Creating every law instance checks the parameters against each law's declaration.
-            let _ = tribo::rig::simulation(&rig, registry());
-            let _ = set.free_params(registry(), None);
+            // Creating every law instance checks the parameters against each law's declaration;
+            // what it accepts, the law set's own check accepts too (every value in its range).
+            if tribo::rig::simulation(&rig, registry()).is_ok() {
+                prop_assert!(set.check_params(registry()).is_ok(), "{text}");
+            }
+            // A refused parameter is named: the law-set file and the entry's field.
+            if let Err(e) = set.check_params(registry()) {
+                let shown = e.to_string();
+                prop_assert!(shown.starts_with("fuzz-lawset.toml"), "{shown}");
+                prop_assert!(e.field.starts_with("laws"), "{shown}");
+            }
+            match set.free_params(registry(), None) {
+                // A free parameter starts inside its bounds.
+                Ok(free) => {
+                    for p in free {
+                        prop_assert!(
+                            p.bounds[0] <= p.value && p.value <= p.bounds[1],
+                            "{}: {} outside {:?}",
+                            p.id,
+                            p.value,
+                            p.bounds
+                        );
+                    }
+                }
+                Err(e) => {
+                    let shown = e.to_string();
+                    prop_assert!(shown.starts_with("fuzz-lawset.toml"), "{shown}");
+                    prop_assert!(e.field.starts_with("laws"), "{shown}");
+                }
+            }
         }
     }
 }

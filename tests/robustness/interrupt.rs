@@ -27,14 +27,14 @@ fn killing_a_compare_midway_leaves_previous_results_intact() {
 
     for signal in ["INT", "KILL"] {
         // The full transient cycle of three law sets takes seconds: long enough to kill midway.
-        let mut child = Command::new(tribo_exe())
-            .args(["compare", "--quiet"])
+        let mut cmd = Command::new(tribo_exe());
+        cmd.args(["compare", "--quiet"])
             .args(ALL_LAWSETS)
             .arg("--out")
             .arg(&out)
-            .env_remove("TRIBO_PLUGIN_PATH")
-            .spawn()
-            .expect("spawns");
+            .env_remove("TRIBO_PLUGIN_PATH");
+        with_default_sigint(&mut cmd);
+        let mut child = cmd.spawn().expect("spawns");
         std::thread::sleep(Duration::from_millis(700));
         send(signal, child.id());
         let exit = child.wait().expect("waits");
@@ -57,6 +57,24 @@ fn killing_a_compare_midway_leaves_previous_results_intact() {
                 "SIG{signal}: unexpected {name}"
             );
         }
+    }
+}
+
+/// Give the child SIGINT's default disposition. A test run started as a background job of a
+/// shell without job control inherits SIGINT *ignored* (POSIX), and a child inherits that
+/// through exec: `kill -INT` would then do nothing and the run finish, which is not what this
+/// test is about. A user's Ctrl-C reaches tribo with the default disposition; so does the test.
+fn with_default_sigint(cmd: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: between fork and exec only `signal`, which touches no memory of the parent's
+    // threads (no allocation, no lock), is called.
+    unsafe {
+        cmd.pre_exec(|| {
+            if libc::signal(libc::SIGINT, libc::SIG_DFL) == libc::SIG_ERR {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
     }
 }
 
@@ -91,13 +109,13 @@ fn sigint_or_sigterm_in_the_write_phase_removes_the_temporary_set_and_keeps_the_
     for signal in ["INT", "TERM"] {
         // Each file of the new set takes 400 ms to write (the test hook): the temporary set
         // is there for seconds.
-        let mut child = Command::new(tribo_exe())
-            .args(["compare", "--steady", "--no-cv", "--quiet", "--out"])
+        let mut cmd = Command::new(tribo_exe());
+        cmd.args(["compare", "--steady", "--no-cv", "--quiet", "--out"])
             .arg(&out)
             .env("TRIBO_TEST_WRITE_PAUSE_MS", "400")
-            .env_remove("TRIBO_PLUGIN_PATH")
-            .spawn()
-            .expect("spawns");
+            .env_remove("TRIBO_PLUGIN_PATH");
+        with_default_sigint(&mut cmd);
+        let mut child = cmd.spawn().expect("spawns");
         let start = std::time::Instant::now();
         while temps_beside(&out).is_empty() {
             assert!(

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
+use tribo_core::sim::readable;
 use tribo_plugin_api::loader::LawRegistry;
 use tribo_plugin_api::ParamValue;
 
@@ -379,6 +380,28 @@ impl LawSet {
         Ok(out)
     }
 
+    /// Check every entry's parameters against its law's declaration (names, types, ranges)
+    /// without a rig and without running any law code: what a run would refuse, reported now,
+    /// located in the law set's text (`laws[i].params.NAME`).
+    pub fn check_params(&self, registry: &LawRegistry) -> Result<(), RigError> {
+        for (i, e) in self.file.laws.iter().enumerate() {
+            let lib = registry
+                .get(&e.law)
+                .map_err(|err| self.error(&format!("laws[{i}].law"), err.to_string()))?;
+            tribo_plugin_api::describe::check_params(lib.description(), &e.params).map_err(
+                |err| {
+                    let field = if err.parameter.is_empty() {
+                        format!("laws[{i}].params")
+                    } else {
+                        format!("laws[{i}].params.{}", err.parameter)
+                    };
+                    self.error(&field, format!("law `{}`: {}", e.law, err.message))
+                },
+            )?;
+        }
+        Ok(())
+    }
+
     /// An error about `field` of this law set, located in its text.
     fn error(&self, field: &str, message: String) -> RigError {
         error(&self.source.path, &self.source.text, field, message)
@@ -459,6 +482,22 @@ impl LawSet {
             .get(&param)
             .and_then(|v| v.as_float().or(v.as_integer().map(|x| x as f64)))
             .unwrap_or(default);
+        if let Some([lo, hi]) = bounds {
+            // The fit would otherwise try values the law refuses (and fail part-way), or stop
+            // at a bound that is not the law's.
+            if lo < spec.min || hi > spec.max {
+                return Err(self.error(
+                    &format!("laws[{i}].free.{param}"),
+                    format!(
+                        "the bounds [{}, {}] of free parameter `{id}` reach outside the range law `{}` accepts for `{param}`, {}; give bounds inside it",
+                        readable(lo),
+                        readable(hi),
+                        e.law,
+                        spec.range_text()
+                    ),
+                ));
+            }
+        }
         let bounds = bounds.unwrap_or([spec.min, spec.max]);
         Ok(FreeParam {
             id,

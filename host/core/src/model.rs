@@ -21,6 +21,10 @@ pub struct RigFile {
     /// Free text.
     #[serde(default)]
     pub description: String,
+    /// The engine's top speed, rpm (its maximum operating speed or rev limit): test cycles,
+    /// sweeps and measured data above it are refused. Absent: only the general limit applies.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_speed_rpm: Option<f64>,
     /// Crank radius, bore, gravity.
     pub geometry: Geometry,
     /// Crank, rod and piston.

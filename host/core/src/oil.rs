@@ -102,16 +102,31 @@ mod tests {
     }
 
     #[test]
-    fn vogel_matches_physics_notes_estimate() {
-        // physics-notes section 6: k = 0.1153, theta1 = 1105.2, theta2 = 120.06 gives about
-        // 33 cSt at 75 C, 29 at 80 C and 24 at 87 C.
+    fn vogel_evaluates_its_formula_and_thins_as_the_oil_warms() {
+        // nu = k exp(theta1 / (T + theta2)), checked where the exponent is a round number: at
+        // T = theta1 / n - theta2 the viscosity is k e^n exactly (constants: a Vogel fit of an
+        // SAE 10W-50 used as an example, estimate; any positive constants would do).
+        let (k, theta1, theta2) = (0.1153, 1105.2, 120.06);
         let m = ViscosityModel::Vogel {
-            k_cst: 0.1153,
-            theta1_c: 1105.2,
-            theta2_c: 120.06,
+            k_cst: k,
+            theta1_c: theta1,
+            theta2_c: theta2,
         };
-        assert!((m.kinematic_cst(75.0) - 33.0).abs() < 1.0);
-        assert!((m.kinematic_cst(80.0) - 29.0).abs() < 1.0);
-        assert!((m.kinematic_cst(87.0) - 24.0).abs() < 1.0);
+        for n in [4.0_f64, 5.0, 5.5, 6.0, 8.0] {
+            let t = theta1 / n - theta2;
+            let want = k * n.exp();
+            assert!(
+                (m.kinematic_cst(t) - want).abs() <= 1e-12 * want,
+                "at {t} C: {} vs {want}",
+                m.kinematic_cst(t)
+            );
+        }
+        // Falling with temperature over the range a rig may use.
+        let mut last = f64::INFINITY;
+        for t in (-20..=150).step_by(10) {
+            let nu = m.kinematic_cst(f64::from(t));
+            assert!(nu < last, "{t} C: {nu} not below {last}");
+            last = nu;
+        }
     }
 }

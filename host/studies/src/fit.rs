@@ -28,21 +28,28 @@ use tribo_config::rig::Rig;
 /// How to calibrate.
 #[derive(Debug, Clone)]
 pub struct FitOptions {
-    /// Number of start points: the law set's own values, then quasi-random points spread over
-    /// the bounds (a Halton sequence, so runs are reproducible). The best result is kept.
+    /// Latin-hypercube start points spread over the bounds, in addition to the law set's own
+    /// values and the corners of the bounds ([`start_points`]); the best result is polished and
+    /// kept.
     pub starts: usize,
     /// Whether to score the calibration out of sample (leave-one-out refits).
     pub cross_validate: bool,
     /// Data never used in fitting, scored with the fitted values.
     pub validate: Vec<DataRun>,
+    /// Accept data whose `# rig:` names another rig (`--data-for-any-rig`).
+    pub data_for_any_rig: bool,
 }
+
+/// Latin-hypercube start points when none are asked for (`tribo fit`, `tribo compare`).
+pub const DEFAULT_STARTS: usize = 4;
 
 impl Default for FitOptions {
     fn default() -> Self {
         Self {
-            starts: 1,
+            starts: DEFAULT_STARTS,
             cross_validate: true,
             validate: Vec::new(),
+            data_for_any_rig: false,
         }
     }
 }
@@ -64,14 +71,25 @@ pub struct RunFit {
     pub residuals_nm: Vec<f64>,
     /// This run's root-mean-square residual, N m.
     pub rmse_nm: f64,
-    /// Half-width of the 95% confidence band of the model torque at each point, N m (`None`
-    /// where the parameters are not determined).
+    /// Half-width of the linearised 95% confidence band of the model torque at each point, N m
+    /// (`None` where the parameters are not determined).
     pub band_half_width_nm: Option<Vec<f64>>,
+    /// The band as printed: on a log scale so it stays above zero
+    /// ([`crate::uncertainty::log_band`]), lower edges, N m.
+    #[serde(default)]
+    pub band_lower_nm: Option<Vec<f64>>,
+    /// Upper edges of that band, N m.
+    #[serde(default)]
+    pub band_upper_nm: Option<Vec<f64>>,
 }
 
 /// The outcome of one start point.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct StartOutcome {
+    /// Where the start point came from: `own values`, `corner`, `latin hypercube`, or
+    /// `polish` (a second run from the best result).
+    #[serde(default)]
+    pub kind: String,
     /// Start values.
     pub start: Vec<f64>,
     /// Values reached.
@@ -282,13 +300,36 @@ impl<'a> TorqueModel<'a> {
     }
 }
 
+/// What a calibration fits: a model's values at bounded parameters against measurements.
+/// [`TorqueModel`] is the one the studies use; the multi-start search ([`search`]) works on any.
+pub trait Objective: Sync {
+    /// Each parameter's bounds, `[lower, upper]`.
+    fn bounds(&self) -> Vec<[f64; 2]>;
+    /// The measured values, in the order [`Objective::model`] returns its values.
+    fn measured(&self) -> Vec<f64>;
+    /// The model's values at parameters `x`, or why it could not be evaluated there.
+    fn model(&self, x: &[f64]) -> Result<Vec<f64>, String>;
+}
+
+impl Objective for TorqueModel<'_> {
+    fn bounds(&self) -> Vec<[f64; 2]> {
+        self.free.iter().map(|f| f.bounds).collect()
+    }
+    fn measured(&self) -> Vec<f64> {
+        TorqueModel::measured(self)
+    }
+    fn model(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        self.torques(x)
+    }
+}
+
 /// Residual given to a parameter set that does not run, N m: steers the optimiser away. Every
 /// use is counted and reported.
 const PENALTY_NM: f64 = 1e3;
 
-/// The optimiser's view of a [`TorqueModel`]: unbounded variables, residuals, a Jacobian.
-struct Problem<'m, 'a> {
-    model: &'m TorqueModel<'a>,
+/// The optimiser's view of an [`Objective`]: unbounded variables, residuals, a Jacobian.
+struct Problem<'m> {
+    model: &'m dyn Objective,
     maps: &'m [Map],
     measured: &'m [f64],
     u: DVector<f64>,
@@ -297,14 +338,14 @@ struct Problem<'m, 'a> {
     last: Mutex<Option<(Vec<f64>, Vec<f64>)>>,
 }
 
-impl Problem<'_, '_> {
+impl Problem<'_> {
     fn x_of(&self, u: &DVector<f64>) -> Vec<f64> {
         u.iter().zip(self.maps).map(|(u, m)| m.to_x(*u)).collect()
     }
 
     fn torques_or_penalty(&self, x: &[f64]) -> Vec<f64> {
         self.model
-            .torques(x)
+            .model(x)
             .unwrap_or_else(|_| self.measured.iter().map(|d| d + PENALTY_NM).collect())
     }
 
@@ -324,7 +365,7 @@ impl Problem<'_, '_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, '_> {
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     type ResidualStorage = Owned<f64, Dyn>;
     type JacobianStorage = Owned<f64, Dyn, Dyn>;
     type ParameterStorage = Owned<f64, Dyn>;
@@ -392,6 +433,7 @@ fn termination_words(t: &TerminationReason) -> String {
 }
 
 /// One optimiser run from `start`.
+#[derive(Debug, Clone)]
 pub struct Calibration {
     /// Values reached.
     pub values: Vec<f64>,
@@ -402,8 +444,8 @@ pub struct Calibration {
 }
 
 /// Run Levenberg-Marquardt on `model` from `start` (physical values within the bounds).
-pub fn calibrate(model: &TorqueModel<'_>, start: &[f64]) -> Calibration {
-    let maps: Vec<Map> = model.free.iter().map(|f| Map::new(f.bounds)).collect();
+pub fn calibrate(model: &dyn Objective, start: &[f64]) -> Calibration {
+    let maps: Vec<Map> = model.bounds().into_iter().map(Map::new).collect();
     let measured = model.measured();
     let u0 = DVector::from_iterator(
         start.len(),
@@ -428,39 +470,207 @@ pub fn calibrate(model: &TorqueModel<'_>, start: &[f64]) -> Calibration {
     }
 }
 
-/// The `i`-th point of a Halton sequence in `dims` dimensions (bases 2, 3, 5, ...): spread-out,
-/// reproducible start points without a random generator.
-fn halton(i: usize, dims: usize) -> Vec<f64> {
-    const PRIMES: [usize; 12] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37];
-    (0..dims)
-        .map(|d| {
-            let b = PRIMES[d % PRIMES.len()];
-            let (mut f, mut r, mut k) = (1.0, 0.0, i);
-            while k > 0 {
-                f /= b as f64;
-                r += f * (k % b) as f64;
-                k /= b;
-            }
-            r
+/// Where a corner start sits, in unit coordinates of each range: just inside the bound, since
+/// the change of variable is flat on the bound itself (a start there could not move), while
+/// a minimum on the bound is still reached from here.
+const CORNER_INSET: f64 = 0.02;
+
+/// Corners used at most: all `2^k` up to four parameters, then this many of them.
+const MAX_CORNERS: usize = 16;
+
+/// A Latin hypercube of `n` points in `dims` dimensions in the unit cube: each dimension cut
+/// into `n` equal strata, one point in the middle of each, the strata paired across dimensions
+/// by a seeded shuffle (reproducible: the same points on every run).
+pub fn latin_hypercube(n: usize, dims: usize) -> Vec<Vec<f64>> {
+    use rand::seq::SliceRandom;
+    use rand::SeedableRng;
+    let mut rng = rand_xorshift::XorShiftRng::seed_from_u64(0x7472_6962_6f00 + dims as u64);
+    let columns: Vec<Vec<usize>> = (0..dims)
+        .map(|_| {
+            let mut strata: Vec<usize> = (0..n).collect();
+            strata.shuffle(&mut rng);
+            strata
+        })
+        .collect();
+    (0..n)
+        .map(|i| {
+            columns
+                .iter()
+                .map(|c| (c[i] as f64 + 0.5) / n as f64)
+                .collect()
         })
         .collect()
 }
 
-/// The start points: the law set's values, then Halton points over the bounds (kept 5% away
-/// from them, where the change of variable is flat).
-fn start_points(free: &[FreeParam], n: usize) -> Vec<Vec<f64>> {
-    let maps: Vec<Map> = free.iter().map(|f| Map::new(f.bounds)).collect();
-    let mut out = vec![free.iter().map(|f| f.value).collect::<Vec<f64>>()];
-    for i in 1..n {
-        let h = halton(i, free.len());
-        out.push(
-            h.iter()
-                .zip(&maps)
-                .map(|(s, m)| m.at_unit(0.05 + 0.9 * s))
-                .collect(),
-        );
+/// The corners of the unit cube in `dims` dimensions (inset by [`CORNER_INSET`]): all of them
+/// up to [`MAX_CORNERS`], else the two opposite extremes and corners picked by the bits of
+/// spread-out integers.
+fn corners(dims: usize) -> Vec<Vec<f64>> {
+    let at = |bits: u64| -> Vec<f64> {
+        (0..dims)
+            .map(|d| {
+                if bits >> (d % 64) & 1 == 1 {
+                    1.0 - CORNER_INSET
+                } else {
+                    CORNER_INSET
+                }
+            })
+            .collect()
+    };
+    if dims == 0 {
+        return Vec::new();
     }
+    if dims <= 4 {
+        return (0..1u64 << dims).map(at).collect();
+    }
+    let mut picked = vec![0u64, u64::MAX];
+    let mut k = 1u64;
+    while picked.len() < MAX_CORNERS {
+        // Golden-ratio multiples walk through the bit patterns without repeating early ones.
+        let bits = k.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        k += 1;
+        let mask = if dims >= 64 {
+            u64::MAX
+        } else {
+            (1u64 << dims) - 1
+        };
+        if !picked.iter().any(|p| p & mask == bits & mask) {
+            picked.push(bits);
+        }
+    }
+    picked.into_iter().map(at).collect()
+}
+
+/// The start points of a calibration, each with where it came from: the law set's own values,
+/// the corners of the bounds box, then `lhs` Latin-hypercube points over it. Spread over the
+/// whole box so that a minimum on a bound is found even when the own values sit in the basin
+/// of a minimum inside.
+pub fn start_points(own: &[f64], bounds: &[[f64; 2]], lhs: usize) -> Vec<(&'static str, Vec<f64>)> {
+    if bounds.is_empty() {
+        return vec![("own values", own.to_vec())];
+    }
+    let maps: Vec<Map> = bounds.iter().copied().map(Map::new).collect();
+    let physical =
+        |unit: &[f64]| -> Vec<f64> { unit.iter().zip(&maps).map(|(s, m)| m.at_unit(*s)).collect() };
+    let mut out = vec![("own values", own.to_vec())];
+    out.extend(
+        corners(bounds.len())
+            .iter()
+            .map(|c| ("corner", physical(c))),
+    );
+    out.extend(
+        latin_hypercube(lhs, bounds.len())
+            .iter()
+            .map(|p| ("latin hypercube", physical(p))),
+    );
     out
+}
+
+/// Root-mean-square of `model` minus `measured`.
+fn rmse_of(model: &[f64], measured: &[f64]) -> f64 {
+    errors(model, measured).1
+}
+
+/// The outcome of a multi-start search: every start's calibration and the polished best.
+pub struct Search {
+    /// Every start: where it came from, its values, the calibration, its RMSE (if it runs).
+    pub outcomes: Vec<(&'static str, Vec<f64>, Calibration, Option<f64>)>,
+    /// Index of the outcome the best result came from (before polishing).
+    pub best: usize,
+    /// The best result after a second optimiser run from it (kept only if no worse).
+    pub result: Calibration,
+    /// Its RMSE.
+    pub rmse: f64,
+}
+
+/// Calibrate `model` from every start point of [`start_points`] (in parallel), take the best,
+/// and polish it with a fresh optimiser run from there (the damping the first run ended with
+/// can stop it short of a minimum on a bound). `None` if no start reached values that run.
+pub fn search(model: &dyn Objective, own: &[f64], lhs: usize) -> Option<Search> {
+    let measured = model.measured();
+    let bounds = model.bounds();
+    let mut outcomes: Vec<(&'static str, Vec<f64>, Calibration, Option<f64>)> =
+        start_points(own, &bounds, lhs)
+            .into_par_iter()
+            .map(|(kind, s)| {
+                let c = calibrate(model, &s);
+                let rmse = model.model(&c.values).ok().map(|t| rmse_of(&t, &measured));
+                (kind, s, c, rmse)
+            })
+            .collect();
+    let best = outcomes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, o)| o.3.map(|r| (i, r)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)?;
+    let (mut result, mut rmse) = (outcomes[best].2.clone(), outcomes[best].3?);
+    let polished = calibrate(model, &result.values);
+    let polished_rmse = model
+        .model(&polished.values)
+        .ok()
+        .map(|t| rmse_of(&t, &measured));
+    outcomes.push((
+        "polish",
+        result.values.clone(),
+        polished.clone(),
+        polished_rmse,
+    ));
+    if let Some(r) = polished_rmse.filter(|r| *r <= rmse) {
+        (result, rmse) = (polished, r);
+    }
+    Some(Search {
+        outcomes,
+        best,
+        result,
+        rmse,
+    })
+}
+
+/// How far the residuals must lean on a parameter at its bound, as the cosine between the
+/// residual vector and the torque's sensitivity to it, before the bound counts as pushed: at
+/// an optimum inside the range that cosine is zero (the gradient vanishes).
+const PUSH_COSINE: f64 = 1e-3;
+
+/// Whether the data push parameter `k` of `x` past its `side` bound: the sum of squares would
+/// still fall beyond it. Its gradient there is `2 r . J_k`; the bound is pushed when that
+/// points outwards and the cosine between the residuals `r` and the sensitivity `J_k` (a
+/// difference into the range) exceeds [`PUSH_COSINE`]. A bound reached along a direction the
+/// error does not change in (a valley the data cannot resolve) is not pushed.
+fn pushed_past_bound(
+    model: &TorqueModel<'_>,
+    x: &[f64],
+    residuals: &[f64],
+    k: usize,
+    side: &str,
+) -> bool {
+    let [lo, hi] = model.free()[k].bounds;
+    let inward = if side == "lower" { 1.0 } else { -1.0 };
+    let h = 1e-6 * (hi - lo).abs().max(1e-300);
+    let mut xi = x.to_vec();
+    xi[k] = (x[k] + inward * h).clamp(lo, hi);
+    let (Ok(inside), Ok(at)) = (model.torques(&xi), model.torques(x)) else {
+        // The range's inside does not run: the bound is what holds the fit.
+        return true;
+    };
+    let step = xi[k] - x[k];
+    if step == 0.0 {
+        return true;
+    }
+    let jk: Vec<f64> = inside
+        .iter()
+        .zip(&at)
+        .map(|(a, b)| (a - b) / step)
+        .collect();
+    let dot: f64 = residuals.iter().zip(&jk).map(|(r, j)| r * j).sum();
+    let norms = residuals.iter().map(|r| r * r).sum::<f64>().sqrt()
+        * jk.iter().map(|j| j * j).sum::<f64>().sqrt();
+    if norms <= 0.0 {
+        return false;
+    }
+    // dS/dx = 2 r . J_k: positive at a lower bound (S rises into the range), negative at an
+    // upper one, when the data push outwards.
+    inward * dot / norms > PUSH_COSINE
 }
 
 /// Which bound, if any, `x` ended on (within 0.1% of the range, in the optimiser's scale).
@@ -514,6 +724,7 @@ pub fn fit(
     // Every input checked before anything runs.
     crate::study::check_lawsets(rig, std::slice::from_ref(lawset), registry)?;
     for d in runs.iter().chain(&options.validate) {
+        crate::study::check_data_rig(rig, d, options.data_for_any_rig)?;
         crate::study::check_data(rig, d)?;
     }
     let model = TorqueModel::new(rig, lawset, free, runs.to_vec(), registry);
@@ -528,31 +739,35 @@ pub fn fit(
         return Err(data_error(format!("the start values do not run: {e}")));
     }
     let measured = model.measured();
-    let outcomes = run_starts(&model, free, options.starts.max(1), &measured);
-    let best = outcomes
-        .iter()
-        .enumerate()
-        .filter_map(|(i, o)| o.2.map(|r| (i, r)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(i, _)| i)
-        .ok_or_else(|| {
-            data_error(format!(
-                "no start point reached values that run: {}",
-                model.failures().1.unwrap_or_default()
-            ))
-        })?;
-    let (best_start, cal, _) = &outcomes[best];
+    let found = search(&model, &start, options.starts).ok_or_else(|| {
+        data_error(format!(
+            "no start point reached values that run: {}",
+            model.failures().1.unwrap_or_default()
+        ))
+    })?;
+    let best_start = &found.outcomes[found.best].1;
+    let cal = &found.result;
     let x = cal.values.clone();
     let torques = model
         .torques(&x)
         .map_err(|e| data_error(format!("the fitted values do not run: {e}")))?;
     let (residuals_nm, rmse_nm, _) = errors(&torques, &measured);
-    let on_bound: Vec<bool> = x
+    let at_bound: Vec<Option<String>> = x
         .iter()
         .zip(free)
-        .map(|(v, f)| bound_hit(*v, f.bounds).is_some())
+        .map(|(v, f)| bound_hit(*v, f.bounds))
         .collect();
-    let unc = uncertainty_within_bounds(&model, &x, &residuals_nm, &on_bound);
+    // Held by its bound only where the data push it there; one that reached a bound along a
+    // direction the error does not change in is analysed as inside its range.
+    let held: Vec<bool> = at_bound
+        .iter()
+        .enumerate()
+        .map(|(k, side)| {
+            side.as_deref()
+                .is_some_and(|side| pushed_past_bound(&model, &x, &residuals_nm, k, side))
+        })
+        .collect();
+    let unc = uncertainty_within_bounds(&model, &x, &residuals_nm, &held);
     let scores = score::scores_for_fit(&model, &x, &residuals_nm, options.cross_validate);
     let fitted = lawset.with_values(free, &x);
     let validation = options
@@ -561,14 +776,11 @@ pub fn fit(
         .map(|v| score::validate(rig, &fitted, v, registry, true))
         .collect::<Result<Vec<_>, _>>()?;
 
-    let at_bound: Vec<Option<String>> = x
+    let start_outcomes: Vec<StartOutcome> = found
+        .outcomes
         .iter()
-        .zip(free)
-        .map(|(v, f)| bound_hit(*v, f.bounds))
-        .collect();
-    let start_outcomes: Vec<StartOutcome> = outcomes
-        .iter()
-        .map(|(s, c, r)| StartOutcome {
+        .map(|(kind, s, c, r)| StartOutcome {
+            kind: kind.to_string(),
             start: s.clone(),
             values: c.values.clone(),
             rmse_nm: *r,
@@ -580,6 +792,7 @@ pub fn fit(
         free,
         uncertainty: &unc,
         at_bound: &at_bound,
+        held: &held,
         failed,
         evaluations: model.evaluations(),
         first_failure: first_failure.as_deref(),
@@ -622,31 +835,12 @@ pub fn fit(
     ))
 }
 
-/// Every start point calibrated (in parallel): start, outcome, RMSE reached (if it runs).
-fn run_starts(
-    model: &TorqueModel<'_>,
-    free: &[FreeParam],
-    n: usize,
-    measured: &[f64],
-) -> Vec<(Vec<f64>, Calibration, Option<f64>)> {
-    start_points(free, n)
-        .into_par_iter()
-        .map(|s| {
-            let c = calibrate(model, &s);
-            let rmse = model
-                .torques(&c.values)
-                .ok()
-                .map(|t| errors(&t, measured).1);
-            (s, c, rmse)
-        })
-        .collect()
-}
-
 /// What a calibration found that the user must be told.
 struct FitFindings<'f> {
     free: &'f [FreeParam],
     uncertainty: &'f Uncertainty,
     at_bound: &'f [Option<String>],
+    held: &'f [bool],
     failed: usize,
     evaluations: usize,
     first_failure: Option<&'f str>,
@@ -660,12 +854,17 @@ struct FitFindings<'f> {
 /// did not run, no convergence, the spread of the start points, what the scores cannot say.
 fn fit_warnings(f: FitFindings<'_>) -> Vec<String> {
     let mut warnings = f.uncertainty.statements.clone();
-    for (p, b) in f.free.iter().zip(f.at_bound) {
-        if let Some(side) = b {
-            warnings.push(format!(
+    for ((p, b), held) in f.free.iter().zip(f.at_bound).zip(f.held) {
+        match (b, held) {
+            (Some(side), true) => warnings.push(format!(
                 "{}: ended on its {side} bound ({:?}); the data push it beyond the range you allowed, so the value is the bound, not an estimate",
                 p.id, p.bounds
-            ));
+            )),
+            (Some(side), false) => warnings.push(format!(
+                "{}: ended on its {side} bound ({:?}), but the error does not change as it moves back into its range: the bound is where a direction the data do not determine ended, not a limit the data push against",
+                p.id, p.bounds
+            )),
+            _ => {}
         }
     }
     if f.failed > 0 {
@@ -705,6 +904,14 @@ fn run_fits(
             offset += n;
             let res = residuals[range.clone()].to_vec();
             let rmse = (res.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt();
+            let half = unc
+                .band_half_width_nm
+                .as_ref()
+                .map(|b| b[range.clone()].to_vec());
+            let band = half
+                .as_ref()
+                .and_then(|h| crate::uncertainty::log_band(&torques[range.clone()], h));
+            let (band_lower_nm, band_upper_nm) = band.unzip();
             RunFit {
                 file: r.file.display().to_string(),
                 speeds_rpm: r.rows.iter().map(|d| d.speed_rpm).collect(),
@@ -713,10 +920,9 @@ fn run_fits(
                 model_nm: torques[range.clone()].to_vec(),
                 residuals_nm: res,
                 rmse_nm: rmse,
-                band_half_width_nm: unc
-                    .band_half_width_nm
-                    .as_ref()
-                    .map(|b| b[range.clone()].to_vec()),
+                band_half_width_nm: half,
+                band_lower_nm,
+                band_upper_nm,
             }
         })
         .collect()
@@ -725,8 +931,10 @@ fn run_fits(
 /// How far apart the start points ended: distinct minima with near-equal error mean the data
 /// do not single out one parameter set.
 fn start_spread(free: &[FreeParam], starts: &[StartOutcome], best_rmse: f64) -> Vec<String> {
+    let starts: Vec<&StartOutcome> = starts.iter().filter(|s| s.kind != "polish").collect();
     let near: Vec<&StartOutcome> = starts
         .iter()
+        .copied()
         .filter(|s| s.rmse_nm.is_some_and(|r| r <= 1.05 * best_rmse + 1e-12))
         .collect();
     let mut out = vec![format!(
@@ -757,20 +965,101 @@ mod tests {
     use super::*;
 
     #[test]
-    fn halton_points_fill_the_unit_cube_without_repeats() {
-        let pts: Vec<Vec<f64>> = (1..50).map(|i| halton(i, 3)).collect();
-        for p in &pts {
-            assert!(p.iter().all(|v| (0.0..1.0).contains(v)));
-        }
-        for (i, a) in pts.iter().enumerate() {
-            for b in &pts[i + 1..] {
-                assert_ne!(a, b);
+    fn latin_hypercube_puts_one_point_in_every_stratum_of_every_dimension() {
+        for (n, dims) in [(1, 1), (5, 3), (8, 2), (13, 6)] {
+            let pts = latin_hypercube(n, dims);
+            assert_eq!(pts.len(), n);
+            for d in 0..dims {
+                let mut strata: Vec<usize> = pts
+                    .iter()
+                    .map(|p| (p[d] * n as f64).floor() as usize)
+                    .collect();
+                strata.sort_unstable();
+                assert_eq!(strata, (0..n).collect::<Vec<_>>(), "n {n}, dimension {d}");
             }
         }
-        // Base 2 in the first dimension: 1/2, 1/4, 3/4, ...
-        assert_eq!(halton(1, 1)[0], 0.5);
-        assert_eq!(halton(2, 1)[0], 0.25);
-        assert_eq!(halton(3, 1)[0], 0.75);
+        // Reproducible: the same design on every call.
+        assert_eq!(latin_hypercube(6, 3), latin_hypercube(6, 3));
+    }
+
+    #[test]
+    fn corners_are_all_vertices_up_to_four_dimensions_and_distinct_beyond() {
+        for dims in 1..=4 {
+            let c = corners(dims);
+            assert_eq!(c.len(), 1 << dims);
+            for (i, a) in c.iter().enumerate() {
+                assert!(a
+                    .iter()
+                    .all(|v| *v == CORNER_INSET || *v == 1.0 - CORNER_INSET));
+                assert!(c[i + 1..].iter().all(|b| b != a));
+            }
+        }
+        let c = corners(6);
+        assert_eq!(c.len(), MAX_CORNERS);
+        assert!(c.contains(&vec![CORNER_INSET; 6]) && c.contains(&vec![1.0 - CORNER_INSET; 6]));
+        for (i, a) in c.iter().enumerate() {
+            assert!(c[i + 1..].iter().all(|b| b != a));
+        }
+    }
+
+    /// Residuals with a minimum inside the range and a lower one on its upper bound, in the
+    /// first parameter; the second has a plain minimum inside. Known optimum: x0 = 1 (the
+    /// bound), x1 = 0.4.
+    struct BoundOptimum;
+
+    impl BoundOptimum {
+        /// Sum of squares along x0: `(x - 0.3)^2 + 4 (1 - s(x))^2` with a steep logistic step
+        /// `s` at 0.9. Near 0.3 the step is flat (`s` ~ 1e-5), so 0.3 is a minimum (4.0);
+        /// past the step the second term vanishes and at x = 1 the sum is 0.55, still falling
+        /// (its slope there is -0.6), so the bound holds the optimum.
+        fn residuals(x: f64) -> [f64; 2] {
+            let s = 1.0 / (1.0 + (-(x - 0.9) / 0.05).exp());
+            [x - 0.3, 2.0 * (1.0 - s)]
+        }
+    }
+
+    impl Objective for BoundOptimum {
+        fn bounds(&self) -> Vec<[f64; 2]> {
+            vec![[0.0, 1.0], [0.0, 1.0]]
+        }
+        fn measured(&self) -> Vec<f64> {
+            vec![0.0; 3]
+        }
+        fn model(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+            let [a, b] = Self::residuals(x[0]);
+            Ok(vec![a, b, x[1] - 0.4])
+        }
+    }
+
+    #[test]
+    fn multi_start_finds_a_global_optimum_on_a_bound_past_a_local_one_inside() {
+        let own = [0.28, 0.9];
+        // From the own values alone the optimiser settles in the inner minimum: the case the
+        // spread start points exist for.
+        let local = calibrate(&BoundOptimum, &own);
+        assert!((local.values[0] - 0.3).abs() < 1e-3, "{:?}", local.values);
+        let found = search(&BoundOptimum, &own, 4).expect("runs");
+        let x = &found.result.values;
+        assert_eq!(
+            bound_hit(x[0], [0.0, 1.0]).as_deref(),
+            Some("upper"),
+            "{x:?}"
+        );
+        assert!((x[1] - 0.4).abs() < 1e-4, "{x:?}");
+        let [a, b] = BoundOptimum::residuals(1.0);
+        let best = ((a * a + b * b) / 3.0).sqrt();
+        assert!(
+            (found.rmse - best).abs() < 1e-3 * best,
+            "{} vs {best}",
+            found.rmse
+        );
+        // Every kind of start is there: own values, 4 corners, 4 Latin-hypercube points, and
+        // the polish of the best.
+        let kinds: Vec<&str> = found.outcomes.iter().map(|o| o.0).collect();
+        assert_eq!(kinds.iter().filter(|k| **k == "corner").count(), 4);
+        assert_eq!(kinds.iter().filter(|k| **k == "latin hypercube").count(), 4);
+        assert_eq!(kinds.first(), Some(&"own values"));
+        assert_eq!(kinds.last(), Some(&"polish"));
     }
 
     #[test]

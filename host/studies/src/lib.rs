@@ -1,7 +1,8 @@
 //! # tribo-studies
 //!
 //! The studies users come for, as a library: law sets side by side against measured torque and
-//! ranked by their out-of-sample error ([`study::compare`], [`score`], [`uncertainty`]),
+//! ranked by their out-of-sample error ([`study::compare`], [`score`], [`uncertainty`]) with a
+//! one-sentence [`verdict`],
 //! calibration of free parameters on one or several runs ([`fit`]), the response to a lighter
 //! or heavier body ([`study::mass_response`]) and to oil temperature ([`study::sweep`]). Runs
 //! go through `tribo_core`; rigs and law sets come from `tribo_config`. No printing, no files
@@ -11,3 +12,4 @@ pub mod fit;
 pub mod score;
 pub mod study;
 pub mod uncertainty;
+pub mod verdict;

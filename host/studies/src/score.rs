@@ -103,25 +103,20 @@ fn split(runs: &[DataRun], skip: usize) -> (Vec<DataRun>, DataRun) {
         let mut rows = Vec::new();
         for d in &r.rows {
             if i == skip {
-                left = Some(DataRun {
-                    file: r.file.clone(),
-                    rows: vec![*d],
-                });
+                left = Some(r.with_rows(vec![*d]));
             } else {
                 rows.push(*d);
             }
             i += 1;
         }
         if !rows.is_empty() {
-            rest.push(DataRun {
-                file: r.file.clone(),
-                rows,
-            });
+            rest.push(r.with_rows(rows));
         }
     }
     let left = left.unwrap_or_else(|| DataRun {
         file: Default::default(),
         rows: Vec::new(),
+        meta: Default::default(),
     });
     (rest, left)
 }
@@ -261,16 +256,16 @@ pub fn temperature_response(
     registry: &LawRegistry,
 ) -> Result<TemperatureResponse, StudyError> {
     let (lo_c, hi_c) = tribo_core::oil::VALID_RANGE_C;
-    let shifted = |dt: f64| DataRun {
-        file: data.file.clone(),
-        rows: data
-            .rows
-            .iter()
-            .map(|d| crate::study::DataRow {
-                oil_temp_c: (d.oil_temp_c + dt).clamp(lo_c, hi_c),
-                ..*d
-            })
-            .collect(),
+    let shifted = |dt: f64| {
+        data.with_rows(
+            data.rows
+                .iter()
+                .map(|d| crate::study::DataRow {
+                    oil_temp_c: (d.oil_temp_c + dt).clamp(lo_c, hi_c),
+                    ..*d
+                })
+                .collect(),
+        )
     };
     let (cold, warm) = (shifted(-5.0), shifted(5.0));
     let run = |d: &DataRun| validate(rig, lawset, d, registry, true).map(|v| v.model_nm);
@@ -360,10 +355,12 @@ mod tests {
             DataRun {
                 file: "a".into(),
                 rows: vec![row(3000.0), row(4000.0)],
+                meta: Default::default(),
             },
             DataRun {
                 file: "b".into(),
                 rows: vec![row(5000.0)],
+                meta: Default::default(),
             },
         ];
         for skip in 0..3 {

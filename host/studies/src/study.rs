@@ -9,7 +9,7 @@ use tribo_plugin_api::loader::LawRegistry;
 
 use crate::fit::TorqueModel;
 use crate::score::{self, Scores, TemperatureResponse, Validation};
-use crate::uncertainty::{uncertainty_within_bounds, Uncertainty};
+use crate::uncertainty::Uncertainty;
 use tribo_config::lawset::{FreeParam, LawSet};
 use tribo_config::rig::{readable, Rig, RigError, Temperature};
 use tribo_core::cycle::Segment;
@@ -93,7 +93,7 @@ pub fn check_lawsets(
     lawsets: &[LawSet],
     registry: &LawRegistry,
 ) -> Result<(), StudyError> {
-    check_each(rig, lawsets, |r| {
+    check_each(rig, lawsets, registry, |r| {
         tribo_config::rig::simulation(r, registry).map(drop)
     })
 }
@@ -106,13 +106,18 @@ pub fn check_lawsets_described(
     lawsets: &[LawSet],
     registry: &LawRegistry,
 ) -> Result<(), StudyError> {
-    check_each(rig, lawsets, |r| tribo_config::rig::check_laws(r, registry))
+    check_each(rig, lawsets, registry, |r| {
+        tribo_config::rig::check_laws(r, registry)
+    })
 }
 
-/// Unique names, then `check` on `rig` prepared with each law set, its error named by the set.
+/// Unique names, then `check` on `rig` prepared with each law set, its error named by the set,
+/// and its free parameters resolved against the laws' declarations (bounds inside each law's
+/// own range).
 fn check_each(
     rig: &Rig,
     lawsets: &[LawSet],
+    registry: &LawRegistry,
     check: impl Fn(&Rig) -> Result<(), SimError>,
 ) -> Result<(), StudyError> {
     check_unique_names(lawsets)?;
@@ -122,6 +127,9 @@ fn check_each(
             lawset: ls.name().into(),
             error: Box::new(e),
         })?;
+        if ls.file.laws.iter().any(|e| !e.free.is_empty()) {
+            ls.free_params(registry, None).map_err(Box::new)?;
+        }
     }
     Ok(())
 }
@@ -159,49 +167,180 @@ pub struct DataRun {
     pub file: PathBuf,
     /// Its points, sorted by speed.
     pub rows: Vec<DataRow>,
+    /// What the file declares about itself: the rig it was measured on, its noise.
+    #[serde(default)]
+    pub meta: DataMeta,
 }
 
 impl DataRun {
-    /// Read a data run from a file or a bundled data file by name (see [`read_data`]).
+    /// Read a data run from a file or a bundled data file by name (see [`read_data`]), with
+    /// what its comment lines declare ([`parse_meta`]).
     pub fn read(arg: &str) -> Result<Self, StudyError> {
-        read_data(arg).map(|(file, rows)| Self { file, rows })
+        let (file, text) = data_text(arg)?;
+        let rows = parse_data(&file, &text)?;
+        let meta = parse_meta(&file, &text)?;
+        Ok(Self { file, rows, meta })
+    }
+
+    /// The same file and declarations with other rows (a subset, or shifted temperatures).
+    pub fn with_rows(&self, rows: Vec<DataRow>) -> Self {
+        Self {
+            file: self.file.clone(),
+            rows,
+            meta: self.meta.clone(),
+        }
     }
 }
 
-/// Read a `speed_rpm,torque_nm,oil_temp_c` CSV from disk, or a bundled data file by name.
-/// Lines starting with `#` are comments (sources).
-pub fn read_data(arg: &str) -> Result<(PathBuf, Vec<DataRow>), StudyError> {
-    let path = PathBuf::from(arg);
-    let text = match tribo_config::files::read_text(&path) {
-        Ok(t) => t,
-        Err(e) if !e.is_not_found() => {
-            return Err(StudyError::Data {
-                file: path,
-                line: None,
-                message: format!("the data file {e}"),
-            })
+/// What a data file declares about itself in comment lines of the form `# key: value`, so a
+/// study can tell which rig the data belong to and how noisy they are. Other comment lines are
+/// free text (sources), and only these keys are read.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct DataMeta {
+    /// The rig the data were measured on, by its `name` (`# rig: crf250r-motored`). A study on
+    /// another rig refuses the file unless told the data apply to any rig.
+    pub rig: Option<String>,
+    /// The measurement's noise, one standard deviation, N m (`# noise_nm: 0.05`): the verdict
+    /// of `compare` says whether a set predicts the data within it.
+    pub noise_nm: Option<f64>,
+}
+
+/// The `# rig:` and `# noise_nm:` declarations of a data file's text (see [`DataMeta`]); a
+/// declared noise that is not a positive number is an error at its line.
+pub fn parse_meta(path: &Path, text: &str) -> Result<DataMeta, StudyError> {
+    let mut meta = DataMeta::default();
+    for (i, line) in text.lines().enumerate() {
+        let Some(comment) = line.trim_start_matches('\u{feff}').trim().strip_prefix('#') else {
+            continue;
+        };
+        let Some((key, value)) = comment.split_once(':') else {
+            continue;
+        };
+        let value = value.trim();
+        match key.trim() {
+            "rig" if !value.is_empty() => meta.rig = Some(value.to_string()),
+            "noise_nm" => {
+                let noise = value.split_whitespace().next().unwrap_or("");
+                match noise.parse::<f64>() {
+                    Ok(x) if x.is_finite() && x > 0.0 => meta.noise_nm = Some(x),
+                    _ => {
+                        return Err(StudyError::Data {
+                            file: path.to_path_buf(),
+                            line: Some(i as u64 + 1),
+                            message: format!(
+                                "`# noise_nm: {value}`: the measurement noise must be a positive number of N m (one standard deviation), e.g. `# noise_nm: 0.05`"
+                            ),
+                        })
+                    }
+                }
+            }
+            _ => {}
         }
+    }
+    Ok(meta)
+}
+
+/// The bundled data file measured on rig `rig_name` (the first whose `# rig:` names it), if
+/// any: what a study compares against when no data are given.
+pub fn bundled_data_for(rig_name: &str) -> Option<&'static str> {
+    tribo_config::bundled::data_names()
+        .into_iter()
+        .find(|name| {
+            tribo_config::bundled::data(name)
+                .and_then(|text| parse_meta(Path::new(name), text).ok())
+                .is_some_and(|m| m.rig.as_deref() == Some(rig_name))
+        })
+}
+
+/// The data a study on `rig` compares against when none are given: the bundled measurements
+/// made on that rig ([`bundled_data_for`]). A rig without any is an error asking for data: no
+/// bundled data are used on a rig they were not measured on.
+pub fn default_data(rig: &Rig) -> Result<&'static str, StudyError> {
+    bundled_data_for(&rig.file.name).ok_or_else(|| {
+        let measured: Vec<String> = tribo_config::bundled::data_names()
+            .into_iter()
+            .filter_map(|n| {
+                let meta = parse_meta(Path::new(n), tribo_config::bundled::data(n)?).ok()?;
+                Some(format!("{} ({n})", meta.rig?))
+            })
+            .collect();
+        StudyError::Data {
+            file: PathBuf::from("--data"),
+            line: None,
+            message: format!(
+                "rig `{}` has no bundled measurements (the bundled data were measured on {}): give yours (columns speed_rpm,torque_nm,oil_temp_c), or use `tribo sweep` or `tribo run` for the model alone",
+                rig.file.name,
+                measured.join(", ")
+            ),
+        }
+    })
+}
+
+/// Refuse speeds above the rig's declared top speed (`max_speed_rpm`), and data measured on
+/// another rig than `rig` (the data file's `# rig:`) unless `any_rig` (`--data-for-any-rig`).
+pub fn check_data_rig(rig: &Rig, data: &DataRun, any_rig: bool) -> Result<(), StudyError> {
+    let err = |message: String| StudyError::Data {
+        file: data.file.clone(),
+        line: None,
+        message,
+    };
+    if let Some(measured_on) = &data.meta.rig {
+        if !any_rig && *measured_on != rig.file.name {
+            return Err(err(format!(
+                "these data were measured on rig `{measured_on}` (its `# rig:` line), and this study runs rig `{}`: scoring one engine against another's measurements says nothing about either; give data measured on `{}` with --data, or pass --data-for-any-rig if they do apply",
+                rig.file.name, rig.file.name
+            )));
+        }
+    }
+    if let Some(top) = rig.file.max_speed_rpm {
+        if let Some(row) = data.rows.iter().find(|r| r.speed_rpm > top) {
+            return Err(err(format!(
+                "{} rpm is above the top speed of rig `{}` (max_speed_rpm = {} rpm): no measurement can have been made there",
+                readable(row.speed_rpm),
+                rig.file.name,
+                readable(top)
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Read a `speed_rpm,torque_nm,oil_temp_c` CSV from disk, or a bundled data file by name.
+/// Lines starting with `#` are comments (sources, and the declarations of [`parse_meta`]).
+pub fn read_data(arg: &str) -> Result<(PathBuf, Vec<DataRow>), StudyError> {
+    let (path, text) = data_text(arg)?;
+    parse_data(&path, &text).map(|r| (path, r))
+}
+
+/// A data file's name (`<bundled>/NAME` for a bundled one) and text: from disk, or bundled by
+/// that name when no such file exists.
+fn data_text(arg: &str) -> Result<(PathBuf, String), StudyError> {
+    let path = PathBuf::from(arg);
+    match tribo_config::files::read_text(&path) {
+        Ok(t) => Ok((path, t)),
+        Err(e) if !e.is_not_found() => Err(StudyError::Data {
+            file: path,
+            line: None,
+            message: format!("the data file {e}"),
+        }),
         Err(e) => match tribo_config::bundled::data(arg) {
-            Some(t) => {
-                let name = PathBuf::from(format!(
+            Some(t) => Ok((
+                PathBuf::from(format!(
                     "<bundled>/{}",
                     tribo_config::bundled::file_name(arg)
-                ));
-                return parse_data(&name, t).map(|r| (name, r));
-            }
-            None => {
-                return Err(StudyError::Data {
-                    file: path,
-                    line: None,
-                    message: format!(
-                        "{e}, and no bundled data file has that name; bundled: {}",
-                        tribo_config::bundled::data_names().join(", ")
-                    ),
-                })
-            }
+                )),
+                t.to_string(),
+            )),
+            None => Err(StudyError::Data {
+                file: path,
+                line: None,
+                message: format!(
+                    "{e}, and no bundled data file has that name; bundled: {}",
+                    tribo_config::bundled::data_names().join(", ")
+                ),
+            }),
         },
-    };
-    parse_data(&path, &text).map(|r| (path, r))
+    }
 }
 
 /// The largest measured torque accepted, N m: a motored engine's friction torque is tens of
@@ -377,17 +516,94 @@ pub struct SetResult {
     pub scores: Scores,
     /// The linearised uncertainty of the free parameters and the 95% band of the torque.
     pub uncertainty: Uncertainty,
-    /// Lower edge of the 95% confidence band of the model torque at each speed, N m.
+    /// How the set's free parameters were treated: fitted to these data before scoring, kept
+    /// at the file's values (`--no-fit`), or none to fit; with each parameter's estimate.
+    pub calibration: SetCalibration,
+    /// The law set with the fitted values, as TOML (fitted sets only; `compare` writes it as
+    /// `fitted_<set>.toml` beside the results).
+    pub fitted_lawset_toml: Option<String>,
+    /// Lower edge of the 95% confidence band of the model torque at each speed, N m: the
+    /// delta-method band of `ln T` mapped back, `T exp(-h/T)` with `h` the linearised
+    /// half-width, so it stays above zero (see [`crate::uncertainty::log_band`]).
     pub band_lower_nm: Option<Vec<f64>>,
-    /// Upper edge of the band, N m.
+    /// Upper edge of the band, `T exp(h/T)`, N m.
     pub band_upper_nm: Option<Vec<f64>>,
-    /// The band is wider than the spread of the measured torques: the data do not determine
-    /// this set's prediction.
-    pub band_wider_than_data: bool,
+    /// Whether the band is wider than the spread of the measured torques (then the data do not
+    /// determine this set's prediction); `None` when there is no band.
+    pub band_wider_than_data: Option<bool>,
+    /// Why there is no band, in words (`None` when there is one).
+    pub band_note: Option<String>,
     /// How the torque moves as the oil warms, at each data point.
     pub temperature_response: TemperatureResponse,
     /// Scores on data never used in fitting (`--validate`).
     pub validation: Vec<Validation>,
+}
+
+/// How a set's free parameters entered a comparison.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CalibrationStatus {
+    /// Calibrated on the comparison's data before it was scored (as `tribo fit` does).
+    #[serde(rename = "fitted")]
+    Fitted,
+    /// Kept at the law-set file's values (`--no-fit`), and scored as they are.
+    #[serde(rename = "not fitted")]
+    NotFitted,
+    /// The set has no free parameters.
+    #[serde(rename = "no free parameters")]
+    NoFreeParameters,
+}
+
+impl CalibrationStatus {
+    /// The words used in tables, CSV and plot legends.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Fitted => "fitted",
+            Self::NotFitted => "not fitted",
+            Self::NoFreeParameters => "no free parameters",
+        }
+    }
+}
+
+/// One free parameter of a set in a comparison.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ParamEstimate {
+    /// `joint.law.param`.
+    pub id: String,
+    /// The law-set file's value (the fit's own start point).
+    pub start: f64,
+    /// The value scored: fitted, or the file's when not fitted.
+    pub value: f64,
+    /// The allowed range.
+    pub bounds: [f64; 2],
+    /// `lower` or `upper` when the value sits on that bound.
+    pub at_bound: Option<String>,
+    /// 1-sigma uncertainty, where the data determine it.
+    pub std_dev: Option<f64>,
+    /// Fitted inside its range with a 1-sigma uncertainty at most half its value
+    /// ([`crate::uncertainty::POORLY_DETERMINED`]).
+    pub determined: bool,
+}
+
+/// How a set's free parameters were treated in a comparison, and their values.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SetCalibration {
+    /// Fitted, not fitted, or nothing to fit.
+    pub status: CalibrationStatus,
+    /// Each free parameter.
+    pub params: Vec<ParamEstimate>,
+    /// Why the optimiser stopped (fitted sets).
+    pub termination: Option<String>,
+}
+
+impl SetCalibration {
+    /// Parameters on a bound.
+    pub fn on_bounds(&self) -> usize {
+        self.params.iter().filter(|p| p.at_bound.is_some()).count()
+    }
+    /// Parameters the data do not determine (on a bound, or without a usable sigma).
+    pub fn undetermined(&self) -> usize {
+        self.params.iter().filter(|p| !p.determined).count()
+    }
 }
 
 /// How a study runs the rig at each speed. Serialized (and displayed) as `steady` or
@@ -439,6 +655,10 @@ pub struct Comparison {
     pub mode: RunMode,
     /// What the ranking rests on, in words.
     pub ranked_by: String,
+    /// The data's noise, one standard deviation, N m, as the data file declares it.
+    pub noise_nm: Option<f64>,
+    /// What the scores let a user conclude, in one sentence ([`crate::verdict`]).
+    pub verdict: crate::verdict::Verdict,
     /// Each law set, in the order given.
     pub sets: Vec<SetResult>,
     /// Law sets that gave no results (only when sets run in separate processes; in one
@@ -448,14 +668,35 @@ pub struct Comparison {
 }
 
 /// How `compare` scores the law sets.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct CompareOptions {
     /// Steady state at each speed instead of the full test cycle.
     pub steady: bool,
     /// Skip the leave-one-out refits (rank by in-sample RMSE, and say so).
     pub no_cv: bool,
+    /// Score sets with free parameters at the file's values instead of fitting them first
+    /// (each is then labelled "not fitted").
+    pub no_fit: bool,
+    /// Latin-hypercube start points of each set's calibration (besides its own values and the
+    /// corners of its bounds).
+    pub starts: usize,
     /// Data never used in fitting, scored separately.
     pub validate: Vec<DataRun>,
+    /// Accept data whose `# rig:` names another rig (`--data-for-any-rig`).
+    pub data_for_any_rig: bool,
+}
+
+impl Default for CompareOptions {
+    fn default() -> Self {
+        Self {
+            steady: false,
+            no_cv: false,
+            no_fit: false,
+            starts: crate::fit::DEFAULT_STARTS,
+            validate: Vec::new(),
+            data_for_any_rig: false,
+        }
+    }
 }
 
 /// RMSE and largest absolute error of `model` against `measured`.
@@ -466,8 +707,9 @@ pub fn errors(model: &[f64], measured: &[f64]) -> (Vec<f64>, f64, f64) {
     (e, rmse, max)
 }
 
-/// One law set run against `data` and scored: in-sample errors, out-of-sample scores, its
-/// band, its temperature response and any validation data.
+/// One law set fitted to `data` (when it has free parameters and fitting is on), run against
+/// it and scored: in-sample errors, out-of-sample scores, its band, its temperature response
+/// and any validation data, all with the values it is ranked by.
 fn score_set(
     rig: &Rig,
     ls: &LawSet,
@@ -478,58 +720,98 @@ fn score_set(
     spread: f64,
 ) -> Result<SetResult, StudyError> {
     let measured: Vec<f64> = data.rows.iter().map(|r| r.torque_nm).collect();
-    let r = prepare(rig, ls, Some(&data.rows))?;
+    let fitted = if free.is_empty() || options.no_fit {
+        None
+    } else {
+        let fit_options = crate::fit::FitOptions {
+            starts: options.starts,
+            cross_validate: !options.no_cv,
+            validate: Vec::new(),
+            // The comparison has checked the data's rig already.
+            data_for_any_rig: true,
+        };
+        Some(crate::fit::fit(
+            rig,
+            ls,
+            free,
+            std::slice::from_ref(data),
+            registry,
+            &fit_options,
+        )?)
+    };
+    let used = fitted.as_ref().map_or(ls, |(_, l)| l);
+    let r = prepare(rig, used, Some(&data.rows))?;
     let run = run_rig(&r, registry, options.steady).map_err(|e| StudyError::Run {
         lawset: ls.name().into(),
         error: Box::new(e),
     })?;
     let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
     let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
-    let tm = TorqueModel::new(rig, ls, free, vec![data.clone()], registry);
-    let x: Vec<f64> = free.iter().map(|f| f.value).collect();
-    let mut scores = score::scores_for_fit(&tm, &x, &errors_nm, !options.no_cv);
+    let (mut scores, mut unc, calibration) = match &fitted {
+        Some((f, _)) => (
+            f.scores.clone(),
+            f.uncertainty.clone(),
+            fitted_calibration(f, free),
+        ),
+        None => {
+            // Nothing fitted: scored as it is, like a set without free parameters.
+            let tm = TorqueModel::new(rig, used, &[], vec![data.clone()], registry);
+            let mut scores = score::scores_for_fit(&tm, &[], &errors_nm, !options.no_cv);
+            let status = if free.is_empty() {
+                CalibrationStatus::NoFreeParameters
+            } else {
+                scores.notes.push(format!(
+                    "not fitted (--no-fit): its {} free parameter{} keep the law-set file's values and it is scored as they are",
+                    free.len(),
+                    if free.len() == 1 { "" } else { "s" }
+                ));
+                CalibrationStatus::NotFitted
+            };
+            let calibration = SetCalibration {
+                status,
+                params: free
+                    .iter()
+                    .map(|f| ParamEstimate {
+                        id: f.id.clone(),
+                        start: f.value,
+                        value: f.value,
+                        bounds: f.bounds,
+                        at_bound: crate::fit::bound_hit(f.value, f.bounds),
+                        std_dev: None,
+                        determined: false,
+                    })
+                    .collect(),
+                termination: None,
+            };
+            (scores, Uncertainty::none(errors_nm.len()), calibration)
+        }
+    };
     // The in-sample figure is the compare run's own (steady or full cycle).
     scores.rmse_nm = rmse_nm;
     let prior = ls.prior_fit_on(&data.file);
     if let Some(prior) = prior {
         score::apply_prior_fit(&mut scores, &errors_nm, prior);
-    }
-    let unc = if let Some(p) = prior {
         // Tuned elsewhere: no covariance of those numbers exists here.
-        let mut u = Uncertainty::none(errors_nm.len());
-        u.band_half_width_nm = None;
-        u.statements.push(format!(
-            "no band: its {} tuned numbers have no covariance Tribo could estimate",
-            p.parameters
-        ));
-        u
-    } else if free.is_empty() {
-        Uncertainty::none(errors_nm.len())
-    } else {
-        let on_bound: Vec<bool> = free
-            .iter()
-            .map(|f| crate::fit::bound_hit(f.value, f.bounds).is_some())
-            .collect();
-        uncertainty_within_bounds(&tm, &x, &errors_nm, &on_bound)
-    };
-    let (band_lower_nm, band_upper_nm) = match &unc.band_half_width_nm {
-        Some(h) => (
-            Some(model.iter().zip(h).map(|(m, h)| m - h).collect()),
-            Some(model.iter().zip(h).map(|(m, h)| m + h).collect()),
-        ),
-        None => (None, None),
-    };
-    let widest = unc
+        unc.band_half_width_nm = None;
+    }
+    let band = unc
         .band_half_width_nm
         .as_ref()
-        .map(|h| 2.0 * h.iter().copied().fold(0.0, f64::max));
-    let band_wider_than_data = !free.is_empty() && widest.is_none_or(|w| w > spread);
+        .and_then(|h| crate::uncertainty::log_band(&model, h));
+    let band_note = band
+        .is_none()
+        .then(|| band_missing(&calibration, prior, &unc, &model, data));
+    let band_wider_than_data = band.as_ref().map(|(lo, hi)| {
+        let widest = lo.iter().zip(hi).map(|(l, h)| h - l).fold(0.0, f64::max);
+        widest > spread
+    });
+    let (band_lower_nm, band_upper_nm) = band.unzip();
     let validation = options
         .validate
         .iter()
-        .map(|v| score::validate(rig, ls, v, registry, options.steady))
+        .map(|v| score::validate(rig, used, v, registry, options.steady))
         .collect::<Result<Vec<_>, _>>()?;
-    let temperature_response = score::temperature_response(rig, ls, data, registry)?;
+    let temperature_response = score::temperature_response(rig, used, data, registry)?;
     if temperature_response.max_rise_percent_per_10c > score::TEMPERATURE_RISE_FLAG_PERCENT {
         let (i, _) = temperature_response
             .percent_per_10c
@@ -546,6 +828,26 @@ fn score_set(
             score::TEMPERATURE_RISE_FLAG_PERCENT
         ));
     }
+    let fitted_lawset_toml = match &fitted {
+        Some((f, l)) => Some(
+            l.to_toml(&format!(
+                "Fitted by `tribo compare` on rig {} against {}: RMSE {:.4} N m in sample, {} N m leave-one-out.\nParameters fitted: {}",
+                rig.file.name,
+                data.file.display(),
+                f.rmse_nm,
+                f.scores
+                    .cv_rmse_nm
+                    .map_or("(not computed)".to_string(), |v| format!("{v:.4}")),
+                f.params.join(", ")
+            ))
+            .map_err(|e| StudyError::Data {
+                file: ls.path.clone(),
+                line: None,
+                message: format!("the fitted law set cannot be written as TOML: {e}"),
+            })?,
+        ),
+        None => None,
+    };
     Ok(SetResult {
         lawset: ls.name().into(),
         file: ls.path.display().to_string(),
@@ -556,12 +858,92 @@ fn score_set(
         rank: 0,
         scores,
         uncertainty: unc,
+        calibration,
+        fitted_lawset_toml,
         band_lower_nm,
         band_upper_nm,
         band_wider_than_data,
+        band_note,
         temperature_response,
         validation,
     })
+}
+
+/// A fitted set's parameters as a comparison reports them (`free`: as the file gives them).
+fn fitted_calibration(f: &crate::fit::FitResult, free: &[FreeParam]) -> SetCalibration {
+    let params = (0..f.params.len())
+        .map(|k| {
+            let std_dev = f.std_dev.get(k).copied().flatten();
+            let value = f.values[k];
+            let at_bound = f.at_bound.get(k).cloned().flatten();
+            ParamEstimate {
+                id: f.params[k].clone(),
+                start: free.get(k).map_or(f64::NAN, |p| p.value),
+                value,
+                bounds: f.bounds[k],
+                determined: at_bound.is_none()
+                    && std_dev.is_some_and(|sd| {
+                        sd <= crate::uncertainty::POORLY_DETERMINED * value.abs()
+                    }),
+                at_bound,
+                std_dev,
+            }
+        })
+        .collect();
+    SetCalibration {
+        status: CalibrationStatus::Fitted,
+        params,
+        termination: Some(f.termination.clone()),
+    }
+}
+
+/// Why a set has no 95% band, in words.
+fn band_missing(
+    calibration: &SetCalibration,
+    prior: Option<&tribo_config::lawset::PriorFit>,
+    unc: &Uncertainty,
+    model: &[f64],
+    data: &DataRun,
+) -> String {
+    let k = calibration.params.len();
+    if let Some(p) = prior {
+        return format!(
+            "its {} numbers tuned to these data elsewhere have no covariance Tribo could estimate",
+            p.parameters
+        );
+    }
+    match calibration.status {
+        CalibrationStatus::NoFreeParameters => {
+            return "no free parameters: nothing is estimated from these data, so its error is what its residuals show".into()
+        }
+        CalibrationStatus::NotFitted => {
+            return "not fitted (--no-fit): no covariance without a fit".into()
+        }
+        CalibrationStatus::Fitted => {}
+    }
+    let on = calibration.on_bounds();
+    if on == k {
+        return format!(
+            "{} on {} bound{}: held there, nothing inside its range is left to vary",
+            if k == 1 {
+                "its free parameter is".to_string()
+            } else {
+                format!("all {k} free parameters are")
+            },
+            if k == 1 { "its" } else { "their" },
+            if k == 1 { "" } else { "s" }
+        );
+    }
+    if let Some((i, t)) = model.iter().enumerate().find(|(_, t)| **t <= 0.0) {
+        return format!(
+            "the model torque is {t:.3} N m at {:.0} rpm: a band of a positive torque (log scale) does not exist there",
+            data.rows.get(i).map_or(f64::NAN, |d| d.speed_rpm)
+        );
+    }
+    if unc.dof == 0 {
+        return "no residual degrees of freedom (as many parameters as points)".into();
+    }
+    "the data do not determine its parameters (see the statements below)".into()
 }
 
 /// Run every law set on `rig` at the data's speeds and temperatures, in parallel, and score
@@ -600,6 +982,7 @@ pub fn compare(
     // Every input checked before anything runs.
     check_lawsets(rig, lawsets, registry)?;
     for d in std::iter::once(data).chain(&options.validate) {
+        check_data_rig(rig, d, options.data_for_any_rig)?;
         check_data(rig, d)?;
     }
     let measured: Vec<f64> = data.rows.iter().map(|r| r.torque_nm).collect();
@@ -617,21 +1000,33 @@ pub fn compare(
             }
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let mut sets = lawsets
+    let sets = lawsets
         .par_iter()
         .zip(frees.par_iter())
         .map(|(ls, free)| score_set(rig, ls, free, data, registry, options, spread))
         .collect::<Result<Vec<_>, StudyError>>()?;
-    rank_sets(&mut sets, options.no_cv);
-    Ok(Comparison {
+    let mut cmp = Comparison {
         rig: rig.file.name.clone(),
         data_file: data.file.display().to_string(),
         data: data.rows.clone(),
         mode: RunMode::from_steady(options.steady),
         ranked_by: ranked_by(options.no_cv).into(),
+        noise_nm: data.meta.noise_nm,
+        verdict: Default::default(),
         sets,
         failed: Vec::new(),
-    })
+    };
+    cmp.rank(options.no_cv);
+    Ok(cmp)
+}
+
+impl Comparison {
+    /// Rank the sets ([`rank_sets`]) and judge the result ([`crate::verdict::judge`]); again
+    /// after sets run in separate processes are merged.
+    pub fn rank(&mut self, no_cv: bool) {
+        rank_sets(&mut self.sets, no_cv);
+        self.verdict = crate::verdict::judge(self);
+    }
 }
 
 /// What the ranking of a comparison rests on, in words.
@@ -1079,6 +1474,49 @@ pub fn check_sweep_inputs(temps_c: &[f64], speeds_rpm: &[f64]) -> Result<(), Swe
     Ok(())
 }
 
+/// The speeds of the plateaus of `rig`'s own test cycle, rpm, in the order held (each once).
+pub fn plateau_speeds(rig: &Rig) -> Vec<f64> {
+    let mut speed = 0.0;
+    let mut out: Vec<f64> = Vec::new();
+    for s in rig.file.cycle.segments() {
+        match s {
+            Segment::Ramp { to_rpm, .. } => speed = to_rpm,
+            Segment::Hold { .. } => {
+                if !out.contains(&speed) {
+                    out.push(speed);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Refuse `speeds_rpm` (given by `option`) above the rig's declared top speed
+/// (`max_speed_rpm`), naming both.
+pub fn check_speeds_for_rig(
+    rig: &Rig,
+    speeds_rpm: &[f64],
+    option: &str,
+) -> Result<(), SweepInputError> {
+    match (
+        rig.file.max_speed_rpm,
+        speeds_rpm
+            .iter()
+            .find(|s| rig.file.max_speed_rpm.is_some_and(|top| **s > top)),
+    ) {
+        (Some(top), Some(s)) => Err(SweepInputError {
+            option: option.into(),
+            message: format!(
+                "{} rpm is above the top speed of rig `{}` (max_speed_rpm = {} rpm)",
+                readable(*s),
+                rig.file.name,
+                readable(top)
+            ),
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// `rig` with `lawset` attached, driven through `speeds_rpm` (the thesis's ramp-and-hold
 /// pattern) with the oil at `temp_c` on every plateau.
 fn sweep_rig(
@@ -1154,6 +1592,7 @@ pub fn sweep(
     progress: Option<&tribo_core::observe::Position>,
 ) -> Result<Sweep, StudyError> {
     // Every input checked before anything runs.
+    check_speeds_for_rig(rig, speeds_rpm, "--speeds")?;
     check_sweep(rig, lawsets, temps_c, speeds_rpm)?;
     check_lawsets(rig, lawsets, registry)?;
     let jobs: Vec<(usize, f64)> = (0..lawsets.len())

@@ -56,6 +56,29 @@ impl Uncertainty {
     }
 }
 
+/// A parameter whose 1-sigma uncertainty exceeds this fraction of its value is reported as
+/// poorly determined (its 95% interval then reaches past zero or the other side of it).
+pub const POORLY_DETERMINED: f64 = 0.5;
+
+/// The 95% band of a positive model torque `t` from the linearised half-widths `half` (the
+/// delta method on `T`), taken on a log scale: the delta method on `ln T` gives the half-width
+/// `h / T`, mapped back as `[T exp(-h/T), T exp(h/T)]`. It equals `T -+ h` to first order, never
+/// reaches zero or below (a friction torque cannot), and is symmetric in ratio
+/// (`lower * upper = T^2`). `None` when a torque is not positive (no log scale exists there).
+pub fn log_band(t: &[f64], half: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+    if t.len() != half.len()
+        || t.iter()
+            .any(|v| v.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater))
+    {
+        return None;
+    }
+    let ratio: Vec<f64> = t.iter().zip(half).map(|(t, h)| (h / t).exp()).collect();
+    Some((
+        t.iter().zip(&ratio).map(|(t, r)| t / r).collect(),
+        t.iter().zip(&ratio).map(|(t, r)| t * r).collect(),
+    ))
+}
+
 /// Condition number above which `J^T J` is treated as singular (relative parameter changes).
 const SINGULAR_CONDITION: f64 = 1e8;
 
@@ -261,7 +284,7 @@ fn from_covariance(out: &mut Uncertainty, cov: &DMatrix<f64>, x: &[f64], ids: &[
     for k in 0..n {
         out.std_dev[k] = Some(sd[k]);
         out.interval95[k] = Some([x[k] - t * sd[k], x[k] + t * sd[k]]);
-        if sd[k] > 0.5 * x[k].abs() {
+        if sd[k] > POORLY_DETERMINED * x[k].abs() {
             out.statements.push(format!(
                 "{}: poorly determined, {:.4e} +- {:.2e} (1 sigma)",
                 ids[k], x[k], sd[k]
@@ -373,6 +396,30 @@ pub fn uncertainty(model: &TorqueModel<'_>, x: &[f64], residuals: &[f64]) -> Unc
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn log_band_stays_positive_and_matches_the_linear_band_when_narrow() {
+        let t = [1.0, 0.2, 3.0];
+        // Narrow: within 0.5% of T -+ h (second-order terms h^2 / 2T).
+        let narrow = [0.01, 0.002, 0.03];
+        let (lo, hi) = log_band(&t, &narrow).expect("band");
+        for i in 0..3 {
+            assert!((lo[i] - (t[i] - narrow[i])).abs() < 1e-4 * t[i]);
+            assert!((hi[i] - (t[i] + narrow[i])).abs() < 1e-4 * t[i]);
+        }
+        // Wide: a linear half-width larger than the torque, where T - h < 0; the log band
+        // stays above zero and is symmetric in ratio.
+        let wide = [1.5, 0.5, 4.0];
+        let (lo, hi) = log_band(&t, &wide).expect("band");
+        for i in 0..3 {
+            assert!(t[i] - wide[i] < 0.0 && lo[i] > 0.0, "{}", lo[i]);
+            assert!((lo[i] * hi[i] - t[i] * t[i]).abs() < 1e-12 * t[i] * t[i]);
+            assert!(lo[i] < t[i] && t[i] < hi[i]);
+        }
+        // A torque that is not positive has no log band.
+        assert!(log_band(&[1.0, 0.0], &[0.1, 0.1]).is_none());
+        assert!(log_band(&[1.0, -0.5], &[0.1, 0.1]).is_none());
+    }
 
     #[test]
     fn t_quantiles_match_tables() {

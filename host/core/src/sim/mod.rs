@@ -51,6 +51,9 @@ use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature};
 use crate::observe::{NoObserver, StepObserver};
 
 pub use bind::suitability_notes;
+
+/// The warning of a run with no law on any joint.
+pub const NO_LAWS_WARNING: &str = "no law on any joint: every joint is frictionless, so the motoring torque is the mechanism's alone (zero on average at a constant speed); attach laws with a law set or --law (a frictionless reference rig is meant to give this)";
 pub use crank_angle::{AngleSample, CrankAngleTrace, CylinderSample, LawSample};
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use results::{
@@ -326,6 +329,23 @@ impl Simulation {
     /// The warnings about the laws on this rig, which every result carries first.
     pub fn notes(&self) -> &[String] {
         &self.notes
+    }
+
+    /// Laws bound on all joints together; zero when every joint is frictionless.
+    pub fn law_count(&self) -> usize {
+        self.n_laws
+    }
+
+    /// Every result's warnings: this rig's notes, then the run's own `warnings`, then the
+    /// warning of a run without any law (its torque is the frictionless mechanism's, about
+    /// zero, which a user rarely meant to compute).
+    fn result_warnings(&self, warnings: Vec<String>) -> Vec<String> {
+        let mut all = self.notes.clone();
+        all.extend(warnings);
+        if self.law_count() == 0 {
+            all.push(NO_LAWS_WARNING.to_string());
+        }
+        all
     }
 
     /// Report progress (permille of the simulated cycle) to `p`.

@@ -208,7 +208,9 @@ pub struct EnergyBalance {
     pub gas_work_j: f64,
     /// motor work - energy change - dissipation - gas work, J.
     pub residual_j: f64,
-    /// |residual| / motor work.
+    /// |residual| over the largest of motor work, energy change, dissipation, gas work and the
+    /// mechanism's mechanical energy at the run's speeds (see `EnergyBalance::relative_to`);
+    /// zero when all are zero.
     pub relative_residual: f64,
 }
 

@@ -57,7 +57,18 @@ impl Simulation {
         }
         // Over a periodic cycle the mechanical energy returns to its start value, so the
         // balance is motor work = dissipation + gas work.
-        let energy = EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas);
+        let inertial: f64 = self
+            .cycle
+            .plateaus()
+            .iter()
+            .map(|p| {
+                self.crank
+                    .mechanical_energy(std::f64::consts::FRAC_PI_2, p.omega)
+                    .abs()
+            })
+            .sum();
+        let energy =
+            EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas).relative_to(inertial);
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: DriveKind::Steady,
@@ -68,7 +79,7 @@ impl Simulation {
             steps,
             rejected_steps: 0,
             max_friction_iterations: w.max_it,
-            warnings: self.notes.clone(),
+            warnings: self.result_warnings(Vec::new()),
             law_time: super::bind::law_time(&self.joints),
         })
     }

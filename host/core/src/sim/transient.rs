@@ -250,10 +250,10 @@ impl Simulation {
             change,
             dissipated,
             r.s.acc[layout.gas()],
-        );
+        )
+        .relative_to(r.e0.abs().max((r.e0 + change).abs()));
         let (results, run_warnings) = r.plateaus.results(|pi, m| self.plateau_result(pi, m))?;
-        let mut warnings = self.notes.clone();
-        warnings.extend(run_warnings);
+        let warnings = self.result_warnings(run_warnings);
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: match self.drive {

@@ -53,6 +53,7 @@ pub(super) fn validate(rig: &Rig) -> Result<(), RigError> {
     check.joints()?;
     check.load_shares()?;
     check.oil()?;
+    check.max_speed()?;
     let plateaus = check.cycle()?;
     check.oil_temperatures(plateaus)?;
     check.drive()?;
@@ -335,8 +336,16 @@ impl Check<'_> {
         Ok(())
     }
 
-    /// The test cycle: not empty, non-negative target speeds, positive durations, at least one
-    /// hold. Returns the number of holds (plateaus).
+    /// The engine's declared top speed, if any: positive, within the general limit.
+    fn max_speed(&self) -> Result<(), RigError> {
+        match self.rig.file.max_speed_rpm {
+            Some(v) => self.size("max_speed_rpm", v, MAX_SPEED_RPM, "rpm"),
+            None => Ok(()),
+        }
+    }
+
+    /// The test cycle: not empty, non-negative target speeds (at most the rig's top speed),
+    /// positive durations, at least one hold. Returns the number of holds (plateaus).
     fn cycle(&self) -> Result<usize, RigError> {
         let segments = self.rig.file.cycle.segments();
         if segments.is_empty() {
@@ -357,6 +366,18 @@ impl Check<'_> {
                                 readable(*to_rpm)
                             ),
                         ));
+                    }
+                    if let Some(top) = self.rig.file.max_speed_rpm {
+                        if *to_rpm > top {
+                            return Err(self.rig.error(
+                                &format!("cycle.segments[{i}].to_rpm"),
+                                format!(
+                                    "{} rpm is above the engine's top speed, max_speed_rpm = {} rpm",
+                                    readable(*to_rpm),
+                                    readable(top)
+                                ),
+                            ));
+                        }
                     }
                     speed_rpm = *to_rpm;
                     (*duration_s, "ramp")

@@ -1,0 +1,554 @@
+//! `ring-pack`: the piston's ring pack as engineers model it (docs/laws/ring-pack.md). Each
+//! ring (top, second, the two rails of the oil-control ring) is pressed on the liner by its
+//! tension and, for the compression rings, by the gas behind it; its parabolic face rides on a
+//! film from the Reynolds equation with sliding and squeeze (the minimum film of every ring is
+//! the law's state), and where the film is thin the asperities carry load by Greenwood-Tripp.
+//! Friction: viscous shear of the film plus a boundary coefficient on the asperity load.
+//!
+//! The modules are the mathematics, each tested on its own: [`profile`] the closed-form film of
+//! a parabolic face, [`asperity`] Greenwood-Tripp, [`ring`] one ring's load balance and motion.
+
+pub mod asperity;
+pub mod profile;
+pub mod ring;
+
+use serde::{Deserialize, Serialize};
+use tribo_plugin_api::{
+    export_law, smooth_sign, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec, Regime,
+    SUITS_SLIDE,
+};
+
+use asperity::Roughness;
+use profile::Face;
+use ring::{Contact, Ring};
+
+/// Parameters of [`RingPack`]. Sources and ranges: docs/laws/ring-pack.md.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// Top ring tangential (closing) force, N.
+    pub top_tension_n: f64,
+    /// Top ring face width in contact (axial), m.
+    pub top_width_m: f64,
+    /// Top ring crown height of the parabolic (barrel) face, m.
+    pub top_crown_m: f64,
+    /// Fraction of the cylinder-crankcase pressure drop behind the top ring, -.
+    pub top_gas_fraction: f64,
+    /// Second ring tangential force, N.
+    pub second_tension_n: f64,
+    /// Second ring face width, m.
+    pub second_width_m: f64,
+    /// Second ring crown height, m.
+    pub second_crown_m: f64,
+    /// Fraction of the pressure drop behind the second ring (the second land's pressure), -.
+    pub second_gas_fraction: f64,
+    /// Oil-control ring tangential force (expander and both rails), N.
+    pub oil_tension_n: f64,
+    /// Width of each oil-ring rail's face, m.
+    pub oil_rail_width_m: f64,
+    /// Crown height of each rail's face, m.
+    pub oil_rail_crown_m: f64,
+    /// Composite RMS roughness of ring faces and liner, m.
+    pub roughness_m: f64,
+    /// Greenwood-Tripp roughness parameter `eta beta sigma`, -.
+    pub eta_beta_sigma: f64,
+    /// Greenwood-Tripp asperity slope measure `sigma / beta`, -.
+    pub sigma_over_beta: f64,
+    /// Composite elastic modulus `E*` of ring and liner, Pa.
+    pub modulus_pa: f64,
+    /// Boundary friction coefficient on the asperity load, -.
+    pub boundary_mu: f64,
+    /// Velocity scale of the boundary friction's smoothed sign, m/s.
+    pub v_smooth_m_s: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        // Every value: docs/laws/ring-pack.md, "Parameters", with its source and range.
+        Self {
+            top_tension_n: 8.0,
+            top_width_m: 0.8e-3,
+            top_crown_m: 5e-6,
+            top_gas_fraction: 1.0,
+            second_tension_n: 7.0,
+            second_width_m: 0.8e-3,
+            second_crown_m: 10e-6,
+            second_gas_fraction: 0.2,
+            oil_tension_n: 20.0,
+            oil_rail_width_m: 0.3e-3,
+            oil_rail_crown_m: 2e-6,
+            roughness_m: 0.35e-6,
+            eta_beta_sigma: 0.04,
+            sigma_over_beta: 1e-3,
+            modulus_pa: 78e9,
+            boundary_mu: 0.1,
+            v_smooth_m_s: 0.01,
+        }
+    }
+}
+
+/// Number of faces: top, second, and one state for both identical oil-ring rails.
+pub const RINGS: usize = 3;
+
+/// State layout: the minimum film of each ring (m), then whether they have been placed.
+const STATE: usize = RINGS + 1;
+
+/// The ring-pack law (crate docs).
+#[derive(Debug, Clone)]
+pub struct RingPack {
+    rings: [Ring; RINGS],
+    rough: Roughness,
+    boundary_mu: f64,
+    v_smooth: f64,
+}
+
+/// One evaluation of the pack: every ring's contact and the total force.
+#[derive(Debug, Clone, Copy)]
+pub struct PackState {
+    /// Each ring's contact (the oil-ring entry is one rail).
+    pub contacts: [Contact; RINGS],
+    /// Friction force on the piston along the bore axis, N (opposes the sliding velocity).
+    pub force_n: f64,
+    /// The hydrodynamic (viscous shear) part of the force, N.
+    pub viscous_n: f64,
+    /// The boundary (asperity) part of the force, N.
+    pub boundary_n: f64,
+    /// Radial load of the whole pack, N.
+    pub radial_load_n: f64,
+    /// Radial load the asperities carry, N.
+    pub asperity_load_n: f64,
+}
+
+impl RingPack {
+    /// The rings as declared (top, second, one oil-ring rail).
+    pub fn rings(&self) -> &[Ring; RINGS] {
+        &self.rings
+    }
+
+    /// The asperity contact constants.
+    pub fn roughness(&self) -> &Roughness {
+        &self.rough
+    }
+
+    fn loads(&self, input: &LawInput) -> [f64; RINGS] {
+        let bore = 2.0 * input.contact_radius_m;
+        let dp = input.cylinder_pressure_pa - input.crankcase_pressure_pa;
+        let dp = if dp.is_finite() { dp } else { 0.0 };
+        self.rings.map(|r| r.load_per_length(bore, dp))
+    }
+
+    /// The minimum films to evaluate at: the committed ones, or the quasi-static films of this
+    /// instant before the first commit.
+    fn films(&self, input: &LawInput, state: &[f64], loads: &[f64; RINGS]) -> [f64; RINGS] {
+        let placed = state.len() >= STATE && state[RINGS] != 0.0;
+        let u = input.relative_velocity.abs();
+        let mu = input.viscosity_pa_s;
+        std::array::from_fn(|i| {
+            if placed {
+                state[i]
+            } else {
+                self.rings[i].steady(&self.rough, u, loads[i], mu)
+            }
+        })
+    }
+
+    /// The pack at `input` with the committed `state`.
+    pub fn pack(&self, input: &LawInput, state: &[f64]) -> PackState {
+        let loads = self.loads(input);
+        let h = self.films(input, state, &loads);
+        let v = input.relative_velocity;
+        let u = v.abs();
+        let mu = input.viscosity_pa_s.max(0.0);
+        let circumference = 2.0 * std::f64::consts::PI * input.contact_radius_m;
+        let contacts: [Contact; RINGS] =
+            std::array::from_fn(|i| self.rings[i].contact(&self.rough, h[i], u, loads[i], mu));
+        let (mut shear, mut asp, mut radial) = (0.0, 0.0, 0.0);
+        for (r, c) in self.rings.iter().zip(&contacts) {
+            let faces = r.rails.max(1) as f64;
+            shear += faces * c.film.shear_n_per_m;
+            asp += faces * c.asperity_n_per_m;
+            radial += faces * c.load_n_per_m;
+        }
+        let (sgn, _) = smooth_sign(v, self.v_smooth);
+        let viscous = -v.signum() * shear * circumference;
+        let boundary = -sgn * self.boundary_mu * asp * circumference;
+        PackState {
+            contacts,
+            force_n: viscous + boundary,
+            viscous_n: viscous,
+            boundary_n: boundary,
+            radial_load_n: radial * circumference,
+            asperity_load_n: asp * circumference,
+        }
+    }
+
+    fn valid(input: &LawInput) -> bool {
+        input.kind() == Some(JointKind::Prismatic)
+            && input.contact_radius_m > 0.0
+            && input.contact_radius_m.is_finite()
+            && input.relative_velocity.is_finite()
+            && input.viscosity_pa_s.is_finite()
+    }
+}
+
+impl Law for RingPack {
+    type Params = Params;
+    const NAME: &'static str = "ring-pack";
+    const VERSION: &'static str = env!("CARGO_PKG_VERSION");
+    const SUMMARY: &'static str = "Piston ring pack: per ring tension and gas load, parabolic face on a Reynolds film (sliding + squeeze, Reynolds rupture), Greenwood-Tripp asperities, films as state";
+    const SUITS: u32 = SUITS_SLIDE;
+
+    fn parameters() -> Vec<ParamSpec> {
+        let n = ParamSpec::number;
+        vec![
+            n(
+                "top_tension_n",
+                "N",
+                "top ring tangential (closing) force; radial load 2 F_t / D per unit circumference",
+                0.0,
+                1000.0,
+            ),
+            n(
+                "top_width_m",
+                "m",
+                "top ring face width in contact (axial)",
+                1e-5,
+                1e-2,
+            ),
+            n(
+                "top_crown_m",
+                "m",
+                "top ring crown height of the parabolic (barrel) face",
+                2e-7,
+                1e-4,
+            ),
+            n(
+                "top_gas_fraction",
+                "-",
+                "fraction of p_cylinder - p_crankcase acting behind the top ring",
+                0.0,
+                1.0,
+            ),
+            n(
+                "second_tension_n",
+                "N",
+                "second ring tangential force",
+                0.0,
+                1000.0,
+            ),
+            n(
+                "second_width_m",
+                "m",
+                "second ring face width in contact",
+                1e-5,
+                1e-2,
+            ),
+            n(
+                "second_crown_m",
+                "m",
+                "second ring crown height",
+                2e-7,
+                1e-4,
+            ),
+            n(
+                "second_gas_fraction",
+                "-",
+                "fraction of the pressure drop behind the second ring (second-land pressure)",
+                0.0,
+                1.0,
+            ),
+            n(
+                "oil_tension_n",
+                "N",
+                "oil-control ring tangential force (expander, shared by its two rails)",
+                0.0,
+                1000.0,
+            ),
+            n(
+                "oil_rail_width_m",
+                "m",
+                "face width of each oil-ring rail",
+                1e-5,
+                1e-2,
+            ),
+            n(
+                "oil_rail_crown_m",
+                "m",
+                "crown height of each oil-ring rail's face",
+                2e-7,
+                1e-4,
+            ),
+            n(
+                "roughness_m",
+                "m",
+                "composite RMS roughness sigma of ring faces and liner",
+                1e-8,
+                1e-5,
+            ),
+            n(
+                "eta_beta_sigma",
+                "-",
+                "Greenwood-Tripp roughness parameter eta beta sigma",
+                1e-3,
+                1.0,
+            ),
+            n(
+                "sigma_over_beta",
+                "-",
+                "Greenwood-Tripp asperity slope measure sigma / beta",
+                1e-6,
+                1.0,
+            ),
+            n(
+                "modulus_pa",
+                "Pa",
+                "composite elastic modulus E* of ring and liner (1/E* = sum (1 - nu^2)/E)",
+                1e9,
+                1e12,
+            ),
+            n(
+                "boundary_mu",
+                "-",
+                "boundary friction coefficient on the asperity load",
+                0.0,
+                1.0,
+            ),
+            n(
+                "v_smooth_m_s",
+                "m/s",
+                "velocity scale of the boundary friction's smoothed sign",
+                1e-6,
+                1.0,
+            ),
+        ]
+    }
+
+    fn new(p: Params) -> Result<Self, ParamError> {
+        let ring = |crown_param: &'static str,
+                    width: f64,
+                    crown: f64,
+                    tension: f64,
+                    gas: f64,
+                    rails: u32| {
+            if crown > 0.5 * width {
+                return Err(ParamError::new(
+                    crown_param,
+                    format!("a crown of {crown} m on a {width} m face is not a ring face (crown above half the width)"),
+                ));
+            }
+            Ok(Ring {
+                face: Face {
+                    half_width_m: 0.5 * width,
+                    crown_m: crown,
+                },
+                tension_n: tension,
+                gas_fraction: gas,
+                rails,
+            })
+        };
+        Ok(Self {
+            rings: [
+                ring(
+                    "top_crown_m",
+                    p.top_width_m,
+                    p.top_crown_m,
+                    p.top_tension_n,
+                    p.top_gas_fraction,
+                    1,
+                )?,
+                ring(
+                    "second_crown_m",
+                    p.second_width_m,
+                    p.second_crown_m,
+                    p.second_tension_n,
+                    p.second_gas_fraction,
+                    1,
+                )?,
+                ring(
+                    "oil_rail_crown_m",
+                    p.oil_rail_width_m,
+                    p.oil_rail_crown_m,
+                    p.oil_tension_n,
+                    0.0,
+                    2,
+                )?,
+            ],
+            rough: Roughness {
+                sigma_m: p.roughness_m,
+                eta_beta_sigma: p.eta_beta_sigma,
+                sigma_over_beta: p.sigma_over_beta,
+                modulus_pa: p.modulus_pa,
+            },
+            boundary_mu: p.boundary_mu,
+            v_smooth: p.v_smooth_m_s,
+        })
+    }
+
+    fn state_size(&self) -> usize {
+        STATE
+    }
+
+    fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
+        if !Self::valid(input) {
+            return LawOutput::force(0.0);
+        }
+        let p = self.pack(input, state);
+        let h_min = p
+            .contacts
+            .iter()
+            .map(|c| c.h_m)
+            .fold(f64::INFINITY, f64::min);
+        let peak = p
+            .contacts
+            .iter()
+            .map(|c| c.film.peak_pa)
+            .fold(0.0, f64::max);
+        let lambda = h_min / self.rough.sigma_m;
+        let regime = if lambda >= 3.0 {
+            Regime::Hydrodynamic
+        } else if lambda >= 1.0 {
+            Regime::Mixed
+        } else {
+            Regime::Boundary
+        };
+        let mut out = LawOutput::force(p.force_n)
+            .with_regime(regime)
+            .with_min_film(h_min)
+            .with_peak_pressure(peak);
+        if p.radial_load_n > 0.0 {
+            out = out
+                .with_coefficient(p.force_n.abs() / p.radial_load_n)
+                .with_asperity_share((p.asperity_load_n / p.radial_load_n).clamp(0.0, 1.0));
+        }
+        out
+    }
+
+    fn commit(&self, input: &LawInput, state: &mut [f64]) {
+        if state.len() < STATE || !Self::valid(input) {
+            return;
+        }
+        let loads = self.loads(input);
+        let h = self.films(input, state, &loads);
+        let u = input.relative_velocity.abs();
+        let mu = input.viscosity_pa_s;
+        for i in 0..RINGS {
+            let next = if input.dt_s > 0.0 {
+                self.rings[i].advance(&self.rough, h[i], input.dt_s, u, loads[i], mu)
+            } else {
+                h[i]
+            };
+            if next.is_finite() {
+                state[i] = next;
+            }
+        }
+        state[RINGS] = 1.0;
+    }
+}
+
+export_law!(RingPack);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tribo_plugin_api::conformance::assert_law_conforms;
+
+    #[test]
+    fn conforms() {
+        assert_law_conforms::<RingPack>();
+    }
+
+    fn law(text: &str) -> Result<RingPack, ParamError> {
+        tribo_plugin_api::create_from_table::<RingPack>(&text.parse().expect("toml"))
+    }
+
+    /// The CRF's piston sliding at `v` m/s on 80 C oil, the pressure drop `dp` across the pack.
+    fn piston(v: f64, dp: f64) -> LawInput {
+        let mut i = LawInput::at_rest(JointKind::Prismatic).with_velocity(v);
+        i.contact_radius_m = 0.0384;
+        i.contact_length_m = 0.03;
+        i.viscosity_pa_s = 0.0249;
+        i.cylinder_pressure_pa += dp;
+        i
+    }
+
+    #[test]
+    fn a_crown_above_half_the_face_is_refused_naming_it() {
+        let e = law("oil_rail_width_m = 1e-5\noil_rail_crown_m = 1e-5").expect_err("refused");
+        assert!(e.to_string().contains("oil_rail_crown_m"), "{e}");
+    }
+
+    /// The force opposes the sliding at every speed, vanishes at rest, and is odd in the
+    /// velocity (a symmetric face).
+    #[test]
+    fn the_force_opposes_the_motion_and_is_odd() {
+        let l = law("").expect("defaults");
+        assert_eq!(l.evaluate(&piston(0.0, 0.0), &[0.0; STATE]).force, 0.0);
+        for &v in &[1e-6, 1e-3, 0.1, 1.0, 5.0, 20.0] {
+            let (p, n) = (
+                l.evaluate(&piston(v, 0.0), &[0.0; STATE]).force,
+                l.evaluate(&piston(-v, 0.0), &[0.0; STATE]).force,
+            );
+            assert!(p < 0.0 && (p + n).abs() <= 1e-12 * p.abs(), "{v}: {p} {n}");
+        }
+    }
+
+    /// The radial load of each ring: 2 F_t / D, split between the oil ring's rails; a pressure
+    /// drop towards the crankcase loads the top ring by all of it over its width, the second by
+    /// its fraction, the oil ring not at all; a drop towards the cylinder loads nothing.
+    #[test]
+    fn tension_and_gas_load_the_rings_as_declared() {
+        let l = law("").expect("defaults");
+        let d = 0.0768;
+        let [top, second, oil] = l.rings().map(|r| r.load_per_length(d, 1e6));
+        assert!((top - (2.0 * 8.0 / d + 1e6 * 0.8e-3)).abs() < 1e-9);
+        assert!((second - (2.0 * 7.0 / d + 0.2e6 * 0.8e-3)).abs() < 1e-9);
+        assert!((oil - 20.0 / d).abs() < 1e-9);
+        let reversed = l.rings().map(|r| r.load_per_length(d, -1e6));
+        assert!((reversed[0] - 2.0 * 8.0 / d).abs() < 1e-9);
+        // Gas behind the rings: more friction, a thinner top-ring film.
+        let (calm, loaded) = (
+            l.pack(&piston(5.0, 0.0), &[0.0; STATE]),
+            l.pack(&piston(5.0, 2e6), &[0.0; STATE]),
+        );
+        assert!(loaded.force_n < calm.force_n);
+        assert!(loaded.contacts[0].h_m < calm.contacts[0].h_m);
+        assert_eq!(loaded.contacts[2].h_m, calm.contacts[2].h_m);
+    }
+
+    /// On a revolute joint the slide law gives no force and reports nothing.
+    #[test]
+    fn a_revolute_joint_gets_no_force() {
+        let l = law("").expect("defaults");
+        let mut i = LawInput::at_rest(JointKind::Revolute).with_velocity(300.0);
+        i.contact_radius_m = 0.02;
+        i.viscosity_pa_s = 0.02;
+        let o = l.evaluate(&i, &[0.0; STATE]);
+        assert_eq!((o.force, o.flags), (0.0, 0));
+    }
+
+    /// The films stay between the floor and the quasi-static film of the sliding speed: after a
+    /// fast stroke stops, the squeeze film drains towards the asperities' floor, never below.
+    #[test]
+    fn a_stopped_ring_sinks_by_squeeze_to_the_asperity_floor() {
+        let l = law("").expect("defaults");
+        let mut s = [0.0; STATE];
+        let mut i = piston(10.0, 0.0);
+        i.dt_s = 1e-5;
+        l.commit(&i, &mut s);
+        let sliding = s[0];
+        let mut stopped = piston(0.0, 0.0);
+        stopped.dt_s = 1e-5;
+        let mut last = sliding;
+        for _ in 0..2000 {
+            l.commit(&stopped, &mut s);
+            assert!(s[0] <= last, "{} after {last}", s[0]);
+            last = s[0];
+        }
+        let floor = l.rings()[0].floor(l.roughness(), 2.0 * 8.0 / 0.0768);
+        assert!(
+            s[0] < 0.5 * sliding && s[0] >= floor,
+            "{} from {sliding}, floor {floor}",
+            s[0]
+        );
+    }
+}

@@ -1,0 +1,269 @@
+//! The film of one parabolic ring face on a flat liner: the one-dimensional Reynolds equation
+//! with steady sliding and squeeze, solved in closed form.
+//!
+//! In the ring's frame the liner slides at speed `u` (the leading edge is the inlet; the face is
+//! symmetric, so only `|u|` matters) and the face's profile is
+//! `h(x) = h + crown (x / a)^2` on `-a <= x <= a` (`a` half the face width, `h` the minimum film).
+//! The Reynolds equation `d/dx(h^3 dp/dx) = 6 mu u dh/dx + 12 mu dh/dt` integrates once to
+//! `h^3 dp/dx = 6 mu u h + 12 mu hdot x + C`. With `s = x sqrt(crown / h) / a`
+//! (`h(x) = h (1 + s^2)`, `x = L s`, `L = a sqrt(h / crown)`, `S = sqrt(crown / h)` the edge)
+//! every integral of the pressure, the load and the shear is a polynomial over a power of
+//! `1 + s^2`, integrated in closed form (arctangents and rational terms: [`Prims`]).
+//!
+//! Boundary conditions: the inlet is flooded at the ambient pressure (`p = 0`, gauge); where the
+//! film diverges it ruptures by the Reynolds (Swift-Stieber) condition, `p = dp/dx = 0` at the
+//! rupture point `s_c`, and carries the oil on in streamers filling `h(s_c) / h(s)` of the gap
+//! (flow continuity at the rupture); a film squeezed fast enough stays whole to the outlet
+//! (`p = 0` there, `dp/dx <= 0`). Given the load the film must carry, the squeeze velocity
+//! `hdot` follows (the film's mobility): below the load the full film can reach, the rupture
+//! point is the root of a monotone function of `s_c`; above it the full film's load is linear in
+//! `hdot`.
+
+/// The ring face: half its axial width and the height of its parabolic crown at the edges.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Face {
+    /// Half the axial width of the face in contact, m.
+    pub half_width_m: f64,
+    /// Crown height: the profile's drop from its apex to the face's edges, m.
+    pub crown_m: f64,
+}
+
+/// The film that carries a given load at a given minimum film and sliding speed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Film {
+    /// Rate of change of the minimum film, m/s (negative: the ring approaches the liner).
+    pub squeeze_m_s: f64,
+    /// Viscous friction force per unit circumference on the liner, N/m, opposing the liner's
+    /// motion relative to the ring (its magnitude: always `>= 0` for a film that carries load).
+    pub shear_n_per_m: f64,
+    /// Peak film pressure, Pa (gauge).
+    pub peak_pa: f64,
+    /// Where the film ruptures, m from the apex towards the outlet; the half width when the film
+    /// is whole to the outlet; minus the half width when it carries nothing.
+    pub rupture_m: f64,
+}
+
+/// Antiderivatives at `s` of `s^k / (1 + s^2)^3` (`m[k]`, k = 0..3), of `s^k / (1 + s^2)^2`
+/// (`n[k]`, k = 0..2) and of `1 / (1 + s^2)` (`j1`).
+#[derive(Debug, Clone, Copy)]
+pub struct Prims {
+    /// `integral s^k / (1 + s^2)^3`, k = 0..3.
+    pub m: [f64; 4],
+    /// `integral s^k / (1 + s^2)^2`, k = 0..2.
+    pub n: [f64; 3],
+    /// `atan(s)`.
+    pub j1: f64,
+}
+
+impl Prims {
+    /// The antiderivatives at `s`.
+    pub fn at(s: f64) -> Self {
+        let q = 1.0 + s * s;
+        let at = s.atan();
+        let j2 = 0.5 * s / q + 0.5 * at;
+        let j3 = 0.25 * s / (q * q) + 0.375 * s / q + 0.375 * at;
+        Self {
+            m: [
+                j3,
+                -0.25 / (q * q),
+                0.125 * s / q - 0.25 * s / (q * q) + 0.125 * at,
+                -0.5 / q + 0.25 / (q * q),
+            ],
+            n: [j2, -0.5 / q, 0.5 * at - 0.5 * s / q],
+            j1: at,
+        }
+    }
+
+    /// `self - lower`, term by term: the definite integrals from `lower`'s point to `self`'s.
+    pub fn minus(&self, lower: &Prims) -> Prims {
+        let mut d = *self;
+        for k in 0..4 {
+            d.m[k] -= lower.m[k];
+        }
+        for k in 0..3 {
+            d.n[k] -= lower.n[k];
+        }
+        d.j1 -= lower.j1;
+        d
+    }
+
+    /// `integral 1 / (1 + s^2)^2` (the same as `n[0]`).
+    pub fn j2(&self) -> f64 {
+        self.n[0]
+    }
+}
+
+/// The rupture branch at rupture point `sc`: the squeeze number `Q = 2 hdot L / (h |u|)` that
+/// puts `p = 0` at `sc` (with `dp/dx = 0` there), and the load in units of `L * 6 mu |u| L / h^2`.
+fn rupture_branch(sc: f64, lower: &Prims) -> (f64, f64) {
+    let d = Prims::at(sc).minus(lower);
+    // p(sc) = 0: integral (t - sc)(t + sc + Q) / (1 + t^2)^3 from -S to sc vanishes.
+    let a = d.m[2] - sc * sc * d.m[0];
+    let b = d.m[1] - sc * d.m[0];
+    let q = if b != 0.0 { -a / b } else { 0.0 };
+    let k = sc + q;
+    // Load: -integral (t - sc)^2 (t + k) / (1 + t^2)^3 (by parts, p = 0 at both ends).
+    let w = -(d.m[3]
+        + (k - 2.0 * sc) * d.m[2]
+        + (sc * sc - 2.0 * sc * k) * d.m[1]
+        + sc * sc * k * d.m[0]);
+    (q, w)
+}
+
+/// The film of `face` at minimum film `h_m` (> 0), sliding speed `u_abs` (>= 0, m/s) and
+/// viscosity `mu` (> 0, Pa s) that carries `load_n_per_m` (N per metre of circumference):
+/// the squeeze velocity that makes it carry that load, its shear and its peak pressure.
+/// A load `<= 0` gives the fully ruptured film (nothing carried: the ring lifts as fast as the
+/// inlet can follow, `hdot = crown |u| / a`).
+pub fn film_for_load(face: &Face, h_m: f64, u_abs: f64, load_n_per_m: f64, mu: f64) -> Film {
+    let a = face.half_width_m;
+    let big_s = (face.crown_m / h_m).sqrt();
+    let l = a / big_s;
+    let top = Prims::at(big_s);
+    let low = Prims::at(-big_s);
+    let full = top.minus(&low);
+    // Units: the shear `mu |u| L / h`, the pressure gradient's sliding part `6 mu |u| L / h^2`.
+    let shear_unit = mu * u_abs * l / h_m;
+    let alpha = 6.0 * mu * u_abs * l / (h_m * h_m);
+    if load_n_per_m <= 0.0 {
+        return Film {
+            squeeze_m_s: face.crown_m * u_abs / a,
+            shear_n_per_m: shear_unit * (1.0 + big_s * big_s) * full.j2(),
+            peak_pa: 0.0,
+            rupture_m: -a,
+        };
+    }
+    // The whole film: dp/ds = (alpha (s^2 + c) + beta s) / (1 + s^2)^3, p(+-S) = 0.
+    let c = -full.m[2] / full.m[0];
+    let w_edge = l * alpha * (big_s * big_s + c) * full.m[2] / big_s;
+    if load_n_per_m >= w_edge {
+        let beta = -load_n_per_m / (l * full.m[2]);
+        let squeeze = beta * h_m.powi(3) / (12.0 * mu * l * l);
+        // Peak at the smaller root of alpha s^2 + beta s + alpha c (stable form; beta < 0).
+        let disc = (beta * beta - 4.0 * alpha * alpha * c).max(0.0);
+        let s1 = 2.0 * alpha * c / (disc.sqrt() - beta);
+        let d = Prims::at(s1).minus(&low);
+        let peak = alpha * (d.m[2] + c * d.m[0]) + beta * d.m[1];
+        return Film {
+            squeeze_m_s: squeeze,
+            shear_n_per_m: shear_unit * (full.j1 + 3.0 * (full.n[2] + c * full.n[0])),
+            peak_pa: peak.max(0.0),
+            rupture_m: a,
+        };
+    }
+    // Ruptured film: the rupture point whose load is the one asked for (the load rises
+    // monotonically from 0 at the inlet edge to `w_edge` at the outlet edge).
+    let target = load_n_per_m / (l * alpha);
+    let sc = root_increasing(|s| rupture_branch(s, &low).1 - target, -big_s, big_s);
+    let (q, _) = rupture_branch(sc, &low);
+    let k = sc + q;
+    let at_c = Prims::at(sc);
+    let d = at_c.minus(&low);
+    let poiseuille = d.n[2] + (k - sc) * d.n[1] - sc * k * d.n[0];
+    let streamers = (1.0 + sc * sc) * (top.j2() - at_c.j2());
+    let sp = (-k).clamp(-big_s, sc);
+    let dp = Prims::at(sp).minus(&low);
+    let peak = alpha * (dp.m[2] + (k - sc) * dp.m[1] - sc * k * dp.m[0]);
+    Film {
+        squeeze_m_s: q * h_m * u_abs / (2.0 * l),
+        shear_n_per_m: shear_unit * (d.j1 + 3.0 * poiseuille + streamers),
+        peak_pa: peak.max(0.0),
+        rupture_m: sc * l,
+    }
+}
+
+/// The root of `f`, increasing on `[lo, hi]`, by bracketing regula falsi (Illinois): the ends'
+/// signs decide, an end where `f` is already past zero is returned as is.
+pub fn root_increasing(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
+    let (mut a, mut b) = (lo, hi);
+    let (mut fa, mut fb) = (f(a), f(b));
+    if fa >= 0.0 {
+        return a;
+    }
+    if fb <= 0.0 {
+        return b;
+    }
+    let mut side = 0i8;
+    for _ in 0..200 {
+        let x = (a * fb - b * fa) / (fb - fa);
+        let x = if x.is_finite() && x > a && x < b {
+            x
+        } else {
+            0.5 * (a + b)
+        };
+        let fx = f(x);
+        if fx == 0.0 {
+            return x;
+        }
+        if fx < 0.0 {
+            a = x;
+            fa = fx;
+            if side == -1 {
+                fb *= 0.5;
+            }
+            side = -1;
+        } else {
+            b = x;
+            fb = fx;
+            if side == 1 {
+                fa *= 0.5;
+            }
+            side = 1;
+        }
+        if (b - a) <= 1e-14 * (a.abs() + b.abs()) + 1e-300 {
+            break;
+        }
+    }
+    if fa.abs() < fb.abs() {
+        a
+    } else {
+        b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The antiderivatives differentiate back to their integrands (central differences).
+    #[test]
+    fn antiderivatives_differentiate_to_their_integrands() {
+        for &s in &[-3.0, -0.7, 0.0, 0.4, 2.5] {
+            let e = 1e-5;
+            let (p, m) = (Prims::at(s + e), Prims::at(s - e));
+            let q: f64 = 1.0 + s * s;
+            for k in 0..4 {
+                let d = (p.m[k] - m.m[k]) / (2.0 * e);
+                let want = s.powi(k as i32) / q.powi(3);
+                assert!((d - want).abs() < 1e-8, "m[{k}] at {s}: {d} vs {want}");
+            }
+            for k in 0..3 {
+                let d = (p.n[k] - m.n[k]) / (2.0 * e);
+                let want = s.powi(k as i32) / q.powi(2);
+                assert!((d - want).abs() < 1e-8, "n[{k}] at {s}: {d} vs {want}");
+            }
+        }
+    }
+
+    /// The rupture branch's load rises monotonically from zero at the inlet edge to the full
+    /// film's at the outlet edge (what the root search relies on).
+    #[test]
+    fn the_rupture_branch_load_is_monotone() {
+        for &big_s in &[0.3, 1.0, 4.0, 20.0] {
+            let low = Prims::at(-big_s);
+            // Rounding: near the inlet edge the load is a difference of antiderivatives of
+            // order one that nearly cancel (1e-16 absolute).
+            let (_, w_max) = rupture_branch(big_s, &low);
+            let mut last = -1.0;
+            for i in 1..400 {
+                let sc = -big_s + 2.0 * big_s * i as f64 / 400.0;
+                let (_, w) = rupture_branch(sc, &low);
+                assert!(
+                    w > last - 1e-12 * w_max,
+                    "S {big_s}, sc {sc}: {w} after {last}"
+                );
+                last = w;
+            }
+        }
+    }
+}

@@ -1,0 +1,173 @@
+//! The steady parabolic slider in full film, against formulas derived here independently of the
+//! crate's: the face `h(x) = h0 + crown (x/a)^2` with the liner sliding at `u`, the Reynolds
+//! equation `h^3 dp/dx = 6 mu u (h - h_c)` (`h_c` the film where `dp/dx = 0`), `p = 0` at the
+//! inlet and `p = dp/dx = 0` at the rupture point (Reynolds condition), streamers filling
+//! `h_c / h` of the gap beyond it.
+//!
+//! Derivation (substituting `x = L tan(theta)`, `L = a sqrt(h0 / crown)`, so that
+//! `h = h0 sec^2(theta)` and `dx = L sec^2(theta) dtheta`):
+//!
+//! ```text
+//! p(theta)  = P0 int_{th0}^{theta} (sin^2 cos^2 - t_c^2 cos^4) dth,      P0 = 6 mu u L / h0^2, t_c = tan(th_c)
+//! rupture:  p(th_c) = 0  =>  Ia(th_c) - Ia(th0) = t_c^2 (Ib(th_c) - Ib(th0))
+//!           Ia = th/8 - sin(4 th)/32  (int sin^2 cos^2),   Ib = 3 th/8 + sin(2 th)/4 + sin(4 th)/32  (int cos^4)
+//! load:     W = int p dx = -L int (tan th - t_c) dp       (by parts, p = 0 at both ends)
+//!             = -L P0 [ sin^4/4 - t_c Ia + t_c^2 cos^4/4 + t_c^3 Ib ]_{th0}^{th_c}
+//! friction on the liner (per unit circumference):
+//!   Couette   mu u int dx / h          = mu u (L / h0) (th_c - th0)
+//!   Poiseuille  int (h/2) dp/dx dx     = (h0 P0 / 2) [ (th/2 - sin(2 th)/4) - t_c^2 (th/2 + sin(2 th)/4) ]_{th0}^{th_c}
+//!   streamers mu u h_c int dx / h^2    = mu u (1 + t_c^2) (L / h0) [ th/2 + sin(2 th)/4 ]_{th_c}^{th1}
+//! ```
+//!
+//! with `th0 = -atan(S)`, `th1 = atan(S)`, `S = sqrt(crown / h0)`.
+
+use tribo_law_ring_pack::asperity::Roughness;
+use tribo_law_ring_pack::profile::{film_for_load, Face};
+use tribo_law_ring_pack::ring::Ring;
+
+fn ia(t: f64) -> f64 {
+    t / 8.0 - (4.0 * t).sin() / 32.0
+}
+fn ib(t: f64) -> f64 {
+    3.0 * t / 8.0 + (2.0 * t).sin() / 4.0 + (4.0 * t).sin() / 32.0
+}
+
+/// Bisection on an increasing function to the last bit.
+fn bisect(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
+    for _ in 0..200 {
+        let m = 0.5 * (lo + hi);
+        if m <= lo || m >= hi {
+            break;
+        }
+        if f(m) < 0.0 {
+            lo = m;
+        } else {
+            hi = m;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// (load N/m, friction N/m, rupture angle) of the steady slider at film `h0`.
+fn slider(a: f64, crown: f64, h0: f64, u: f64, mu: f64) -> (f64, f64, f64) {
+    let s = (crown / h0).sqrt();
+    let l = a / s;
+    let (th0, th1) = (-s.atan(), s.atan());
+    // p(th_c) as a function of th_c: negative just past the peak, zero at the rupture.
+    let rupture = |tc: f64| {
+        let t = tc.tan();
+        -((ia(tc) - ia(th0)) - t * t * (ib(tc) - ib(th0)))
+    };
+    // The rupture lies between the apex and the outlet, where this residual changes sign once.
+    let thc = bisect(rupture, 1e-12, th1);
+    let tc = thc.tan();
+    let p0 = 6.0 * mu * u * l / (h0 * h0);
+    let big = |t: f64| {
+        t.sin().powi(4) / 4.0 - tc * ia(t) + tc * tc * t.cos().powi(4) / 4.0 + tc.powi(3) * ib(t)
+    };
+    let load = -l * p0 * (big(thc) - big(th0));
+    let sin2 = |t: f64| t / 2.0 - (2.0 * t).sin() / 4.0;
+    let cos2 = |t: f64| t / 2.0 + (2.0 * t).sin() / 4.0;
+    let couette = mu * u * l / h0 * (thc - th0);
+    let poiseuille = 0.5 * h0 * p0 * ((sin2(thc) - sin2(th0)) - tc * tc * (cos2(thc) - cos2(th0)));
+    let streamers = mu * u * (1.0 + tc * tc) * l / h0 * (cos2(th1) - cos2(thc));
+    (load, couette + poiseuille + streamers, thc)
+}
+
+/// No asperity contact at the films of these cases (sigma 1 nm).
+fn smooth() -> Roughness {
+    Roughness {
+        sigma_m: 1e-9,
+        eta_beta_sigma: 0.04,
+        sigma_over_beta: 1e-3,
+        modulus_pa: 78e9,
+    }
+}
+
+fn ring(width: f64, crown: f64) -> Ring {
+    Ring {
+        face: Face {
+            half_width_m: 0.5 * width,
+            crown_m: crown,
+        },
+        tension_n: 0.0,
+        gas_fraction: 0.0,
+        rails: 1,
+    }
+}
+
+/// For a given load the law's steady film is the closed form's, and so is its friction, to 1e-6.
+#[test]
+fn steady_film_and_friction_for_a_given_load_match_the_closed_form() {
+    let mu = 0.01;
+    for &(width, crown, u, load) in &[
+        (0.8e-3, 5e-6, 10.0, 200.0),
+        (0.8e-3, 5e-6, 1.0, 600.0),
+        (1.2e-3, 10e-6, 15.0, 3000.0),
+        (0.3e-3, 2e-6, 5.0, 260.0),
+        (0.8e-3, 5e-6, 20.0, 50.0),
+    ] {
+        let r = ring(width, crown);
+        let h = r.steady(&smooth(), u, load, mu);
+        // The closed form's film for this load: its load falls monotonically with the film.
+        let h_ref = bisect(
+            |lnh: f64| load - slider(0.5 * width, crown, lnh.exp(), u, mu).0,
+            (1e-9f64).ln(),
+            (1e-3f64).ln(),
+        )
+        .exp();
+        assert!(
+            (h - h_ref).abs() <= 1e-6 * h_ref,
+            "width {width} crown {crown} u {u} load {load}: law {h}, closed form {h_ref}"
+        );
+        let (w_ref, f_ref, thc) = slider(0.5 * width, crown, h_ref, u, mu);
+        assert!((w_ref - load).abs() <= 1e-9 * load);
+        let c = r.contact(&smooth(), h, u, load, mu);
+        assert_eq!(c.asperity_n_per_m, 0.0);
+        let f = c.film.shear_n_per_m;
+        assert!(
+            (f - f_ref).abs() <= 1e-6 * f_ref,
+            "friction: law {f}, closed form {f_ref}"
+        );
+        // The rupture point too (m from the apex).
+        let x_ref = 0.5 * width * (h_ref / crown).sqrt() * thc.tan();
+        assert!(
+            (c.film.rupture_m - x_ref).abs() <= 1e-5 * x_ref,
+            "rupture {} vs {x_ref}",
+            c.film.rupture_m
+        );
+        // The steady film has no squeeze.
+        assert!(c.film.squeeze_m_s.abs() <= 1e-9 * u * crown / width);
+    }
+}
+
+/// A crown far above the film is a cylinder of radius `R = a^2 / (2 crown)` on a plane, whose
+/// fully flooded Reynolds-condition load is the textbook `W = 4.90 eta u_mean R / h0` per unit
+/// length (rigid cylinder on a plane with the Reynolds condition, quoted to three figures; one
+/// surface moving, `u_mean = u / 2`) with rupture at `x_c = 0.475 sqrt(2 R h0)`: the closed form
+/// above reproduces them (2.4475 and 0.47513), checking the derivation itself.
+#[test]
+fn the_closed_form_tends_to_the_rigid_cylinder_on_a_plane() {
+    let (a, crown, h0, u, mu) = (0.4e-3, 5e-6, 1e-10, 10.0, 0.01);
+    let (w, _, thc) = slider(a, crown, h0, u, mu);
+    let r = a * a / (2.0 * crown);
+    let want = 4.90 * mu * 0.5 * u * r / h0;
+    assert!((w - want).abs() < 2e-3 * want, "{w} vs {want}");
+    assert!((thc.tan() - 0.475).abs() < 1e-3, "{}", thc.tan());
+    // The crate's film agrees at this film too.
+    let f = film_for_load(
+        &Face {
+            half_width_m: a,
+            crown_m: crown,
+        },
+        h0,
+        u,
+        w,
+        mu,
+    );
+    assert!(
+        f.squeeze_m_s.abs() < 1e-9 * u * crown / a,
+        "{}",
+        f.squeeze_m_s
+    );
+}

@@ -1018,6 +1018,100 @@ fn bearing_polar_plot(t: &crate::sim::CrankAngleTrace, out: &mut String) -> Plot
     Ok(())
 }
 
+/// The journals' eccentricity loci of a plateau's cycle: per joint whose law reports its
+/// eccentricity (contract v3), the ratio e/c over the cycle inside the unit circle (the
+/// bearing wall), in the outer member's frame; `None` where no law reports one
+/// (`run --crank-angle`, `eccentricity_RPM.svg`).
+pub fn eccentricity_polar_svg(t: &crate::sim::CrankAngleTrace) -> Option<std::io::Result<String>> {
+    let loci = eccentricity_loci(t);
+    if loci.is_empty() {
+        return None;
+    }
+    Some(svg(|s| eccentricity_polar_plot(t.speed_rpm, &loci, s)))
+}
+
+/// Per joint, the first of its laws that reports an eccentricity, and its locus (x, y).
+fn eccentricity_loci(t: &crate::sim::CrankAngleTrace) -> Vec<(String, Vec<(f64, f64)>)> {
+    let mut loci: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    for (k, (joint, _)) in t.laws.iter().enumerate() {
+        if loci.iter().any(|(j, _)| j == joint) {
+            continue;
+        }
+        let pts: Vec<(f64, f64)> = t
+            .samples
+            .iter()
+            .filter_map(|s| {
+                let l = s.laws.get(k)?;
+                Some((l.eccentricity_x?, l.eccentricity_y?))
+            })
+            .collect();
+        if !pts.is_empty() {
+            loci.push((joint.clone(), pts));
+        }
+    }
+    loci
+}
+
+fn eccentricity_polar_plot(
+    speed_rpm: f64,
+    loci: &[(String, Vec<(f64, f64)>)],
+    out: &mut String,
+) -> PlotResult {
+    let root = SVGBackend::with_string(out, (900, 760)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let names: Vec<String> = loci.iter().map(|(j, _)| j.clone()).collect();
+    let (plot, side) = root.split_horizontally(900 - legend_width(&names).max(200));
+    let (plot, note) = plot.split_vertically(695);
+    let mut chart = frame(
+        &plot,
+        &format!("Journal eccentricity e/c over the cycle at {speed_rpm:.0} rpm"),
+        -1.1..1.1,
+        -1.1..1.1,
+        "e/c, x: across the bore (mains) or the rod (big ends)",
+        "e/c, y: towards the head (mains) or the small end (big ends)",
+    )?;
+    // The bearing wall: |e| = c.
+    let wall: Vec<(f64, f64)> = (0..=360)
+        .map(|d| {
+            let a = f64::from(d).to_radians();
+            (a.cos(), a.sin())
+        })
+        .collect();
+    chart.draw_series(LineSeries::new(wall, BLACK.stroke_width(1)))?;
+    let n = loci.len();
+    for (k, (_, pts)) in loci.iter().enumerate() {
+        let color = distinct_color(k, n);
+        let mut closed = pts.clone();
+        closed.extend(pts.first().copied());
+        chart.draw_series(LineSeries::new(closed, color.stroke_width(2)))?;
+        // The cycle's start (crank angle 0) marked, so the direction of travel reads.
+        draw_markers(&mut chart, k, &pts[..1.min(pts.len())], color)?;
+    }
+    note.fill(&WHITE)?;
+    for (i, line) in [
+        "In the outer member's frame: the block for mains, the rod for big ends; angles",
+        "counter-clockwise from +x seen from the drive end. Marker: crank angle 0.",
+        "Circle: the bearing wall (e = c).",
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        note.draw(&Text::new(
+            line,
+            (20, 4 + 17 * i as i32),
+            ("sans-serif", 13),
+        ))?;
+    }
+    let entries: Vec<(String, Swatch)> = names
+        .iter()
+        .enumerate()
+        .map(|(k, j)| (j.clone(), Swatch::Marked(distinct_color(k, n), k)))
+        .collect();
+    legend_beside(&side, "joint", &entries)?;
+    root.present()?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

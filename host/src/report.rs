@@ -329,7 +329,8 @@ const DIAGNOSTIC_COLUMNS: [DiagnosticColumn; 5] = [
 /// `crank_angle_loads.csv` (one row per plateau and angle: big-end and main-bearing load
 /// vectors, cylinder and crankcase pressure, drive torque), and per plateau the friction
 /// torque of every joint over the cycle (`friction_vs_angle_RPM.svg`) and the polar diagram of
-/// the big-end and main-bearing loads (`bearing_loads_RPM.svg`). Swapped in whole.
+/// the big-end and main-bearing loads (`bearing_loads_RPM.svg`), and where a law reports a
+/// journal's eccentricity the loci of e/c (`eccentricity_RPM.svg`). Swapped in whole.
 pub fn write_crank_angle(
     traces: &[crate::sim::CrankAngleTrace],
     dir: &Path,
@@ -464,6 +465,11 @@ pub fn write_crank_angle(
         let name = format!("bearing_loads_{:.0}.svg", t.speed_rpm);
         let svg = crate::plots::bearing_polar_svg(t).map_err(|e| render(&name, e))?;
         out.write(&name, svg.as_bytes())?;
+        if let Some(svg) = crate::plots::eccentricity_polar_svg(t) {
+            let name = format!("eccentricity_{:.0}.svg", t.speed_rpm);
+            let svg = svg.map_err(|e| render(&name, e))?;
+            out.write(&name, svg.as_bytes())?;
+        }
     }
     out.commit()
 }

@@ -64,6 +64,10 @@ const LAWSETS: &[(&str, &str)] = &[
         "4b11-physical.toml",
         include_str!("../../../rigs/lawsets/4b11-physical.toml"),
     ),
+    (
+        "crf250r-physical.toml",
+        include_str!("../../../rigs/lawsets/crf250r-physical.toml"),
+    ),
 ];
 
 /// Bundled data files.

@@ -116,6 +116,20 @@ fn rupture_branch(sc: f64, lower: &Prims) -> (f64, f64) {
 /// A load `<= 0` gives the fully ruptured film (nothing carried: the ring lifts as fast as the
 /// inlet can follow, `hdot = crown |u| / a`).
 pub fn film_for_load(face: &Face, h_m: f64, u_abs: f64, load_n_per_m: f64, mu: f64) -> Film {
+    film_for_load_near(face, h_m, u_abs, load_n_per_m, mu, None)
+}
+
+/// [`film_for_load`] with a guess of the rupture point (m from the apex, a nearby film's
+/// `rupture_m`): the root is first bracketed close to it, which saves most of the search when
+/// the film has barely changed (a finite-difference neighbour). The same root either way.
+pub fn film_for_load_near(
+    face: &Face,
+    h_m: f64,
+    u_abs: f64,
+    load_n_per_m: f64,
+    mu: f64,
+    rupture_guess_m: Option<f64>,
+) -> Film {
     let a = face.half_width_m;
     let big_s = (face.crown_m / h_m).sqrt();
     let l = a / big_s;
@@ -154,7 +168,14 @@ pub fn film_for_load(face: &Face, h_m: f64, u_abs: f64, load_n_per_m: f64, mu: f
     // Ruptured film: the rupture point whose load is the one asked for (the load rises
     // monotonically from 0 at the inlet edge to `w_edge` at the outlet edge).
     let target = load_n_per_m / (l * alpha);
-    let sc = root_increasing(|s| rupture_branch(s, &low).1 - target, -big_s, big_s);
+    let f = |s: f64| rupture_branch(s, &low).1 - target;
+    let near = rupture_guess_m.and_then(|x| {
+        let (g, d) = (x / l, 1e-4 * (1.0 + big_s));
+        let (lo, hi) = ((g - d).max(-big_s), (g + d).min(big_s));
+        (lo < hi && f(lo) < 0.0 && f(hi) > 0.0).then_some((lo, hi))
+    });
+    let (lo, hi) = near.unwrap_or((-big_s, big_s));
+    let sc = root_increasing(f, lo, hi);
     let (q, _) = rupture_branch(sc, &low);
     let k = sc + q;
     let at_c = Prims::at(sc);

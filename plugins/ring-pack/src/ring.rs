@@ -9,7 +9,7 @@
 //! however stiff the squeeze film gets near contact).
 
 use crate::asperity::{Roughness, LAMBDA_MAX};
-use crate::profile::{film_for_load, root_increasing, Face, Film};
+use crate::profile::{film_for_load, film_for_load_near, root_increasing, Face, Film};
 
 /// The thinnest film considered, in units of the composite roughness: below it the asperities
 /// are in plastic contact and Greenwood-Tripp's elastic summits no longer describe them.
@@ -100,10 +100,12 @@ impl Ring {
         film_for_load(&self.face, h, u_abs, load - asp, mu).squeeze_m_s
     }
 
-    /// The minimum film after a step of `dt_s` from `h_old`: backward Euler, taken as one
-    /// linearly implicit step `h_old + dt hdot / (1 - dt dhdot/dh)` (the same stability: the
-    /// squeeze film's relaxation `dhdot/dh < 0` is damped, never amplified) when it moves the
-    /// film by less than 2% (what a crank-angle step does), otherwise solved to rounding.
+    /// The minimum film after a step of `dt_s` from `h_old`: linearly implicit (Rosenbrock)
+    /// Euler steps `h + dt hdot / (1 - dt dhdot/dh)`, each moving the film by at most 10%
+    /// (sub-steps where the film changes fast, near the dead centres). Like backward Euler it
+    /// damps the squeeze film's relaxation (`dhdot/dh < 0`) at any step length instead of
+    /// amplifying it; after 64 sub-steps the rest of the step is backward Euler solved to
+    /// rounding. Never below the floor of the asperities.
     pub fn advance(
         &self,
         rough: &Roughness,
@@ -117,21 +119,41 @@ impl Ring {
         if mu.is_nan() || mu <= 0.0 || mu.is_infinite() {
             return self.floor(rough, load);
         }
-        let h0 = h_old.clamp(lo_limit, H_MAX_M);
-        let f0 = self.squeeze(rough, h0, u_abs, load, mu);
-        let dh = 1e-6 * h0;
-        let slope = (self.squeeze(rough, h0 + dh, u_abs, load, mu) - f0) / dh;
-        let step = dt_s * f0 / (1.0 - dt_s * slope.min(0.0));
-        if step.is_finite() && step.abs() <= 0.02 * h0 {
-            let h = h0 + step;
-            return if self.asperity(rough, h) > load {
-                self.floor(rough, load)
+        let film = |h: f64, guess: Option<f64>| {
+            let asp = self.asperity(rough, h).min(load);
+            film_for_load_near(&self.face, h, u_abs, load - asp, mu, guess)
+        };
+        let mut h = h_old.clamp(lo_limit, H_MAX_M);
+        let mut left = dt_s;
+        for _ in 0..64 {
+            let film0 = film(h, None);
+            let f0 = film0.squeeze_m_s;
+            let dh = 1e-6 * h;
+            let slope = ((film(h + dh, Some(film0.rupture_m)).squeeze_m_s - f0) / dh).min(0.0);
+            // The longest sub-step moving the film by 10%: |f0| t / (1 + t |slope|) <= h / 10.
+            let room = f0.abs() - 0.1 * h * slope.abs();
+            let t = if room > 0.0 {
+                left.min(0.1 * h / room)
             } else {
-                h
+                left
             };
+            let step = t * f0 / (1.0 - t * slope);
+            if !step.is_finite() {
+                break;
+            }
+            h = (h + step).clamp(lo_limit, H_MAX_M);
+            left -= t;
+            if left <= 0.0 {
+                return if self.asperity(rough, h) > load {
+                    self.floor(rough, load)
+                } else {
+                    h
+                };
+            }
         }
-        self.solve(rough, h_old, u_abs, load, mu, |h, hdot| {
-            h - h_old - dt_s * hdot
+        let h_start = h;
+        self.solve(rough, h_start, u_abs, load, mu, |x, hdot| {
+            x - h_start - left * hdot
         })
     }
 
@@ -154,11 +176,7 @@ impl Ring {
         }
         let f = |y: f64| {
             let h = y.exp();
-            let asp = self.asperity(rough, h).min(load);
-            g(
-                h,
-                film_for_load(&self.face, h, u_abs, load - asp, mu).squeeze_m_s,
-            )
+            g(h, self.squeeze(rough, h, u_abs, load, mu))
         };
         let (y_min, y_max) = (lo_limit.ln(), H_MAX_M.ln());
         let y0 = guess.clamp(lo_limit, H_MAX_M).ln();

@@ -94,8 +94,6 @@ struct Rules {
     /// Each plateau of the crank-angle traces starts its friction iteration from zero
     /// (rather than from the previous plateau's last point).
     fresh_trace_guess: bool,
-    /// The PI drive runs fixed-step RK4 whatever `solver.integrator` says.
-    fixed_step_pi: bool,
 }
 
 impl Rules {
@@ -105,7 +103,6 @@ impl Rules {
         commit: Commit::Rebuilt,
         fresh_first_stage: false,
         fresh_trace_guess: true,
-        fixed_step_pi: false,
     };
     /// The engines'.
     const ENGINE: Rules = Rules {
@@ -113,7 +110,6 @@ impl Rules {
         commit: Commit::LastInputs,
         fresh_first_stage: true,
         fresh_trace_guess: false,
-        fixed_step_pi: true,
     };
 }
 
@@ -306,7 +302,7 @@ impl Simulation {
             max_step_s: f.solver.max_step_s,
             integrator: f.solver.integrator,
             rel_tol: f.solver.rel_tol,
-            max_step_rad: f.solver.max_step_deg.to_radians(),
+            max_step_rad: f.solver.max_step_deg(engine).to_radians(),
             step_control: f.solver.step_control,
             tol: f.solver.friction_tol,
             max_iter: f.solver.friction_max_iter,

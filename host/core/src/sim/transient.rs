@@ -76,11 +76,7 @@ impl Simulation {
             }
             // A stateful law's state is advanced with the step's length, which must then not
             // vary: the adaptive integrator is for stateless laws only.
-            Drive::Pi { .. }
-                if self.integrator == Integrator::Adaptive
-                    && !self.stateful
-                    && !self.rules.fixed_step_pi =>
-            {
+            Drive::Pi { .. } if self.integrator == Integrator::Adaptive && !self.stateful => {
                 let control = match self.step_control {
                     StepControl::Integral => Controller::new(&DORMAND_PRINCE_54),
                     StepControl::Pi => Controller::pi(&DORMAND_PRINCE_54),

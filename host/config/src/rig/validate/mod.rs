@@ -511,13 +511,15 @@ impl Check<'_> {
         self.positive("solver.max_step_s", s.max_step_s, "s")?;
         self.positive("solver.friction_tol", s.friction_tol, "-")?;
         self.positive("solver.rel_tol", s.rel_tol, "-")?;
-        self.within(
-            "solver.max_step_deg",
-            s.max_step_deg,
-            MAX_STEP_DEG_RANGE,
-            "degrees",
-            "a step must resolve a stroke",
-        )?;
+        if let Some(max_step_deg) = s.max_step_deg {
+            self.within(
+                "solver.max_step_deg",
+                max_step_deg,
+                MAX_STEP_DEG_RANGE,
+                "degrees",
+                "a step must resolve a stroke",
+            )?;
+        }
         if s.rel_tol > 1e-2 {
             return Err(self.rig.error(
                 "solver.rel_tol",

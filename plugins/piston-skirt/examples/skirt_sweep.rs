@@ -1,6 +1,7 @@
 //! The skirt's steady response over oil temperature, sliding speed and side thrust
 //! (docs/laws/piston-skirt.md): the default skirt on the CRF 250 R's 76.8 mm bore, the piston at
-//! its quasi-static lateral offset. `cargo run --release -p tribo-law-piston-skirt --example sweep`
+//! its quasi-static lateral offset.
+//! `cargo run --release -p tribo-law-piston-skirt --example skirt_sweep`
 
 use tribo_law_piston_skirt::PistonSkirt;
 use tribo_plugin_api::{create_from_table, JointKind, Law, LawInput};

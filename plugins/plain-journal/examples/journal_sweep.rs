@@ -2,7 +2,7 @@
 //! radial clearance) steadily loaded, over oil temperature (the rig's 5W-30), speed and load:
 //! eccentricity ratio, minimum film, friction torque and peak pressure.
 //!
-//! `cargo run --release -p tribo-law-plain-journal --example sweep`
+//! `cargo run --release -p tribo-law-plain-journal --example journal_sweep`
 
 use std::f64::consts::PI;
 

@@ -73,7 +73,12 @@ fn frictionless_reference_holds_zero_mean_torque_with_both_drives() {
             );
             assert!((p.mean_speed_rpm - p.set_speed_rpm).abs() < 0.01 * p.set_speed_rpm);
         }
-        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        // The one warning a rig without laws must give (issue 27: no silent zero); no other.
+        assert!(
+            r.warnings.len() == 1 && r.warnings[0].starts_with("no law on any joint"),
+            "{:?}",
+            r.warnings
+        );
     }
 }
 
@@ -668,12 +673,23 @@ fn a_simulation_run_twice_with_a_stateful_law_gives_the_same_result() {
 /// The bundled CRF 250 R rig with bundled law set `set`, PI drive, the adaptive integrator's
 /// step-size controller `control`, and with `small_end_mu` a `fedem-friction` law of that
 /// coefficient on the small end (which the bundled sets leave free).
+/// The stribeck-duty set these step-control tests were written against (H from a nominal
+/// load): the bundled set became consistent in issue 26 and switches regime at other instants.
+const STRIBECK_NOMINAL: &str = "tests/fixtures/lawsets/stribeck-duty-nominal.toml";
+
 fn bundled_pi_run(set: &str, control: &str, small_end_mu: Option<f64>) -> RunResult {
     let sets = vec![
         PI_DRIVE.to_string(),
         format!("solver.step_control=\"{control}\""),
     ];
     let mut rig = tribo::rig::load_rig(Path::new("crf250r-motored"), &sets).expect("bundled rig");
+    // A fixture set is named by its path from the workspace root.
+    let fixture = workspace().join(set).to_string_lossy().into_owned();
+    let set = if set.ends_with(".toml") {
+        &fixture
+    } else {
+        set
+    };
     tribo::lawset::LawSet::load(set)
         .expect("bundled law set")
         .apply(&mut rig);
@@ -701,7 +717,7 @@ fn pi_step_control_agrees_with_integral_control_and_takes_fewer_attempts() {
     // on the small end too.
     for (set, small_end_mu) in [
         ("fedem-baseline", None),
-        ("stribeck-duty", None),
+        (STRIBECK_NOMINAL, None),
         ("physical-bearings", None),
         ("fedem-baseline", Some(0.0025)),
     ] {

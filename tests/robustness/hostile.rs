@@ -565,7 +565,8 @@ const HOST_CASES: &[HostCase] = &[
         env: &[],
         args: &["sweep", "--speeds", "1000000", "--out", "o"],
         code: 1,
-        words: &["--speeds", "[0, 30000] rpm", "1e6"],
+        // Refused once, by the rig's own declared limit (issue 27), before any set runs.
+        words: &["--speeds", "max_speed_rpm = 14500 rpm", "1e6"],
         not: &["--set", "law set"],
     },
     HostCase {

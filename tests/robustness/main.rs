@@ -74,14 +74,14 @@ fn cases() -> Vec<Case> {
             name: "rig: unknown key, with file:line:column",
             setup: |d| run_edited_rig(d, "mass_kg = 0.1748", "mass_kg = 0.1748\nmas_scale = 0.6"),
             code: 1,
-            // The bad key is the line after the rod's `mass_kg` (line 24 of the bundled rig).
-            words: &["rig.toml:25:1", "unknown field `mas_scale`"],
+            // The bad key is the line after the rod's `mass_kg` (line 25 of the bundled rig).
+            words: &["rig.toml:26:1", "unknown field `mas_scale`"],
         },
         Case {
             name: "rig: TOML syntax error",
             setup: |d| run_edited_rig(d, "bore_m = 0.0768", "bore_m = 0.0768 0.1"),
             code: 1,
-            words: &["rig.toml:13:17", "bore_m", "expected newline"],
+            words: &["rig.toml:14:17", "bore_m", "expected newline"],
         },
         Case {
             name: "rig: negative mass",

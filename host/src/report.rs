@@ -1218,10 +1218,8 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
 /// only beside the thesis's own law set, labelled as the thesis's; other law sets have none.
 pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
     let mut out = String::new();
-    let mut thesis_shown = false;
     for set in r {
         let thesis = set.changes.iter().any(|c| c.fedem_change_nm.is_some());
-        thesis_shown |= thesis;
         let body = match set.body {
             crate::study::ScaledBody::Rod => "rod mass and inertia",
             crate::study::ScaledBody::Piston => "piston assembly mass",
@@ -1262,14 +1260,15 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
                 );
             }
         }
+        // The column explained under the table that has it, not after a user's set.
+        if thesis {
+            out.push_str(&wrap(
+                "FEDEM thesis (T 10.6-10.5): the change the thesis's own FEDEM model gave for the rod at 60% (its table 10.6 minus table 10.5, N m), shown beside the thesis's law set only.",
+                MAX_COLUMNS,
+                "  ",
+            ));
+        }
         out.push('\n');
-    }
-    if thesis_shown {
-        out.push_str(&wrap(
-            "FEDEM thesis (T 10.6-10.5): the change the thesis's own FEDEM model gave for the rod at 60% (its table 10.6 minus table 10.5, N m), shown beside the thesis's law set only.",
-            MAX_COLUMNS,
-            "  ",
-        ));
     }
     fit_width(&out)
 }

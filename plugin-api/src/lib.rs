@@ -24,6 +24,7 @@ mod law;
 pub mod loader;
 #[doc(hidden)]
 pub mod rust_abi;
+pub mod tribology;
 
 pub use contract::{
     smooth_sign, suits, suits_text, suits_words, BadDiagnostic, BearingType, InnerBody, JointKind,

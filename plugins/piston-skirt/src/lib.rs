@@ -17,16 +17,15 @@
 //! side thrust (`load_on_inner_y_n`), gives `de/dt`; `commit` advances `e` by implicit Euler.
 //! Friction: the shear of both films on the bore plus `mu_b` times the asperity load.
 
-pub mod asperity;
 pub mod pad;
 
 use serde::{Deserialize, Serialize};
+use tribo_plugin_api::tribology::{film_regime, root_increasing, Roughness};
 use tribo_plugin_api::{
     export_law, smooth_sign, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec, Regime,
     SUITS_SLIDE,
 };
 
-use asperity::Roughness;
 use pad::Pad;
 
 /// Parameters of [`PistonSkirt`].
@@ -170,9 +169,7 @@ impl PistonSkirt {
         Side {
             h_m: h,
             wedge_n: film.load_n,
-            asperity_n: self
-                .rough
-                .pad_load(h, c.pad.crown_m, c.pad.height_m, c.pad.width_m),
+            asperity_n: self.asperity_n(c, h),
             shear_n: film.friction_n,
             peak_pa: film.peak_pa,
             damping: c.pad.squeeze_damping(h, c.eta),
@@ -181,10 +178,15 @@ impl PistonSkirt {
 
     /// The static load (wedge and asperities) one wall's film `h` carries, N.
     fn carried(&self, c: &Contact, h: f64) -> f64 {
-        c.pad.sliding_load_n(h, c.eta, c.speed)
-            + self
-                .rough
-                .pad_load(h, c.pad.crown_m, c.pad.height_m, c.pad.width_m)
+        c.pad.sliding_load_n(h, c.eta, c.speed) + self.asperity_n(c, h)
+    }
+
+    /// The load the asperities carry on one wall at film `h`, N: Greenwood-Tripp over the
+    /// barrel's gap along the skirt's height, times the wetted width.
+    fn asperity_n(&self, c: &Contact, h: f64) -> f64 {
+        self.rough
+            .load_per_length(0.5 * c.pad.height_m, c.pad.crown_m, h)
+            * c.pad.width_m
     }
 
     /// Both walls at offset `e`: (the -y wall's film `c + e`, the +y wall's `c - e`).
@@ -218,7 +220,7 @@ impl PistonSkirt {
     /// The quasi-static offset: where the films carry the thrust without squeeze.
     fn quasi_static(&self, c: &Contact) -> f64 {
         let reach = self.reach();
-        solve_decreasing(|e| self.excess(c, e), -reach, reach)
+        root_increasing(|e| -self.excess(c, e), -reach, reach)
     }
 
     fn offset(&self, c: &Contact, state: &[f64]) -> f64 {
@@ -228,51 +230,6 @@ impl PistonSkirt {
             _ => self.quasi_static(c),
         }
     }
-}
-
-/// The root of a decreasing function on `[lo, hi]` (an end when it has no sign change there), by
-/// the Illinois variant of regula falsi.
-fn solve_decreasing(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
-    let (mut a, mut b) = (lo, hi);
-    let (mut fa, mut fb) = (f(a), f(b));
-    if fa <= 0.0 {
-        return a;
-    }
-    if fb >= 0.0 {
-        return b;
-    }
-    let tol = 1e-11 * (hi - lo).abs();
-    let mut side = 0i8;
-    let mut last = f64::NAN;
-    for _ in 0..200 {
-        let x = (a * fb - b * fa) / (fb - fa);
-        let x = if x.is_finite() && x > a && x < b {
-            x
-        } else {
-            0.5 * (a + b)
-        };
-        let fx = f(x);
-        if fx == 0.0 || (b - a) <= tol || (x - last).abs() <= tol {
-            return x;
-        }
-        last = x;
-        if fx > 0.0 {
-            a = x;
-            fa = fx;
-            if side == 1 {
-                fb *= 0.5;
-            }
-            side = 1;
-        } else {
-            b = x;
-            fb = fx;
-            if side == -1 {
-                fa *= 0.5;
-            }
-            side = -1;
-        }
-    }
-    0.5 * (a + b)
 }
 
 impl Law for PistonSkirt {
@@ -298,7 +255,12 @@ impl Law for PistonSkirt {
     }
 
     fn new(p: Params) -> Result<Self, ParamError> {
-        let rough = Roughness::new(p.sigma_m, p.eta_beta_sigma, p.sigma_over_beta, p.modulus_pa);
+        let rough = Roughness {
+            sigma_m: p.sigma_m,
+            eta_beta_sigma: p.eta_beta_sigma,
+            sigma_over_beta: p.sigma_over_beta,
+            modulus_pa: p.modulus_pa,
+        };
         Ok(Self { p, rough })
     }
 
@@ -336,13 +298,7 @@ impl Law for PistonSkirt {
         };
         let peak = near.peak_pa + c.pad.squeeze_peak_pa(near.h_m, c.eta, closing);
         let lambda = near.h_m / self.p.sigma_m;
-        let regime = if lambda >= 3.0 {
-            Regime::Hydrodynamic
-        } else if lambda >= 1.0 {
-            Regime::Mixed
-        } else {
-            Regime::Boundary
-        };
+        let regime = film_regime(lambda);
         let mut out = LawOutput::force(force)
             .with_regime(regime)
             .with_min_film(near.h_m)
@@ -396,7 +352,7 @@ impl Law for PistonSkirt {
                 (e0, e0)
             };
             if hi > lo {
-                solve_decreasing(|x| -g(x), lo, hi)
+                root_increasing(g, lo, hi)
             } else {
                 e0
             }

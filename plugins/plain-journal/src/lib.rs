@@ -11,6 +11,7 @@ pub mod table;
 pub mod tables;
 
 use serde::{Deserialize, Serialize};
+use tribo_plugin_api::tribology::film_regime;
 use tribo_plugin_api::{
     export_law, InnerBody, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec, Regime,
     SUITS_PLAIN,
@@ -240,13 +241,7 @@ impl Law for PlainJournal {
         };
         let (ex, ey) = (f.eps[0] * scale, f.eps[1] * scale);
         let lambda = h_min / self.roughness_m;
-        let regime = if lambda >= 3.0 {
-            Regime::Hydrodynamic
-        } else if lambda >= 1.0 {
-            Regime::Mixed
-        } else {
-            Regime::Boundary
-        };
+        let regime = film_regime(lambda);
         let mut out = LawOutput::force(torque)
             .with_regime(regime)
             .with_min_film(h_min)

@@ -8,17 +8,16 @@
 //! The modules are the mathematics, each tested on its own: [`profile`] the closed-form film of
 //! a parabolic face, [`asperity`] Greenwood-Tripp, [`ring`] one ring's load balance and motion.
 
-pub mod asperity;
 pub mod profile;
 pub mod ring;
 
 use serde::{Deserialize, Serialize};
+use tribo_plugin_api::tribology::{film_regime, Roughness};
 use tribo_plugin_api::{
-    export_law, smooth_sign, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec, Regime,
+    export_law, smooth_sign, JointKind, Law, LawInput, LawOutput, ParamError, ParamSpec,
     SUITS_SLIDE,
 };
 
-use asperity::Roughness;
 use profile::Face;
 use ring::{Contact, Ring};
 
@@ -404,13 +403,7 @@ impl Law for RingPack {
             .map(|c| c.film.peak_pa)
             .fold(0.0, f64::max);
         let lambda = h_min / self.rough.sigma_m;
-        let regime = if lambda >= 3.0 {
-            Regime::Hydrodynamic
-        } else if lambda >= 1.0 {
-            Regime::Mixed
-        } else {
-            Regime::Boundary
-        };
+        let regime = film_regime(lambda);
         let mut out = LawOutput::force(p.force_n)
             .with_regime(regime)
             .with_min_film(h_min)

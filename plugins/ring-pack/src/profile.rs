@@ -19,6 +19,8 @@
 //! point is the root of a monotone function of `s_c`; above it the full film's load is linear in
 //! `hdot`.
 
+use tribo_plugin_api::tribology::root_increasing;
+
 /// The ring face: half its axial width and the height of its parabolic crown at the edges.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Face {
@@ -190,55 +192,6 @@ pub fn film_for_load_near(
         shear_n_per_m: shear_unit * (d.j1 + 3.0 * poiseuille + streamers),
         peak_pa: peak.max(0.0),
         rupture_m: sc * l,
-    }
-}
-
-/// The root of `f`, increasing on `[lo, hi]`, by bracketing regula falsi (Illinois): the ends'
-/// signs decide, an end where `f` is already past zero is returned as is.
-pub fn root_increasing(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
-    let (mut a, mut b) = (lo, hi);
-    let (mut fa, mut fb) = (f(a), f(b));
-    if fa >= 0.0 {
-        return a;
-    }
-    if fb <= 0.0 {
-        return b;
-    }
-    let mut side = 0i8;
-    for _ in 0..200 {
-        let x = (a * fb - b * fa) / (fb - fa);
-        let x = if x.is_finite() && x > a && x < b {
-            x
-        } else {
-            0.5 * (a + b)
-        };
-        let fx = f(x);
-        if fx == 0.0 {
-            return x;
-        }
-        if fx < 0.0 {
-            a = x;
-            fa = fx;
-            if side == -1 {
-                fb *= 0.5;
-            }
-            side = -1;
-        } else {
-            b = x;
-            fb = fx;
-            if side == 1 {
-                fa *= 0.5;
-            }
-            side = 1;
-        }
-        if (b - a) <= 1e-14 * (a.abs() + b.abs()) + 1e-300 {
-            break;
-        }
-    }
-    if fa.abs() < fb.abs() {
-        a
-    } else {
-        b
     }
 }
 

@@ -8,8 +8,8 @@
 //! backward Euler rule `h_new = h_old + dt hdot(h_new)` (a monotone root: stable at any step,
 //! however stiff the squeeze film gets near contact).
 
-use crate::asperity::{Roughness, LAMBDA_MAX};
-use crate::profile::{film_for_load, film_for_load_near, root_increasing, Face, Film};
+use crate::profile::{film_for_load, film_for_load_near, Face, Film};
+use tribo_plugin_api::tribology::{root_increasing, Roughness, LAMBDA_MAX};
 
 /// The thinnest film considered, in units of the composite roughness: below it the asperities
 /// are in plastic contact and Greenwood-Tripp's elastic summits no longer describe them.

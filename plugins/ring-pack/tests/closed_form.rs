@@ -21,9 +21,9 @@
 //!
 //! with `th0 = -atan(S)`, `th1 = atan(S)`, `S = sqrt(crown / h0)`.
 
-use tribo_law_ring_pack::asperity::Roughness;
 use tribo_law_ring_pack::profile::{film_for_load, Face};
 use tribo_law_ring_pack::ring::Ring;
+use tribo_plugin_api::tribology::Roughness;
 
 fn ia(t: f64) -> f64 {
     t / 8.0 - (4.0 * t).sin() / 32.0

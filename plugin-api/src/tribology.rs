@@ -1,5 +1,7 @@
-//! Asperity contact by Greenwood and Tripp: the nominal pressure the summits of two rough
-//! surfaces carry at a separation `h` of their mean planes,
+//! Contact mechanics the bundled film laws share (ring pack, piston skirt, plain journal) and any
+//! law author may call: the film-parameter regime, a bracketing root finder, and asperity
+//! contact by Greenwood and Tripp, the nominal pressure the summits of two rough surfaces carry
+//! at a separation `h` of their mean planes,
 //!
 //! ```text
 //! p_a(h) = K E* F_5/2(h / sigma),    K = (16 sqrt(2) / 15) pi (eta beta sigma)^2 sqrt(sigma / beta)
@@ -10,6 +12,66 @@
 //! summit radius `beta` and the composite modulus `1 / E* = (1 - nu_1^2) / E_1 + (1 - nu_2^2) / E_2`.
 //! `F_5/2` is computed once by double-exponential quadrature and tabulated with its derivative
 //! (`F_n' = -n F_(n-1)`) for cubic Hermite interpolation; it is not a curve fit.
+
+use crate::contract::Regime;
+
+/// The lubrication regime from the film parameter `lambda = h_min / sigma` (Hamrock's bands):
+/// full film from 3, mixed from 1, boundary below.
+pub fn film_regime(lambda: f64) -> Regime {
+    if lambda >= 3.0 {
+        Regime::Hydrodynamic
+    } else if lambda >= 1.0 {
+        Regime::Mixed
+    } else {
+        Regime::Boundary
+    }
+}
+
+/// The root of `f`, increasing on `[lo, hi]`, by bracketing regula falsi (Illinois): an end
+/// where `f` is already past zero is returned as is; the iteration stops when the bracket or
+/// the iterate's move is below 1e-11 of `hi - lo`. (For a decreasing `f`, pass `-f`.)
+pub fn root_increasing(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
+    let (mut a, mut b) = (lo, hi);
+    let (mut fa, mut fb) = (f(a), f(b));
+    if fa >= 0.0 {
+        return a;
+    }
+    if fb <= 0.0 {
+        return b;
+    }
+    let tol = 1e-11 * (hi - lo).abs();
+    let mut side = 0i8;
+    let mut last = f64::NAN;
+    for _ in 0..200 {
+        let x = (a * fb - b * fa) / (fb - fa);
+        let x = if x.is_finite() && x > a && x < b {
+            x
+        } else {
+            0.5 * (a + b)
+        };
+        let fx = f(x);
+        if fx == 0.0 || (b - a) <= tol || (x - last).abs() <= tol {
+            return x;
+        }
+        last = x;
+        if fx < 0.0 {
+            a = x;
+            fa = fx;
+            if side == -1 {
+                fb *= 0.5;
+            }
+            side = -1;
+        } else {
+            b = x;
+            fb = fx;
+            if side == 1 {
+                fa *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    0.5 * (a + b)
+}
 
 use std::sync::OnceLock;
 
@@ -96,7 +158,7 @@ const GAUSS_16: [(f64, f64); 16] = [
 /// The rough surfaces' contact constants.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Roughness {
-    /// Composite RMS roughness `sigma` of ring face and liner, m.
+    /// Composite RMS roughness `sigma` of the two surfaces, m.
     pub sigma_m: f64,
     /// Roughness parameter `eta beta sigma`, -.
     pub eta_beta_sigma: f64,
@@ -117,9 +179,9 @@ impl Roughness {
             * self.modulus_pa
     }
 
-    /// Load the asperities carry per unit circumference under a parabolic face of half width
-    /// `half_width_m` and crown `crown_m` at minimum film `h_m`, N/m: `p_a` integrated over the
-    /// face (16-point Gauss-Legendre on the part where the gap is below `LAMBDA_MAX sigma`).
+    /// Load the asperities carry per unit length across a parabolic face (a ring's face, a
+    /// barrel skirt's profile) of half width `half_width_m` and crown `crown_m` at minimum film
+    /// `h_m`, N/m: `p_a` integrated over the face (16-point Gauss-Legendre on the part where the gap is below `LAMBDA_MAX sigma`).
     pub fn load_per_length(&self, half_width_m: f64, crown_m: f64, h_m: f64) -> f64 {
         let reach = (LAMBDA_MAX * self.sigma_m - h_m) / crown_m;
         if reach <= 0.0 {
@@ -210,5 +272,19 @@ mod tests {
             let exact = gaussian_tail_moment(2.5, y);
             assert!((f52(y) - exact).abs() < 1e-7 * exact, "{y}");
         }
+    }
+
+    /// The root finder finds a root to its tolerance, returns an end where `f` is already past
+    /// zero, and the regime bands sit at film parameters 1 and 3.
+    #[test]
+    fn root_and_regime() {
+        let r = root_increasing(|x| x.powi(3) - 2.0, 0.0, 4.0);
+        assert!((r - 2f64.cbrt()).abs() < 1e-10, "{r}");
+        assert_eq!(root_increasing(|x| x + 1.0, 0.0, 1.0), 0.0);
+        assert_eq!(root_increasing(|x| x - 5.0, 0.0, 1.0), 1.0);
+        assert_eq!(film_regime(3.0), Regime::Hydrodynamic);
+        assert_eq!(film_regime(2.99), Regime::Mixed);
+        assert_eq!(film_regime(1.0), Regime::Mixed);
+        assert_eq!(film_regime(0.99), Regime::Boundary);
     }
 }

@@ -6,7 +6,8 @@
 //! Friction: viscous shear of the film plus a boundary coefficient on the asperity load.
 //!
 //! The modules are the mathematics, each tested on its own: [`profile`] the closed-form film of
-//! a parabolic face, [`asperity`] Greenwood-Tripp, [`ring`] one ring's load balance and motion.
+//! a parabolic face, [`ring`] one ring's load balance and motion; the Greenwood-Tripp asperities
+//! come from [`tribo_plugin_api::tribology`].
 
 pub mod profile;
 pub mod ring;

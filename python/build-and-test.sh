@@ -22,6 +22,6 @@ rm -rf "$target/wheels"
 cd "$here"
 # The example writes its plot into a scratch directory; MPLBACKEND keeps matplotlib off any display.
 MPLBACKEND=Agg TRIBO_EXAMPLE_OUT="$target/python-example" "$venv/bin/python" examples/crf250r_study.py
-"$venv/bin/pytest" -q -p no:cacheprovider tests
+"$venv/bin/python" "$venv/bin/pytest" -q -p no:cacheprovider tests
 # A separate run: its conftest is the FMU's own.
-"$venv/bin/pytest" -q -p no:cacheprovider "$root/host/fmu/tests"
+"$venv/bin/python" "$venv/bin/pytest" -q -p no:cacheprovider "$root/host/fmu/tests"

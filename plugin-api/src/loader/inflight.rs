@@ -197,6 +197,65 @@ impl Drop for Running {
     }
 }
 
+/// This thread's slot, looked up once for a round of law calls: each call of the round is then
+/// marked by [`Round::enter_call`] with a few stores and no thread-local access (the solver
+/// calls every law of a rig once per friction round). The thread's call count is carried on
+/// in the round and written back when it ends.
+#[must_use]
+pub struct Round {
+    slot: usize,
+    calls: u64,
+    table: &'static Table,
+}
+
+/// Start a round of law calls on this thread ([`Round`]).
+#[inline]
+pub fn round() -> Round {
+    let (slot, calls) = MINE.with(|m| {
+        let (mut slot, calls) = m.get();
+        if slot == usize::MAX {
+            slot = NEXT_SLOT.fetch_add(1, Ordering::Relaxed) % SLOTS;
+            m.set((slot, calls));
+        }
+        (slot, calls)
+    });
+    Round {
+        slot,
+        calls,
+        table: table(),
+    }
+}
+
+impl Round {
+    /// Mark this thread as running the law call `id` on `input`, as [`enter_call`] does.
+    #[inline]
+    pub fn enter_call(&mut self, id: CodeId, input: &LawInput) -> Running {
+        self.calls = self.calls.wrapping_add(1);
+        let value = (self.calls << ID_BITS) | (id.0 as u64 & ID_MASK);
+        let slot = &self.table.slots[self.slot];
+        let previous = slot.load(Ordering::Relaxed);
+        slot.store(value, Ordering::Release);
+        ARG[self.slot].store((input as *const LawInput).cast_mut(), Ordering::Relaxed);
+        Running {
+            slot: self.slot,
+            previous,
+            table: self.table,
+        }
+    }
+}
+
+impl Drop for Round {
+    #[inline]
+    fn drop(&mut self) {
+        // A call nested in the round (plugin code entering plugin code) counted on the
+        // thread's own count: keep whichever went further, so marks keep changing.
+        MINE.with(|m| {
+            let (slot, calls) = m.get();
+            m.set((slot, calls.max(self.calls)));
+        });
+    }
+}
+
 /// The code id of a slot mark (0: nothing running).
 pub fn id_of(mark: u64) -> usize {
     (mark & ID_MASK) as usize
@@ -322,6 +381,37 @@ mod tests {
         }
         assert_eq!(marks.len(), 2);
         assert_ne!(marks[0], marks[1], "two calls, two marks");
+    }
+
+    #[test]
+    fn a_round_marks_each_call_anew_and_clears_after_it() {
+        let id = register("law `round` (r.so)".into());
+        let input = LawInput::at_rest(crate::contract::JointKind::Revolute);
+        let mut round = round();
+        let mut marks = Vec::new();
+        for _ in 0..3 {
+            let _m = round.enter_call(id, &input);
+            for_each_mark(|slot, m| {
+                if id_of(m) == id.number() {
+                    marks.push(m);
+                    assert!(input_of(slot, m).is_some(), "the call's input is readable");
+                }
+            });
+        }
+        drop(round);
+        assert_eq!(marks.len(), 3);
+        assert!(
+            marks[0] != marks[1] && marks[1] != marks[2],
+            "each call a new mark"
+        );
+        assert!(!running().iter().any(|t| t == "law `round` (r.so)"));
+        // The thread's own count went on from the round's: the next call's mark is new too.
+        let _m = enter(id);
+        for_each_mark(|_, m| {
+            if id_of(m) == id.number() {
+                assert!(!marks.contains(&m));
+            }
+        });
     }
 
     #[test]

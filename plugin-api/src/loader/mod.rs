@@ -599,7 +599,29 @@ impl LawInstance {
         out: &mut LawOutput,
     ) -> Result<(), LawError> {
         self.check_state("evaluate", state.len())?;
-        let _running = inflight::enter_call(self.code, input);
+        let mut round = inflight::round();
+        // SAFETY: the state's length was checked just above.
+        unsafe { self.evaluate_in_round(input, state, out, &mut round) }
+    }
+
+    /// [`LawInstance::evaluate_into`] for the solver's hot loop: the call marked through a
+    /// [`inflight::Round`] the caller holds for a whole round of law calls, and the state's
+    /// length not checked here (the caller checked it once, when it bound the law and made
+    /// the state). Every other check of `evaluate_into` is made.
+    ///
+    /// # Safety
+    /// `state.len()` must be [`LawInstance::state_size`]: a C law reads and writes that many
+    /// values through the pointer.
+    #[inline]
+    pub unsafe fn evaluate_in_round(
+        &self,
+        input: &LawInput,
+        state: &[f64],
+        out: &mut LawOutput,
+        round: &mut inflight::Round,
+    ) -> Result<(), LawError> {
+        debug_assert_eq!(state.len(), self.state_size);
+        let _running = round.enter_call(self.code, input);
         self.call_into(input, state, out)?;
         if Regime::from_u32(out.regime).is_none() {
             return Err(self.undefined_regime(out.regime));

@@ -6,6 +6,7 @@
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 use nalgebra::Vector2;
+use tribo_plugin_api::loader::inflight::Round;
 use tribo_plugin_api::loader::{LawError, LawInstance, LawRegistry};
 use tribo_plugin_api::{
     suits, suits_text, BearingType, InnerBody, JointKind, LawInput, LawOutput, DIAGNOSTIC_FLAGS,
@@ -42,19 +43,28 @@ pub(super) struct BoundLaw {
 }
 
 impl BoundLaw {
-    /// Evaluate the law at `input` with its committed state, counting the call and timing one
-    /// in `TIMING_SAMPLE`. One simulation is stepped by one thread: a plain load and store,
-    /// not a locked read-modify-write (which cost ~15% of an evaluation).
+    /// Evaluate the law at `input` with its committed state into `out`, marked as running
+    /// through the round `round`, counting the call and timing one in `TIMING_SAMPLE`. One
+    /// simulation is stepped by one thread: a plain load and store, not a locked
+    /// read-modify-write (which cost ~15% of an evaluation).
     #[inline(always)]
-    pub(super) fn call(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, LawError> {
+    pub(super) fn call(
+        &self,
+        input: &LawInput,
+        state: &LawState,
+        out: &mut LawOutput,
+        round: &mut Round,
+    ) -> Result<(), LawError> {
         let calls = self.calls.load(Ordering::Relaxed);
         self.calls.store(calls + 1, Ordering::Relaxed);
         // Not the first call: a law's one-off set-up there (a table built lazily) scaled by
         // the sample rate once reported a 0.1 s run as 30 s in the law.
         if calls % TIMING_SAMPLE == TIMING_SAMPLE / 2 {
-            self.timed_call(input, state)
+            self.timed_call(input, state, out, round)
         } else {
-            self.instance.evaluate(input, state)
+            // SAFETY: a `LawState` is made by this law's instance, of its state size, and never
+            // changes length (`LawStates`).
+            unsafe { self.instance.evaluate_in_round(input, &state.0, out, round) }
         }
     }
 
@@ -65,15 +75,23 @@ impl BoundLaw {
     }
 
     /// One law call with its wall time added to the law's sample.
-    fn timed_call(&self, input: &LawInput, state: &[f64]) -> Result<LawOutput, LawError> {
+    #[inline(never)]
+    fn timed_call(
+        &self,
+        input: &LawInput,
+        state: &LawState,
+        out: &mut LawOutput,
+        round: &mut Round,
+    ) -> Result<(), LawError> {
         let clock = std::time::Instant::now();
-        let out = self.instance.evaluate(input, state);
+        // SAFETY: as in `call`.
+        let result = unsafe { self.instance.evaluate_in_round(input, &state.0, out, round) };
         let ns = (clock.elapsed().as_nanos() as u64).saturating_sub(clock_overhead_ns());
         let k = self.timed.load(Ordering::Relaxed);
         self.timed.store(k + 1, Ordering::Relaxed);
         let slot = &self.sampled_ns[k as usize % TIMING_KEPT];
         slot.store(u32::try_from(ns).unwrap_or(u32::MAX), Ordering::Relaxed);
-        out
+        result
     }
 
     /// Estimated ns per call: the mean of the kept timed calls without the slowest 5%.
@@ -125,9 +143,12 @@ impl BoundLaw {
         })
     }
 
-    /// A fresh state of the law (zeros, as at binding), allocated fallibly by the loader.
-    pub(super) fn new_state(&self) -> Result<Vec<f64>, LawError> {
-        self.instance.new_state()
+    /// A fresh state of the law (zeros, as at binding), allocated fallibly by the loader: the
+    /// only way a [`LawState`] is made, so its length is the instance's state size.
+    fn new_state(&self) -> Result<LawState, LawError> {
+        let state = self.instance.new_state()?;
+        debug_assert_eq!(state.len(), self.instance.state_size());
+        Ok(LawState(state.into_boxed_slice()))
     }
 
     /// Calls and estimated time so far, as on joint `joint`.
@@ -225,7 +246,7 @@ impl BoundJoint {
         for (i, law) in self.laws.iter().enumerate() {
             if law.is_stateful() {
                 law.instance
-                    .commit(input, &mut states.0[self.first_law + i])
+                    .commit(input, &mut states.0[self.first_law + i].0)
                     .map_err(|e| law_failed(&self.name, input, e))?;
             }
         }
@@ -233,9 +254,9 @@ impl BoundJoint {
     }
 
     /// The friction force (slide) or torque (revolute) of all the joint's laws at `input`, each
-    /// with its state from `states`, checked (finite, of a physical size against
-    /// `reaction_n`, a stateless law not adding energy). With `record`, each law's power,
-    /// regime and load are written into the rates.
+    /// with its state from `states` and marked running through `round`, checked (finite, of a
+    /// physical size against `reaction_n`, a stateless law not adding energy). With `record`,
+    /// each law's power, regime and load are written into the rates.
     #[inline(always)]
     pub(super) fn force(
         &self,
@@ -244,13 +265,15 @@ impl BoundJoint {
         reaction_n: f64,
         mut record: Option<&mut [f64]>,
         layout: super::rates::RateLayout,
+        round: &mut Round,
     ) -> Result<f64, SimError> {
         let mut total = 0.0;
+        let mut out = LawOutput::force(0.0);
         for (i, law) in self.laws.iter().enumerate() {
             let k = self.first_law + i;
-            let out = law
-                .call(input, &states.0[k])
-                .map_err(|e| law_failed(&self.name, input, e))?;
+            if let Err(e) = law.call(input, &states.0[k], &mut out, round) {
+                return Err(law_failed(&self.name, input, e));
+            }
             let power = checked_power(&self.name, self.role.kind(), law, input, &out, reaction_n)?;
             total += out.force;
             if let Some(rates) = record.as_deref_mut() {
@@ -264,9 +287,14 @@ impl BoundJoint {
     }
 }
 
+/// One law's state: made only by its own instance ([`BoundLaw::new_state`]) and never resized,
+/// so its length is the law's declared state size, checked once there and not on every call.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct LawState(Box<[f64]>);
+
 /// Every law's state over a run, by the run-wide law index (empty for a stateless law).
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct LawStates(pub(super) Vec<Vec<f64>>);
+pub(super) struct LawStates(Vec<LawState>);
 
 impl LawStates {
     /// Every law's fresh state (zeros), as at binding.
@@ -285,7 +313,12 @@ impl LawStates {
 
     /// Every state back to zeros.
     pub(super) fn reset(&mut self) {
-        self.0.iter_mut().for_each(|s| s.fill(0.0));
+        self.0.iter_mut().for_each(|s| s.0.fill(0.0));
+    }
+
+    /// Law `k`'s state (run-wide index).
+    pub(super) fn of(&self, k: usize) -> &[f64] {
+        &self.0[k].0
     }
 }
 
@@ -356,12 +389,9 @@ pub(super) fn checked_power(
     if !out.force.is_finite() {
         return Err(unusable(joint, law, input, out.force));
     }
-    // Below the bound at the floor load and without optional outputs, nothing more to
-    // check: one comparison on the usual path.
-    if out.force.abs() > MAX_FORCE_PER_REACTION * REACTION_FLOOR_N
-        || out.flags & (HAS_COEFFICIENT | HAS_DERIVATIVE | HAS_LOAD_DERIVATIVE | DIAGNOSTIC_FLAGS)
-            != 0
-    {
+    // Below the bound at the floor load, and every optional output the law flags of sense:
+    // a few comparisons inline. Only a doubtful output goes to the full (cold) check.
+    if out.force.abs() > MAX_FORCE_PER_REACTION * REACTION_FLOOR_N || !flagged_fields_sound(out) {
         implausible(joint, kind, law, input, out, reaction_n)?;
     }
     let power = out.force * input.relative_velocity;
@@ -370,6 +400,22 @@ pub(super) fn checked_power(
         return Err(unusable(joint, law, input, out.force));
     }
     Ok(power)
+}
+
+/// Whether every optional output `out` flags is sound: the coefficient, dF/dv and dF/dN
+/// finite, the diagnostics of physical sense (`LawOutput::bad_diagnostic`). Unflagged fields
+/// are not read; a law that flags nothing costs one test.
+#[inline(always)]
+fn flagged_fields_sound(out: &LawOutput) -> bool {
+    let flags = out.flags;
+    if flags & (HAS_COEFFICIENT | HAS_DERIVATIVE | HAS_LOAD_DERIVATIVE | DIAGNOSTIC_FLAGS) == 0 {
+        return true;
+    }
+    let finite_if = |bit: u32, x: f64| flags & bit == 0 || x.is_finite();
+    finite_if(HAS_COEFFICIENT, out.coefficient)
+        && finite_if(HAS_DERIVATIVE, out.dforce_dvelocity)
+        && finite_if(HAS_LOAD_DERIVATIVE, out.dforce_dload)
+        && (flags & DIAGNOSTIC_FLAGS == 0 || out.bad_diagnostic().is_none())
 }
 
 /// The error for an output no law may give, if `out` is one: a finite force or torque of more

@@ -263,7 +263,7 @@ impl Simulation {
             set_load(&mut input, comp, moment, normals[ji]);
             for (i, law) in j.laws.iter().enumerate() {
                 let k = j.first_law + i;
-                let state = &w.states.0[k];
+                let state = w.states.of(k);
                 let out = sample_output(&j.name, j.role.kind(), law, &input, state, reaction_n)?;
                 let power = rates[layout.power(k)];
                 let regimes: Vec<f64> = (0..4).map(|r| rates[layout.regime(k, r)]).collect();

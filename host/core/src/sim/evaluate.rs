@@ -5,6 +5,7 @@
 
 use std::f64::consts::TAU;
 
+use tribo_plugin_api::loader::inflight;
 use tribo_plugin_api::LawInput;
 
 use super::bind::{set_load, Bodies, Instant, LawStates};
@@ -284,6 +285,8 @@ impl Simulation {
         // Powers and mean loads are written for every law below; only the regime indicators
         // are set sparsely and need clearing.
         e.rates[layout.regimes()].fill(0.0);
+        // The thread's crash-report slot, looked up once for the round's law calls.
+        let mut marks = inflight::round();
         for (ji, j) in self.joints.iter().enumerate() {
             if j.laws.is_empty() {
                 e.totals[ji] = 0.0;
@@ -292,7 +295,8 @@ impl Simulation {
             let (comp, moment) = w.crank.reaction(j.role);
             let input = &mut w.inputs[ji];
             set_load(input, comp, moment, e.normals[ji]);
-            e.totals[ji] = j.force(input, &w.states, reaction_n, Some(&mut e.rates), layout)?;
+            let record = Some(&mut e.rates[..]);
+            e.totals[ji] = j.force(input, &w.states, reaction_n, record, layout, &mut marks)?;
         }
         Ok(())
     }

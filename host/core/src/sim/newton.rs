@@ -9,6 +9,7 @@
 //! (the kinematics stay as computed once per evaluation).
 
 use nalgebra::{DMatrix, DVector, Vector2};
+use tribo_plugin_api::loader::inflight;
 use tribo_plugin_api::LawInput;
 
 use super::error::SimError;
@@ -351,6 +352,7 @@ impl Iterate<'_> {
         let (sim, w) = (self.sim, &mut *self.w);
         let layout = sim.layout();
         self.rates[layout.regimes()].fill(0.0);
+        let mut marks = inflight::round();
         for (ji, j) in sim.joints.iter().enumerate() {
             r.totals[ji] = 0.0;
             if !j.laws.is_empty() {
@@ -359,7 +361,14 @@ impl Iterate<'_> {
                 let moment = self.moments[ji];
                 scaled_input(input, self.comps[ji], self.entry_normals[ji], moment, load);
                 let record = Some(&mut self.rates[..]);
-                r.totals[ji] = j.force(input, &w.states, self.reaction_n, record, layout)?;
+                r.totals[ji] = j.force(
+                    input,
+                    &w.states,
+                    self.reaction_n,
+                    record,
+                    layout,
+                    &mut marks,
+                )?;
             }
         }
         r.alpha = w.crank.solve(self.at.control, &sim.roles, &r.totals);
@@ -381,7 +390,9 @@ impl Iterate<'_> {
         );
         self.totals.clone_from(&self.cur.totals);
         let layout = sim.layout();
-        self.totals[j] = sim.joints[j].force(input, &w.states, self.reaction_n, None, layout)?;
+        let mut marks = inflight::round();
+        self.totals[j] =
+            sim.joints[j].force(input, &w.states, self.reaction_n, None, layout, &mut marks)?;
         w.crank.solve(self.at.control, &sim.roles, &self.totals);
         w.crank.normals(&sim.roles, &mut self.normals);
         Ok(())

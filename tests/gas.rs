@@ -1243,3 +1243,239 @@ fn the_correlation_stands_beside_the_laws_in_run_compare_and_sweep() {
         );
     }
 }
+
+// ---- One crankcase under every piston of an engine (issue 28) ----
+
+/// An engine's pistons as the test sees them from its rig file, written out independently of
+/// the solver: each cylinder's phase (throw angle minus bank angle, rad), the crank radius,
+/// the rod length and the piston area.
+struct EnginePistons {
+    phases: Vec<f64>,
+    r: f64,
+    l: f64,
+    area: f64,
+}
+
+impl EnginePistons {
+    fn of(f: &tribo::model::RigFile) -> Self {
+        let e = f.engine.as_ref().expect("an engine");
+        assert!(
+            e.rods.iter().all(|s| s.length_m.is_none())
+                && e.cylinders
+                    .iter()
+                    .all(|c| c.pin_offset_m == 0.0 && c.crank_offset_m == 0.0),
+            "the closed form below is for equal rods without offsets"
+        );
+        let phases = e
+            .cylinders
+            .iter()
+            .map(|c| {
+                (e.throws[c.throw - 1].angle_deg - c.bank_angle_deg(e.v_angle_deg)).to_radians()
+            })
+            .collect();
+        Self {
+            phases,
+            r: f.geometry.crank_radius_m,
+            l: f.bodies.rod.length_m,
+            area: PI / 4.0 * f.geometry.bore_m.powi(2),
+        }
+    }
+
+    /// The pistons' summed travel from their TDCs and its derivative in crank angle:
+    /// `x = r (1 - cos phi) + l - sqrt(l^2 - r^2 sin^2 phi)` per cylinder.
+    fn travel(&self, theta: f64) -> (f64, f64) {
+        let (r, l) = (self.r, self.l);
+        self.phases.iter().fold((0.0, 0.0), |(x, dx), p| {
+            let (s, c) = (theta + p).sin_cos();
+            let root = (l * l - r * r * s * s).sqrt();
+            (
+                x + r * (1.0 - c) + l - root,
+                dx + r * s + r * r * s * c / root,
+            )
+        })
+    }
+
+    /// The crankcase volume at crank angle `theta` for `v_tdc` given with cylinder 1 at TDC.
+    fn volume(&self, v_tdc: f64, theta: f64) -> f64 {
+        v_tdc - self.area * (self.travel(theta).0 - self.travel(-self.phases[0]).0)
+    }
+}
+
+/// Every cylinder's crankcase pressure in the crank-angle traces of `sim`'s first plateau, with
+/// the engine's crank angle (rad).
+fn crankcase_trace(sim: &mut tribo::sim::Simulation) -> Vec<(f64, Vec<f64>)> {
+    let traces = sim.crank_angle_traces(2.0).expect("crank-angle traces");
+    traces[0]
+        .samples
+        .iter()
+        .map(|s| {
+            (
+                s.crank_angle_deg.to_radians(),
+                s.cylinders.iter().map(|c| c.pressures_pa[1]).collect(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn an_engine_s_sealed_crankcase_follows_the_polytrope_of_every_piston_s_summed_volume() {
+    let (v_tdc, n, p_tdc) = (0.006, 1.4, 1.0e5);
+    let sealed = format!(
+        "gas.crankcase={{kind=\"sealed\", volume_at_tdc_m3={v_tdc}, polytropic_exponent={n}, pressure_at_tdc_pa={p_tdc}}}"
+    );
+    for name in ["inline4-4b11-frictionless", "vtwin-90-frictionless"] {
+        let r = rig(name, &[SHORT_CYCLE, &sealed]);
+        let pistons = EnginePistons::of(r.model());
+        let mut sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+        let trace = crankcase_trace(&mut sim);
+        let (mut lo, mut hi) = (f64::INFINITY, 0.0_f64);
+        for (theta, pressures) in &trace {
+            let want = p_tdc * (v_tdc / pistons.volume(v_tdc, *theta)).powf(n);
+            for (k, p) in pressures.iter().enumerate() {
+                assert!(
+                    (p - want).abs() <= 1e-9 * want,
+                    "{name} cylinder {} at {} deg: {p} Pa, the polytrope gives {want} Pa",
+                    k + 1,
+                    theta.to_degrees()
+                );
+            }
+            lo = lo.min(pressures[0]);
+            hi = hi.max(pressures[0]);
+        }
+        let (r_, l) = (pistons.r, pistons.l);
+        if name.starts_with("inline4") {
+            // A flat-plane inline-4: the four undersides' first-order volume changes cancel.
+            // What is left is the rods' obliquity, largest at 90 degrees, where the summed
+            // travel exceeds its TDC value by 4 (l - sqrt(l^2 - r^2)) ~ 2 r^2 / l.
+            let ds = 4.0 * (l - (l * l - r_ * r_).sqrt());
+            assert!((ds / (2.0 * r_ * r_ / l) - 1.0).abs() < (r_ / l).powi(2));
+            let want = (v_tdc / (v_tdc - pistons.area * ds)).powf(n);
+            println!(
+                "{name}: pressure ripple {lo} .. {hi} Pa, ratio {} (closed form {want})",
+                hi / lo
+            );
+            assert!(
+                (hi / lo - want).abs() <= 1e-6 * want,
+                "{} vs {want}",
+                hi / lo
+            );
+            assert!(hi / lo < 1.05, "nearly constant: {}", hi / lo);
+        } else {
+            // The V-twin's two undersides pump a large swing: far above the inline-4's ripple.
+            println!("{name}: pressure swing {lo} .. {hi} Pa, ratio {}", hi / lo);
+            assert!(hi / lo > 1.1, "{}", hi / lo);
+        }
+        // Sealed: reversible, no pumping work over a cycle.
+        let result = sim.run_steady().expect("steady");
+        for p in &result.plateaus {
+            assert_eq!(p.crankcase_pumping_torque_nm, Some(0.0));
+            assert!(p.gas_torque_nm.abs() < 1e-9, "{name}: {}", p.gas_torque_nm);
+        }
+    }
+}
+
+#[test]
+fn an_engine_s_vented_crankcase_costs_the_drive_exactly_its_closed_p_dv_integral() {
+    // The frictionless V-twin with one crankcase breathing through a 10 mm breather: every
+    // joule the drive puts in per revolution is the crankcase's pumping work, the closed
+    // integral of p dV with the volume written out here and the pressure the run reports.
+    let vented = "gas.crankcase={kind=\"vented\", volume_at_tdc_m3=0.002, polytropic_exponent=1.4, breather_diameter_m=0.010, discharge_coefficient=0.6, temperature_c=90.0}";
+    let r = rig("vtwin-90-frictionless", &[SHORT_CYCLE, vented]);
+    let pistons = EnginePistons::of(r.model());
+    let mut sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+    // The p dV integral over the first plateau's cycle: periodic rectangle rule.
+    let trace = crankcase_trace(&mut sim);
+    let dtheta = 2.0f64.to_radians();
+    let integral: f64 = trace
+        .iter()
+        .map(|(theta, p)| p[0] * pistons.area * pistons.travel(*theta).1 * dtheta)
+        .sum();
+    let revolutions = trace.len() as f64 * dtheta / (2.0 * PI);
+    let traced_torque = integral / revolutions / (2.0 * PI);
+    for (kind, result) in [
+        ("steady", sim.run_steady().expect("steady")),
+        ("prescribed", sim.run().expect("transient")),
+    ] {
+        for p in &result.plateaus {
+            let pumping = p.crankcase_pumping_torque_nm.expect("a vented crankcase");
+            println!(
+                "{kind} {} rpm: motoring {} N m, gas {} N m, pumping {pumping} N m, p dV {traced_torque}",
+                p.set_speed_rpm, p.motoring_torque_nm, p.gas_torque_nm
+            );
+            assert!(pumping > 0.0, "a breather is a loss");
+            assert!((p.motoring_torque_nm - pumping).abs() <= 1e-4 * pumping);
+            assert!((p.gas_torque_nm - pumping).abs() <= 1e-4 * pumping);
+            if p.set_speed_rpm == result.plateaus[0].set_speed_rpm {
+                assert!(
+                    (traced_torque - pumping).abs() <= 1e-3 * pumping,
+                    "p dV {traced_torque} vs {pumping}"
+                );
+            }
+        }
+        // The energy balance closes with the crankcase's work as gas work.
+        let e = result.energy;
+        assert!(e.gas_work_j > 0.0, "{e:?}");
+        assert!(e.relative_residual < 1e-8, "{kind}: {e:?}");
+    }
+}
+
+#[test]
+fn an_engine_s_crankcase_must_not_shrink_to_nothing() {
+    // The V-twin's two pistons sweep more than one displacement: a volume given at cylinder
+    // 1's TDC that passes the single cylinder's rule can still vanish over a revolution.
+    let base = std::fs::read_to_string(common::workspace().join("rigs/vtwin-90.toml"))
+        .expect("bundled rig");
+    let vd = PI / 4.0 * 0.088_f64.powi(2) * 2.0 * 0.03375;
+    let text = format!(
+        "{base}\n[gas.crankcase]\nkind = \"sealed\"\nvolume_at_tdc_m3 = {}\n",
+        1.1 * vd
+    );
+    let e = tribo::rig::load_rig_text(Path::new("vtwin.toml"), &text, &[])
+        .expect_err("the crankcase vanishes");
+    assert_eq!(e.field, "gas.crankcase.volume_at_tdc_m3", "{e}");
+    assert!(e.message.contains("share one crankcase"), "{e}");
+    assert_eq!(e.line, Some(text.lines().count()), "{e}");
+    // Twice the displacement is enough.
+    let text = text.replace(&format!("{}", 1.1 * vd), &format!("{}", 2.5 * vd));
+    tribo::rig::load_rig_text(Path::new("vtwin.toml"), &text, &[]).expect("a roomy crankcase");
+}
+
+#[test]
+fn the_bundled_vented_inline_4_prints_its_crankcase_pumping_share() {
+    let out = common::run_tribo(
+        &[
+            "run",
+            "inline4-4b11-vented",
+            "--steady",
+            "--lawset",
+            "4b11-physical",
+            "--set",
+            SHORT_CYCLE,
+        ],
+        None,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}");
+    let at = text.find("crankcase pumping").expect("the pumping table");
+    let rows: Vec<&str> = text[at..]
+        .lines()
+        .skip_while(|l| !l.contains("set rpm"))
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .collect();
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    for row in rows {
+        let cells: Vec<&str> = row.split_whitespace().collect();
+        let pumping: f64 = cells[1].parse().expect("pumping torque");
+        let share: f64 = cells[2].trim_end_matches('%').parse().expect("share");
+        let gas: f64 = cells[3].parse().expect("gas torque");
+        assert!(pumping > 0.0 && share > 0.0 && share < 100.0, "{row}");
+        // The run measures what the model's cycle predicts.
+        assert!((gas - pumping).abs() <= 1e-4 * pumping + 1e-5, "{row}");
+    }
+}

@@ -7,18 +7,19 @@
 
 use std::f64::consts::PI;
 
+use tribo_law_plain_journal::thermal::{walther_slope, Oil};
 use tribo_law_plain_journal::PlainJournal;
 use tribo_plugin_api::{create_from_table, JointKind, Law, LawInput};
 
 /// Dynamic viscosity of the 4B11 rig's oil (Walther through 65 cSt at 40 C and 11 cSt at
-/// 100 C, 850 kg/m^3), Pa s.
+/// 100 C, 850 kg/m^3), Pa s: the law's own Walther line, started at 40 C.
 fn viscosity(t_c: f64) -> f64 {
-    let w = |nu: f64| (nu + 0.7f64).log10().log10();
-    let (x1, x2) = ((313.15f64).log10(), (373.15f64).log10());
-    let b = (w(65.0) - w(11.0)) / (x2 - x1);
-    let a = w(65.0) + b * x1;
-    let nu = 10f64.powf(10f64.powf(a - b * (t_c + 273.15).log10())) - 0.7;
-    nu * 1e-6 * 850.0
+    let oil = Oil {
+        walther_b: walther_slope(65.0, 11.0),
+        density_kg_m3: 850.0,
+        specific_heat_j_kg_k: 2150.0,
+    };
+    oil.viscosity_at(65e-6 * 850.0, 40.0, t_c)
 }
 
 fn law(thermal: &str) -> PlainJournal {

@@ -1149,6 +1149,154 @@ fn every_bundled_rigs_fmep_csv_is_on_the_four_stroke_basis() {
     }
 }
 
+/// Issue 26: one command prints rings, skirt, rod bearings and the reciprocating group each
+/// beside its own correlation term. On `4b11-physical` (ring-pack and piston-skirt on every
+/// piston) `run --fmep` writes the rows to `fmep_correlation.json`: each correlation part is
+/// its published formula written out here (86 x 86 mm, four 48 x 20 mm rod bearings); each
+/// Tribo part is the run's own per-law torques (the run's JSON `joints`) at 4 pi T / V_d; and
+/// rings plus skirt make the pistons' row to 1e-12.
+#[test]
+fn rings_skirt_and_rod_bearings_each_stand_beside_their_own_term() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fmep_dir = dir.path().join("fmep");
+    let out = common::run_tribo(
+        &[
+            "run",
+            "inline4-4b11",
+            "--steady",
+            "--lawset",
+            "4b11-physical",
+            "--json",
+            "--set",
+            SHORT_CYCLE,
+            "--fmep",
+            fmep_dir.to_str().expect("utf-8"),
+        ],
+        None,
+    );
+    let (stdout, stderr) = common::text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    let text = std::fs::read_to_string(fmep_dir.join("fmep_correlation.json")).expect("json");
+    let rows_json: serde_json::Value = serde_json::from_str(&text).expect("correlation JSON");
+    let csv =
+        std::fs::read_to_string(fmep_dir.join("fmep_correlation.csv")).expect("correlation csv");
+    let mu0 = tribo::correlation::reference_viscosity_pa_s();
+    let (b, s, nc) = (86.0_f64, 86.0_f64, 4.0_f64);
+    let vd = 4.0 * PI / 4.0 * (b * 1e-3).powi(2) * s * 1e-3;
+    let mut checked = 0;
+    for p in v["plateaus"].as_array().expect("plateaus") {
+        let rpm = p["set_speed_rpm"].as_f64().expect("rpm");
+        let root = (p["viscosity_pa_s"].as_f64().expect("mu") / mu0).sqrt();
+        let sp = 2.0 * s * 1e-3 * rpm / 60.0;
+        // PNH's terms (SAE 890836), by hand, kPa.
+        let rings = 4.06e4 * (1.0 + 1000.0 / rpm) / (b * b);
+        let skirt = 2.94e2 * root * sp / b;
+        let rods = 4.0 * 3.03e-4 * root * rpm * 48f64.powi(3) * 20.0 / (b * b * s * nc);
+        // Tribo's parts: each law's own torque at the crank.
+        let kpa = |pick: &dyn Fn(&serde_json::Value) -> bool| -> f64 {
+            p["joints"]
+                .as_array()
+                .expect("joints")
+                .iter()
+                .filter(|j| pick(j))
+                .map(|j| 4.0 * PI * j["friction_torque_nm"].as_f64().expect("T") / vd / 1e3)
+                .sum()
+        };
+        let joint = |j: &serde_json::Value| j["joint"].as_str().unwrap_or("").to_string();
+        let t_rings = kpa(&|j| joint(j).starts_with("piston_") && j["law"] == "ring-pack");
+        let t_skirt = kpa(&|j| joint(j).starts_with("piston_") && j["law"] == "piston-skirt");
+        let t_rods = kpa(&|j| joint(j).starts_with("big_end_"));
+        let t_recip = kpa(&|j| !joint(j).starts_with("main_"));
+        assert!(
+            t_rings > 0.0 && t_skirt > 0.0 && t_rods > 0.0,
+            "{rpm}: every part runs"
+        );
+        let plateau = rows_json["plateaus"]
+            .as_array()
+            .expect("plateaus")
+            .iter()
+            .find(|x| x["set_speed_rpm"].as_f64() == Some(rpm))
+            .expect("the plateau's rows");
+        let row = |name: &str| -> (f64, f64, f64) {
+            let r = plateau["rows"]
+                .as_array()
+                .expect("rows")
+                .iter()
+                .find(|r| r["component"] == name)
+                .unwrap_or_else(|| panic!("{rpm}: no `{name}` row in {plateau}"));
+            let get = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+            (get("tribo_kpa"), get("correlation_kpa"), get("ratio"))
+        };
+        for (name, tribo_kpa, corr_kpa) in [
+            ("piston rings", t_rings, rings),
+            ("piston skirt", t_skirt, skirt),
+            ("rod bearings", t_rods, rods),
+            ("reciprocating", t_recip, rings + skirt + rods),
+        ] {
+            let (t, c, ratio) = row(name);
+            assert!(
+                (t - tribo_kpa).abs() <= 1e-9 * tribo_kpa,
+                "{rpm} {name}: Tribo {t} vs the laws' {tribo_kpa}"
+            );
+            assert!(
+                (c - corr_kpa).abs() <= 1e-9 * corr_kpa,
+                "{rpm} {name}: correlation {c} vs by hand {corr_kpa}"
+            );
+            assert!((ratio - t / c).abs() <= 1e-12 * ratio, "{rpm} {name}");
+            // The CSV carries the same row.
+            assert!(
+                csv.lines().any(|l| {
+                    let c: Vec<&str> = l.split(',').collect();
+                    c.len() > 3
+                        && c[0].parse::<f64>().ok() == Some(rpm)
+                        && c[1] == name
+                        && c[3].parse::<f64>().ok() == Some(t)
+                }),
+                "{rpm}: `{name}` not in the CSV"
+            );
+            checked += 1;
+        }
+        // The split is exact: rings and skirt make the pistons' row.
+        let (pistons, _, _) = row("pistons");
+        let (r, _, _) = row("piston rings");
+        let (k, _, _) = row("piston skirt");
+        assert!(
+            (r + k - pistons).abs() <= 1e-12 * pistons,
+            "{rpm}: {r} + {k} vs pistons {pistons}"
+        );
+    }
+    assert_eq!(checked, 8, "two plateaus, four rows each");
+    // The text table prints the same rows, each with its numbers.
+    let out = common::run_tribo(
+        &[
+            "run",
+            "inline4-4b11",
+            "--steady",
+            "--lawset",
+            "4b11-physical",
+            "--set",
+            SHORT_CYCLE,
+        ],
+        None,
+    );
+    let (table, stderr) = common::text(&out);
+    assert!(out.status.success(), "{stderr}");
+    for r in rows_json["plateaus"][0]["rows"].as_array().expect("rows") {
+        let name = r["component"].as_str().expect("component");
+        if let (Some(t), Some(c)) = (r["tribo_kpa"].as_f64(), r["correlation_kpa"].as_f64()) {
+            let cells = format!("{t:.3}").len() + format!("{c:.3}").len();
+            assert!(
+                table.lines().any(|l| l.contains(name)
+                    && l.contains(&format!("{t:.3}"))
+                    && l.contains(&format!("{c:.3}"))
+                    && l.len() > cells),
+                "`{name}` {t:.3} beside {c:.3} not in the table:\n{table}"
+            );
+        }
+    }
+}
+
 /// Issue 25: the Sandoval-Heywood correlation beside the laws. `run --fmep` writes
 /// `fmep_correlation.csv` and `.svg`: the main-bearing row's correlation is PNH's
 /// `3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c)` written out here for the 4B11's five

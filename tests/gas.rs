@@ -1149,23 +1149,16 @@ fn every_bundled_rigs_fmep_csv_is_on_the_four_stroke_basis() {
     }
 }
 
-/// Issue 26: one command prints rings, skirt, rod bearings and the reciprocating group each
-/// beside its own correlation term. On `4b11-physical` (ring-pack and piston-skirt on every
-/// piston) `run --fmep` writes the rows to `fmep_correlation.json`: each correlation part is
-/// its published formula written out here (86 x 86 mm, four 48 x 20 mm rod bearings); each
-/// Tribo part is the run's own per-law torques (the run's JSON `joints`) at 4 pi T / V_d; and
-/// rings plus skirt make the pistons' row to 1e-12.
-#[test]
-fn rings_skirt_and_rod_bearings_each_stand_beside_their_own_term() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let fmep_dir = dir.path().join("fmep");
+/// `tribo run inline4-4b11 --steady --lawset SET --json` over the short cycle, with `--fmep DIR`:
+/// the run's JSON.
+fn run_4b11_fmep(lawset: &str, fmep_dir: &Path) -> serde_json::Value {
     let out = common::run_tribo(
         &[
             "run",
             "inline4-4b11",
             "--steady",
             "--lawset",
-            "4b11-physical",
+            lawset,
             "--json",
             "--set",
             SHORT_CYCLE,
@@ -1176,7 +1169,20 @@ fn rings_skirt_and_rod_bearings_each_stand_beside_their_own_term() {
     );
     let (stdout, stderr) = common::text(&out);
     assert!(out.status.success(), "{stderr}");
-    let v: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    serde_json::from_str(&stdout).expect("JSON")
+}
+
+/// Issue 26: one command prints rings, skirt, rod bearings and the reciprocating group each
+/// beside its own correlation term. On `4b11-physical` (ring-pack and piston-skirt on every
+/// piston) `run --fmep` writes the rows to `fmep_correlation.json`: each correlation part is
+/// its published formula written out here (86 x 86 mm, four 48 x 20 mm rod bearings); each
+/// Tribo part is the run's own per-law torques (the run's JSON `joints`) at 4 pi T / V_d; and
+/// rings plus skirt make the pistons' row to 1e-12.
+#[test]
+fn rings_skirt_and_rod_bearings_each_stand_beside_their_own_term() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fmep_dir = dir.path().join("fmep");
+    let v = run_4b11_fmep("4b11-physical", &fmep_dir);
     let text = std::fs::read_to_string(fmep_dir.join("fmep_correlation.json")).expect("json");
     let rows_json: serde_json::Value = serde_json::from_str(&text).expect("correlation JSON");
     let csv =
@@ -1306,24 +1312,7 @@ fn rings_skirt_and_rod_bearings_each_stand_beside_their_own_term() {
 fn the_correlation_stands_beside_the_laws_in_run_compare_and_sweep() {
     let dir = tempfile::tempdir().expect("temp dir");
     let fmep_dir = dir.path().join("fmep");
-    let out = common::run_tribo(
-        &[
-            "run",
-            "inline4-4b11",
-            "--steady",
-            "--lawset",
-            "physical-bearings",
-            "--json",
-            "--set",
-            SHORT_CYCLE,
-            "--fmep",
-            fmep_dir.to_str().expect("utf-8"),
-        ],
-        None,
-    );
-    let (stdout, stderr) = common::text(&out);
-    assert!(out.status.success(), "{stderr}");
-    let v: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    let v = run_4b11_fmep("physical-bearings", &fmep_dir);
     let mu0 = tribo::correlation::reference_viscosity_pa_s();
     let fmep = std::fs::read_to_string(fmep_dir.join("fmep.csv")).expect("fmep.csv");
     let beside =

@@ -189,16 +189,18 @@ fn bad_engine_descriptions_are_refused_naming_the_field() {
             "{what}: {shown}"
         );
     }
-    // A sealed crankcase: the cylinders would each pump their own, not one shared volume.
-    let e = error_of(
-        "inline4",
-        &base.replace(
+    // A sealed crankcase is one volume under every piston (issue 28; tests/gas.rs checks its
+    // pressure): the inline-4 loads with one, and refuses one the pistons squeeze to nothing.
+    let sealed = |volume: &str| {
+        base.replace(
             "[drive]",
-            "[gas.crankcase]\nkind = \"sealed\"\nvolume_at_tdc_m3 = 0.004\n\n[drive]",
-        ),
-    );
-    assert_eq!(e.field, "gas.crankcase", "{e}");
-    assert!(e.message.contains("share one crankcase"), "{e}");
+            &format!("[gas.crankcase]\nkind = \"sealed\"\nvolume_at_tdc_m3 = {volume}\n\n[drive]"),
+        )
+    };
+    load_rig_text(&fixture("inline4"), &sealed("0.004"), &[]).expect("one shared crankcase");
+    let e = error_of("inline4", &sealed("0.0003"));
+    assert_eq!(e.field, "gas.crankcase.volume_at_tdc_m3", "{e}");
+    assert!(e.message.contains("displacement"), "{e}");
     // A cylinder banked beyond 180 degrees (without a V angle).
     let e = error_of(
         "inline4",

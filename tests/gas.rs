@@ -1149,22 +1149,16 @@ fn every_bundled_rigs_fmep_csv_is_on_the_four_stroke_basis() {
     }
 }
 
-/// Issue 25: the Sandoval-Heywood correlation beside the laws. `run --fmep` writes
-/// `fmep_correlation.csv` and `.svg`: the main-bearing row's correlation is PNH's
-/// `3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c)` written out here for the 4B11's five
-/// 50 x 20 mm mains, and Tribo's value is the mains' rows of `fmep.csv` summed; `compare` and
-/// `sweep` write theirs, and the JSON carries the terms.
-#[test]
-fn the_correlation_stands_beside_the_laws_in_run_compare_and_sweep() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let fmep_dir = dir.path().join("fmep");
+/// `tribo run inline4-4b11 --steady --lawset SET --json` over the short cycle, with `--fmep DIR`:
+/// the run's JSON.
+fn run_4b11_fmep(lawset: &str, fmep_dir: &Path) -> serde_json::Value {
     let out = common::run_tribo(
         &[
             "run",
             "inline4-4b11",
             "--steady",
             "--lawset",
-            "physical-bearings",
+            lawset,
             "--json",
             "--set",
             SHORT_CYCLE,
@@ -1175,7 +1169,150 @@ fn the_correlation_stands_beside_the_laws_in_run_compare_and_sweep() {
     );
     let (stdout, stderr) = common::text(&out);
     assert!(out.status.success(), "{stderr}");
-    let v: serde_json::Value = serde_json::from_str(&stdout).expect("JSON");
+    serde_json::from_str(&stdout).expect("JSON")
+}
+
+/// Issue 26: one command prints rings, skirt, rod bearings and the reciprocating group each
+/// beside its own correlation term. On `4b11-physical` (ring-pack and piston-skirt on every
+/// piston) `run --fmep` writes the rows to `fmep_correlation.json`: each correlation part is
+/// its published formula written out here (86 x 86 mm, four 48 x 20 mm rod bearings); each
+/// Tribo part is the run's own per-law torques (the run's JSON `joints`) at 4 pi T / V_d; and
+/// rings plus skirt make the pistons' row to 1e-12.
+#[test]
+fn rings_skirt_and_rod_bearings_each_stand_beside_their_own_term() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fmep_dir = dir.path().join("fmep");
+    let v = run_4b11_fmep("4b11-physical", &fmep_dir);
+    let text = std::fs::read_to_string(fmep_dir.join("fmep_correlation.json")).expect("json");
+    let rows_json: serde_json::Value = serde_json::from_str(&text).expect("correlation JSON");
+    let csv =
+        std::fs::read_to_string(fmep_dir.join("fmep_correlation.csv")).expect("correlation csv");
+    let mu0 = tribo::correlation::reference_viscosity_pa_s();
+    let (b, s, nc) = (86.0_f64, 86.0_f64, 4.0_f64);
+    let vd = 4.0 * PI / 4.0 * (b * 1e-3).powi(2) * s * 1e-3;
+    let mut checked = 0;
+    for p in v["plateaus"].as_array().expect("plateaus") {
+        let rpm = p["set_speed_rpm"].as_f64().expect("rpm");
+        let root = (p["viscosity_pa_s"].as_f64().expect("mu") / mu0).sqrt();
+        let sp = 2.0 * s * 1e-3 * rpm / 60.0;
+        // PNH's terms (SAE 890836), by hand, kPa.
+        let rings = 4.06e4 * (1.0 + 1000.0 / rpm) / (b * b);
+        let skirt = 2.94e2 * root * sp / b;
+        let rods = 4.0 * 3.03e-4 * root * rpm * 48f64.powi(3) * 20.0 / (b * b * s * nc);
+        // Tribo's parts: each law's own torque at the crank.
+        let kpa = |pick: &dyn Fn(&serde_json::Value) -> bool| -> f64 {
+            p["joints"]
+                .as_array()
+                .expect("joints")
+                .iter()
+                .filter(|j| pick(j))
+                .map(|j| 4.0 * PI * j["friction_torque_nm"].as_f64().expect("T") / vd / 1e3)
+                .sum()
+        };
+        let joint = |j: &serde_json::Value| j["joint"].as_str().unwrap_or("").to_string();
+        let t_rings = kpa(&|j| joint(j).starts_with("piston_") && j["law"] == "ring-pack");
+        let t_skirt = kpa(&|j| joint(j).starts_with("piston_") && j["law"] == "piston-skirt");
+        let t_rods = kpa(&|j| joint(j).starts_with("big_end_"));
+        let t_recip = kpa(&|j| !joint(j).starts_with("main_"));
+        assert!(
+            t_rings > 0.0 && t_skirt > 0.0 && t_rods > 0.0,
+            "{rpm}: every part runs"
+        );
+        let plateau = rows_json["plateaus"]
+            .as_array()
+            .expect("plateaus")
+            .iter()
+            .find(|x| x["set_speed_rpm"].as_f64() == Some(rpm))
+            .expect("the plateau's rows");
+        let row = |name: &str| -> (f64, f64, f64) {
+            let r = plateau["rows"]
+                .as_array()
+                .expect("rows")
+                .iter()
+                .find(|r| r["component"] == name)
+                .unwrap_or_else(|| panic!("{rpm}: no `{name}` row in {plateau}"));
+            let get = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
+            (get("tribo_kpa"), get("correlation_kpa"), get("ratio"))
+        };
+        for (name, tribo_kpa, corr_kpa) in [
+            ("piston rings", t_rings, rings),
+            ("piston skirt", t_skirt, skirt),
+            ("rod bearings", t_rods, rods),
+            ("reciprocating", t_recip, rings + skirt + rods),
+        ] {
+            let (t, c, ratio) = row(name);
+            assert!(
+                (t - tribo_kpa).abs() <= 1e-9 * tribo_kpa,
+                "{rpm} {name}: Tribo {t} vs the laws' {tribo_kpa}"
+            );
+            assert!(
+                (c - corr_kpa).abs() <= 1e-9 * corr_kpa,
+                "{rpm} {name}: correlation {c} vs by hand {corr_kpa}"
+            );
+            assert!((ratio - t / c).abs() <= 1e-12 * ratio, "{rpm} {name}");
+            // The CSV carries the same row.
+            assert!(
+                csv.lines().any(|l| {
+                    let c: Vec<&str> = l.split(',').collect();
+                    c.len() > 3
+                        && c[0].parse::<f64>().ok() == Some(rpm)
+                        && c[1] == name
+                        && c[3].parse::<f64>().ok() == Some(t)
+                }),
+                "{rpm}: `{name}` not in the CSV"
+            );
+            checked += 1;
+        }
+        // The split is exact: rings and skirt make the pistons' row.
+        let (pistons, _, _) = row("pistons");
+        let (r, _, _) = row("piston rings");
+        let (k, _, _) = row("piston skirt");
+        assert!(
+            (r + k - pistons).abs() <= 1e-12 * pistons,
+            "{rpm}: {r} + {k} vs pistons {pistons}"
+        );
+    }
+    assert_eq!(checked, 8, "two plateaus, four rows each");
+    // The text table prints the same rows, each with its numbers.
+    let out = common::run_tribo(
+        &[
+            "run",
+            "inline4-4b11",
+            "--steady",
+            "--lawset",
+            "4b11-physical",
+            "--set",
+            SHORT_CYCLE,
+        ],
+        None,
+    );
+    let (table, stderr) = common::text(&out);
+    assert!(out.status.success(), "{stderr}");
+    for r in rows_json["plateaus"][0]["rows"].as_array().expect("rows") {
+        let name = r["component"].as_str().expect("component");
+        if let (Some(t), Some(c)) = (r["tribo_kpa"].as_f64(), r["correlation_kpa"].as_f64()) {
+            let cells = format!("{t:.3}").len() + format!("{c:.3}").len();
+            assert!(
+                table.lines().any(|l| l.contains(name)
+                    && l.contains(&format!("{t:.3}"))
+                    && l.contains(&format!("{c:.3}"))
+                    && l.len() > cells),
+                "`{name}` {t:.3} beside {c:.3} not in the table:\n{table}"
+            );
+        }
+    }
+}
+
+/// Issue 25: the Sandoval-Heywood correlation beside the laws. `run --fmep` writes
+/// `fmep_correlation.csv` and `.svg`: the main-bearing row's correlation is PNH's
+/// `3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c)` written out here for the 4B11's five
+/// 50 x 20 mm mains, and Tribo's value is the mains' rows of `fmep.csv` summed; `compare` and
+/// `sweep` write theirs, and the JSON carries the terms.
+#[test]
+fn the_correlation_stands_beside_the_laws_in_run_compare_and_sweep() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fmep_dir = dir.path().join("fmep");
+    let v = run_4b11_fmep("physical-bearings", &fmep_dir);
     let mu0 = tribo::correlation::reference_viscosity_pa_s();
     let fmep = std::fs::read_to_string(fmep_dir.join("fmep.csv")).expect("fmep.csv");
     let beside =
@@ -1241,5 +1378,241 @@ fn the_correlation_stands_beside_the_laws_in_run_compare_and_sweep() {
             csv.lines().any(|l| l.contains("main bearings")),
             "{cmd}: {csv}"
         );
+    }
+}
+
+// ---- One crankcase under every piston of an engine (issue 28) ----
+
+/// An engine's pistons as the test sees them from its rig file, written out independently of
+/// the solver: each cylinder's phase (throw angle minus bank angle, rad), the crank radius,
+/// the rod length and the piston area.
+struct EnginePistons {
+    phases: Vec<f64>,
+    r: f64,
+    l: f64,
+    area: f64,
+}
+
+impl EnginePistons {
+    fn of(f: &tribo::model::RigFile) -> Self {
+        let e = f.engine.as_ref().expect("an engine");
+        assert!(
+            e.rods.iter().all(|s| s.length_m.is_none())
+                && e.cylinders
+                    .iter()
+                    .all(|c| c.pin_offset_m == 0.0 && c.crank_offset_m == 0.0),
+            "the closed form below is for equal rods without offsets"
+        );
+        let phases = e
+            .cylinders
+            .iter()
+            .map(|c| {
+                (e.throws[c.throw - 1].angle_deg - c.bank_angle_deg(e.v_angle_deg)).to_radians()
+            })
+            .collect();
+        Self {
+            phases,
+            r: f.geometry.crank_radius_m,
+            l: f.bodies.rod.length_m,
+            area: PI / 4.0 * f.geometry.bore_m.powi(2),
+        }
+    }
+
+    /// The pistons' summed travel from their TDCs and its derivative in crank angle:
+    /// `x = r (1 - cos phi) + l - sqrt(l^2 - r^2 sin^2 phi)` per cylinder.
+    fn travel(&self, theta: f64) -> (f64, f64) {
+        let (r, l) = (self.r, self.l);
+        self.phases.iter().fold((0.0, 0.0), |(x, dx), p| {
+            let (s, c) = (theta + p).sin_cos();
+            let root = (l * l - r * r * s * s).sqrt();
+            (
+                x + r * (1.0 - c) + l - root,
+                dx + r * s + r * r * s * c / root,
+            )
+        })
+    }
+
+    /// The crankcase volume at crank angle `theta` for `v_tdc` given with cylinder 1 at TDC.
+    fn volume(&self, v_tdc: f64, theta: f64) -> f64 {
+        v_tdc - self.area * (self.travel(theta).0 - self.travel(-self.phases[0]).0)
+    }
+}
+
+/// Every cylinder's crankcase pressure in the crank-angle traces of `sim`'s first plateau, with
+/// the engine's crank angle (rad).
+fn crankcase_trace(sim: &mut tribo::sim::Simulation) -> Vec<(f64, Vec<f64>)> {
+    let traces = sim.crank_angle_traces(2.0).expect("crank-angle traces");
+    traces[0]
+        .samples
+        .iter()
+        .map(|s| {
+            (
+                s.crank_angle_deg.to_radians(),
+                s.cylinders.iter().map(|c| c.pressures_pa[1]).collect(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn an_engine_s_sealed_crankcase_follows_the_polytrope_of_every_piston_s_summed_volume() {
+    let (v_tdc, n, p_tdc) = (0.006, 1.4, 1.0e5);
+    let sealed = format!(
+        "gas.crankcase={{kind=\"sealed\", volume_at_tdc_m3={v_tdc}, polytropic_exponent={n}, pressure_at_tdc_pa={p_tdc}}}"
+    );
+    for name in ["inline4-4b11-frictionless", "vtwin-90-frictionless"] {
+        let r = rig(name, &[SHORT_CYCLE, &sealed]);
+        let pistons = EnginePistons::of(r.model());
+        let mut sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+        let trace = crankcase_trace(&mut sim);
+        let (mut lo, mut hi) = (f64::INFINITY, 0.0_f64);
+        for (theta, pressures) in &trace {
+            let want = p_tdc * (v_tdc / pistons.volume(v_tdc, *theta)).powf(n);
+            for (k, p) in pressures.iter().enumerate() {
+                assert!(
+                    (p - want).abs() <= 1e-9 * want,
+                    "{name} cylinder {} at {} deg: {p} Pa, the polytrope gives {want} Pa",
+                    k + 1,
+                    theta.to_degrees()
+                );
+            }
+            lo = lo.min(pressures[0]);
+            hi = hi.max(pressures[0]);
+        }
+        let (r_, l) = (pistons.r, pistons.l);
+        if name.starts_with("inline4") {
+            // A flat-plane inline-4: the four undersides' first-order volume changes cancel.
+            // What is left is the rods' obliquity, largest at 90 degrees, where the summed
+            // travel exceeds its TDC value by 4 (l - sqrt(l^2 - r^2)) ~ 2 r^2 / l.
+            let ds = 4.0 * (l - (l * l - r_ * r_).sqrt());
+            assert!((ds / (2.0 * r_ * r_ / l) - 1.0).abs() < (r_ / l).powi(2));
+            let want = (v_tdc / (v_tdc - pistons.area * ds)).powf(n);
+            println!(
+                "{name}: pressure ripple {lo} .. {hi} Pa, ratio {} (closed form {want})",
+                hi / lo
+            );
+            assert!(
+                (hi / lo - want).abs() <= 1e-6 * want,
+                "{} vs {want}",
+                hi / lo
+            );
+            assert!(hi / lo < 1.05, "nearly constant: {}", hi / lo);
+        } else {
+            // The V-twin's two undersides pump a large swing: far above the inline-4's ripple.
+            println!("{name}: pressure swing {lo} .. {hi} Pa, ratio {}", hi / lo);
+            assert!(hi / lo > 1.1, "{}", hi / lo);
+        }
+        // Sealed: reversible, no pumping work over a cycle.
+        let result = sim.run_steady().expect("steady");
+        for p in &result.plateaus {
+            assert_eq!(p.crankcase_pumping_torque_nm, Some(0.0));
+            assert!(p.gas_torque_nm.abs() < 1e-9, "{name}: {}", p.gas_torque_nm);
+        }
+    }
+}
+
+#[test]
+fn an_engine_s_vented_crankcase_costs_the_drive_exactly_its_closed_p_dv_integral() {
+    // The frictionless V-twin with one crankcase breathing through a 10 mm breather: every
+    // joule the drive puts in per revolution is the crankcase's pumping work, the closed
+    // integral of p dV with the volume written out here and the pressure the run reports.
+    let vented = "gas.crankcase={kind=\"vented\", volume_at_tdc_m3=0.002, polytropic_exponent=1.4, breather_diameter_m=0.010, discharge_coefficient=0.6, temperature_c=90.0}";
+    let r = rig("vtwin-90-frictionless", &[SHORT_CYCLE, vented]);
+    let pistons = EnginePistons::of(r.model());
+    let mut sim = tribo::rig::simulation(&r, &no_laws()).expect("simulation");
+    // The p dV integral over the first plateau's cycle: periodic rectangle rule.
+    let trace = crankcase_trace(&mut sim);
+    let dtheta = 2.0f64.to_radians();
+    let integral: f64 = trace
+        .iter()
+        .map(|(theta, p)| p[0] * pistons.area * pistons.travel(*theta).1 * dtheta)
+        .sum();
+    let revolutions = trace.len() as f64 * dtheta / (2.0 * PI);
+    let traced_torque = integral / revolutions / (2.0 * PI);
+    for (kind, result) in [
+        ("steady", sim.run_steady().expect("steady")),
+        ("prescribed", sim.run().expect("transient")),
+    ] {
+        for p in &result.plateaus {
+            let pumping = p.crankcase_pumping_torque_nm.expect("a vented crankcase");
+            println!(
+                "{kind} {} rpm: motoring {} N m, gas {} N m, pumping {pumping} N m, p dV {traced_torque}",
+                p.set_speed_rpm, p.motoring_torque_nm, p.gas_torque_nm
+            );
+            assert!(pumping > 0.0, "a breather is a loss");
+            assert!((p.motoring_torque_nm - pumping).abs() <= 1e-4 * pumping);
+            assert!((p.gas_torque_nm - pumping).abs() <= 1e-4 * pumping);
+            if p.set_speed_rpm == result.plateaus[0].set_speed_rpm {
+                assert!(
+                    (traced_torque - pumping).abs() <= 1e-3 * pumping,
+                    "p dV {traced_torque} vs {pumping}"
+                );
+            }
+        }
+        // The energy balance closes with the crankcase's work as gas work.
+        let e = result.energy;
+        assert!(e.gas_work_j > 0.0, "{e:?}");
+        assert!(e.relative_residual < 1e-8, "{kind}: {e:?}");
+    }
+}
+
+#[test]
+fn an_engine_s_crankcase_must_not_shrink_to_nothing() {
+    // The V-twin's two pistons sweep more than one displacement: a volume given at cylinder
+    // 1's TDC that passes the single cylinder's rule can still vanish over a revolution.
+    let base = std::fs::read_to_string(common::workspace().join("rigs/vtwin-90.toml"))
+        .expect("bundled rig");
+    let vd = PI / 4.0 * 0.088_f64.powi(2) * 2.0 * 0.03375;
+    let text = format!(
+        "{base}\n[gas.crankcase]\nkind = \"sealed\"\nvolume_at_tdc_m3 = {}\n",
+        1.1 * vd
+    );
+    let e = tribo::rig::load_rig_text(Path::new("vtwin.toml"), &text, &[])
+        .expect_err("the crankcase vanishes");
+    assert_eq!(e.field, "gas.crankcase.volume_at_tdc_m3", "{e}");
+    assert!(e.message.contains("share one crankcase"), "{e}");
+    assert_eq!(e.line, Some(text.lines().count()), "{e}");
+    // Twice the displacement is enough.
+    let text = text.replace(&format!("{}", 1.1 * vd), &format!("{}", 2.5 * vd));
+    tribo::rig::load_rig_text(Path::new("vtwin.toml"), &text, &[]).expect("a roomy crankcase");
+}
+
+#[test]
+fn the_bundled_vented_inline_4_prints_its_crankcase_pumping_share() {
+    let out = common::run_tribo(
+        &[
+            "run",
+            "inline4-4b11-vented",
+            "--steady",
+            "--lawset",
+            "4b11-physical",
+            "--set",
+            SHORT_CYCLE,
+        ],
+        None,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}");
+    let at = text.find("crankcase pumping").expect("the pumping table");
+    let rows: Vec<&str> = text[at..]
+        .lines()
+        .skip_while(|l| !l.contains("set rpm"))
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .collect();
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    for row in rows {
+        let cells: Vec<&str> = row.split_whitespace().collect();
+        let pumping: f64 = cells[1].parse().expect("pumping torque");
+        let share: f64 = cells[2].trim_end_matches('%').parse().expect("share");
+        let gas: f64 = cells[3].parse().expect("gas torque");
+        assert!(pumping > 0.0 && share > 0.0 && share < 100.0, "{row}");
+        // The run measures what the model's cycle predicts.
+        assert!((gas - pumping).abs() <= 1e-4 * pumping + 1e-5, "{row}");
     }
 }

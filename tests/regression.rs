@@ -208,6 +208,10 @@ fn run_json(r: &tribo::sim::RunResult) -> Value {
             // The Sandoval-Heywood correlation beside the laws (issue 25): computed from the
             // rig's geometry and oil, not by the solver.
             o.remove("correlation");
+            // The crankcase model's pumping torque at the plateau speed (issue 28, added
+            // after the capture): the gas model's periodic cycle reported beside the run, not
+            // a result of its integration (the measured gas torque is compared).
+            o.remove("crankcase_pumping_torque_nm");
         }
     }
     v

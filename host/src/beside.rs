@@ -9,22 +9,31 @@ use crate::output::{OutputError, ResultDir};
 use crate::sim::{Fmep, PlateauResult, RunResult};
 use tribo_core::correlation::{beside, Beside, Correlation};
 
-/// The components of one plateau side by side (`None` if the plateau has no correlation).
-pub fn plateau_rows(p: &PlateauResult) -> Option<Vec<Beside>> {
+/// The components of one plateau side by side (`None` if the plateau has no correlation):
+/// each law's FMEP by the run's basis `fmep`, so a piston carrying ring and skirt laws is
+/// also shown as rings and skirt.
+pub fn plateau_rows(p: &PlateauResult, fmep: &Fmep) -> Option<Vec<Beside>> {
     let c = p.correlation.as_ref()?;
     Some(beside(
-        p.fmep.components.iter().map(|c| (c.joint.as_str(), c.kpa)),
+        p.joints.iter().map(|l| {
+            (
+                l.joint.as_str(),
+                l.law.as_str(),
+                fmep.kpa(l.friction_torque_nm),
+            )
+        }),
         c,
     ))
 }
 
-/// The components side by side from per-joint torques (a sweep point).
+/// The components side by side from per-joint torques (a sweep point: its laws are not
+/// known apart, so the pistons stay whole).
 pub fn torque_rows<'a>(
     joints: impl Iterator<Item = (&'a str, f64)>,
     fmep: &Fmep,
     c: &Correlation,
 ) -> Vec<Beside> {
-    let kpa: Vec<(&str, f64)> = joints.map(|(j, t)| (j, fmep.kpa(t))).collect();
+    let kpa: Vec<(&str, &str, f64)> = joints.map(|(j, t)| (j, "", fmep.kpa(t))).collect();
     beside(kpa.into_iter(), c)
 }
 
@@ -61,7 +70,7 @@ pub fn run_text(r: &RunResult) -> String {
         "set rpm", "component", "joints", "Tribo", "correlation", "ratio"
     );
     for p in &r.plateaus {
-        let Some(rows) = plateau_rows(p) else {
+        let Some(rows) = plateau_rows(p, &r.fmep) else {
             continue;
         };
         for (k, row) in rows.iter().enumerate() {
@@ -102,11 +111,46 @@ pub fn run_text(r: &RunResult) -> String {
 pub fn run_csv(r: &RunResult) -> std::io::Result<String> {
     let mut rows = Vec::new();
     for p in &r.plateaus {
-        for row in plateau_rows(p).unwrap_or_default() {
+        for row in plateau_rows(p, &r.fmep).unwrap_or_default() {
             rows.push(csv_row(&[p.set_speed_rpm.to_string()], &row));
         }
     }
     crate::report::csv_text(&header(&["set_speed_rpm"]), rows)
+}
+
+/// One plateau's rows in `fmep_correlation.json`.
+#[derive(serde::Serialize)]
+struct PlateauRows {
+    set_speed_rpm: f64,
+    oil_temp_c: f64,
+    rows: Vec<Beside>,
+}
+
+/// `fmep_correlation.json` of `run --fmep`: the rows of the table and the CSV per plateau, with
+/// the ratio where both sides have a number.
+pub fn run_json(r: &RunResult) -> std::io::Result<String> {
+    let plateaus: Vec<serde_json::Value> = r
+        .plateaus
+        .iter()
+        .filter_map(|p| {
+            let rows = plateau_rows(p, &r.fmep)?;
+            let ratios: Vec<Option<f64>> = rows.iter().map(Beside::ratio).collect();
+            let mut v = serde_json::to_value(PlateauRows {
+                set_speed_rpm: p.set_speed_rpm,
+                oil_temp_c: p.oil_temp_c,
+                rows,
+            })
+            .ok()?;
+            if let Some(rows) = v["rows"].as_array_mut() {
+                for (row, ratio) in rows.iter_mut().zip(ratios) {
+                    row["ratio"] = ratio.map_or(serde_json::Value::Null, serde_json::Value::from);
+                }
+            }
+            Some(v)
+        })
+        .collect();
+    let doc = serde_json::json!({ "basis": r.fmep.basis.formula(), "plateaus": plateaus });
+    serde_json::to_string_pretty(&doc).map_err(std::io::Error::other)
 }
 
 /// A CSV header: the leading columns, then a row's.
@@ -165,7 +209,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
                     s.run
                         .plateaus
                         .get(i)
-                        .and_then(plateau_rows)
+                        .and_then(|p| plateau_rows(p, &s.run.fmep))
                         .unwrap_or_default()
                 })
                 .collect()
@@ -253,7 +297,7 @@ pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
     let mut rows = Vec::new();
     for s in &c.sets {
         for p in &s.run.plateaus {
-            for row in plateau_rows(p).unwrap_or_default() {
+            for row in plateau_rows(p, &s.run.fmep).unwrap_or_default() {
                 rows.push(csv_row(
                     &[s.lawset.clone(), p.set_speed_rpm.to_string()],
                     &row,
@@ -358,10 +402,13 @@ pub fn sweep_csv(s: &crate::study::Sweep) -> std::io::Result<String> {
 }
 
 /// One colour per component.
-const COLORS: [RGBColor; 4] = [
+const COLORS: [RGBColor; 7] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(140, 86, 75),
     RGBColor(0, 0, 0),
 ];
 
@@ -373,7 +420,7 @@ fn rendered(what: &str, r: std::io::Result<String>) -> Result<String, OutputErro
     })
 }
 
-/// `run --fmep`: `fmep_correlation.csv` and `fmep_correlation.svg` into the result set.
+/// `run --fmep`: `fmep_correlation.csv`, `.json` and `.svg` into the result set.
 pub fn write_run(r: &RunResult, out: &mut ResultDir) -> Result<(), OutputError> {
     if r.plateaus.iter().all(|p| p.correlation.is_none()) {
         return Ok(());
@@ -381,6 +428,10 @@ pub fn write_run(r: &RunResult, out: &mut ResultDir) -> Result<(), OutputError> 
     out.write(
         "fmep_correlation.csv",
         rendered("fmep_correlation.csv", run_csv(r))?.as_bytes(),
+    )?;
+    out.write(
+        "fmep_correlation.json",
+        rendered("fmep_correlation.json", run_json(r))?.as_bytes(),
     )?;
     out.write(
         "fmep_correlation.svg",
@@ -413,7 +464,16 @@ pub fn write_sweep(s: &crate::study::Sweep, out: &mut ResultDir) -> Result<(), O
 }
 
 /// The components both sides model, for the plots.
-const PLOTTED: [&str; 4] = ["main bearings", "rod bearings", "pistons", "total"];
+/// (rings and skirt where the pistons carry ring and skirt laws; rows a run lacks are left out).
+const PLOTTED: [&str; 7] = [
+    "main bearings",
+    "rod bearings",
+    "pistons",
+    "piston rings",
+    "piston skirt",
+    "reciprocating",
+    "total",
+];
 
 /// A plot of FMEP against speed: one colour per component, Tribo solid, the correlation
 /// dashed.
@@ -494,7 +554,7 @@ pub fn run_svg(r: &RunResult) -> std::io::Result<String> {
     let rows: Vec<Vec<Beside>> = r
         .plateaus
         .iter()
-        .map(|p| plateau_rows(p).unwrap_or_default())
+        .map(|p| plateau_rows(p, &r.fmep).unwrap_or_default())
         .collect();
     let series = PLOTTED
         .iter()
@@ -511,6 +571,7 @@ pub fn run_svg(r: &RunResult) -> std::io::Result<String> {
                 get(|b| b.correlation_kpa),
             )
         })
+        .filter(|(_, _, tribo, corr)| tribo.iter().chain(corr).any(Option::is_some))
         .collect::<Vec<_>>();
     speed_plot(
         &format!("{}: Tribo (solid) beside Sandoval-Heywood (dashed)", r.rig),

@@ -25,6 +25,7 @@ pub fn to_text(r: &RunResult) -> String {
             p.set_speed_rpm, p.mean_speed_rpm, p.motoring_torque_nm, p.oil_temp_c
         );
     }
+    out.push_str(&crankcase_text(r));
     out.push_str(&fmep_text(r));
     if r.plateaus.iter().any(|p| !p.joints.is_empty()) {
         let _ = writeln!(out, "\nper joint and law (friction torque at the crank, N m; power, W; regime shares b/m/h)");
@@ -95,6 +96,44 @@ pub fn to_text(r: &RunResult) -> String {
         let _ = writeln!(out, "warning: {w}");
     }
     fit_width(&out)
+}
+
+/// A sealed or vented crankcase's pumping per plateau: the model's loss at the plateau speed,
+/// its share of the motoring torque, and the gas torque the run measured (cylinder and
+/// crankcase together); empty with an atmospheric crankcase.
+pub fn crankcase_text(r: &RunResult) -> String {
+    let mut out = String::new();
+    if r.plateaus
+        .iter()
+        .all(|p| p.crankcase_pumping_torque_nm.is_none())
+    {
+        return out;
+    }
+    let _ = writeln!(
+        out,
+        "\ncrankcase pumping (the breather's loss at the set speed; share of the motoring torque;\n  measured gas torque, cylinder and crankcase)"
+    );
+    let _ = writeln!(
+        out,
+        "{:>10} {:>14} {:>8} {:>14}",
+        "set rpm", "pumping N m", "share", "gas N m"
+    );
+    for p in &r.plateaus {
+        let Some(pumping) = p.crankcase_pumping_torque_nm else {
+            continue;
+        };
+        let share = if p.motoring_torque_nm != 0.0 {
+            format!("{:.1}%", 100.0 * pumping / p.motoring_torque_nm)
+        } else {
+            "-".into()
+        };
+        let _ = writeln!(
+            out,
+            "{:>10.0} {:>14.5} {:>8} {:>14.5}",
+            p.set_speed_rpm, pumping, share, p.gas_torque_nm
+        );
+    }
+    out
 }
 
 /// The FMEP breakdown per plateau and component (kPa and bar), with its basis; empty when no
@@ -1389,6 +1428,7 @@ mod tests {
                 revolutions: 5,
                 joints: vec![joint],
                 gas_torque_nm: 0.0,
+                crankcase_pumping_torque_nm: None,
                 fmep: Default::default(),
                 groups: Vec::new(),
                 correlation: None,

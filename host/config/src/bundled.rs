@@ -35,6 +35,10 @@ const RIGS: &[(&str, &str)] = &[
         "inline4-4b11-frictionless.toml",
         include_str!("../../../rigs/inline4-4b11-frictionless.toml"),
     ),
+    (
+        "inline4-4b11-vented.toml",
+        include_str!("../../../rigs/inline4-4b11-vented.toml"),
+    ),
     ("vtwin-90.toml", include_str!("../../../rigs/vtwin-90.toml")),
     (
         "vtwin-90-frictionless.toml",

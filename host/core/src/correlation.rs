@@ -358,16 +358,58 @@ pub fn joint_group(joint: &str) -> &'static str {
     }
 }
 
-/// The components side by side: `fmep_kpa` of every joint (its laws summed; repeated joints
-/// add), the correlation `c`. The piston compares with skirt, rings and gas loading together
-/// (Tribo's piston laws carry them together).
-pub fn beside<'a>(fmep_kpa: impl Iterator<Item = (&'a str, f64)>, c: &Correlation) -> Vec<Beside> {
+/// Which correlation term a piston law stands for, read from the law's name: a name with
+/// `ring` in it (`ring-pack`) the piston rings, one with `skirt` (`piston-skirt`) the skirt;
+/// any other law on a piston (`stribeck-duty`, `coulomb`, ...) carries both together.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PistonPart {
+    /// The ring pack: PNH's piston-ring term (and gas loading where the rig has a head).
+    Rings,
+    /// The skirt: PNH's piston-skirt term.
+    Skirt,
+}
+
+impl PistonPart {
+    /// The part a law named `law` models, `None` if its name says neither (or is unknown, "").
+    pub fn of_law(law: &str) -> Option<Self> {
+        let l = law.to_ascii_lowercase();
+        match (l.contains("ring"), l.contains("skirt")) {
+            (true, false) => Some(Self::Rings),
+            (false, true) => Some(Self::Skirt),
+            _ => None,
+        }
+    }
+}
+
+/// The components side by side: `fmep_kpa` of every law on every joint (joint, law, kPa; a
+/// law's name may be "" where only joints are known; repeated joints add), the correlation
+/// `c`. The pistons compare with skirt, rings and gas loading together; when every law on the
+/// pistons is a ring or a skirt law ([`PistonPart::of_law`]) they are also split, rings beside
+/// PNH's ring term (plus gas loading on a rig with a head) and skirt beside its skirt term:
+/// each law's FMEP is its own dissipated power (the joint's force is the sum of its laws'
+/// forces, so its power is the sum of theirs), so the two parts add up to the pistons' row.
+/// The reciprocating group (rod bearings, small ends, pistons) stands beside the correlation's
+/// reciprocating terms on this rig.
+pub fn beside<'a>(
+    fmep_kpa: impl Iterator<Item = (&'a str, &'a str, f64)>,
+    c: &Correlation,
+) -> Vec<Beside> {
     let mut groups: Vec<(&'static str, f64)> = Vec::new();
-    for (joint, kpa) in fmep_kpa {
+    // Rings, skirt, and whether every piston law is one of the two.
+    let mut parts = [0.0, 0.0];
+    let mut split = true;
+    for (joint, law, kpa) in fmep_kpa {
         let g = joint_group(joint);
         match groups.iter_mut().find(|(n, _)| *n == g) {
             Some(x) => x.1 += kpa,
             None => groups.push((g, kpa)),
+        }
+        if g == "piston_*" {
+            match PistonPart::of_law(law) {
+                Some(PistonPart::Rings) => parts[0] += kpa,
+                Some(PistonPart::Skirt) => parts[1] += kpa,
+                None => split = false,
+            }
         }
     }
     let tribo = |g: &str| groups.iter().find(|(n, _)| *n == g).map(|x| x.1);
@@ -425,9 +467,53 @@ pub fn beside<'a>(fmep_kpa: impl Iterator<Item = (&'a str, f64)>, c: &Correlatio
             "piston_*",
             &["piston skirt", "piston rings", "gas loading"],
         ),
-        row("valvetrain", "", &["valvetrain"]),
-        row("pumping", "", &["pumping"]),
     ];
+    if split && tribo("piston_*").is_some() {
+        for (k, (component, names)) in [
+            ("piston rings", &["piston rings", "gas loading"][..]),
+            ("piston skirt", &["piston skirt"][..]),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let mut r = row(component, "piston_*", names);
+            if parts[k] == 0.0 {
+                // Every piston law is of the other part: none models this one.
+                r.tribo_kpa = None;
+                r.joints = String::new();
+                r.note = format!("{}; no {} law on this rig", r.note, ["ring", "skirt"][k]);
+            } else {
+                r.tribo_kpa = Some(parts[k]);
+            }
+            rows.push(r);
+        }
+    }
+    // The reciprocating group: every cylinder joint beside the reciprocating terms on the rig.
+    let cylinder_joints = ["big_end_*", "small_end_*", "piston_*"];
+    let recip: Vec<f64> = cylinder_joints.iter().filter_map(|g| tribo(g)).collect();
+    let recip_terms: Vec<&Term> = c
+        .terms
+        .iter()
+        .filter(|t| t.group == Group::Reciprocating && t.kpa.is_some())
+        .collect();
+    if !recip.is_empty() && !recip_terms.is_empty() {
+        rows.push(Beside {
+            component: "reciprocating".into(),
+            joints: "cylinders".into(),
+            tribo_kpa: Some(recip.iter().sum()),
+            correlation_kpa: Some(recip_terms.iter().filter_map(|t| t.kpa).sum()),
+            note: format!(
+                "{} (big_end_*, small_end_*, piston_*)",
+                recip_terms
+                    .iter()
+                    .map(|t| t.term.as_str())
+                    .collect::<Vec<_>>()
+                    .join(" + ")
+            ),
+        });
+    }
+    rows.push(row("valvetrain", "", &["valvetrain"]));
+    rows.push(row("pumping", "", &["pumping"]));
     // Rows with nothing on either side (a small end without a law) say nothing.
     rows.retain(|r| {
         r.tribo_kpa.is_some() || r.correlation_kpa.is_some() || r.note.contains("not on this rig")

@@ -30,6 +30,13 @@
 //!   on a ramp the real crankcase lags the table by roughly a tenth of a second of speed.
 //!
 //! The force on the piston along +y (towards the head) is `A (p_crankcase - p_cylinder)`.
+//!
+//! **Engines** share one crankcase (`docs/engines.md`, "One crankcase"): its volume is
+//! `V_cc = V_tdc - A (sum_k x_k - sum_k x_k,ref)`, every piston's underside pumping it, with
+//! `V_tdc` and `p_tdc` given for cylinder 1 at its local angle 0 (its TDC; the single
+//! cylinder's definition). The sealed and vented models above apply to that volume unchanged;
+//! a vented crankcase's table is over the engine's crank angle, and every cylinder sees the
+//! same crankcase pressure ([`GasModel::crankcase_pa`], [`GasModel::with_crankcase`]).
 
 pub mod vented;
 
@@ -38,7 +45,7 @@ use std::sync::{Arc, OnceLock};
 
 use crate::cycle::{rpm_to_rad_s, Segment};
 use crate::model::{CrankcasePressure, CylinderPressure, RigFile, Valves};
-use vented::{Breather, Table, VentedCycle};
+use vented::{Breather, Slider, Table, Underside, VentedCycle};
 
 /// Largest step between the crank speeds at which a vented crankcase is tabulated, rpm.
 pub const MAX_SPEED_GAP_RPM: f64 = 1000.0;
@@ -57,6 +64,8 @@ pub struct GasModel {
     four_stroke: bool,
     cylinder: Cylinder,
     crankcase: Crankcase,
+    /// The pistons pumping the crankcase (the rig's one, or an engine's every cylinder).
+    underside: Underside,
 }
 
 #[derive(Debug, Clone)]
@@ -78,7 +87,13 @@ enum Cylinder {
 #[derive(Debug, Clone)]
 enum Crankcase {
     Ambient,
-    Sealed { v_tdc_m3: f64, n: f64, p_tdc: f64 },
+    /// `p_tdc (V_tdc / V_cc)^n`, `V_cc = V_tdc - A x` with `x` the pistons' summed travel from
+    /// the reference state (`Underside`).
+    Sealed {
+        v_tdc_m3: f64,
+        n: f64,
+        p_tdc: f64,
+    },
     Vented(Box<VentedTables>),
 }
 
@@ -222,6 +237,7 @@ impl GasModel {
         let r = f.geometry.crank_radius_m;
         let area = PI * 0.25 * f.geometry.bore_m * f.geometry.bore_m;
         let vd = area * 2.0 * r;
+        let underside = underside(f, area);
         let cylinder = match &g.cylinder {
             CylinderPressure::None => Cylinder::Ambient,
             CylinderPressure::Motored {
@@ -268,9 +284,7 @@ impl GasModel {
             } => {
                 let breather = Breather {
                     volume_at_tdc_m3: *volume_at_tdc_m3,
-                    piston_area_m2: area,
-                    crank_radius_m: r,
-                    rod_length_m: f.bodies.rod.length_m,
+                    underside: underside.clone(),
                     polytropic_exponent: *polytropic_exponent,
                     discharge_area_m2: discharge_coefficient
                         * g.crankcase.breather_area_m2().unwrap_or(0.0),
@@ -292,6 +306,7 @@ impl GasModel {
             four_stroke: g.four_stroke(),
             cylinder,
             crankcase,
+            underside,
         }
     }
 
@@ -346,10 +361,61 @@ impl GasModel {
         self.at_travel(theta, omega, self.piston_from_tdc(theta))
     }
 
-    /// [`GasModel::at`] with the piston `x` m from its top dead centre: an engine's cylinder
-    /// with a pin or crank offset, whose travel is not the centred slider-crank's
-    /// (`crate::engine`).
+    /// [`GasModel::at`] with the piston `x` m from its top dead centre, the only piston pumping
+    /// the crankcase (the single-cylinder rig).
     pub fn at_travel(&self, theta: f64, omega: f64, x: f64) -> GasState {
+        self.with_crankcase(theta, x, self.crankcase_pa(theta, omega, x))
+    }
+
+    /// The crankcase pressure, Pa, at crank angle `theta` (the engine's, accumulated; a vented
+    /// crankcase's table is over it) and speed `omega`, with the pistons' travels from their
+    /// TDCs summing to `travel_m` (a sealed crankcase's volume follows it): one pressure for
+    /// every cylinder of an engine.
+    pub fn crankcase_pa(&self, theta: f64, omega: f64, travel_m: f64) -> f64 {
+        match &self.crankcase {
+            Crankcase::Ambient => self.ambient_pa,
+            Crankcase::Sealed { v_tdc_m3, n, p_tdc } => {
+                let x = travel_m - self.underside.travel_at_reference_m;
+                p_tdc * (v_tdc_m3 / (v_tdc_m3 - self.area_m2 * x)).powf(*n)
+            }
+            Crankcase::Vented(v) => v.at(theta, omega),
+        }
+    }
+
+    /// The crankcase volume, m^3, at crank angle `theta` (`None` for an atmospheric
+    /// crankcase, whose volume the model never needs).
+    pub fn crankcase_volume_m3(&self, theta: f64) -> Option<f64> {
+        let v_tdc = match &self.crankcase {
+            Crankcase::Ambient => return None,
+            Crankcase::Sealed { v_tdc_m3, .. } => *v_tdc_m3,
+            Crankcase::Vented(v) => v.breather.volume_at_tdc_m3,
+        };
+        Some(v_tdc - self.area_m2 * self.underside.travel(theta).0)
+    }
+
+    /// The smallest crankcase volume over a revolution, m^3, sampled every half degree (`None`
+    /// for an atmospheric crankcase): what rig validation keeps above zero.
+    pub fn crankcase_min_volume_m3(&self) -> Option<f64> {
+        (0..vented::NODES_PER_REV)
+            .map(|k| self.crankcase_volume_m3(TAU * k as f64 / vented::NODES_PER_REV as f64))
+            .try_fold(f64::INFINITY, |m, v| v.map(|v| m.min(v)))
+    }
+
+    /// The crankcase's mean pumping torque at the steady crank speed `omega` (> 0), N m: a
+    /// vented crankcase's breather loss per revolution over 2 pi (its periodic cycle, the
+    /// one the run's tables hold); 0 for a sealed one (a reversible polytrope); `None` for an
+    /// atmospheric crankcase.
+    pub fn crankcase_pumping_torque_nm(&self, omega: f64) -> Option<f64> {
+        match &self.crankcase {
+            Crankcase::Ambient => None,
+            Crankcase::Sealed { .. } => Some(0.0),
+            Crankcase::Vented(_) => self.vented_cycle(omega).map(|c| c.pumping_work_j / TAU),
+        }
+    }
+
+    /// The gas state of a cylinder at its local crank angle `theta`, its piston `x` m from its
+    /// TDC (an offset cylinder's true travel), under the crankcase pressure `crankcase_pa`.
+    pub fn with_crankcase(&self, theta: f64, x: f64, crankcase_pa: f64) -> GasState {
         let phi = self.cycle_angle(theta);
         let cylinder_pa = match &self.cylinder {
             Cylinder::Ambient => self.ambient_pa,
@@ -372,13 +438,6 @@ impl GasModel {
                 pressures_pa,
             } => periodic_linear(angles_rad, pressures_pa, phi, CYCLE_4),
         };
-        let crankcase_pa = match &self.crankcase {
-            Crankcase::Ambient => self.ambient_pa,
-            Crankcase::Sealed { v_tdc_m3, n, p_tdc } => {
-                p_tdc * (v_tdc_m3 / (v_tdc_m3 - self.area_m2 * x)).powf(*n)
-            }
-            Crankcase::Vented(v) => v.at(theta, omega),
-        };
         GasState {
             cylinder_pa,
             crankcase_pa,
@@ -386,6 +445,41 @@ impl GasModel {
             cycle_angle_rad: phi,
             force_n: self.area_m2 * (crankcase_pa - cylinder_pa),
         }
+    }
+}
+
+/// The pistons under the crankcase of the rig `f`: its one centred slider-crank, or every
+/// cylinder of its `[engine]` at its own phase, rod and offset, with the summed travel of the
+/// reference state (cylinder 1 at its local angle 0).
+fn underside(f: &RigFile, area: f64) -> Underside {
+    let Some(geo) = crate::engine::geometry(f) else {
+        return Underside {
+            piston_area_m2: area,
+            pistons: vec![Slider {
+                phase_rad: 0.0,
+                crank_radius_m: f.geometry.crank_radius_m,
+                rod_length_m: f.bodies.rod.length_m,
+                offset_m: 0.0,
+            }],
+            travel_at_reference_m: 0.0,
+        };
+    };
+    let pistons: Vec<Slider> = geo
+        .cylinders
+        .iter()
+        .map(|c| Slider {
+            phase_rad: geo.throws.get(c.throw).map_or(0.0, |t| t.angle_rad) - c.bank_rad,
+            crank_radius_m: geo.crank_radius_m,
+            rod_length_m: c.rod.length_m,
+            offset_m: c.pin_offset_m + c.crank_offset_m,
+        })
+        .collect();
+    let reference = -pistons.first().map_or(0.0, |p| p.phase_rad);
+    let travel_at_reference_m = pistons.iter().map(|p| p.travel(reference).0).sum();
+    Underside {
+        piston_area_m2: area,
+        pistons,
+        travel_at_reference_m,
     }
 }
 

@@ -9,6 +9,7 @@ pub mod reynolds;
 pub mod short;
 pub mod table;
 pub mod tables;
+pub mod thermal;
 
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::tribology::film_regime;
@@ -18,6 +19,7 @@ use tribo_plugin_api::{
 };
 
 use bearing::{relative_torque, Bearing, Model, EPS_CAP};
+use thermal::{FilmTemperature, Oil};
 
 /// Parameters of [`PlainJournal`].
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -29,6 +31,18 @@ pub struct Params {
     pub model: String,
     /// Composite roughness Rq of journal and shell, m (for the reported regime only).
     pub roughness_m: f64,
+    /// Film temperature: `isothermal` (the oil's viscosity as given) or `effective` (the
+    /// film's mean temperature from a heat balance, module [`thermal`]).
+    pub thermal: String,
+    /// The oil's kinematic viscosity at 40 C, cSt (with `oil_kv100_cst`, the Walther slope of
+    /// the `effective` film).
+    pub oil_kv40_cst: f64,
+    /// The oil's kinematic viscosity at 100 C, cSt.
+    pub oil_kv100_cst: f64,
+    /// The oil's density, kg/m^3 (the rig's: it converts the given viscosity to kinematic).
+    pub density_kg_m3: f64,
+    /// The oil's specific heat, J/(kg K).
+    pub specific_heat_j_kg_k: f64,
 }
 
 impl Default for Params {
@@ -40,6 +54,19 @@ impl Default for Params {
             model: "finite".into(),
             // estimate: ground journal Rq ~0.15 um, shell overlay ~0.35 um.
             roughness_m: 0.4e-6,
+            // The law's input viscosity is the film's unless a law set asks for the heat
+            // balance, which needs the oil's own viscosity-temperature line (below).
+            thermal: "isothermal".into(),
+            // estimate: a typical SAE 5W-30 (KV40 ~65 cSt, KV100 ~11 cSt), the 4B11 rig's oil;
+            // a law set using `effective` states its rig's oil.
+            oil_kv40_cst: 65.0,
+            oil_kv100_cst: 11.0,
+            // estimate: a mineral or synthetic engine oil at 15 C, 0.84-0.87 kg/l.
+            density_kg_m3: 850.0,
+            // Cragoe, "Thermal properties of petroleum products", US Bureau of Standards Misc.
+            // Publ. 97 (1929): c = (0.388 + 0.00045 t_F) / sqrt(s) Btu/(lb F), 2.16 kJ/(kg K)
+            // at 90 C for s = 0.85; engine oil tables (Cengel) 2.05 at 60 C, 2.22 at 100 C.
+            specific_heat_j_kg_k: 2150.0,
         }
     }
 }
@@ -50,6 +77,8 @@ pub struct PlainJournal {
     clearance_m: f64,
     model: Model,
     roughness_m: f64,
+    /// The heat balance's oil, or `None` for an isothermal film.
+    thermal: Option<Oil>,
 }
 
 /// State layout: the eccentricity ratio vector (global frame) and whether it has been placed.
@@ -66,7 +95,10 @@ struct Film {
     omega_bar: f64,
     /// Angle of the outer member, rad (its frame for the reported eccentricity).
     outer_angle: f64,
+    /// The film's viscosity (the feed oil's, or at the effective temperature), Pa s.
     mu: f64,
+    /// The heat balance's answer (`thermal = "effective"`).
+    temperature: Option<FilmTemperature>,
 }
 
 impl PlainJournal {
@@ -94,21 +126,45 @@ impl PlainJournal {
             ),
         };
         let omega_bar = 0.5 * (w_in + w_out);
-        let mu = input.viscosity_pa_s;
+        let mu_feed = input.viscosity_pa_s;
         let placed = state.get(2).copied().unwrap_or(0.0) != 0.0;
-        let eps = if placed {
-            [state[0], state[1]]
-        } else {
-            quasi_static(&bearing, force, omega_bar, mu)
+        let eps_at = |mu: f64| {
+            if placed {
+                [state[0], state[1]]
+            } else {
+                quasi_static(&bearing, force, omega_bar, mu)
+            }
         };
+        let temperature = self.thermal.map(|oil| {
+            effective_film(
+                &oil,
+                &bearing,
+                input,
+                placed.then(|| [state[0], state[1]]),
+                force,
+                omega_bar,
+            )
+        });
+        let mu = temperature.map_or(mu_feed, |t| t.viscosity_pa_s);
         Film {
             bearing,
-            eps,
+            eps: eps_at(mu),
             force,
             omega_bar,
             outer_angle,
             mu,
+            temperature,
         }
+    }
+
+    /// The film's effective temperature, its rise and viscosity at `input` with the committed
+    /// `state` (`None` for an isothermal film): the heat balance's diagnostic, which contract
+    /// v3 has no slot for, so the sweep and the tests read it here.
+    pub fn film_temperature(&self, input: &LawInput, state: &[f64]) -> Option<FilmTemperature> {
+        if input.kind() != Some(JointKind::Revolute) || !Self::valid_geometry(input) {
+            return None;
+        }
+        self.film(input, state).temperature
     }
 
     fn valid_geometry(input: &LawInput) -> bool {
@@ -134,6 +190,55 @@ fn load_on_inner(input: &LawInput) -> [f64; 2] {
         return [0.0, input.normal_load_n];
     }
     f
+}
+
+/// The heat balance of a film at eccentricity `eps` (the quasi-static one of each viscosity
+/// when `None`): the heat source is the power the law books on the joint's relative rotation,
+/// `-T w` (Couette shear proportional to the viscosity, the load's offset moment independent
+/// of it); the heat-carrying flow is Raimondi and Boyd's `Q - Q_s / 2` (inlet flow less half the
+/// side leakage, which leaves at the mean temperature) of the rotating film, `|omega_bar| R c L`
+/// (exact for the short bearing at any eccentricity), or, when the squeeze dominates, half the
+/// squeeze film's side leakage `c |v| R L`, whichever is larger.
+fn effective_film(
+    oil: &Oil,
+    b: &Bearing,
+    input: &LawInput,
+    eps: Option<[f64; 2]>,
+    force: [f64; 2],
+    omega_bar: f64,
+) -> FilmTemperature {
+    let w = input.relative_velocity;
+    let mu_feed = input.viscosity_pa_s;
+    if mu_feed <= 0.0 {
+        return FilmTemperature {
+            effective_c: input.oil_temp_c,
+            rise_k: 0.0,
+            viscosity_pa_s: mu_feed,
+        };
+    }
+    let rcl = b.radius_m * b.clearance_m * b.length_m;
+    let q_rot = omega_bar.abs() * rcl;
+    match eps {
+        Some(eps) => {
+            // At a fixed eccentricity the Couette power scales with mu and the squeeze speed
+            // with 1 / mu: one evaluation at the feed viscosity gives the balance in closed form.
+            let power = -relative_torque(b, eps, force, w, omega_bar, mu_feed) * w;
+            let couette = b.couette(eps[0].hypot(eps[1]), mu_feed) * w * w;
+            let offset = power - couette;
+            let m = b.motion(eps, force, omega_bar, mu_feed).squeeze;
+            let q_squeeze = m[0].hypot(m[1]) * rcl;
+            thermal::solve(oil, input.oil_temp_c, mu_feed, |mu| {
+                let r = mu / mu_feed;
+                (couette * r + offset, q_rot.max(q_squeeze / r))
+            })
+        }
+        None => thermal::solve(oil, input.oil_temp_c, mu_feed, |mu| {
+            let e = quasi_static(b, force, omega_bar, mu);
+            let power = -relative_torque(b, e, force, w, omega_bar, mu) * w;
+            let m = b.motion(e, force, omega_bar, mu).squeeze;
+            (power, q_rot.max(m[0].hypot(m[1]) * rcl))
+        }),
+    }
 }
 
 /// The journal's steady position under `force` at mean speed `omega_bar`: the steady
@@ -177,6 +282,39 @@ impl Law for PlainJournal {
                 1e-9,
                 1e-4,
             ),
+            ParamSpec::choice(
+                "thermal",
+                "isothermal: the film shears at the oil's given viscosity; effective: at the viscosity of its mean temperature from a heat balance (Raimondi-Boyd effective temperature)",
+                &["isothermal", "effective"],
+            ),
+            ParamSpec::number(
+                "oil_kv40_cst",
+                "cSt",
+                "the oil's kinematic viscosity at 40 C (its Walther slope, for thermal = effective)",
+                1.0,
+                1e4,
+            ),
+            ParamSpec::number(
+                "oil_kv100_cst",
+                "cSt",
+                "the oil's kinematic viscosity at 100 C (its Walther slope, for thermal = effective)",
+                1.0,
+                1e3,
+            ),
+            ParamSpec::number(
+                "density_kg_m3",
+                "kg/m^3",
+                "the oil's density (the rig's), for thermal = effective",
+                500.0,
+                1200.0,
+            ),
+            ParamSpec::number(
+                "specific_heat_j_kg_k",
+                "J/(kg K)",
+                "the oil's specific heat, for thermal = effective",
+                1000.0,
+                4000.0,
+            ),
         ]
     }
 
@@ -191,10 +329,36 @@ impl Law for PlainJournal {
                 ))
             }
         };
+        let thermal = match p.thermal.as_str() {
+            "isothermal" => None,
+            "effective" => {
+                if p.oil_kv40_cst <= p.oil_kv100_cst {
+                    return Err(ParamError::new(
+                        "oil_kv40_cst",
+                        format!(
+                            "an oil thins as it warms: expected oil_kv40_cst ({}) above oil_kv100_cst ({})",
+                            p.oil_kv40_cst, p.oil_kv100_cst
+                        ),
+                    ));
+                }
+                Some(Oil {
+                    walther_b: thermal::walther_slope(p.oil_kv40_cst, p.oil_kv100_cst),
+                    density_kg_m3: p.density_kg_m3,
+                    specific_heat_j_kg_k: p.specific_heat_j_kg_k,
+                })
+            }
+            other => {
+                return Err(ParamError::new(
+                    "thermal",
+                    format!("expected `isothermal` or `effective`, got `{other}`"),
+                ))
+            }
+        };
         Ok(Self {
             clearance_m: p.clearance_m,
             model,
             roughness_m: p.roughness_m,
+            thermal,
         })
     }
 
@@ -369,6 +533,107 @@ mod tests {
             (x1 - y0).abs() < 1e-12 && (y1 + x0).abs() < 1e-12,
             "({x1}, {y1})"
         );
+    }
+
+    /// The rig's oil (Walther through 65 cSt at 40 C and 11 cSt at 100 C, 850 kg/m^3), written
+    /// out here independently of the law's anchored line, Pa s.
+    fn rig_oil_viscosity(t_c: f64) -> f64 {
+        let w = |nu: f64| (nu + 0.7f64).log10().log10();
+        let (x1, x2) = ((313.15f64).log10(), (373.15f64).log10());
+        let b = (w(65.0) - w(11.0)) / (x2 - x1);
+        let a = w(65.0) + b * x1;
+        (10f64.powf(10f64.powf(a - b * (t_c + 273.15).log10())) - 0.7) * 1e-6 * 850.0
+    }
+
+    const EFFECTIVE: &str = "clearance_m = 2e-5\nthermal = \"effective\"\noil_kv40_cst = 65.0\noil_kv100_cst = 11.0\ndensity_kg_m3 = 850.0\nspecific_heat_j_kg_k = 2150.0";
+
+    /// Unloaded, the journal is centred and the film is Petroff's; its heat leaves with the
+    /// Couette flow `omega/2 R c L`: the effective temperature satisfies
+    /// `T = T_feed + P / (2 rho c_p Q)` with `P` Petroff's power at the viscosity of `T` on the
+    /// oil's own Walther line, and the torque is Petroff's at that viscosity.
+    #[test]
+    fn an_unloaded_effective_film_is_petroff_at_its_heat_balance_temperature() {
+        let l = law(EFFECTIVE).expect("law");
+        let mut i = main_bearing(300.0, 0.0, 0.0);
+        i.oil_temp_c = 90.0;
+        i.viscosity_pa_s = rig_oil_viscosity(90.0);
+        let t = l.film_temperature(&i, &[0.0; STATE]).expect("effective");
+        let petroff = |mu: f64| 2.0 * PI * mu * 0.025f64.powi(3) * 0.020 * 300.0 / 2e-5;
+        let mu = rig_oil_viscosity(t.effective_c);
+        assert!(
+            (t.viscosity_pa_s - mu).abs() < 1e-9 * mu,
+            "{} vs {mu}",
+            t.viscosity_pa_s
+        );
+        let q = 150.0 * 0.025 * 2e-5 * 0.020;
+        let rise = petroff(mu) * 300.0 / (850.0 * 2150.0 * q);
+        assert!(
+            (t.rise_k - rise).abs() < 1e-6 * rise,
+            "{} vs {rise}",
+            t.rise_k
+        );
+        assert!((t.effective_c - 90.0 - rise / 2.0).abs() < 1e-6);
+        let out = l.evaluate(&i, &[0.0; STATE]);
+        assert!(
+            (out.force + petroff(mu)).abs() <= 1e-9 * petroff(mu),
+            "{} vs {}",
+            out.force,
+            petroff(mu)
+        );
+        // The film is warmer than the sump, so it drags less than the isothermal film.
+        let iso = law("clearance_m = 2e-5")
+            .expect("law")
+            .evaluate(&i, &[0.0; STATE]);
+        assert!(out.force.abs() < iso.force.abs());
+    }
+
+    /// `thermal = "isothermal"` (the default) is the film at the given viscosity, whatever the
+    /// oil parameters say: the same torque, film and pressure to the last bit.
+    #[test]
+    fn the_isothermal_option_ignores_the_oil() {
+        let a = law("clearance_m = 2e-5").expect("law");
+        let b = law("clearance_m = 2e-5\nthermal = \"isothermal\"\noil_kv40_cst = 300.0\noil_kv100_cst = 20.0\nspecific_heat_j_kg_k = 1500.0").expect("law");
+        let i = main_bearing(300.0, 5000.0, 1e-4);
+        let s = [0.3, -0.5, 1.0];
+        let (oa, ob) = (a.evaluate(&i, &s), b.evaluate(&i, &s));
+        assert!((oa.force - ob.force).abs() <= 1e-12 * oa.force.abs());
+        assert_eq!(oa.min_film(), ob.min_film());
+        assert_eq!(oa.peak_pressure(), ob.peak_pressure());
+        assert!(b.film_temperature(&i, &s).is_none());
+    }
+
+    /// A loaded effective film at its steady position: the balance holds with the law's own
+    /// power (the torque times the speed) and flow, the film is hotter under more load (more
+    /// power through the same flow) and at higher speed.
+    #[test]
+    fn a_loaded_effective_film_balances_its_own_power() {
+        let l = law(EFFECTIVE).expect("law");
+        let film = |omega: f64, w: f64| {
+            let mut i = main_bearing(omega, w, 0.0);
+            i.oil_temp_c = 90.0;
+            i.viscosity_pa_s = rig_oil_viscosity(90.0);
+            let t = l.film_temperature(&i, &[0.0; STATE]).expect("effective");
+            let p = -l.evaluate(&i, &[0.0; STATE]).force * omega;
+            let q = 0.5 * omega * 0.025 * 2e-5 * 0.020;
+            let rise = p / (850.0 * 2150.0 * q);
+            assert!(
+                (t.rise_k - rise).abs() < 1e-6 * rise,
+                "{} vs {rise}",
+                t.rise_k
+            );
+            t.effective_c
+        };
+        assert!(film(300.0, 5000.0) > film(300.0, 1000.0));
+        assert!(film(600.0, 5000.0) > film(300.0, 5000.0));
+    }
+
+    #[test]
+    fn an_oil_that_thickens_as_it_warms_is_refused() {
+        let e = law("thermal = \"effective\"\noil_kv40_cst = 10.0\noil_kv100_cst = 11.0")
+            .expect_err("kv40 below kv100");
+        assert!(e.to_string().contains("oil_kv40_cst"), "{e}");
+        let e = law("thermal = \"adiabatic\"").expect_err("unknown");
+        assert!(e.to_string().contains("thermal"), "{e}");
     }
 
     /// Hotter, thinner oil: the journal runs more eccentric, the film thinner, the torque

@@ -2,7 +2,8 @@
 //! to the ambient through an orifice (the breather).
 //!
 //! **Model.** The crankcase volume is `V(theta) = V_tdc - A x(theta)` (x: piston travel from
-//! TDC, exact slider-crank). Its gas follows a polytrope through the ambient state,
+//! TDC, exact slider-crank; on an engine the shared crankcase of every cylinder,
+//! `V(theta) = V_tdc - A (sum_k x_k(theta) - sum_k x_k(theta_ref))`, [`Underside`]). Its gas follows a polytrope through the ambient state,
 //! `p / rho^n = p_a / rho_a^n` with `rho_a = p_a / (R T_ref)`, so its temperature is
 //! `T(p) = T_ref (p / p_a)^((n-1)/n)` (n = 1: isothermal at `T_ref`). With the mass
 //! `m = rho V` and the mass flow `mdot` out through the breather,
@@ -75,17 +76,69 @@ const MAX_REVOLUTIONS: u32 = 60;
 /// The SDIRK parameter gamma = 1 - 1/sqrt(2) (L-stable, order 2).
 const SDIRK_GAMMA: f64 = 1.0 - std::f64::consts::FRAC_1_SQRT_2;
 
-/// A vented crankcase: its geometry, gas and breather, everything the pressure equation needs.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Breather {
-    /// Crankcase volume with the piston at TDC, m^3.
-    pub volume_at_tdc_m3: f64,
-    /// Piston area, m^2.
-    pub piston_area_m2: f64,
+/// One piston pumping the crankcase: a slider-crank whose local crank angle is the crank angle
+/// plus `phase_rad` (an engine's cylinder: its throw angle minus its bank angle).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Slider {
+    /// Local crank angle minus the crank angle, rad.
+    pub phase_rad: f64,
     /// Crank radius, m.
     pub crank_radius_m: f64,
     /// Rod length, m.
     pub rod_length_m: f64,
+    /// Pin plus crank offset across the bore axis, m (0 for a centred slider-crank).
+    pub offset_m: f64,
+}
+
+impl Slider {
+    /// Piston travel from its TDC and its derivative in crank angle at crank angle `theta`
+    /// (exact slider-crank with offset; the centred one's formulas, bit for bit, at zero
+    /// offset and phase).
+    pub fn travel(&self, theta: f64) -> (f64, f64) {
+        let (r, l, e) = (self.crank_radius_m, self.rod_length_m, self.offset_m);
+        let (s, c) = (theta + self.phase_rad).sin_cos();
+        let top = ((r + l) * (r + l) - e * e).sqrt();
+        let root = (l * l - r * r * s * s - e * (e + 2.0 * r * s)).sqrt();
+        (
+            top - r * c - root,
+            r * s + (r * r * s * c + e * r * c) / root,
+        )
+    }
+}
+
+/// The pistons whose undersides pump one crankcase: the single-cylinder rig's one, or every
+/// cylinder of an engine (one shared crankcase, `docs/engines.md`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Underside {
+    /// Piston area (every cylinder's), m^2.
+    pub piston_area_m2: f64,
+    /// The pistons.
+    pub pistons: Vec<Slider>,
+    /// The summed travel at the reference state the crankcase's volume and pressure at TDC are
+    /// given for (cylinder 1 at its local angle 0), m: 0 on the single-cylinder rig.
+    pub travel_at_reference_m: f64,
+}
+
+impl Underside {
+    /// The summed piston travel from TDC minus its reference value, and its derivative in
+    /// crank angle, at crank angle `theta`: the crankcase volume is `V_tdc - A` times it.
+    pub fn travel(&self, theta: f64) -> (f64, f64) {
+        let (x, dx) = self.pistons.iter().fold((0.0, 0.0), |(x, dx), p| {
+            let (xk, dxk) = p.travel(theta);
+            (x + xk, dx + dxk)
+        });
+        (x - self.travel_at_reference_m, dx)
+    }
+}
+
+/// A vented crankcase: its geometry, gas and breather, everything the pressure equation needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Breather {
+    /// Crankcase volume at the reference state (the piston, an engine's cylinder 1, at TDC),
+    /// m^3.
+    pub volume_at_tdc_m3: f64,
+    /// The pistons pumping it.
+    pub underside: Underside,
     /// Polytropic exponent of the crankcase gas.
     pub polytropic_exponent: f64,
     /// Discharge coefficient times the breather's area, m^2.
@@ -126,20 +179,13 @@ pub struct VentedCycle {
 }
 
 impl Breather {
-    /// Piston travel from TDC and its derivative in crank angle (exact slider-crank).
-    fn travel(&self, theta: f64) -> (f64, f64) {
-        let (r, l) = (self.crank_radius_m, self.rod_length_m);
-        let (s, c) = theta.sin_cos();
-        let root = (l * l - r * r * s * s).sqrt();
-        (r + l - r * c - root, r * s + r * r * s * c / root)
-    }
-
     fn stage_point(&self, theta: f64) -> StagePoint {
-        let (x, dx) = self.travel(theta);
-        let v = self.volume_at_tdc_m3 - self.piston_area_m2 * x;
+        let (x, dx) = self.underside.travel(theta);
+        let a = self.underside.piston_area_m2;
+        let v = self.volume_at_tdc_m3 - a * x;
         StagePoint {
             n_over_v: self.polytropic_exponent / v,
-            minus_dv: self.piston_area_m2 * dx,
+            minus_dv: a * dx,
         }
     }
 
@@ -337,33 +383,20 @@ impl Breather {
 /// How many tables [`table`] keeps (about 12 KB each).
 const CACHE_TABLES: usize = 256;
 
-/// A crankcase and a speed, bit for bit: the key of a cached table.
-type CacheKey = [u64; 9];
-
 /// Tables computed in this process, shared by every simulation of the same crankcase at the
-/// same speed (a fit or a comparison builds many simulations of one rig). A table is a pure
-/// function of its key, so sharing it changes no result.
-static CACHE: Mutex<Vec<(CacheKey, Arc<Table>)>> = Mutex::new(Vec::new());
+/// same speed (a fit or a comparison builds many simulations of one rig; an engine's cylinders
+/// share one crankcase). A table is a pure function of its crankcase and speed (compared
+/// value for value, the speed bit for bit), so sharing it changes no result.
+static CACHE: Mutex<Vec<(Breather, u64, Arc<Table>)>> = Mutex::new(Vec::new());
 
 /// The periodic cycle of `breather` at crank speed `omega` (> 0) as a table: computed once
 /// per process and kept (the oldest dropped beyond [`CACHE_TABLES`]).
 pub(crate) fn table(breather: &Breather, omega: f64) -> Arc<Table> {
     let b = breather;
-    let key: CacheKey = [
-        b.volume_at_tdc_m3,
-        b.piston_area_m2,
-        b.crank_radius_m,
-        b.rod_length_m,
-        b.polytropic_exponent,
-        b.discharge_area_m2,
-        b.ambient_pa,
-        b.temperature_k,
-        omega,
-    ]
-    .map(f64::to_bits);
+    let w = omega.to_bits();
     // A poisoned lock (a panic elsewhere while holding it) only costs the cache.
     if let Ok(cache) = CACHE.lock() {
-        if let Some((_, t)) = cache.iter().find(|(k, _)| *k == key) {
+        if let Some((_, _, t)) = cache.iter().find(|(k, kw, _)| *kw == w && k == b) {
             return Arc::clone(t);
         }
     }
@@ -372,7 +405,7 @@ pub(crate) fn table(breather: &Breather, omega: f64) -> Arc<Table> {
         if cache.len() >= CACHE_TABLES {
             cache.remove(0);
         }
-        cache.push((key, Arc::clone(&t)));
+        cache.push((b.clone(), w, Arc::clone(&t)));
     }
     t
 }

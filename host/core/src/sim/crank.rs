@@ -455,6 +455,14 @@ impl TrainCrank {
         law_gas: &mut Vec<LawGas>,
     ) -> f64 {
         self.train.kinematics_into(theta, omega, &[], &mut self.kin);
+        // One crankcase under every piston: its pressure from the summed travel (a sealed
+        // one's volume) and the engine's crank angle (a vented one's table).
+        let crankcase_pa = gas.first().map_or(STANDARD_ATMOSPHERE_PA, |g| {
+            let travel: f64 = (self.kin.cylinders.iter().zip(&self.tdc_position))
+                .map(|(c, top)| top - c.piston_position_m)
+                .sum();
+            g.crankcase_pa(theta, gas_omega, travel)
+        });
         let mut power = 0.0;
         for (k, c) in self.kin.cylinders.iter_mut().enumerate() {
             let travel = self.tdc_position[k] - c.piston_position_m;
@@ -462,7 +470,7 @@ impl TrainCrank {
                 // The volume follows the piston's true travel (with offsets, its dead centres
                 // are not at local angles 0 and pi); the valve events stay at those angles.
                 Some(g) => {
-                    let state = state(g, g.at_travel(c.local_angle_rad, gas_omega, travel));
+                    let state = state(g, g.with_crankcase(c.local_angle_rad, travel, crankcase_pa));
                     c.piston_force_n = state.force_n;
                     power += state.force_n * c.piston_speed_m_s;
                     law_gas.push((&state).into());

@@ -285,6 +285,11 @@ impl Simulation {
             self.correlation
                 .at(self.cycle.plateaus()[pi].speed_rpm, self.viscosities[pi]),
         );
+        result.crankcase_pumping_torque_nm = self.gas.first().and_then(|g| {
+            g.crankcase_pumping_torque_nm(crate::cycle::rpm_to_rad_s(
+                self.cycle.plateaus()[pi].speed_rpm,
+            ))
+        });
         if self.engine {
             result.groups = group_totals(&result.joints, self.crank.cylinders());
         }
@@ -378,6 +383,7 @@ fn plateau_values<'a>(
         mean_speed_rpm: rad_s_to_rpm(mean_omega),
         motoring_torque_nm,
         gas_torque_nm: d[layout.gas()] / dtheta,
+        crankcase_pumping_torque_nm: None,
         oil_temp_c,
         viscosity_pa_s,
         window_s: window.window_s,

@@ -79,6 +79,12 @@ pub struct PlateauResult {
     /// Mean torque absorbed by the gas over the window (the gas work over the crank angle), N m.
     #[serde(default)]
     pub gas_torque_nm: f64,
+    /// The crankcase's pumping torque at the plateau's speed, N m: a vented crankcase's
+    /// breather loss per revolution over 2 pi (the periodic cycle its tables hold), 0 for a
+    /// sealed one; absent with an atmospheric crankcase. Part of the motoring torque, beside
+    /// the friction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crankcase_pumping_torque_nm: Option<f64>,
     /// Oil temperature, C.
     pub oil_temp_c: f64,
     /// Dynamic viscosity at that temperature, Pa s.

@@ -21,12 +21,6 @@ impl Check<'_> {
                 "an engine's unbalance is its counterweights, one per web: give them as `counterweights` of each [[engine.throws]] and leave the crank's unbalance at 0",
             ));
         }
-        if !matches!(f.gas.crankcase, CrankcasePressure::Atmospheric) {
-            return Err(self.rig.error(
-                "gas.crankcase",
-                "an engine's cylinders share one crankcase, which is not modelled yet: an engine rig takes an atmospheric crankcase only (kind = \"atmospheric\"); a sealed or vented crankcase is the single-cylinder rig's",
-            ));
-        }
         if e.cylinders.is_empty() || e.cylinders.len() > MAX_CYLINDERS {
             return Err(self.rig.error(
                 "engine.cylinders",
@@ -41,6 +35,7 @@ impl Check<'_> {
         self.cylinders(e)?;
         self.rods(e)?;
         self.firing_order(e)?;
+        self.shared_crankcase()?;
         let names = e.joint_names();
         if let Some(k) = e.laws.keys().find(|k| !names.contains(k)) {
             return Err(self.rig.error(
@@ -49,6 +44,49 @@ impl Check<'_> {
                     "the engine has no joint `{k}`; its joints are {} .. {}",
                     names[0],
                     names[names.len() - 1]
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A sealed or vented crankcase on an engine: one volume under every piston, given at
+    /// cylinder 1's TDC, whose smallest value over a revolution must stay above 5% of one
+    /// cylinder's displacement (the single cylinder's rule, `volume_at_tdc_m3` at least 1.05
+    /// displacements, in the form that holds for any crank train).
+    fn shared_crankcase(&self) -> Result<(), RigError> {
+        let f = &self.rig.file;
+        if matches!(f.gas.crankcase, CrankcasePressure::Atmospheric) {
+            return Ok(());
+        }
+        let Some(smallest) =
+            tribo_core::gas::GasModel::from_rig(f).and_then(|g| g.crankcase_min_volume_m3())
+        else {
+            return Ok(());
+        };
+        let displacement = std::f64::consts::PI
+            * 0.25
+            * f.geometry.bore_m.powi(2)
+            * 2.0
+            * f.geometry.crank_radius_m;
+        let volume = match &f.gas.crankcase {
+            CrankcasePressure::Sealed {
+                volume_at_tdc_m3, ..
+            }
+            | CrankcasePressure::Vented {
+                volume_at_tdc_m3, ..
+            } => *volume_at_tdc_m3,
+            CrankcasePressure::Atmospheric => return Ok(()),
+        };
+        if smallest < 0.05 * displacement {
+            return Err(self.rig.error(
+                "gas.crankcase.volume_at_tdc_m3",
+                format!(
+                    "the engine's pistons share one crankcase, given at cylinder 1's TDC; with {} m^3 there it shrinks to {} m^3 over a revolution, under 5% of one cylinder's displacement ({} m^3): give at least {} m^3",
+                    readable(volume),
+                    readable(smallest),
+                    readable(displacement),
+                    readable(volume - smallest + 0.05 * displacement)
                 ),
             ));
         }

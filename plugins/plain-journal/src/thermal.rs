@@ -1,0 +1,196 @@
+//! The film's effective temperature from a heat balance (docs/laws/plain-journal.md,
+//! "Thermal"): the bearing designer's effective-temperature method of Raimondi and Boyd as
+//! Shigley teaches it. The friction power `P` is carried away by the oil flowing through the
+//! film, which warms by `dT = P / (rho c_p Q)`; the film shears at the viscosity of its mean
+//! temperature `T_eff = T_feed + dT / 2`. The viscosity at `T_eff` follows the oil's
+//! Walther (ASTM D341) line through the viscosity the law is given at the feed temperature.
+//!
+//! Because `P` rises and `Q` does not with the viscosity (module docs of [`solve`]), the balance
+//! `T = T_feed + P(mu(T)) / (2 rho c_p Q(mu(T)))` has exactly one root, bracketed by the feed
+//! temperature and the rise the feed viscosity would give.
+
+use tribo_plugin_api::tribology::root_increasing;
+
+/// Largest half-rise `T_eff - T_feed` the balance may reach, K: a film with no through-flow
+/// (both members at rest or counter-rotating with no squeeze) would heat without bound in an
+/// adiabatic balance; conduction into the journal and shell (not modelled) bounds it. Beyond
+/// about 150 C above the sump a real engine oil has left its data's range anyway.
+pub const MAX_HALF_RISE_K: f64 = 150.0;
+
+/// The oil's thermal properties and its viscosity-temperature slope.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Oil {
+    /// Walther slope `B` of `log10 log10(nu + 0.7) = A - B log10(T_K)` (nu in cSt), -.
+    pub walther_b: f64,
+    /// Density, kg/m^3 (turns the law's dynamic viscosity into the chart's kinematic one).
+    pub density_kg_m3: f64,
+    /// Specific heat, J/(kg K).
+    pub specific_heat_j_kg_k: f64,
+}
+
+/// `log10 log10(nu + 0.7)`, the Walther (ASTM D341) ordinate of a kinematic viscosity in cSt.
+fn walther(nu_cst: f64) -> f64 {
+    (nu_cst + 0.7).log10().log10()
+}
+
+/// The Walther slope `B` through two kinematic viscosities at 40 and 100 C (cSt), as the
+/// rig's `two-point` oil model draws its line.
+pub fn walther_slope(kv40_cst: f64, kv100_cst: f64) -> f64 {
+    (walther(kv40_cst) - walther(kv100_cst))
+        / ((100.0_f64 + 273.15).log10() - (40.0_f64 + 273.15).log10())
+}
+
+impl Oil {
+    /// The dynamic viscosity at `t_c`, Pa s, on the Walther line of slope `walther_b` through
+    /// `mu_feed_pa_s` at `t_feed_c` (exact at the feed temperature).
+    pub fn viscosity_at(&self, mu_feed_pa_s: f64, t_feed_c: f64, t_c: f64) -> f64 {
+        if t_c == t_feed_c || mu_feed_pa_s <= 0.0 {
+            return mu_feed_pa_s;
+        }
+        let nu_feed = mu_feed_pa_s / self.density_kg_m3 * 1e6;
+        let z = walther(nu_feed)
+            - self.walther_b * ((t_c + 273.15).log10() - (t_feed_c + 273.15).log10());
+        let nu = 10f64.powf(10f64.powf(z)) - 0.7;
+        mu_feed_pa_s * nu / nu_feed
+    }
+
+    /// `rho c_p`, J/(m^3 K).
+    pub fn heat_capacity_j_m3_k(&self) -> f64 {
+        self.density_kg_m3 * self.specific_heat_j_kg_k
+    }
+}
+
+/// The balance's answer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilmTemperature {
+    /// Effective (mean) film temperature `T_feed + dT / 2`, C.
+    pub effective_c: f64,
+    /// The oil's temperature rise through the film `dT = P / (rho c_p Q)`, K.
+    pub rise_k: f64,
+    /// Viscosity at the effective temperature, Pa s.
+    pub viscosity_pa_s: f64,
+}
+
+/// Solve `T = T_feed + P(mu(T)) / (2 rho c_p Q(mu(T)))` for the film's effective temperature.
+/// `power_and_flow(mu)` gives the friction power (W) and the heat-carrying flow (m^3/s) at
+/// viscosity `mu`; the balance has one root when the power does not fall and the flow does not
+/// rise with the viscosity (the law's film obeys both: the Couette power is proportional to `mu`,
+/// the load's offset moment does not depend on it, and the squeeze flow falls as `1 / mu`).
+pub fn solve(
+    oil: &Oil,
+    t_feed_c: f64,
+    mu_feed_pa_s: f64,
+    power_and_flow: impl Fn(f64) -> (f64, f64),
+) -> FilmTemperature {
+    let rho_cp = oil.heat_capacity_j_m3_k();
+    let half_rise = |mu: f64| -> f64 {
+        let (p, q) = power_and_flow(mu);
+        let p = p.max(0.0);
+        if p == 0.0 {
+            0.0
+        } else if q > 0.0 {
+            (p / (2.0 * rho_cp * q)).min(MAX_HALF_RISE_K)
+        } else {
+            MAX_HALF_RISE_K
+        }
+    };
+    let mu_at = |t: f64| oil.viscosity_at(mu_feed_pa_s, t_feed_c, t);
+    let first = half_rise(mu_feed_pa_s);
+    let t_eff = if first <= 0.0 {
+        t_feed_c
+    } else {
+        root_increasing(
+            |t| t - t_feed_c - half_rise(mu_at(t)),
+            t_feed_c,
+            t_feed_c + first,
+        )
+    };
+    let mu = mu_at(t_eff);
+    FilmTemperature {
+        effective_c: t_eff,
+        rise_k: 2.0 * (t_eff - t_feed_c),
+        viscosity_pa_s: mu,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const OIL: Oil = Oil {
+        walther_b: 3.5,
+        density_kg_m3: 850.0,
+        specific_heat_j_kg_k: 2000.0,
+    };
+
+    /// The anchored Walther line is the rig's two-point line: through 65 cSt at 40 C and 11
+    /// cSt at 100 C, started from either point.
+    #[test]
+    fn the_walther_line_passes_through_the_oils_two_points() {
+        let oil = Oil {
+            walther_b: walther_slope(65.0, 11.0),
+            ..OIL
+        };
+        let mu40 = 65e-6 * 850.0;
+        let mu100 = oil.viscosity_at(mu40, 40.0, 100.0);
+        assert!((mu100 / 850.0 * 1e6 - 11.0).abs() < 1e-9, "{mu100}");
+        let back = oil.viscosity_at(mu100, 100.0, 40.0);
+        assert!((back - mu40).abs() < 1e-12 * mu40);
+    }
+
+    /// With a given power and flow that do not depend on the viscosity the rise is exactly
+    /// `P / (rho c_p Q)` and the effective temperature is the feed's plus half of it.
+    #[test]
+    fn the_rise_is_the_power_over_the_flows_heat_capacity() {
+        let (p, q) = (150.0, 1.5e-6);
+        let t = solve(&OIL, 90.0, 0.0117, |_| (p, q));
+        let rise = p / (850.0 * 2000.0 * q);
+        assert!((t.rise_k - rise).abs() < 1e-9 * rise, "{t:?} vs {rise}");
+        assert!((t.effective_c - (90.0 + rise / 2.0)).abs() < 1e-9);
+        assert!((t.viscosity_pa_s - OIL.viscosity_at(0.0117, 90.0, t.effective_c)).abs() < 1e-15);
+    }
+
+    /// A power proportional to the viscosity: the balance's root satisfies it, it lies between
+    /// the feed temperature and the feed viscosity's rise, and it is unique (the residual rises
+    /// strictly over a wide range of temperatures).
+    #[test]
+    fn the_fixed_point_converges_and_is_unique() {
+        let q = 1.57e-6;
+        let pf = |mu: f64| (1e4 * mu + 20.0, q);
+        let t = solve(&OIL, 90.0, 0.0117, pf);
+        let g = |t_c: f64| {
+            let mu = OIL.viscosity_at(0.0117, 90.0, t_c);
+            t_c - 90.0 - pf(mu).0 / (2.0 * OIL.heat_capacity_j_m3_k() * q)
+        };
+        assert!(g(t.effective_c).abs() < 1e-8, "{}", g(t.effective_c));
+        let first = pf(0.0117).0 / (2.0 * OIL.heat_capacity_j_m3_k() * q);
+        assert!(t.effective_c > 90.0 && t.effective_c < 90.0 + first);
+        let mut last = g(40.0);
+        for i in 1..=400 {
+            let now = g(40.0 + 0.5 * i as f64);
+            assert!(now > last, "not increasing at {} C", 40.0 + 0.5 * i as f64);
+            last = now;
+        }
+        // Iterating the balance from the feed temperature lands on the same point.
+        let mut t_it = 90.0;
+        for _ in 0..200 {
+            let mu = OIL.viscosity_at(0.0117, 90.0, t_it);
+            t_it = 90.0 + pf(mu).0 / (2.0 * OIL.heat_capacity_j_m3_k() * q);
+        }
+        assert!(
+            (t_it - t.effective_c).abs() < 1e-6,
+            "{t_it} vs {}",
+            t.effective_c
+        );
+    }
+
+    /// No power, no rise; no flow, the bounded rise.
+    #[test]
+    fn no_power_no_rise_and_no_flow_is_bounded() {
+        let t = solve(&OIL, 90.0, 0.0117, |_| (0.0, 1e-6));
+        assert_eq!(t.effective_c, 90.0);
+        assert_eq!(t.viscosity_pa_s, 0.0117);
+        let t = solve(&OIL, 90.0, 0.0117, |_| (10.0, 0.0));
+        assert!((t.effective_c - (90.0 + MAX_HALF_RISE_K)).abs() < 1e-6);
+    }
+}

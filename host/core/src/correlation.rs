@@ -162,30 +162,48 @@ impl EngineData {
 
     /// The correlation at `speed_rpm` with oil of dynamic viscosity `viscosity_pa_s`.
     pub fn at(&self, speed_rpm: f64, viscosity_pa_s: f64) -> Correlation {
-        let (b, s, nc) = (self.bore_mm, self.stroke_mm, self.cylinders as f64);
-        let n = speed_rpm;
         let ratio = viscosity_pa_s / reference_viscosity_pa_s();
         let root = ratio.max(0.0).sqrt();
-        let sp = 2.0 * s * 1e-3 * n / 60.0;
-        let hydro = |set: &[(f64, f64)]| -> f64 {
-            set.iter()
-                .map(|(d, l)| 3.03e-4 * root * n * d.powi(3) * l / (b * b * s * nc))
-                .sum()
-        };
+        let mut terms = self.crankshaft_terms(speed_rpm, root);
+        terms.extend(self.reciprocating_terms(speed_rpm, root));
+        for (name, group) in [
+            ("valvetrain", Group::Valvetrain),
+            ("pumping", Group::Pumping),
+        ] {
+            terms.push(term(
+                name,
+                group,
+                "",
+                None,
+                "not on this rig: Tribo's rigs carry no valvetrain or intake and exhaust system",
+            ));
+        }
+        Correlation {
+            source: SOURCE.into(),
+            viscosity_ratio: ratio,
+            terms,
+        }
+    }
+
+    /// PNH's hydrodynamic bearing term summed over `set` (diameter, length in mm), at `n` rpm
+    /// with the viscosity factor `root` = (mu/mu0)^0.5.
+    fn hydrodynamic_kpa(&self, set: &[(f64, f64)], n: f64, root: f64) -> f64 {
+        let (b, s, nc) = (self.bore_mm, self.stroke_mm, self.cylinders as f64);
+        set.iter()
+            .map(|(d, l)| 3.03e-4 * root * n * d.powi(3) * l / (b * b * s * nc))
+            .sum()
+    }
+
+    /// The crankshaft group at `n` rpm: seals, main bearings, turbulent dissipation.
+    fn crankshaft_terms(&self, n: f64, root: f64) -> Vec<Term> {
+        let (b, s, nc) = (self.bore_mm, self.stroke_mm, self.cylinders as f64);
         let mean_d = if self.mains.is_empty() {
             0.0
         } else {
             self.mains.iter().map(|m| m.0).sum::<f64>() / self.mains.len() as f64
         };
         let nb = self.mains.len() as f64;
-        let term = |term: &str, group, joints: &str, kpa: Option<f64>, note: &str| Term {
-            term: term.into(),
-            group,
-            joints: joints.into(),
-            kpa,
-            note: note.into(),
-        };
-        let mut terms = vec![
+        vec![
             term(
                 "main bearing seals",
                 Group::Crankshaft,
@@ -197,7 +215,7 @@ impl EngineData {
                 "main bearings",
                 Group::Crankshaft,
                 "main_*",
-                Some(hydro(&self.mains)),
+                Some(self.hydrodynamic_kpa(&self.mains, n, root)),
                 "3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c), summed over the rig's mains",
             ),
             term(
@@ -207,6 +225,31 @@ impl EngineData {
                 Some(1.35e-10 * mean_d * mean_d * n * n * nb / nc),
                 "1.35e-10 D_b^2 N^2 n_b / n_c (oil pumped through the bearings); no Tribo law models it",
             ),
+        ]
+    }
+
+    /// The reciprocating group at `n` rpm: skirt, rings, rod bearings and, on a rig with a
+    /// head, gas loading.
+    fn reciprocating_terms(&self, n: f64, root: f64) -> Vec<Term> {
+        let b = self.bore_mm;
+        let sp = 2.0 * self.stroke_mm * 1e-3 * n / 60.0;
+        let gas = match self.head {
+            Some((rc, pi_pa)) => term(
+                "gas loading",
+                Group::Reciprocating,
+                "piston_*",
+                Some(6.89 * pi_pa * (0.088 * rc + 0.182 * rc.powf(1.33 - 2.38e-2 * sp))),
+                "6.89 (p_i/p_a) (0.088 r_c + 0.182 r_c^(1.33 - K Sp)), K = 2.38e-2 s/m (PNH's form)",
+            ),
+            None => term(
+                "gas loading",
+                Group::Reciprocating,
+                "piston_*",
+                None,
+                "not on this rig: no cylinder pressure (head-less)",
+            ),
+        };
+        vec![
             term(
                 "piston skirt",
                 Group::Reciprocating,
@@ -225,43 +268,22 @@ impl EngineData {
                 "rod bearings",
                 Group::Reciprocating,
                 "big_end_*",
-                Some(hydro(&self.rods)),
+                Some(self.hydrodynamic_kpa(&self.rods, n, root)),
                 "3.03e-4 (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c), summed over the big ends",
             ),
-        ];
-        terms.push(match self.head {
-            Some((rc, pi_pa)) => term(
-                "gas loading",
-                Group::Reciprocating,
-                "piston_*",
-                Some(6.89 * pi_pa * (0.088 * rc + 0.182 * rc.powf(1.33 - 2.38e-2 * sp))),
-                "6.89 (p_i/p_a) (0.088 r_c + 0.182 r_c^(1.33 - K Sp)), K = 2.38e-2 s/m (PNH's form)",
-            ),
-            None => term(
-                "gas loading",
-                Group::Reciprocating,
-                "piston_*",
-                None,
-                "not on this rig: no cylinder pressure (head-less)",
-            ),
-        });
-        for (name, group) in [
-            ("valvetrain", Group::Valvetrain),
-            ("pumping", Group::Pumping),
-        ] {
-            terms.push(term(
-                name,
-                group,
-                "",
-                None,
-                "not on this rig: Tribo's rigs carry no valvetrain or intake and exhaust system",
-            ));
-        }
-        Correlation {
-            source: SOURCE.into(),
-            viscosity_ratio: ratio,
-            terms,
-        }
+            gas,
+        ]
+    }
+}
+
+/// One term of the correlation.
+fn term(term: &str, group: Group, joints: &str, kpa: Option<f64>, note: &str) -> Term {
+    Term {
+        term: term.into(),
+        group,
+        joints: joints.into(),
+        kpa,
+        note: note.into(),
     }
 }
 
@@ -394,49 +416,85 @@ pub fn beside<'a>(
     fmep_kpa: impl Iterator<Item = (&'a str, &'a str, f64)>,
     c: &Correlation,
 ) -> Vec<Beside> {
-    let mut groups: Vec<(&'static str, f64)> = Vec::new();
-    // Rings, skirt, and whether every piston law is one of the two.
-    let mut parts = [0.0, 0.0];
-    let mut split = true;
-    for (joint, law, kpa) in fmep_kpa {
-        let g = joint_group(joint);
-        match groups.iter_mut().find(|(n, _)| *n == g) {
-            Some(x) => x.1 += kpa,
-            None => groups.push((g, kpa)),
-        }
-        if g == "piston_*" {
-            match PistonPart::of_law(law) {
-                Some(PistonPart::Rings) => parts[0] += kpa,
-                Some(PistonPart::Skirt) => parts[1] += kpa,
-                None => split = false,
+    let sums = Sums::of(fmep_kpa);
+    let mut rows = vec![
+        sums.row(c, "main bearings", "main_*", &["main bearings"]),
+        sums.row(c, "main bearing seals", "", &["main bearing seals"]),
+        sums.row(c, "turbulent dissipation", "", &["turbulent dissipation"]),
+        sums.row(c, "rod bearings", "big_end_*", &["rod bearings"]),
+        sums.row(c, "small ends", "small_end_*", &[]),
+        sums.row(
+            c,
+            "pistons",
+            "piston_*",
+            &["piston skirt", "piston rings", "gas loading"],
+        ),
+    ];
+    rows.extend(sums.piston_parts(c));
+    rows.extend(sums.reciprocating(c));
+    rows.push(sums.row(c, "valvetrain", "", &["valvetrain"]));
+    rows.push(sums.row(c, "pumping", "", &["pumping"]));
+    // Rows with nothing on either side (a small end without a law) say nothing.
+    rows.retain(|r| {
+        r.tribo_kpa.is_some() || r.correlation_kpa.is_some() || r.note.contains("not on this rig")
+    });
+    rows.push(Beside {
+        component: "total".into(),
+        joints: "every joint".into(),
+        tribo_kpa: Some(sums.groups.iter().map(|x| x.1).sum()),
+        correlation_kpa: Some(c.total_kpa()),
+        note: "every term on this rig".into(),
+    });
+    rows
+}
+
+/// Tribo's FMEP summed per joint group, and on the pistons per part.
+struct Sums {
+    /// (joint group, kPa) in the order first seen.
+    groups: Vec<(&'static str, f64)>,
+    /// Rings, skirt.
+    parts: [f64; 2],
+    /// Whether every piston law is a ring or a skirt law.
+    split: bool,
+}
+
+impl Sums {
+    /// Sum every (joint, law, kPa).
+    fn of<'a>(fmep_kpa: impl Iterator<Item = (&'a str, &'a str, f64)>) -> Self {
+        let mut sums = Sums {
+            groups: Vec::new(),
+            parts: [0.0, 0.0],
+            split: true,
+        };
+        for (joint, law, kpa) in fmep_kpa {
+            let g = joint_group(joint);
+            match sums.groups.iter_mut().find(|(n, _)| *n == g) {
+                Some(x) => x.1 += kpa,
+                None => sums.groups.push((g, kpa)),
+            }
+            if g == "piston_*" {
+                match PistonPart::of_law(law) {
+                    Some(PistonPart::Rings) => sums.parts[0] += kpa,
+                    Some(PistonPart::Skirt) => sums.parts[1] += kpa,
+                    None => sums.split = false,
+                }
             }
         }
+        sums
     }
-    let tribo = |g: &str| groups.iter().find(|(n, _)| *n == g).map(|x| x.1);
-    let terms = |names: &[&str]| -> (Option<f64>, String) {
-        let found: Vec<&Term> = c
-            .terms
-            .iter()
-            .filter(|t| names.contains(&t.term.as_str()))
-            .collect();
-        let on: Vec<&&Term> = found.iter().filter(|t| t.kpa.is_some()).collect();
-        let value = (!on.is_empty()).then(|| on.iter().filter_map(|t| t.kpa).sum());
-        let note = found
-            .iter()
-            .map(|t| match t.kpa {
-                Some(_) => t.term.clone(),
-                None => format!("{}: not on this rig", t.term),
-            })
-            .collect::<Vec<_>>()
-            .join(" + ");
-        (value, note)
-    };
-    let row = |component: &str, joints: &str, names: &[&str]| {
-        let (correlation_kpa, note) = terms(names);
+
+    /// Tribo's FMEP on the joint group `g`, if any law sits there.
+    fn tribo(&self, g: &str) -> Option<f64> {
+        self.groups.iter().find(|(n, _)| *n == g).map(|x| x.1)
+    }
+
+    /// One component: Tribo's laws on `joints` beside the correlation's terms `names`.
+    fn row(&self, c: &Correlation, component: &str, joints: &str, names: &[&str]) -> Beside {
+        let (correlation_kpa, note) = terms_named(c, names);
         let tribo_kpa = if joints.is_empty() {
             None
         } else {
-            tribo(joints)
+            self.tribo(joints)
         };
         Beside {
             component: component.into(),
@@ -455,49 +513,50 @@ pub fn beside<'a>(
                 note
             },
         }
-    };
-    let mut rows = vec![
-        row("main bearings", "main_*", &["main bearings"]),
-        row("main bearing seals", "", &["main bearing seals"]),
-        row("turbulent dissipation", "", &["turbulent dissipation"]),
-        row("rod bearings", "big_end_*", &["rod bearings"]),
-        row("small ends", "small_end_*", &[]),
-        row(
-            "pistons",
-            "piston_*",
-            &["piston skirt", "piston rings", "gas loading"],
-        ),
-    ];
-    if split && tribo("piston_*").is_some() {
-        for (k, (component, names)) in [
+    }
+
+    /// Rings and skirt each beside its own term, when every piston law is one of the two.
+    fn piston_parts(&self, c: &Correlation) -> Vec<Beside> {
+        if !self.split || self.tribo("piston_*").is_none() {
+            return Vec::new();
+        }
+        [
             ("piston rings", &["piston rings", "gas loading"][..]),
             ("piston skirt", &["piston skirt"][..]),
         ]
         .into_iter()
         .enumerate()
-        {
-            let mut r = row(component, "piston_*", names);
-            if parts[k] == 0.0 {
+        .map(|(k, (component, names))| {
+            let mut r = self.row(c, component, "piston_*", names);
+            if self.parts[k] == 0.0 {
                 // Every piston law is of the other part: none models this one.
                 r.tribo_kpa = None;
                 r.joints = String::new();
                 r.note = format!("{}; no {} law on this rig", r.note, ["ring", "skirt"][k]);
             } else {
-                r.tribo_kpa = Some(parts[k]);
+                r.tribo_kpa = Some(self.parts[k]);
             }
-            rows.push(r);
-        }
+            r
+        })
+        .collect()
     }
-    // The reciprocating group: every cylinder joint beside the reciprocating terms on the rig.
-    let cylinder_joints = ["big_end_*", "small_end_*", "piston_*"];
-    let recip: Vec<f64> = cylinder_joints.iter().filter_map(|g| tribo(g)).collect();
-    let recip_terms: Vec<&Term> = c
-        .terms
-        .iter()
-        .filter(|t| t.group == Group::Reciprocating && t.kpa.is_some())
-        .collect();
-    if !recip.is_empty() && !recip_terms.is_empty() {
-        rows.push(Beside {
+
+    /// The reciprocating group: every cylinder joint beside the reciprocating terms on the rig.
+    fn reciprocating(&self, c: &Correlation) -> Option<Beside> {
+        let cylinder_joints = ["big_end_*", "small_end_*", "piston_*"];
+        let recip: Vec<f64> = cylinder_joints
+            .iter()
+            .filter_map(|g| self.tribo(g))
+            .collect();
+        let recip_terms: Vec<&Term> = c
+            .terms
+            .iter()
+            .filter(|t| t.group == Group::Reciprocating && t.kpa.is_some())
+            .collect();
+        if recip.is_empty() || recip_terms.is_empty() {
+            return None;
+        }
+        Some(Beside {
             component: "reciprocating".into(),
             joints: "cylinders".into(),
             tribo_kpa: Some(recip.iter().sum()),
@@ -510,20 +569,27 @@ pub fn beside<'a>(
                     .collect::<Vec<_>>()
                     .join(" + ")
             ),
-        });
+        })
     }
-    rows.push(row("valvetrain", "", &["valvetrain"]));
-    rows.push(row("pumping", "", &["pumping"]));
-    // Rows with nothing on either side (a small end without a law) say nothing.
-    rows.retain(|r| {
-        r.tribo_kpa.is_some() || r.correlation_kpa.is_some() || r.note.contains("not on this rig")
-    });
-    rows.push(Beside {
-        component: "total".into(),
-        joints: "every joint".into(),
-        tribo_kpa: Some(groups.iter().map(|x| x.1).sum()),
-        correlation_kpa: Some(c.total_kpa()),
-        note: "every term on this rig".into(),
-    });
-    rows
+}
+
+/// The sum of the correlation's terms `names` that are on this rig (`None` if none is), and
+/// which they are (those not on the rig said so).
+fn terms_named(c: &Correlation, names: &[&str]) -> (Option<f64>, String) {
+    let found: Vec<&Term> = c
+        .terms
+        .iter()
+        .filter(|t| names.contains(&t.term.as_str()))
+        .collect();
+    let on: Vec<&&Term> = found.iter().filter(|t| t.kpa.is_some()).collect();
+    let value = (!on.is_empty()).then(|| on.iter().filter_map(|t| t.kpa).sum());
+    let note = found
+        .iter()
+        .map(|t| match t.kpa {
+            Some(_) => t.term.clone(),
+            None => format!("{}: not on this rig", t.term),
+        })
+        .collect::<Vec<_>>()
+        .join(" + ");
+    (value, note)
 }

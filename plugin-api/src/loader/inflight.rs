@@ -81,14 +81,28 @@ fn table() -> &'static Table {
 #[inline]
 fn next_mark(id: CodeId) -> (usize, u64) {
     MINE.with(|m| {
-        let (mut slot, calls) = m.get();
-        if slot == usize::MAX {
-            slot = NEXT_SLOT.fetch_add(1, Ordering::Relaxed) % SLOTS;
-        }
+        let (slot, calls) = slot_and_count(m);
         let calls = calls.wrapping_add(1);
         m.set((slot, calls));
-        (slot, (calls << ID_BITS) | (id.0 as u64 & ID_MASK))
+        (slot, mark_of(calls, id))
     })
+}
+
+/// This thread's slot (taken on its first plugin call) and its call count.
+#[inline]
+fn slot_and_count(mine: &std::cell::Cell<(usize, u64)>) -> (usize, u64) {
+    let (mut slot, calls) = mine.get();
+    if slot == usize::MAX {
+        slot = NEXT_SLOT.fetch_add(1, Ordering::Relaxed) % SLOTS;
+        mine.set((slot, calls));
+    }
+    (slot, calls)
+}
+
+/// The slot mark of call number `calls` of the code `id`: a new value on every call.
+#[inline]
+fn mark_of(calls: u64, id: CodeId) -> u64 {
+    (calls << ID_BITS) | (id.0 as u64 & ID_MASK)
 }
 
 /// A registered description of plugin code ("law `x` (file)"); 0 means nothing.
@@ -177,7 +191,12 @@ pub fn enter_call(id: CodeId, input: &LawInput) -> Running {
 #[inline]
 fn start(id: CodeId) -> Running {
     let (slot, value) = next_mark(id);
-    let table = table();
+    occupy(table(), slot, value)
+}
+
+/// Put `value` in `slot` of `table` until the returned guard drops.
+#[inline]
+fn occupy(table: &'static Table, slot: usize, value: u64) -> Running {
     // Only this thread writes its slot (threads beyond SLOTS share one, which only blurs the
     // diagnosis), so a plain load and store do; an atomic swap would cost a locked instruction
     // on every law call.
@@ -211,14 +230,7 @@ pub struct Round {
 /// Start a round of law calls on this thread ([`Round`]).
 #[inline]
 pub fn round() -> Round {
-    let (slot, calls) = MINE.with(|m| {
-        let (mut slot, calls) = m.get();
-        if slot == usize::MAX {
-            slot = NEXT_SLOT.fetch_add(1, Ordering::Relaxed) % SLOTS;
-            m.set((slot, calls));
-        }
-        (slot, calls)
-    });
+    let (slot, calls) = MINE.with(slot_and_count);
     Round {
         slot,
         calls,
@@ -231,16 +243,9 @@ impl Round {
     #[inline]
     pub fn enter_call(&mut self, id: CodeId, input: &LawInput) -> Running {
         self.calls = self.calls.wrapping_add(1);
-        let value = (self.calls << ID_BITS) | (id.0 as u64 & ID_MASK);
-        let slot = &self.table.slots[self.slot];
-        let previous = slot.load(Ordering::Relaxed);
-        slot.store(value, Ordering::Release);
+        let running = occupy(self.table, self.slot, mark_of(self.calls, id));
         ARG[self.slot].store((input as *const LawInput).cast_mut(), Ordering::Relaxed);
-        Running {
-            slot: self.slot,
-            previous,
-            table: self.table,
-        }
+        running
     }
 }
 

@@ -745,13 +745,7 @@ const GEOMETRIES: [Geometry; 3] = [
 /// Dynamic viscosity of the bundled rig's oil at `t_c`, Pa s: ASTM D341 (Walther) through
 /// 115 cSt at 40 C and 17.5 cSt at 100 C, density 860 kg/m^3 (`rigs/crf250r-motored.toml`).
 pub fn rig_oil_viscosity_pa_s(t_c: f64) -> f64 {
-    let w = |nu: f64| (nu + 0.7f64).log10().log10();
-    let (x1, x2) = ((40.0f64 + 273.15).log10(), (100.0f64 + 273.15).log10());
-    let b = (w(115.0) - w(17.5)) / (x2 - x1);
-    let a = w(115.0) + b * x1;
-    let z = a - b * (t_c + 273.15).log10();
-    let nu_cst = 10f64.powf(10f64.powf(z)) - 0.7;
-    nu_cst * 1e-6 * 860.0
+    crate::tribology::WaltherLine::through_40_100(115.0, 17.5).kinematic_cst(t_c) * 1e-6 * 860.0
 }
 
 fn sweep_input(g: Geometry, v: f64, load: f64, t_c: f64, engine: f64, dt: f64) -> LawInput {

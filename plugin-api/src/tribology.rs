@@ -12,6 +12,9 @@
 //! summit radius `beta` and the composite modulus `1 / E* = (1 - nu_1^2) / E_1 + (1 - nu_2^2) / E_2`.
 //! `F_5/2` is computed once by double-exponential quadrature and tabulated with its derivative
 //! (`F_n' = -n F_(n-1)`) for cubic Hermite interpolation; it is not a curve fit.
+//!
+//! And the oil's viscosity-temperature line by Walther (ASTM D341), which the host's two-point
+//! oil model and a law that heats its own film both draw.
 
 use crate::contract::Regime;
 
@@ -197,6 +200,53 @@ impl Roughness {
     }
 }
 
+/// The Walther (ASTM D341) line of an oil, `log10 log10(nu + 0.7) = A - B log10(T_K)` with `nu`
+/// the kinematic viscosity in cSt: how oil charts interpolate viscosity between temperatures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WaltherLine {
+    /// `A`.
+    pub a: f64,
+    /// `B`, the slope (positive: the oil thins as it warms).
+    pub b: f64,
+}
+
+/// `log10 log10(nu + 0.7)`, the Walther ordinate of a kinematic viscosity in cSt.
+fn walther_ordinate(nu_cst: f64) -> f64 {
+    (nu_cst + 0.7).log10().log10()
+}
+
+/// `log10` of the absolute temperature of `t_c` degrees Celsius.
+fn log_kelvin(t_c: f64) -> f64 {
+    (t_c + 273.15).log10()
+}
+
+impl WaltherLine {
+    /// The line through the kinematic viscosities at 40 and 100 C (cSt), as oil data sheets
+    /// give them.
+    pub fn through_40_100(kv40_cst: f64, kv100_cst: f64) -> Self {
+        let (x1, x2) = (log_kelvin(40.0), log_kelvin(100.0));
+        let b = (walther_ordinate(kv40_cst) - walther_ordinate(kv100_cst)) / (x2 - x1);
+        Self {
+            a: walther_ordinate(kv40_cst) + b * x1,
+            b,
+        }
+    }
+
+    /// The line of slope `b` through `nu_cst` at `t_c`.
+    pub fn through(nu_cst: f64, t_c: f64, b: f64) -> Self {
+        Self {
+            a: walther_ordinate(nu_cst) + b * log_kelvin(t_c),
+            b,
+        }
+    }
+
+    /// The kinematic viscosity at `t_c`, cSt.
+    pub fn kinematic_cst(&self, t_c: f64) -> f64 {
+        let z = self.a - self.b * log_kelvin(t_c);
+        10f64.powf(10f64.powf(z)) - 0.7
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -286,5 +336,19 @@ mod tests {
         assert_eq!(film_regime(2.99), Regime::Mixed);
         assert_eq!(film_regime(1.0), Regime::Mixed);
         assert_eq!(film_regime(0.99), Regime::Boundary);
+    }
+
+    #[test]
+    fn a_walther_line_passes_through_its_points_and_thins_with_temperature() {
+        let line = WaltherLine::through_40_100(115.0, 17.5);
+        assert!((line.kinematic_cst(40.0) - 115.0).abs() < 1e-9);
+        assert!((line.kinematic_cst(100.0) - 17.5).abs() < 1e-9);
+        assert!(line.kinematic_cst(80.0) < line.kinematic_cst(60.0));
+        // The same line through one of its own points with its slope.
+        let again = WaltherLine::through(line.kinematic_cst(70.0), 70.0, line.b);
+        for t_c in [20.0, 90.0, 130.0] {
+            let (x, y) = (line.kinematic_cst(t_c), again.kinematic_cst(t_c));
+            assert!((x - y).abs() <= 1e-9 * x, "{t_c} C: {x} vs {y}");
+        }
     }
 }

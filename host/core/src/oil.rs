@@ -1,6 +1,7 @@
 //! Oil viscosity against temperature.
 
 use tribo_plugin_api::serde::{Deserialize, Serialize};
+use tribo_plugin_api::tribology::WaltherLine;
 
 /// How kinematic viscosity depends on temperature.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -73,14 +74,7 @@ impl ViscosityModel {
             Self::TwoPoint {
                 kv40_cst,
                 kv100_cst,
-            } => {
-                let w = |nu: f64| (nu + 0.7).log10().log10();
-                let (x1, x2) = ((40.0_f64 + 273.15).log10(), (100.0_f64 + 273.15).log10());
-                let b = (w(kv40_cst) - w(kv100_cst)) / (x2 - x1);
-                let a = w(kv40_cst) + b * x1;
-                let z = a - b * (t_c + 273.15).log10();
-                10f64.powf(10f64.powf(z)) - 0.7
-            }
+            } => WaltherLine::through_40_100(kv40_cst, kv100_cst).kinematic_cst(t_c),
         }
     }
 }

@@ -7,16 +7,12 @@
 use std::f64::consts::PI;
 
 use tribo_law_plain_journal::bearing::{torques, Bearing, Model};
+use tribo_plugin_api::tribology::WaltherLine;
 
 /// Dynamic viscosity of the 4B11 rig's oil (Walther through 65 cSt at 40 C and 11 cSt at
 /// 100 C, 850 kg/m^3), Pa s.
 fn viscosity(t_c: f64) -> f64 {
-    let w = |nu: f64| (nu + 0.7f64).log10().log10();
-    let (x1, x2) = ((313.15f64).log10(), (373.15f64).log10());
-    let b = (w(65.0) - w(11.0)) / (x2 - x1);
-    let a = w(65.0) + b * x1;
-    let nu = 10f64.powf(10f64.powf(a - b * (t_c + 273.15).log10())) - 0.7;
-    nu * 1e-6 * 850.0
+    WaltherLine::through_40_100(65.0, 11.0).kinematic_cst(t_c) * 1e-6 * 850.0
 }
 
 fn main() {

@@ -9,7 +9,7 @@
 //! `T = T_feed + P(mu(T)) / (2 rho c_p Q(mu(T)))` has exactly one root, bracketed by the feed
 //! temperature and the rise the feed viscosity would give.
 
-use tribo_plugin_api::tribology::root_increasing;
+use tribo_plugin_api::tribology::{root_increasing, WaltherLine};
 
 /// Largest half-rise `T_eff - T_feed` the balance may reach, K: a film with no through-flow
 /// (both members at rest or counter-rotating with no squeeze) would heat without bound in an
@@ -28,16 +28,10 @@ pub struct Oil {
     pub specific_heat_j_kg_k: f64,
 }
 
-/// `log10 log10(nu + 0.7)`, the Walther (ASTM D341) ordinate of a kinematic viscosity in cSt.
-fn walther(nu_cst: f64) -> f64 {
-    (nu_cst + 0.7).log10().log10()
-}
-
 /// The Walther slope `B` through two kinematic viscosities at 40 and 100 C (cSt), as the
 /// rig's `two-point` oil model draws its line.
 pub fn walther_slope(kv40_cst: f64, kv100_cst: f64) -> f64 {
-    (walther(kv40_cst) - walther(kv100_cst))
-        / ((100.0_f64 + 273.15).log10() - (40.0_f64 + 273.15).log10())
+    WaltherLine::through_40_100(kv40_cst, kv100_cst).b
 }
 
 impl Oil {
@@ -48,9 +42,7 @@ impl Oil {
             return mu_feed_pa_s;
         }
         let nu_feed = mu_feed_pa_s / self.density_kg_m3 * 1e6;
-        let z = walther(nu_feed)
-            - self.walther_b * ((t_c + 273.15).log10() - (t_feed_c + 273.15).log10());
-        let nu = 10f64.powf(10f64.powf(z)) - 0.7;
+        let nu = WaltherLine::through(nu_feed, t_feed_c, self.walther_b).kinematic_cst(t_c);
         mu_feed_pa_s * nu / nu_feed
     }
 

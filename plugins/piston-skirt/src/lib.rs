@@ -165,14 +165,14 @@ impl PistonSkirt {
     }
 
     fn side(&self, c: &Contact, h: f64) -> Side {
-        let film = c.pad.sliding(h, c.eta, c.speed);
+        let (film, damping) = c.pad.sliding_and_damping(h, c.eta, c.speed);
         Side {
             h_m: h,
             wedge_n: film.load_n,
             asperity_n: self.asperity_n(c, h),
             shear_n: film.friction_n,
             peak_pa: film.peak_pa,
-            damping: c.pad.squeeze_damping(h, c.eta),
+            damping,
         }
     }
 

@@ -23,6 +23,7 @@ fn antiderivatives(k: f64, s: f64) -> [f64; 3] {
 }
 
 /// `[I_1, I_2, I_3]` over `[a, b]`.
+#[cfg(test)]
 fn integrals(k: f64, a: f64, b: f64) -> [f64; 3] {
     let (lo, hi) = (antiderivatives(k, a), antiderivatives(k, b));
     [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]]
@@ -43,8 +44,16 @@ pub struct SlidingShape {
 
 /// `G(s_c) = I_2(-1, s_c) - (1 + k s_c^2) I_3(-1, s_c)`: zero where the film ruptures (the
 /// pressure back to zero with zero gradient), decreasing in `s_c` with slope `-2 k s_c I_3`.
+#[cfg(test)]
 fn rupture_residual(k: f64, s: f64) -> (f64, f64) {
-    let i = integrals(k, -1.0, s);
+    rupture_residual_from(k, s, &antiderivatives(k, -1.0))
+}
+
+/// [`rupture_residual`] with the inlet edge's antiderivatives `inlet` (at `s = -1`) given: they
+/// do not change while the rupture point is searched.
+fn rupture_residual_from(k: f64, s: f64, inlet: &[f64; 3]) -> (f64, f64) {
+    let hi = antiderivatives(k, s);
+    let i = [hi[0] - inlet[0], hi[1] - inlet[1], hi[2] - inlet[2]];
     let m = 1.0 + k * s * s;
     (i[1] - m * i[2], -2.0 * k * s * i[2])
 }
@@ -52,10 +61,15 @@ fn rupture_residual(k: f64, s: f64) -> (f64, f64) {
 /// The rupture point: Newton's method kept inside a shrinking bracket of `(0, 1)` (G > 0 at 0,
 /// G < 0 at 1 for every k > 0, and G is decreasing there).
 pub fn rupture_point(k: f64) -> f64 {
+    rupture_point_from(k, &antiderivatives(k, -1.0))
+}
+
+/// [`rupture_point`] with the inlet edge's antiderivatives given.
+fn rupture_point_from(k: f64, inlet: &[f64; 3]) -> f64 {
     let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
     let mut s = 0.5;
     for _ in 0..200 {
-        let (g, dg) = rupture_residual(k, s);
+        let (g, dg) = rupture_residual_from(k, s, inlet);
         if g == 0.0 {
             return s;
         }
@@ -83,14 +97,21 @@ pub fn rupture_point(k: f64) -> f64 {
 /// streamers filling the fraction `h_c / h` of the gap, which carry the flow `U h_c / 2` and
 /// shear only where they touch (`eta U h_c / h^2`).
 pub fn sliding(k: f64) -> SlidingShape {
-    let (sc, load) = rupture_and_load(k);
+    sliding_from(k, &antiderivatives(k, -1.0))
+}
+
+/// [`sliding`] with the inlet edge's antiderivatives given. The antiderivatives are odd in `s`,
+/// so those at the outlet edge and at `-s_c` are the negated ones at the inlet edge and `s_c`.
+fn sliding_from(k: f64, inlet: &[f64; 3]) -> SlidingShape {
+    let (sc, load) = rupture_and_load_from(k, inlet);
     let m = 1.0 + k * sc * sc;
-    let full = integrals(k, -1.0, sc);
-    let tail = integrals(k, sc, 1.0);
-    let friction = 4.0 * full[0] - 3.0 * m * full[1] + m * tail[1];
+    let at_c = antiderivatives(k, sc);
+    let full = [at_c[0] - inlet[0], at_c[1] - inlet[1], at_c[2] - inlet[2]];
+    let tail_1 = -inlet[1] - at_c[1];
+    let friction = 4.0 * full[0] - 3.0 * m * full[1] + m * tail_1;
     // The pressure peaks where h = h_c in the convergent half, at s = -s_c.
-    let to_peak = integrals(k, -1.0, -sc);
-    let peak = to_peak[1] - m * to_peak[2];
+    let to_peak = [-at_c[1] - inlet[1], -at_c[2] - inlet[2]];
+    let peak = to_peak[0] - m * to_peak[1];
     SlidingShape {
         rupture_s: sc,
         load,
@@ -101,7 +122,12 @@ pub fn sliding(k: f64) -> SlidingShape {
 
 /// The rupture point and the load factor `J` alone (what the lateral balance needs).
 pub fn rupture_and_load(k: f64) -> (f64, f64) {
-    let sc = rupture_point(k);
+    rupture_and_load_from(k, &antiderivatives(k, -1.0))
+}
+
+/// [`rupture_and_load`] with the inlet edge's antiderivatives given.
+fn rupture_and_load_from(k: f64, inlet: &[f64; 3]) -> (f64, f64) {
+    let sc = rupture_point_from(k, inlet);
     let m = 1.0 + k * sc * sc;
     // J = -integral_{-1}^{s_c} s [1/q^2 - m/q^3] ds, with integral s/q^n = -1/(2k(n-1) q^(n-1)),
     // written without the 1/k so that it keeps its digits for small k.
@@ -115,6 +141,12 @@ pub fn rupture_and_load(k: f64) -> (f64, f64) {
 /// `S(k) = integral_{-1}^{1} s^2 / (1 + k s^2)^3 ds`, the squeeze film's load factor
 /// (`2/3` for a flat pad).
 pub fn squeeze_factor(k: f64) -> f64 {
+    squeeze_factor_from(k, &antiderivatives(k, -1.0))
+}
+
+/// [`squeeze_factor`] with the antiderivatives at `s = -1` given (those at `s = 1` are their
+/// negatives).
+fn squeeze_factor_from(k: f64, inlet: &[f64; 3]) -> f64 {
     if k < 0.1 {
         // Series of s^2 / (1 + k s^2)^3 = sum_j (-1)^j (j+1)(j+2)/2 k^j s^(2j+2), integrated
         // term by term (the closed form below loses digits to cancellation as k -> 0).
@@ -127,8 +159,8 @@ pub fn squeeze_factor(k: f64) -> f64 {
         }
         return sum;
     }
-    let i = integrals(k, -1.0, 1.0);
-    (i[1] - i[2]) / k
+    let i = [-inlet[1] - inlet[1], -inlet[2] - inlet[2]];
+    (i[0] - i[1]) / k
 }
 
 /// `integral_0^1 s / (1 + k s^2)^3 ds = (2 + k) / (4 (1 + k)^2)`: the squeeze pressure at the
@@ -164,17 +196,42 @@ impl Pad {
     /// The steady sliding film at minimum film `h0_m`, viscosity `eta` and sliding speed
     /// `speed_m_s >= 0` (symmetric pad: the direction does not matter).
     pub fn sliding(&self, h0_m: f64, eta: f64, speed_m_s: f64) -> SlidingFilm {
-        let l = self.height_m;
         let k = self.crown_m / h0_m;
         if k <= 0.0 {
-            // A flat pad: Couette shear, no wedge.
-            return SlidingFilm {
-                load_n: 0.0,
-                friction_n: eta * speed_m_s * l / h0_m * self.width_m,
-                peak_pa: 0.0,
-            };
+            return self.flat_sliding(h0_m, eta, speed_m_s);
         }
-        let s = sliding(k);
+        self.sliding_of(sliding(k), h0_m, eta, speed_m_s)
+    }
+
+    /// [`Pad::sliding`] and [`Pad::squeeze_damping`] at the same film, the integrals from the
+    /// inlet edge computed once for both.
+    pub fn sliding_and_damping(&self, h0_m: f64, eta: f64, speed_m_s: f64) -> (SlidingFilm, f64) {
+        let k = self.crown_m / h0_m;
+        if k <= 0.0 {
+            return (
+                self.flat_sliding(h0_m, eta, speed_m_s),
+                self.squeeze_damping(h0_m, eta),
+            );
+        }
+        let inlet = antiderivatives(k, -1.0);
+        (
+            self.sliding_of(sliding_from(k, &inlet), h0_m, eta, speed_m_s),
+            self.damping_of(squeeze_factor_from(k, &inlet), h0_m, eta),
+        )
+    }
+
+    /// A flat pad: Couette shear, no wedge.
+    fn flat_sliding(&self, h0_m: f64, eta: f64, speed_m_s: f64) -> SlidingFilm {
+        SlidingFilm {
+            load_n: 0.0,
+            friction_n: eta * speed_m_s * self.height_m / h0_m * self.width_m,
+            peak_pa: 0.0,
+        }
+    }
+
+    /// The sliding film of shape `s` in physical units.
+    fn sliding_of(&self, s: SlidingShape, h0_m: f64, eta: f64, speed_m_s: f64) -> SlidingFilm {
+        let l = self.height_m;
         let scale = eta * speed_m_s;
         SlidingFilm {
             load_n: self.wedge_n(s.load, h0_m, scale),
@@ -200,8 +257,12 @@ impl Pad {
     /// The squeeze film's damping `K`, N s/m: an approaching film (`dh0/dt < 0`) carries
     /// `-K dh0/dt`. Full film, ambient pressure at both edges.
     pub fn squeeze_damping(&self, h0_m: f64, eta: f64) -> f64 {
-        let k = self.crown_m / h0_m;
-        1.5 * eta * self.height_m.powi(3) * squeeze_factor(k) / h0_m.powi(3) * self.width_m
+        self.damping_of(squeeze_factor(self.crown_m / h0_m), h0_m, eta)
+    }
+
+    /// `K` from the squeeze factor `S(k)`.
+    fn damping_of(&self, factor: f64, h0_m: f64, eta: f64) -> f64 {
+        1.5 * eta * self.height_m.powi(3) * factor / h0_m.powi(3) * self.width_m
     }
 
     /// Peak squeeze pressure (at the crown), Pa, for an approach speed `-dh0/dt = rate_m_s >= 0`.

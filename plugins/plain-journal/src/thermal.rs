@@ -38,17 +38,47 @@ impl Oil {
     /// The dynamic viscosity at `t_c`, Pa s, on the Walther line of slope `walther_b` through
     /// `mu_feed_pa_s` at `t_feed_c` (exact at the feed temperature).
     pub fn viscosity_at(&self, mu_feed_pa_s: f64, t_feed_c: f64, t_c: f64) -> f64 {
-        if t_c == t_feed_c || mu_feed_pa_s <= 0.0 {
-            return mu_feed_pa_s;
-        }
+        self.line_through(mu_feed_pa_s, t_feed_c).viscosity_at(t_c)
+    }
+
+    /// The Walther line through the feed oil's viscosity `mu_feed_pa_s` at `t_feed_c`, drawn
+    /// once for a heat balance that reads it at many temperatures.
+    pub fn line_through(&self, mu_feed_pa_s: f64, t_feed_c: f64) -> FeedLine {
         let nu_feed = mu_feed_pa_s / self.density_kg_m3 * 1e6;
-        let nu = WaltherLine::through(nu_feed, t_feed_c, self.walther_b).kinematic_cst(t_c);
-        mu_feed_pa_s * nu / nu_feed
+        FeedLine {
+            mu_feed_pa_s,
+            t_feed_c,
+            nu_feed_cst: nu_feed,
+            line: (mu_feed_pa_s > 0.0)
+                .then(|| WaltherLine::through(nu_feed, t_feed_c, self.walther_b)),
+        }
     }
 
     /// `rho c_p`, J/(m^3 K).
     pub fn heat_capacity_j_m3_k(&self) -> f64 {
         self.density_kg_m3 * self.specific_heat_j_kg_k
+    }
+}
+
+/// The oil's viscosity-temperature line through the feed oil ([`Oil::line_through`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FeedLine {
+    mu_feed_pa_s: f64,
+    t_feed_c: f64,
+    nu_feed_cst: f64,
+    /// `None` for a feed viscosity `<= 0` (no oil to heat: the viscosity stays as given).
+    line: Option<WaltherLine>,
+}
+
+impl FeedLine {
+    /// The dynamic viscosity at `t_c`, Pa s (exact at the feed temperature).
+    pub fn viscosity_at(&self, t_c: f64) -> f64 {
+        match self.line {
+            Some(line) if t_c != self.t_feed_c => {
+                self.mu_feed_pa_s * line.kinematic_cst(t_c) / self.nu_feed_cst
+            }
+            _ => self.mu_feed_pa_s,
+        }
     }
 }
 
@@ -86,7 +116,8 @@ pub fn solve(
             MAX_HALF_RISE_K
         }
     };
-    let mu_at = |t: f64| oil.viscosity_at(mu_feed_pa_s, t_feed_c, t);
+    let line = oil.line_through(mu_feed_pa_s, t_feed_c);
+    let mu_at = |t: f64| line.viscosity_at(t);
     let first = half_rise(mu_feed_pa_s);
     let t_eff = if first <= 0.0 {
         t_feed_c

@@ -4,6 +4,7 @@
 
 use super::error::SimError;
 use super::evaluate::{Eval, Work};
+use super::rates::RegimeTimes;
 use super::stepper::{CrankState, Integration, Step, Stepper};
 use super::Simulation;
 use crate::erk::{Controller, Pair};
@@ -22,6 +23,8 @@ pub(super) struct Adaptive {
     /// The step's increment and error estimate of every accumulated quantity.
     incr: Vec<f64>,
     est: Vec<f64>,
+    /// The step's increment of every law's regime times.
+    regime_incr: Vec<f64>,
     /// The middle stages' evaluations (recycled).
     stages: Vec<Eval>,
     /// The next step the controller proposes (infinite before the first).
@@ -44,14 +47,21 @@ struct Attempt {
 
 impl Adaptive {
     /// A stepper for `pair` with `control`, starting from the evaluation `first` at the run's
-    /// start, for `n` accumulated quantities.
-    pub(super) fn new(pair: &'static Pair, control: Controller, first: Eval, n: usize) -> Self {
+    /// start, for `n` accumulated quantities and the regimes of `laws`.
+    pub(super) fn new(
+        pair: &'static Pair,
+        control: Controller,
+        first: Eval,
+        n: usize,
+        laws: RegimeTimes,
+    ) -> Self {
         Self {
             pair,
             control,
             fsal: first,
             incr: vec![0.0; n],
             est: vec![0.0; n],
+            regime_incr: vec![0.0; laws.len()],
             stages: Vec::with_capacity(pair.stages()),
             h_next: f64::INFINITY,
             previous_end: None,
@@ -129,6 +139,10 @@ impl Stepper for Adaptive {
                 }
                 let t1 = if h_try == remaining { b } else { t + h_try };
                 s.acc.iter_mut().zip(&self.incr).for_each(|(a, d)| *a += d);
+                s.regime_time
+                    .iter_mut()
+                    .zip(&self.regime_incr)
+                    .for_each(|(a, d)| *a += d);
                 s.settle_from(&a.end);
                 return Ok(Step {
                     t1,
@@ -209,6 +223,7 @@ impl Adaptive {
             stages,
             incr,
             est,
+            regime_incr,
             ..
         } = self;
         // Stage j's evaluation: the given first, the stored middle ones, the end.
@@ -219,6 +234,14 @@ impl Adaptive {
         });
         let crank = crank_error(pair, &k[..s], h, sim.rel_tol * (h + h_floor));
         let rates = sim.rate_error(pair, &evals[..s], h, h_floor, incr, est);
+        // The regimes by the same propagated weights, stage by stage as the rates.
+        regime_incr.fill(0.0);
+        for (e, b) in evals[..s].iter().zip(pair.b) {
+            let b = h * b;
+            if b != 0.0 {
+                RegimeTimes::add(regime_incr, &e.regimes, b);
+            }
+        }
         let crossing = first_crossing(sim, pair, &evals[..s]);
         for e in stages.drain(..) {
             w.recycle(e);

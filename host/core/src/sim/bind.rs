@@ -256,14 +256,14 @@ impl BoundJoint {
     /// The friction force (slide) or torque (revolute) of all the joint's laws at `input`, each
     /// with its state from `states` and marked running through `round`, checked (finite, of a
     /// physical size against `reaction_n`, a stateless law not adding energy). With `record`,
-    /// each law's power, regime and load are written into the rates.
+    /// each law's power and load are written into the rates and its regime into the codes.
     #[inline(always)]
     pub(super) fn force(
         &self,
         input: &LawInput,
         states: &LawStates,
         reaction_n: f64,
-        mut record: Option<&mut [f64]>,
+        mut record: Option<Record<'_>>,
         layout: super::rates::RateLayout,
         round: &mut Round,
     ) -> Result<f64, SimError> {
@@ -276,15 +276,22 @@ impl BoundJoint {
             }
             let power = checked_power(&self.name, self.role.kind(), law, input, &out, reaction_n)?;
             total += out.force;
-            if let Some(rates) = record.as_deref_mut() {
-                let regime = out.regime().unwrap_or(tribo_plugin_api::Regime::None) as usize;
-                rates[layout.power(k)] = -power;
-                rates[layout.regime(k, regime)] = 1.0;
-                rates[layout.normal(k)] = input.normal_load_n;
+            if let Some(r) = record.as_mut() {
+                let regime = out.regime().unwrap_or(tribo_plugin_api::Regime::None);
+                r.rates[layout.power(k)] = -power;
+                r.regimes[k] = regime as u8;
+                r.rates[layout.normal(k)] = input.normal_load_n;
             }
         }
         Ok(total)
     }
+}
+
+/// Where a round of laws records what each law did: its power and normal load in an
+/// evaluation's rates, its regime (a `Regime` as code) in the evaluation's regime codes.
+pub(super) struct Record<'a> {
+    pub(super) rates: &'a mut [f64],
+    pub(super) regimes: &'a mut [u8],
 }
 
 /// One law's state: made only by its own instance ([`BoundLaw::new_state`]) and never resized,

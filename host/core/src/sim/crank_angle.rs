@@ -45,9 +45,9 @@ pub struct LawSample {
 
 impl LawSample {
     /// The sample of one law: friction torque and power from the evaluation's rates (`power`
-    /// W at crank speed `omega`, its regime `indicators`), normal load and sliding speed from
-    /// its loaded `input`, and the diagnostics of `out`, the law at that input.
-    fn new(power: f64, omega: f64, indicators: &[f64], input: &LawInput, out: &LawOutput) -> Self {
+    /// W at crank speed `omega`, its `regime` code), normal load and sliding speed from its
+    /// loaded `input`, and the diagnostics of `out`, the law at that input.
+    fn new(power: f64, omega: f64, regime: u8, input: &LawInput, out: &LawOutput) -> Self {
         let (ex, ey) = out.eccentricity().unzip();
         Self {
             // At rest (a stepped run's start) nothing turns and nothing dissipates.
@@ -55,7 +55,7 @@ impl LawSample {
             power_w: power,
             normal_load_n: input.normal_load_n,
             sliding_speed_m_s: input.sliding_velocity_m_s,
-            regime: regime_name(indicators).to_string(),
+            regime: regime_name(regime).to_string(),
             min_film_m: out.min_film(),
             eccentricity_x: ex,
             eccentricity_y: ey,
@@ -135,14 +135,11 @@ pub struct CrankAngleTrace {
     pub samples: Vec<AngleSample>,
 }
 
-fn regime_name(indicators: &[f64]) -> &'static str {
-    let k = (0..4)
-        .max_by(|a, b| indicators[*a].total_cmp(&indicators[*b]))
-        .unwrap_or(0);
-    match k {
-        k if k == Regime::Boundary as usize => "boundary",
-        k if k == Regime::Mixed as usize => "mixed",
-        k if k == Regime::Hydrodynamic as usize => "hydrodynamic",
+fn regime_name(code: u8) -> &'static str {
+    match code {
+        k if k == Regime::Boundary as u8 => "boundary",
+        k if k == Regime::Mixed as u8 => "mixed",
+        k if k == Regime::Hydrodynamic as u8 => "hydrodynamic",
         _ => "none",
     }
 }
@@ -243,13 +240,14 @@ impl Simulation {
 
     /// Every law's sample at crank speed `omega` from the last evaluation in `w` (its law
     /// inputs, the crank model's final solve and the laws' states), its settled normal loads
-    /// `normals` and rates `rates`: each law's rates, and its diagnostics at the settled loads.
+    /// `normals`, its rates and regimes `(rates, regimes)`: each law's rates and regime, and its
+    /// diagnostics at the settled loads.
     pub(super) fn law_samples(
         &self,
         omega: f64,
         w: &Work,
         normals: &[f64],
-        rates: &[f64],
+        (rates, regimes): (&[f64], &[u8]),
     ) -> Result<Vec<LawSample>, SimError> {
         let layout = self.layout();
         let mut law_samples = Vec::with_capacity(self.n_laws);
@@ -266,8 +264,7 @@ impl Simulation {
                 let state = w.states.of(k);
                 let out = sample_output(&j.name, j.role.kind(), law, &input, state, reaction_n)?;
                 let power = rates[layout.power(k)];
-                let regimes: Vec<f64> = (0..4).map(|r| rates[layout.regime(k, r)]).collect();
-                law_samples.push(LawSample::new(power, omega, &regimes, &input, &out));
+                law_samples.push(LawSample::new(power, omega, regimes[k], &input, &out));
             }
         }
         Ok(law_samples)
@@ -282,7 +279,7 @@ impl Simulation {
         w: &Work,
         e: &Eval,
     ) -> Result<AngleSample, SimError> {
-        let law_samples = self.law_samples(omega, w, &e.normals, &e.rates)?;
+        let law_samples = self.law_samples(omega, w, &e.normals, (&e.rates, &e.regimes))?;
         let loads = w.crank.loads_sample();
         let pressures = |k: usize| {
             w.law_gas

@@ -8,7 +8,7 @@ use std::f64::consts::TAU;
 use tribo_plugin_api::loader::inflight;
 use tribo_plugin_api::LawInput;
 
-use super::bind::{set_load, Bodies, Instant, LawStates};
+use super::bind::{set_load, Bodies, Instant, LawStates, Record};
 use super::crank::Crank;
 use super::error::{SimError, Unsettled};
 use super::newton::{Trend, Verdict};
@@ -68,8 +68,10 @@ pub(super) struct Eval {
     /// Drive torque on the crank, N m.
     pub(super) drive_torque: f64,
     /// Rates accumulated over time: motor power, then per law dissipated power, per law
-    /// regime indicators (4), per law normal load (see `RateLayout`).
+    /// normal load (see `RateLayout`).
     pub(super) rates: Vec<f64>,
+    /// Each law's lubrication regime (a `Regime` as code; see `RegimeTimes`).
+    pub(super) regimes: Vec<u8>,
     /// Normal load per joint, N.
     pub(super) normals: Vec<f64>,
     /// Where the rates stop being smooth when these change sign: each joint's relative
@@ -121,6 +123,7 @@ impl Work {
             alpha: 0.0,
             drive_torque: 0.0,
             rates: Vec::new(),
+            regimes: Vec::new(),
             normals: Vec::new(),
             switches: Vec::new(),
             totals: Vec::new(),
@@ -233,6 +236,8 @@ impl Simulation {
         let layout = self.layout();
         e.rates.clear();
         e.rates.resize(layout.len(), 0.0);
+        // Every round that records writes every law's code.
+        e.regimes.resize(self.n_laws, 0);
         e.normals.clear();
         e.normals.resize(self.joints.len(), 0.0);
         e.totals.clear();
@@ -276,15 +281,12 @@ impl Simulation {
     }
 
     /// One round of phase 1: every law evaluated at the last solve's reactions (its normal
-    /// loads in `e.normals`), powers, regimes and loads recorded in `e.rates`, each joint's law
-    /// total into `e.totals`.
+    /// loads in `e.normals`), powers and loads recorded in `e.rates`, regimes in `e.regimes`,
+    /// each joint's law total into `e.totals`.
     #[inline(always)]
     fn plain_round(&self, w: &mut Work, e: &mut Eval) -> Result<(), SimError> {
         let layout = self.layout();
         let reaction_n = e.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
-        // Powers and mean loads are written for every law below; only the regime indicators
-        // are set sparsely and need clearing.
-        e.rates[layout.regimes()].fill(0.0);
         // The thread's crash-report slot, looked up once for the round's law calls.
         let mut marks = inflight::round();
         for (ji, j) in self.joints.iter().enumerate() {
@@ -295,7 +297,10 @@ impl Simulation {
             let (comp, moment) = w.crank.reaction(j.role);
             let input = &mut w.inputs[ji];
             set_load(input, comp, moment, e.normals[ji]);
-            let record = Some(&mut e.rates[..]);
+            let record = Some(Record {
+                rates: &mut e.rates,
+                regimes: &mut e.regimes,
+            });
             e.totals[ji] = j.force(input, &w.states, reaction_n, record, layout, &mut marks)?;
         }
         Ok(())

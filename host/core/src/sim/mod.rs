@@ -65,7 +65,7 @@ pub use stepping::{Inputs, JointOutput, Outputs, Run, Snapshot};
 use bind::BoundJoint;
 use crank::{Crank, Role};
 use newton::Distance;
-use rates::RateLayout;
+use rates::{RateLayout, RegimeTimes};
 
 /// Standard gravity, m/s^2.
 pub const GRAVITY_M_S2: f64 = 9.80665;
@@ -467,6 +467,12 @@ impl Simulation {
     #[inline]
     fn layout(&self) -> RateLayout {
         RateLayout { n: self.n_laws }
+    }
+
+    /// The laws' regime times, kept apart from the rates.
+    #[inline]
+    fn regime_times(&self) -> RegimeTimes {
+        RegimeTimes { n: self.n_laws }
     }
 
     /// The name a model error gives joint `j`: the single-cylinder rig's joint name, an

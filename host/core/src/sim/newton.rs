@@ -12,6 +12,7 @@ use nalgebra::{DMatrix, DVector, Vector2};
 use tribo_plugin_api::loader::inflight;
 use tribo_plugin_api::LawInput;
 
+use super::bind::Record;
 use super::error::SimError;
 use super::evaluate::{check_solve, Eval, Point, Work};
 use super::Simulation;
@@ -324,6 +325,7 @@ struct Iterate<'s> {
     sim: &'s Simulation,
     w: &'s mut Work,
     rates: &'s mut [f64],
+    regimes: &'s mut [u8],
     at: &'s Point,
     /// The largest normal load where phase 2 began: the bound on a law's force.
     reaction_n: f64,
@@ -351,7 +353,6 @@ impl Iterate<'_> {
         };
         let (sim, w) = (self.sim, &mut *self.w);
         let layout = sim.layout();
-        self.rates[layout.regimes()].fill(0.0);
         let mut marks = inflight::round();
         for (ji, j) in sim.joints.iter().enumerate() {
             r.totals[ji] = 0.0;
@@ -360,7 +361,10 @@ impl Iterate<'_> {
                 let load = r.u[ji] * r.u[ji];
                 let moment = self.moments[ji];
                 scaled_input(input, self.comps[ji], self.entry_normals[ji], moment, load);
-                let record = Some(&mut self.rates[..]);
+                let record = Some(Record {
+                    rates: &mut *self.rates,
+                    regimes: &mut *self.regimes,
+                });
                 r.totals[ji] = j.force(
                     input,
                     &w.states,
@@ -541,6 +545,7 @@ impl Simulation {
             normals: vec![0.0; n],
             w,
             rates: &mut e.rates,
+            regimes: &mut e.regimes,
         };
         x.round(false)?;
         let iterations = settle(&mut x, it, self.max_iter, self.tol)?;

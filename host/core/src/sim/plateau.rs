@@ -4,36 +4,46 @@
 
 use std::f64::consts::TAU;
 
-use super::rates::RateLayout;
+use super::rates::{RateLayout, RegimeTimes};
 use super::results::{
     ComponentFmep, Fmep, GroupTotal, LawResult, PlateauFmep, PlateauResult, RegimeShare,
 };
+use super::stepper::Integration;
 use super::{SimError, Simulation};
 use crate::cycle::{rad_s_to_rpm, Plateau};
 
 /// The steps stored near the end of one hold, for its whole-revolution window: time, crank
-/// angle and speed of each, and in one flat buffer its accumulated quantities followed by their
-/// rates. Sized before the run, so stepping through the window does not allocate.
+/// angle and speed of each, in one flat buffer its accumulated quantities followed by their
+/// rates, in another the laws' regime times, and the laws' regimes (codes). Sized before the
+/// run, so stepping through the window does not allocate.
 #[derive(Clone)]
 struct Window {
     points: Vec<(f64, f64, f64)>,
     data: Vec<f64>,
+    times: Vec<f64>,
+    codes: Vec<u8>,
     n: usize,
+    laws: RegimeTimes,
 }
 
 impl Window {
-    fn with_capacity(points: usize, n: usize) -> Self {
+    fn with_capacity(points: usize, (n, laws): (usize, RegimeTimes)) -> Self {
         Self {
             points: Vec::with_capacity(points),
             data: Vec::with_capacity(points * 2 * n),
+            times: Vec::with_capacity(points * laws.len()),
+            codes: Vec::with_capacity(points * laws.n),
             n,
+            laws,
         }
     }
 
-    fn push(&mut self, t: f64, theta: f64, omega: f64, acc: &[f64], rates: &[f64]) {
+    fn push(&mut self, t: f64, theta: f64, omega: f64, s: &Integration) {
         self.points.push((t, theta, omega));
-        self.data.extend_from_slice(acc);
-        self.data.extend_from_slice(rates);
+        self.data.extend_from_slice(&s.acc);
+        self.data.extend_from_slice(&s.last_rates);
+        self.times.extend_from_slice(&s.regime_time);
+        self.codes.extend_from_slice(&s.last_regimes);
     }
 
     fn acc(&self, i: usize) -> &[f64] {
@@ -42,6 +52,15 @@ impl Window {
 
     fn rates(&self, i: usize) -> &[f64] {
         &self.data[2 * self.n * i + self.n..2 * self.n * (i + 1)]
+    }
+
+    fn regime_time(&self, i: usize) -> &[f64] {
+        let m = self.laws.len();
+        &self.times[m * i..m * (i + 1)]
+    }
+
+    fn regimes(&self, i: usize) -> &[u8] {
+        &self.codes[self.laws.n * i..self.laws.n * (i + 1)]
     }
 }
 
@@ -82,10 +101,12 @@ impl WindowSpec {
     }
 }
 
-/// A plateau's measurement window: the change of every accumulated quantity over it, its
-/// length in time (s) and crank angle (rad), its bounds (s) and whole revolutions.
+/// A plateau's measurement window: the change of every accumulated quantity over it, each
+/// law's time in each regime within it (s), its length in time (s) and crank angle (rad), its
+/// bounds (s) and whole revolutions.
 pub(super) struct Measured {
     pub(super) delta: Vec<f64>,
+    pub(super) regime_time: Vec<f64>,
     pub(super) dt: f64,
     pub(super) dtheta: f64,
     pub(super) window_s: [f64; 2],
@@ -99,14 +120,12 @@ pub(super) struct Plateaus {
     records: Vec<Window>,
     saturated_time: Vec<f64>,
     spec: WindowSpec,
-    /// Accumulated quantities per step.
-    n: usize,
 }
 
 impl Plateaus {
     /// Storage for the cycle's `plateaus`, each sized for the steps its measurement margin
-    /// will hold, for `n` accumulated quantities.
-    pub(super) fn new(plateaus: &[Plateau], spec: WindowSpec, n: usize) -> Self {
+    /// will hold, for `n.0` accumulated quantities and the regime times of `n.1`.
+    pub(super) fn new(plateaus: &[Plateau], spec: WindowSpec, n: (usize, RegimeTimes)) -> Self {
         let records = plateaus
             .iter()
             .map(|p| {
@@ -121,20 +140,19 @@ impl Plateaus {
             records,
             saturated_time: vec![0.0; plateaus.len()],
             spec,
-            n,
         }
     }
 
     /// Record the accepted step of length `h` ending at `t1` (crank `theta`, `omega`; the
-    /// accumulated quantities `acc` and their `rates` there) in every window it falls in.
+    /// accumulated quantities, their rates and the regimes there in `s`) in every window it
+    /// falls in.
     pub(super) fn record(
         &mut self,
         t1: f64,
         h: f64,
         (theta, omega): (f64, f64),
         saturated: bool,
-        acc: &[f64],
-        rates: &[f64],
+        s: &Integration,
     ) {
         let cycle = self.spec.cycle_angle();
         for (pi, p) in self.plateaus.iter().enumerate() {
@@ -143,7 +161,7 @@ impl Plateaus {
                 if saturated {
                     self.saturated_time[pi] += h;
                 }
-                self.records[pi].push(t1, theta, omega, acc, rates);
+                self.records[pi].push(t1, theta, omega, s);
             }
         }
     }
@@ -159,7 +177,7 @@ impl Plateaus {
         let mut results = Vec::new();
         let mut warnings = Vec::new();
         for (pi, p) in self.plateaus.iter().enumerate() {
-            let measured = measure(&self.spec, self.n, p, &self.records[pi]).map_err(|mut e| {
+            let measured = measure(&self.spec, p, &self.records[pi]).map_err(|mut e| {
                 if let SimError::Stalled { saturated_s, .. } = &mut e {
                     *saturated_s = self.saturated_time[pi];
                 }
@@ -183,17 +201,18 @@ impl Plateaus {
 }
 
 /// The window over the last whole revolutions (whole cycles) of the hold `p`, from the
-/// recorded steps `recs` (`n` accumulated quantities); [`SimError::Stalled`] when the recorded
-/// end of the hold holds fewer revolutions.
-fn measure(spec: &WindowSpec, n: usize, p: &Plateau, recs: &Window) -> Result<Measured, SimError> {
+/// recorded steps `recs`; [`SimError::Stalled`] when the recorded end of the hold holds fewer
+/// revolutions.
+fn measure(spec: &WindowSpec, p: &Plateau, recs: &Window) -> Result<Measured, SimError> {
     let (omega_ref, t_end) = (p.omega, p.t_end);
     let revs = spec.window_revs(omega_ref);
-    let (t_e, theta_e, acc_e) = match recs.points.len() {
-        0 => (t_end, 0.0, vec![0.0; n]),
+    let (t_e, theta_e, acc_e, times_e) = match recs.points.len() {
+        0 => (t_end, 0.0, vec![0.0; recs.n], vec![0.0; recs.laws.len()]),
         len => (
             recs.points[len - 1].0,
             recs.points[len - 1].1,
             recs.acc(len - 1).to_vec(),
+            recs.regime_time(len - 1).to_vec(),
         ),
     };
     let theta_s = theta_e - revs as f64 * TAU;
@@ -210,42 +229,65 @@ fn measure(spec: &WindowSpec, n: usize, p: &Plateau, recs: &Window) -> Result<Me
             saturated_s: 0.0,
         });
     }
-    // Find the interval holding theta_s and interpolate (cubic Hermite in time).
-    let (mut t_s, mut acc_s) = (t_e, acc_e.clone());
+    // Find the interval holding theta_s and interpolate there.
+    let (mut t_s, mut acc_s, mut times_s) = (t_e, acc_e.clone(), times_e.clone());
     for i in 1..recs.points.len() {
         let ((ta, tha, wa), (tb, thb, wb)) = (recs.points[i - 1], recs.points[i]);
         if tha <= theta_s && theta_s <= thb {
             let h = tb - ta;
-            // The accumulated quantities at s (cubic Hermite in time, rates as slopes).
-            let herm = |y0: f64, y1: f64, d0: f64, d1: f64, s: f64| {
-                let (s2, s3) = (s * s, s * s * s);
-                (2.0 * s3 - 3.0 * s2 + 1.0) * y0
-                    + (s3 - 2.0 * s2 + s) * h * d0
-                    + (-2.0 * s3 + 3.0 * s2) * y1
-                    + (s3 - s2) * h * d1
-            };
             // The window's start: where the crank angle's cubic reaches theta_s.
             let s = hermite_root((tha, thb), (h * wa, h * wb), theta_s);
             t_s = ta + s * h;
-            let (aa, ab, ra, rb) = (
-                recs.acc(i - 1),
-                recs.acc(i),
-                recs.rates(i - 1),
-                recs.rates(i),
-            );
-            acc_s = (0..n)
-                .map(|k| herm(aa[k], ab[k], ra[k], rb[k], s))
-                .collect();
+            (acc_s, times_s) = recs.interpolate(i, s, h);
             break;
         }
     }
     Ok(Measured {
         delta: acc_e.iter().zip(&acc_s).map(|(e, s)| e - s).collect(),
+        regime_time: times_e.iter().zip(&times_s).map(|(e, s)| e - s).collect(),
         dt: (t_e - t_s).max(1e-300),
         dtheta: theta_e - theta_s,
         window_s: [t_s, t_e],
         revs,
     })
+}
+
+impl Window {
+    /// The accumulated quantities and the regime times at the fraction `s` of the step of
+    /// length `h` (s) ending at record `i`: cubic Hermite in time, the rates as slopes; a
+    /// regime time's slope is its law's 0/1 indicator of that regime at the step's ends.
+    fn interpolate(&self, i: usize, s: f64, h: f64) -> (Vec<f64>, Vec<f64>) {
+        let herm = |y0: f64, y1: f64, d0: f64, d1: f64| {
+            let (s2, s3) = (s * s, s * s * s);
+            (2.0 * s3 - 3.0 * s2 + 1.0) * y0
+                + (s3 - 2.0 * s2 + s) * h * d0
+                + (-2.0 * s3 + 3.0 * s2) * y1
+                + (s3 - s2) * h * d1
+        };
+        let (aa, ab, ra, rb) = (
+            self.acc(i - 1),
+            self.acc(i),
+            self.rates(i - 1),
+            self.rates(i),
+        );
+        let acc = (0..self.n)
+            .map(|k| herm(aa[k], ab[k], ra[k], rb[k]))
+            .collect();
+        let (ta, tb) = (self.regime_time(i - 1), self.regime_time(i));
+        let (ca, cb) = (self.regimes(i - 1), self.regimes(i));
+        let indicator = |codes: &[u8], slot: usize| {
+            let (k, r) = (slot / RegimeTimes::REGIMES, slot % RegimeTimes::REGIMES);
+            if codes[k] as usize == r {
+                1.0
+            } else {
+                0.0
+            }
+        };
+        let times = (0..self.laws.len())
+            .map(|j| herm(ta[j], tb[j], indicator(ca, j), indicator(cb, j)))
+            .collect();
+        (acc, times)
+    }
 }
 
 impl Simulation {
@@ -346,7 +388,7 @@ fn plateau_values<'a>(
     let joints: Vec<LawResult> = laws
         .enumerate()
         .map(|(k, (joint, law))| {
-            let share = |r: usize| d[layout.regime(k, r)] / dt;
+            let share = |r: usize| window.regime_time[RegimeTimes::slot(k, r)] / dt;
             LawResult {
                 joint: joint.into(),
                 law: law.into(),

@@ -5,7 +5,7 @@
 use super::error::SimError;
 use super::evaluate::{Control, Point, Work};
 use super::plateau::Measured;
-use super::rates::RateLayout;
+use super::rates::{RateLayout, RegimeTimes};
 use super::results::{DriveKind, EnergyBalance, RunResult};
 use super::Simulation;
 
@@ -33,21 +33,23 @@ impl Simulation {
             let omega = self.cycle.plateaus()[pi].omega;
             w.states.reset();
             let before = steps;
-            let (delta, t) = match self.steady_plateau(pi, omega, (0.0, 0.0), &mut w, &mut steps) {
-                Err(_) if self.stateful => {
-                    steps = before;
-                    w.states.reset();
-                    let start = self.spin_up(pi, omega, &mut w, &mut steps)?;
-                    self.steady_plateau(pi, omega, start, &mut w, &mut steps)?
-                }
-                other => other?,
-            };
+            let (delta, regime_time, t) =
+                match self.steady_plateau(pi, omega, (0.0, 0.0), &mut w, &mut steps) {
+                    Err(_) if self.stateful => {
+                        steps = before;
+                        w.states.reset();
+                        let start = self.spin_up(pi, omega, &mut w, &mut steps)?;
+                        self.steady_plateau(pi, omega, start, &mut w, &mut steps)?
+                    }
+                    other => other?,
+                };
             motor += delta[RateLayout::MOTOR];
             dissipated += delta[layout.powers()].iter().sum::<f64>();
             gas += delta[layout.gas()];
             let cycle = self.cycle_angle();
             let measured = Measured {
                 delta,
+                regime_time,
                 dt: cycle / omega,
                 dtheta: cycle,
                 window_s: [t - cycle / omega, t],
@@ -85,8 +87,8 @@ impl Simulation {
     }
 
     /// Plateau `pi` at speed `omega` from time `start.0` and crank angle `start.1`: the
-    /// accumulated quantities over its last cycle, and the time at its end (from 0 at the
-    /// plateau's start).
+    /// accumulated quantities and the laws' regime times over its last cycle, and the time at
+    /// its end (from 0 at the plateau's start).
     fn steady_plateau(
         &self,
         pi: usize,
@@ -94,7 +96,7 @@ impl Simulation {
         start: (f64, f64),
         w: &mut Work,
         steps: &mut u64,
-    ) -> Result<(Vec<f64>, f64), SimError> {
+    ) -> Result<(Vec<f64>, Vec<f64>, f64), SimError> {
         let (t0, theta0) = start;
         let oil = (self.temps[pi], self.viscosities[pi]);
         let cycle = self.cycle_angle();
@@ -103,11 +105,13 @@ impl Simulation {
         let mut guess = vec![0.0; self.joints.len()];
         let mut last_torque = f64::NAN;
         let mut delta = vec![0.0; self.layout().len()];
+        let mut regime_time = vec![0.0; self.regime_times().len()];
         let max_cycles = if self.stateful { 200 } else { 1 };
         let mut t = t0;
         let mut e = w.eval();
         for _ in 0..max_cycles {
             delta.iter_mut().for_each(|x| *x = 0.0);
+            regime_time.fill(0.0);
             // Over one whole cycle the integrand is periodic: the trapezoid rule on equally
             // spaced samples converges spectrally for smooth laws (and like Simpson's for
             // kinked ones) with one evaluation per step instead of two.
@@ -117,6 +121,7 @@ impl Simulation {
                 for (d, r) in delta.iter_mut().zip(&e.rates) {
                     *d += h * r;
                 }
+                RegimeTimes::add(&mut regime_time, &e.regimes, h);
                 t += h;
                 self.commit(w, &e)?;
                 guess.copy_from_slice(&e.totals);
@@ -129,7 +134,7 @@ impl Simulation {
             last_torque = torque;
         }
         w.recycle(e);
-        Ok((delta, t))
+        Ok((delta, regime_time, t))
     }
 
     /// Spin the crank up from rest to plateau `pi`'s speed `omega` at a constant acceleration

@@ -4,6 +4,7 @@
 
 use super::error::SimError;
 use super::evaluate::{Control, Eval, Point, Work};
+use super::rates::RegimeTimes;
 use super::Simulation;
 use crate::model::Drive;
 
@@ -20,8 +21,13 @@ pub(super) struct Integration {
     pub(super) y: CrankState,
     /// Every accumulated quantity (see `RateLayout`), integrated from the start of the run.
     pub(super) acc: Vec<f64>,
+    /// Each law's time in each regime (see `RegimeTimes`), integrated from the start of the
+    /// run by the same rule.
+    pub(super) regime_time: Vec<f64>,
     /// The rates at `t` (the last accepted evaluation), for the quadrature and the windows.
     pub(super) last_rates: Vec<f64>,
+    /// The laws' regimes there.
+    pub(super) last_regimes: Vec<u8>,
     /// The normal loads (per joint) and drive torque (N m) there.
     pub(super) last_normals: Vec<f64>,
     pub(super) last_torque: f64,
@@ -32,13 +38,16 @@ pub(super) struct Integration {
 }
 
 impl Integration {
-    /// The start of a run: crank at rest at time 0, nothing accumulated, for `n` quantities.
-    pub(super) fn new(n: usize) -> Self {
+    /// The start of a run: crank at rest at time 0, nothing accumulated, for `n` quantities
+    /// and the regimes of `laws` laws.
+    pub(super) fn new(n: usize, laws: RegimeTimes) -> Self {
         Self {
             t: 0.0,
             y: (0.0, 0.0, 0.0),
             acc: vec![0.0; n],
+            regime_time: vec![0.0; laws.len()],
             last_rates: vec![0.0; n],
+            last_regimes: vec![0; laws.n],
             last_normals: Vec::new(),
             last_torque: 0.0,
             guess: Vec::new(),
@@ -49,6 +58,7 @@ impl Integration {
     /// Keep what the accepted evaluation `e` at `t` gives the windows and the outputs.
     pub(super) fn record(&mut self, e: &Eval) {
         self.last_rates.copy_from_slice(&e.rates);
+        self.last_regimes.copy_from_slice(&e.regimes);
         self.last_normals.clone_from(&e.normals);
         self.last_torque = e.drive_torque;
     }
@@ -160,6 +170,8 @@ impl Stepper for Quadrature {
         for k in 0..s.acc.len() {
             s.acc[k] += h / 6.0 * (s.last_rates[k] + 4.0 * em.rates[k] + e1.rates[k]);
         }
+        let stages: [&[u8]; 3] = [&s.last_regimes, &em.regimes, &e1.regimes];
+        RegimeTimes::add_rule(&mut s.regime_time, &stages, &[1.0, 4.0, 1.0], h / 6.0);
         w.recycle(em);
         Ok(Step {
             t1,
@@ -332,6 +344,8 @@ impl Simulation {
         for (k, a) in s.acc.iter_mut().enumerate() {
             *a += h / 6.0 * (e1.rates[k] + 2.0 * e2.rates[k] + 2.0 * e3.rates[k] + e4.rates[k]);
         }
+        let stages: [&[u8]; 4] = [&e1.regimes, &e2.regimes, &e3.regimes, &e4.regimes];
+        RegimeTimes::add_rule(&mut s.regime_time, &stages, &[1.0, 2.0, 2.0, 1.0], h / 6.0);
         // The state at the step end, for output, commit and the next step's first stage.
         let end = self.step_eval(t + h, h, (th1, w1, z1), &e4.totals, w)?;
         s.settle_from(&end);

@@ -328,8 +328,12 @@ impl Run {
     /// committed there.
     pub fn laws(&self) -> Result<Vec<LawSample>, SimError> {
         let s = &self.run.s;
-        self.sim
-            .law_samples(s.y.1, &self.run.w, &s.last_normals, &s.last_rates)
+        self.sim.law_samples(
+            s.y.1,
+            &self.run.w,
+            &s.last_normals,
+            (&s.last_rates, &s.last_regimes),
+        )
     }
 
     /// The whole state now, to [`Run::restore`] later.

@@ -7,7 +7,7 @@ use tribo_plugin_api::{JointKind, LawInput, LawOutput};
 
 use super::evaluate::{crank_angle, Control, Eval, Point, Work};
 use super::newton::plain_iteration_stalls;
-use super::rates::RateLayout;
+use super::rates::{RateLayout, RegimeTimes};
 use super::Simulation;
 use crate::mechanics::JointLoads;
 use crate::model::RigFile;
@@ -301,12 +301,48 @@ fn rate_layout_tiles_the_rate_vector() {
     for k in 0..3 {
         seen[l.power(k)] += 1;
         seen[l.normal(k)] += 1;
-        (0..4).for_each(|r| seen[l.regime(k, r)] += 1);
         assert!(l.powers().contains(&l.power(k)));
         assert!(l.normals().contains(&l.normal(k)));
-        assert!(l.regimes().contains(&l.regime(k, 3)));
     }
     assert!(seen.iter().all(|&c| c == 1), "{seen:?}");
+    // The regime times: four per law, each slot once.
+    let times = RegimeTimes { n: 3 };
+    let mut seen = vec![0; times.len()];
+    for k in 0..3 {
+        (0..RegimeTimes::REGIMES).for_each(|r| seen[RegimeTimes::slot(k, r)] += 1);
+    }
+    assert!(seen.iter().all(|&c| c == 1), "{seen:?}");
+}
+
+#[test]
+fn regime_times_are_the_rules_applied_to_the_indicators() {
+    // Three laws over a Simpson step whose stages are in different regimes: the sparse times
+    // must equal the rule applied to each law's four 0/1 indicators, bit for bit.
+    let stages: [&[u8]; 3] = [&[0, 1, 3], &[2, 1, 3], &[2, 3, 1]];
+    let (h, weights) = (0.37e-3, [1.0, 4.0, 1.0]);
+    let mut times = vec![0.25; RegimeTimes { n: 3 }.len()];
+    RegimeTimes::add_rule(&mut times, &stages, &weights, h / 6.0);
+    for k in 0..3 {
+        for r in 0..RegimeTimes::REGIMES {
+            let x = |j: usize| if stages[j][k] as usize == r { 1.0 } else { 0.0 };
+            let dense = 0.25 + h / 6.0 * (x(0) + 4.0 * x(1) + x(2));
+            assert_eq!(times[RegimeTimes::slot(k, r)], dense, "law {k} regime {r}");
+        }
+    }
+    // Stage by stage (the error-controlled step's weights, one of them negative).
+    let mut times = vec![0.0; RegimeTimes { n: 3 }.len()];
+    for (codes, b) in stages.iter().zip([0.1, -0.02, 0.3]) {
+        RegimeTimes::add(&mut times, codes, b);
+    }
+    for k in 0..3 {
+        for r in 0..RegimeTimes::REGIMES {
+            let mut dense = 0.0;
+            for (codes, b) in stages.iter().zip([0.1, -0.02, 0.3]) {
+                dense += b * if codes[k] as usize == r { 1.0 } else { 0.0 };
+            }
+            assert_eq!(times[RegimeTimes::slot(k, r)], dense, "law {k} regime {r}");
+        }
+    }
 }
 
 /// Parameters of [`Constant`].

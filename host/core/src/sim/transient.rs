@@ -87,6 +87,7 @@ impl Simulation {
                     control,
                     first,
                     n,
+                    self.regime_times(),
                 )))
             }
             Drive::Pi { .. } => {
@@ -101,13 +102,17 @@ impl Simulation {
     pub(super) fn start_transient(&self) -> Result<Transient, SimError> {
         let mut w = self.work()?;
         let n = self.layout().len();
-        let mut s = Integration::new(n);
+        let mut s = Integration::new(n, self.regime_times());
         let first = self.step_eval(0.0, 0.0, (0.0, 0.0, 0.0), &[], &mut w)?;
         s.record(&first);
         s.settle_from(&first);
         Ok(Transient {
             method: self.method(first, &mut w),
-            plateaus: Plateaus::new(self.cycle.plateaus(), self.window_spec(), n),
+            plateaus: Plateaus::new(
+                self.cycle.plateaus(),
+                self.window_spec(),
+                (n, self.regime_times()),
+            ),
             grid: self.grid(),
             next: 0,
             interval: None,
@@ -233,8 +238,7 @@ impl Simulation {
         observe(observer, &step, r.s.y, r.filtered)?;
         let crank = (r.s.y.0, r.s.y.1);
         let sat = step.end.saturated();
-        r.plateaus
-            .record(step.t1, step.h, crank, sat, &r.s.acc, &r.s.last_rates);
+        r.plateaus.record(step.t1, step.h, crank, sat, &r.s);
         r.s.t = step.t1;
         r.method.stepper().recycle(step.end, step.h, &mut r.w);
         Ok(())

@@ -19,8 +19,6 @@
 //! point is the root of a monotone function of `s_c`; above it the full film's load is linear in
 //! `hdot`.
 
-use tribo_plugin_api::tribology::root_increasing;
-
 /// The ring face: half its axial width and the height of its parabolic crown at the edges.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Face {
@@ -97,19 +95,98 @@ impl Prims {
 
 /// The rupture branch at rupture point `sc`: the squeeze number `Q = 2 hdot L / (h |u|)` that
 /// puts `p = 0` at `sc` (with `dp/dx = 0` there), and the load in units of `L * 6 mu |u| L / h^2`.
+#[cfg(test)]
 fn rupture_branch(sc: f64, lower: &Prims) -> (f64, f64) {
-    let d = Prims::at(sc).minus(lower);
-    // p(sc) = 0: integral (t - sc)(t + sc + Q) / (1 + t^2)^3 from -S to sc vanishes.
-    let a = d.m[2] - sc * sc * d.m[0];
-    let b = d.m[1] - sc * d.m[0];
-    let q = if b != 0.0 { -a / b } else { 0.0 };
-    let k = sc + q;
-    // Load: -integral (t - sc)^2 (t + k) / (1 + t^2)^3 (by parts, p = 0 at both ends).
-    let w = -(d.m[3]
-        + (k - 2.0 * sc) * d.m[2]
-        + (sc * sc - 2.0 * sc * k) * d.m[1]
-        + sc * sc * k * d.m[0]);
-    (q, w)
+    let b = Branch::at(sc, lower);
+    (b.q, b.load)
+}
+
+/// The rupture branch at one rupture point `sc`, with the slope of its load.
+#[derive(Debug, Clone, Copy)]
+struct Branch {
+    /// The rupture point, in `s`.
+    sc: f64,
+    /// The antiderivatives at `sc`.
+    at: Prims,
+    /// Their integrals from the inlet edge to `sc`.
+    d: Prims,
+    /// The squeeze number `Q = 2 hdot L / (h |u|)` that puts `p = 0` at `sc`.
+    q: f64,
+    /// The load, in units of `L * 6 mu |u| L / h^2`.
+    load: f64,
+    /// `d load / d sc`, same units.
+    slope: f64,
+}
+
+impl Branch {
+    /// The branch at `sc`; `lower`, the inlet edge's antiderivatives, computed once per film.
+    fn at(sc: f64, lower: &Prims) -> Self {
+        let at = Prims::at(sc);
+        let d = at.minus(lower);
+        // p(sc) = 0: integral (t - sc)(t + sc + Q) / (1 + t^2)^3 from -S to sc vanishes.
+        let a = d.m[2] - sc * sc * d.m[0];
+        let b = d.m[1] - sc * d.m[0];
+        let q = if b != 0.0 { -a / b } else { 0.0 };
+        let k = sc + q;
+        // Load: -integral (t - sc)^2 (t + k) / (1 + t^2)^3 (by parts, p = 0 at both ends).
+        let load = -(d.m[3]
+            + (k - 2.0 * sc) * d.m[2]
+            + (sc * sc - 2.0 * sc * k) * d.m[1]
+            + sc * sc * k * d.m[0]);
+        // Its slope by Leibniz's rule: the integrand vanishes at the upper limit, and the
+        // derivative of (t - sc)^2 (t + k) in sc is -2 (t - sc)(t + k), whose integral is
+        // p(sc) = 0, plus (t - sc)^2 dk/dsc. The condition p(sc) = 0, written
+        // `m2 - sc m1 + k (m1 - sc m0) = 0`, differentiates the same way (its upper-limit terms
+        // cancel too): `-(m1 + k m0) + b dk/dsc = 0`.
+        let dk = if b != 0.0 {
+            (d.m[1] + k * d.m[0]) / b
+        } else {
+            0.0
+        };
+        let slope = -dk * (d.m[2] - 2.0 * sc * d.m[1] + sc * sc * d.m[0]);
+        Self {
+            sc,
+            at,
+            d,
+            q,
+            load,
+            slope,
+        }
+    }
+}
+
+/// The rupture branch in `(-big_s, big_s)` that carries `target` (in the branch's load units):
+/// Newton's method on the closed-form slope, inside a bracket every step narrows (bisection
+/// where a step would leave it). The branch's load rises from 0 at the inlet edge to the full
+/// film's at the outlet edge, which is above `target`, so the bracket needs no evaluation.
+/// Starts from `guess` (a nearby film's rupture point, in `s`) when there is one. Converged when
+/// a step moves the point by less than 1e-14 of the face's half width (in `s`).
+fn rupture_for_load(target: f64, lower: &Prims, big_s: f64, guess: Option<f64>) -> Branch {
+    let (mut lo, mut hi) = (-big_s, big_s);
+    let mut x = guess.filter(|g| *g > lo && *g < hi).unwrap_or(0.0);
+    let tol = 1e-14 * big_s;
+    for _ in 0..200 {
+        let b = Branch::at(x, lower);
+        let r = b.load - target;
+        if r < 0.0 {
+            lo = x;
+        } else if r > 0.0 {
+            hi = x;
+        } else {
+            return b;
+        }
+        let newton = x - r / b.slope;
+        let next = if b.slope > 0.0 && newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        if (next - x).abs() <= tol || hi - lo <= tol {
+            return Branch::at(next, lower);
+        }
+        x = next;
+    }
+    Branch::at(x, lower)
 }
 
 /// The film of `face` at minimum film `h_m` (> 0), sliding speed `u_abs` (>= 0, m/s) and
@@ -122,8 +199,8 @@ pub fn film_for_load(face: &Face, h_m: f64, u_abs: f64, load_n_per_m: f64, mu: f
 }
 
 /// [`film_for_load`] with a guess of the rupture point (m from the apex, a nearby film's
-/// `rupture_m`): the root is first bracketed close to it, which saves most of the search when
-/// the film has barely changed (a finite-difference neighbour). The same root either way.
+/// `rupture_m`): the search starts there, which saves most of it when the film has barely
+/// changed (a finite-difference neighbour). The same root either way.
 pub fn film_for_load_near(
     face: &Face,
     h_m: f64,
@@ -170,18 +247,9 @@ pub fn film_for_load_near(
     // Ruptured film: the rupture point whose load is the one asked for (the load rises
     // monotonically from 0 at the inlet edge to `w_edge` at the outlet edge).
     let target = load_n_per_m / (l * alpha);
-    let f = |s: f64| rupture_branch(s, &low).1 - target;
-    let near = rupture_guess_m.and_then(|x| {
-        let (g, d) = (x / l, 1e-4 * (1.0 + big_s));
-        let (lo, hi) = ((g - d).max(-big_s), (g + d).min(big_s));
-        (lo < hi && f(lo) < 0.0 && f(hi) > 0.0).then_some((lo, hi))
-    });
-    let (lo, hi) = near.unwrap_or((-big_s, big_s));
-    let sc = root_increasing(f, lo, hi);
-    let (q, _) = rupture_branch(sc, &low);
+    let branch = rupture_for_load(target, &low, big_s, rupture_guess_m.map(|x| x / l));
+    let (sc, q, at_c, d) = (branch.sc, branch.q, branch.at, branch.d);
     let k = sc + q;
-    let at_c = Prims::at(sc);
-    let d = at_c.minus(&low);
     let poiseuille = d.n[2] + (k - sc) * d.n[1] - sc * k * d.n[0];
     let streamers = (1.0 + sc * sc) * (top.j2() - at_c.j2());
     let sp = (-k).clamp(-big_s, sc);
@@ -215,6 +283,44 @@ mod tests {
                 let d = (p.n[k] - m.n[k]) / (2.0 * e);
                 let want = s.powi(k as i32) / q.powi(2);
                 assert!((d - want).abs() < 1e-8, "n[{k}] at {s}: {d} vs {want}");
+            }
+        }
+    }
+
+    /// The branch's closed-form slope is the derivative of its load (five-point central
+    /// differences; near the inlet edge, where the load is a difference of nearly equal
+    /// antiderivatives, within 1e-9 of the branch's mean slope), and the Newton search lands
+    /// where the branch carries the target load, from any start.
+    #[test]
+    fn the_rupture_branch_slope_is_its_loads_derivative() {
+        for &big_s in &[0.3, 1.0, 4.0, 20.0] {
+            let low = Prims::at(-big_s);
+            let w = |sc: f64| rupture_branch(sc, &low).1;
+            let mean_slope = w(big_s) / (2.0 * big_s);
+            for i in 1..20 {
+                let sc = -big_s + 2.0 * big_s * i as f64 / 20.0;
+                let e = 1e-3 * big_s;
+                let fd = (8.0 * (w(sc + e) - w(sc - e)) - (w(sc + 2.0 * e) - w(sc - 2.0 * e)))
+                    / (12.0 * e);
+                let b = Branch::at(sc, &low);
+                assert!(b.slope > 0.0, "S {big_s}, sc {sc}: slope {}", b.slope);
+                assert!(
+                    (b.slope - fd).abs() <= 1e-6 * fd.abs() + 1e-9 * mean_slope,
+                    "S {big_s}, sc {sc}: {} vs {fd}",
+                    b.slope
+                );
+            }
+            let (_, w_max) = rupture_branch(big_s, &low);
+            for frac in [1e-6, 0.01, 0.3, 0.9, 0.999_999] {
+                let target = frac * w_max;
+                for guess in [None, Some(-0.99 * big_s), Some(0.0), Some(0.99 * big_s)] {
+                    let b = rupture_for_load(target, &low, big_s, guess);
+                    assert!(
+                        (b.load - target).abs() <= 1e-12 * w_max,
+                        "S {big_s}, target {target}, guess {guess:?}: {}",
+                        b.load
+                    );
+                }
             }
         }
     }

@@ -90,25 +90,32 @@ impl RegimeTimes {
     /// Add `scale * (c_0 r_0 + c_1 r_1 + ...)` to each law's times, `r_j` the 0/1 indicator of
     /// stage `j` (regime codes `stages[j]`) and `c_j` its small whole coefficient: Simpson's
     /// `h/6 (1, 4, 1)` and RK4's `h/6 (1, 2, 2, 1)`. The coefficients of a regime sum exactly,
-    /// so each time is the rule applied to the indicators, bit for bit.
-    pub(super) fn add_rule(times: &mut [f64], stages: &[&[u8]], coefficients: &[f64], scale: f64) {
+    /// so each time is the rule applied to the indicators, bit for bit; a regime no stage was
+    /// in would add `scale * 0`, nothing.
+    pub(super) fn add_rule<const S: usize>(
+        times: &mut [f64],
+        stages: [&[u8]; S],
+        coefficients: [f64; S],
+        scale: f64,
+    ) {
         let Some(first) = stages.first() else {
             return;
         };
-        for k in 0..first.len() {
-            for (j, codes) in stages.iter().enumerate() {
-                let regime = codes[k];
-                // Each regime once, at the first stage in it.
-                if stages[..j].iter().any(|earlier| earlier[k] == regime) {
-                    continue;
+        let total: f64 = coefficients.iter().sum();
+        for (k, &regime) in first.iter().enumerate() {
+            // Mostly every stage is in one regime.
+            if stages.iter().all(|codes| codes[k] == regime) {
+                times[Self::slot(k, regime as usize)] += scale * total;
+                continue;
+            }
+            let mut sums = [0.0; Self::REGIMES];
+            for (codes, c) in stages.iter().zip(coefficients) {
+                sums[codes[k] as usize] += c;
+            }
+            for (r, sum) in sums.iter().enumerate() {
+                if *sum != 0.0 {
+                    times[Self::slot(k, r)] += scale * sum;
                 }
-                let sum: f64 = stages
-                    .iter()
-                    .zip(coefficients)
-                    .filter(|(c, _)| c[k] == regime)
-                    .map(|(_, w)| *w)
-                    .sum();
-                times[Self::slot(k, regime as usize)] += scale * sum;
             }
         }
     }

@@ -171,7 +171,7 @@ impl Stepper for Quadrature {
             s.acc[k] += h / 6.0 * (s.last_rates[k] + 4.0 * em.rates[k] + e1.rates[k]);
         }
         let stages: [&[u8]; 3] = [&s.last_regimes, &em.regimes, &e1.regimes];
-        RegimeTimes::add_rule(&mut s.regime_time, &stages, &[1.0, 4.0, 1.0], h / 6.0);
+        RegimeTimes::add_rule(&mut s.regime_time, stages, [1.0, 4.0, 1.0], h / 6.0);
         w.recycle(em);
         Ok(Step {
             t1,
@@ -345,7 +345,7 @@ impl Simulation {
             *a += h / 6.0 * (e1.rates[k] + 2.0 * e2.rates[k] + 2.0 * e3.rates[k] + e4.rates[k]);
         }
         let stages: [&[u8]; 4] = [&e1.regimes, &e2.regimes, &e3.regimes, &e4.regimes];
-        RegimeTimes::add_rule(&mut s.regime_time, &stages, &[1.0, 2.0, 2.0, 1.0], h / 6.0);
+        RegimeTimes::add_rule(&mut s.regime_time, stages, [1.0, 2.0, 2.0, 1.0], h / 6.0);
         // The state at the step end, for output, commit and the next step's first stage.
         let end = self.step_eval(t + h, h, (th1, w1, z1), &e4.totals, w)?;
         s.settle_from(&end);

@@ -316,13 +316,14 @@ fn rate_layout_tiles_the_rate_vector() {
 
 #[test]
 fn regime_times_are_the_rules_applied_to_the_indicators() {
-    // Three laws over a Simpson step whose stages are in different regimes: the sparse times
-    // must equal the rule applied to each law's four 0/1 indicators, bit for bit.
-    let stages: [&[u8]; 3] = [&[0, 1, 3], &[2, 1, 3], &[2, 3, 1]];
+    // Four laws over a Simpson step, three with stages in different regimes, one in a single
+    // regime: the sparse times must equal the rule applied to each law's four 0/1 indicators,
+    // bit for bit.
+    let stages: [&[u8]; 3] = [&[0, 1, 3, 2], &[2, 1, 3, 2], &[2, 3, 1, 2]];
     let (h, weights) = (0.37e-3, [1.0, 4.0, 1.0]);
-    let mut times = vec![0.25; RegimeTimes { n: 3 }.len()];
-    RegimeTimes::add_rule(&mut times, &stages, &weights, h / 6.0);
-    for k in 0..3 {
+    let mut times = vec![0.25; RegimeTimes { n: 4 }.len()];
+    RegimeTimes::add_rule(&mut times, stages, weights, h / 6.0);
+    for k in 0..4 {
         for r in 0..RegimeTimes::REGIMES {
             let x = |j: usize| if stages[j][k] as usize == r { 1.0 } else { 0.0 };
             let dense = 0.25 + h / 6.0 * (x(0) + 4.0 * x(1) + x(2));
@@ -330,11 +331,11 @@ fn regime_times_are_the_rules_applied_to_the_indicators() {
         }
     }
     // Stage by stage (the error-controlled step's weights, one of them negative).
-    let mut times = vec![0.0; RegimeTimes { n: 3 }.len()];
+    let mut times = vec![0.0; RegimeTimes { n: 4 }.len()];
     for (codes, b) in stages.iter().zip([0.1, -0.02, 0.3]) {
         RegimeTimes::add(&mut times, codes, b);
     }
-    for k in 0..3 {
+    for k in 0..4 {
         for r in 0..RegimeTimes::REGIMES {
             let mut dense = 0.0;
             for (codes, b) in stages.iter().zip([0.1, -0.02, 0.3]) {

@@ -143,11 +143,28 @@ fn rot(phi: f64) -> (f64, f64) {
     (phi.cos(), phi.sin())
 }
 
-/// `A(phi) s` and `B(phi) s = dA/dphi s` for a local vector `s`.
-fn a_s(phi: f64, s: Vector2<f64>) -> (Vector2<f64>, Vector2<f64>) {
-    let (c, sn) = rot(phi);
+/// `A(phi) s` and `B(phi) s = dA/dphi s` for a local vector `s`, the rotation given as
+/// `(cos phi, sin phi)`.
+fn a_s((c, sn): (f64, f64), s: Vector2<f64>) -> (Vector2<f64>, Vector2<f64>) {
     let a = Vector2::new(c * s.x - sn * s.y, sn * s.x + c * s.y);
     (a, Vector2::new(-a.y, a.x))
+}
+
+/// The crank's and the rod's rotations `(cos, sin)` in one configuration.
+#[derive(Debug, Clone, Copy)]
+struct Rotations {
+    crank: (f64, f64),
+    rod: (f64, f64),
+}
+
+impl Rotations {
+    /// The cosines and sines of the angles in the positions `q` (the general route).
+    fn of(q: &Q) -> Self {
+        Self {
+            crank: rot(q[2]),
+            rod: rot(q[5]),
+        }
+    }
 }
 
 /// The rig as a constrained multibody system: local attachment points and mass matrix.
@@ -213,18 +230,31 @@ impl Mechanism {
 
     /// Exact positions for crank angle `theta` (closed form of the slider-crank).
     pub fn positions(&self, theta: f64) -> Q {
+        self.pose(theta).0
+    }
+
+    /// [`Mechanism::positions`] with the crank's and the rod's rotations. The rod's cosine and
+    /// sine are the closed form's own numbers, the components of its unit vector
+    /// (`sin psi = -r sin(theta) / l`, `cos psi = sqrt(l^2 - r^2 sin^2(theta)) / l`), not a
+    /// second `sin_cos` of the angle `atan2` makes of them (which the laws are handed).
+    fn pose(&self, theta: f64) -> (Q, Rotations) {
         let r = self.geo.crank_radius_m;
         let l = self.geo.rod_length_m;
-        let (a_axis, _) = a_s(theta, self.crank_axis_local);
+        let (sin, cos) = theta.sin_cos();
+        let (a_axis, _) = a_s((cos, sin), self.crank_axis_local);
         let crank_com = -a_axis;
-        let pin = Vector2::new(-r * theta.sin(), r * theta.cos());
-        let y_piston = r * theta.cos() + (l * l - (r * theta.sin()).powi(2)).sqrt();
+        let pin = Vector2::new(-r * sin, r * cos);
+        let y_piston = r * cos + (l * l - (r * sin).powi(2)).sqrt();
         let small = Vector2::new(0.0, y_piston);
         let u = (small - pin) / l;
         // Rod angle: local +y maps onto u, so u = (-sin psi, cos psi).
         let psi = (-u.x).atan2(u.y);
         let rod_com = pin + u * self.geo.rod_com_from_big_end_m;
-        Q::from_column_slice(&[
+        let rotations = Rotations {
+            crank: (cos, sin),
+            rod: (u.y, -u.x),
+        };
+        let q = Q::from_column_slice(&[
             crank_com.x,
             crank_com.y,
             theta,
@@ -234,13 +264,14 @@ impl Mechanism {
             0.0,
             y_piston,
             0.0,
-        ])
+        ]);
+        (q, rotations)
     }
 
     /// Constraint Jacobian `Phi_q` (depends on positions only).
     fn jacobian_matrix(&self, q: &Q) -> Jac {
         let mut j = Jac::zeros();
-        let (pc, pr) = (q[2], q[5]);
+        let Rotations { crank: pc, rod: pr } = Rotations::of(q);
         // Main bearing: r_c + A_c s_axis = 0.
         let (_, b) = a_s(pc, self.crank_axis_local);
         j[(0, 0)] = 1.0;
@@ -274,10 +305,11 @@ impl Mechanism {
         j
     }
 
-    /// Acceleration right-hand side `gamma = -(Phi_q q')_q q'` without the driver's `theta''`.
-    fn gamma(&self, q: &Q, qd: &Q) -> SVector<f64, NC> {
+    /// Acceleration right-hand side `gamma = -(Phi_q q')_q q'` without the driver's `theta''`,
+    /// in the configuration with rotations `rotations`.
+    fn gamma(&self, rotations: &Rotations, qd: &Q) -> SVector<f64, NC> {
         let mut g = SVector::<f64, NC>::zeros();
-        let (pc, pr) = (q[2], q[5]);
+        let Rotations { crank: pc, rod: pr } = *rotations;
         let (wc, wr) = (qd[2], qd[5]);
         let (a, _) = a_s(pc, self.crank_axis_local);
         g[0] = a.x * wc * wc;
@@ -310,14 +342,14 @@ impl Mechanism {
         omega: f64,
         piston_force_n: f64,
     ) -> Kinematics {
-        let q = self.positions(theta);
-        let c = self.columns(&q);
+        let (q, rotations) = self.pose(theta);
+        let c = self.columns(&rotations);
         let mut e9 = Q::zeros();
         e9[8] = 1.0;
         // Velocities: Phi_q q' = (0, ..., omega).
         let qd = c.solve(&(e9 * omega));
         // Accelerations: Phi_q q'' = gamma(q, q') + alpha * e9.
-        let qdd0 = c.solve(&self.gamma(&q, &qd));
+        let qdd0 = c.solve(&self.gamma(&rotations, &qd));
         let qdd_alpha = c.solve(&e9);
         self.multipliers(q, qd, qdd0, qdd_alpha, piston_force_n, |rhs| {
             c.solve_transpose(rhs)
@@ -335,7 +367,7 @@ impl Mechanism {
         let mut e9 = Q::zeros();
         e9[8] = 1.0;
         let qd = solve(&(e9 * omega));
-        let qdd0 = solve(&self.gamma(&q, &qd));
+        let qdd0 = solve(&self.gamma(&Rotations::of(&q), &qd));
         let qdd_alpha = solve(&e9);
         self.multipliers(q, qd, qdd0, qdd_alpha, 0.0, |rhs| {
             lu_t.solve(rhs).unwrap_or_else(Q::zeros)
@@ -387,9 +419,10 @@ impl Mechanism {
         }
     }
 
-    /// The position-dependent entries of `Phi_q` (see `jacobian_matrix` for the layout).
-    fn columns(&self, q: &Q) -> Columns {
-        let (pc, pr) = (q[2], q[5]);
+    /// The position-dependent entries of `Phi_q` (see `jacobian_matrix` for the layout) in the
+    /// configuration with rotations `rotations`.
+    fn columns(&self, rotations: &Rotations) -> Columns {
+        let Rotations { crank: pc, rod: pr } = *rotations;
         Columns {
             b_axis: a_s(pc, self.crank_axis_local).1,
             b_pin: a_s(pc, self.crank_pin_local).1,

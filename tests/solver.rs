@@ -788,3 +788,126 @@ fn a_step_rejected_at_a_hold_end_is_retried_shorter_and_the_run_ends() {
     let rpm = j["plateaus"][0]["mean_speed_rpm"].as_f64().expect("speed");
     assert!((rpm - 3000.0).abs() < 0.02 * 3000.0, "{rpm}");
 }
+
+/// Every key of the `[solver]` table, read from its schema rather than listed here: a table
+/// with a key it does not know is refused with the list of the keys it expects, so a key added
+/// to `SolverSettings` is a key this list has. The keys a default serialises to are checked to
+/// be among them (so the parse of the message cannot silently find fewer).
+fn solver_keys() -> Vec<String> {
+    let message = match toml::from_str::<tribo::model::SolverSettings>("no_such_key = 1") {
+        Ok(_) => panic!("an unknown key in [solver] is refused"),
+        Err(e) => e.to_string(),
+    };
+    let expected = message
+        .split_once("expected one of")
+        .map(|(_, rest)| rest)
+        .unwrap_or_else(|| panic!("the refusal lists the keys: {message}"));
+    let keys: Vec<String> = expected
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_string)
+        .collect();
+    let default = toml::to_string(&tribo::model::SolverSettings::default()).expect("serialises");
+    let table: toml::Table = toml::from_str(&default).expect("TOML");
+    for k in table.keys() {
+        assert!(
+            keys.contains(k),
+            "{k} serialised but not listed in {keys:?}"
+        );
+    }
+    keys
+}
+
+/// A valid value for each `[solver]` key different from its default on both crank trains,
+/// chosen so that it acts on a short run (a tolerance far finer, a step or cap that binds, an
+/// iteration limit below what the laws need). A key without one here fails the test.
+fn probe_value(key: &str) -> Option<&'static str> {
+    Some(match key {
+        "step_deg" => "2.0",
+        "max_step_s" => "1e-4",
+        "friction_tol" => "1e-3",
+        "friction_max_iter" => "2",
+        "integrator" => "\"rk4\"",
+        "rel_tol" => "1e-10",
+        "max_step_deg" => "1.0",
+        "step_control" => "\"integral\"",
+        _ => return None,
+    })
+}
+
+/// What a rig gives with extra `--set`s: the steady run's, the prescribed run's and the PI
+/// run's result as JSON (law timing left out: it is measured, not computed), or the error of
+/// each, or the error refusing the rig.
+fn results_with(
+    rig: &str,
+    sets: &[String],
+    registry: &tribo::plugin_api::loader::LawRegistry,
+) -> Result<Vec<serde_json::Value>, String> {
+    let short = "cycle.segments=[{kind=\"ramp\", to_rpm=3000.0, duration_s=0.1}, {kind=\"hold\", duration_s=0.12}]";
+    let mut out = Vec::new();
+    for drive in ["prescribed", "pi"] {
+        let mut all = vec![
+            short.to_string(),
+            "oil.temperature_c=90.0".to_string(),
+            // A torque limit the PI drive stays below on the short cycle's ramp.
+            format!("drive={{kind=\"{drive}\", torque_limit_nm=400.0}}"),
+        ];
+        all.extend(sets.iter().cloned());
+        let mut rig = tribo::rig::load_rig(Path::new(rig), &all).map_err(|e| e.to_string())?;
+        tribo::lawset::LawSet::load("stribeck-duty")
+            .expect("bundled law set")
+            .apply(&mut rig);
+        let mut sim = tribo::rig::simulation(&rig, registry).map_err(|e| e.to_string())?;
+        let mut runs = vec![sim.run()];
+        if drive == "prescribed" {
+            runs.push(sim.run_steady());
+        }
+        for r in runs {
+            out.push(match r {
+                Ok(r) => {
+                    let mut v = serde_json::to_value(&r).expect("serialises");
+                    v.as_object_mut().map(|o| o.remove("law_time"));
+                    v
+                }
+                Err(e) => serde_json::json!({ "error": e.to_string() }),
+            });
+        }
+    }
+    Ok(out)
+}
+
+#[test]
+fn every_solver_key_a_rig_gives_is_used_or_refused_on_both_crank_trains() {
+    // Issue 28: settings a rig gives are used or refused, never ignored. For each key of
+    // [solver] (from its schema) a different valid value either changes a result of the
+    // single-cylinder rig and of the inline-4 (steady, prescribed or PI run, with the
+    // stribeck-duty law set on a short cycle: step counts, torques or an error) or is refused
+    // with an error naming the key.
+    ensure_plugins_built();
+    let registry = load_paths(&[profile_dir()]).expect("plugins load");
+    let keys = solver_keys();
+    assert!(keys.len() >= 8, "{keys:?}");
+    for rig in ["crf250r-motored", "inline4-4b11"] {
+        let base = results_with(rig, &[], &registry).expect("the rig as bundled runs");
+        assert!(
+            base.iter().all(|r| r.get("error").is_none()),
+            "{rig}: {base:?}"
+        );
+        for key in &keys {
+            let value =
+                probe_value(key).unwrap_or_else(|| panic!("no probe value for solver.{key}"));
+            let set = vec![format!("solver.{key}={value}")];
+            match results_with(rig, &set, &registry) {
+                Ok(got) => assert!(
+                    got != base,
+                    "{rig}: solver.{key} = {value} changes no result: the key is ignored"
+                ),
+                Err(refused) => assert!(
+                    refused.contains(&format!("solver.{key}")),
+                    "{rig}: solver.{key} = {value} refused without naming the key: {refused}"
+                ),
+            }
+        }
+    }
+}

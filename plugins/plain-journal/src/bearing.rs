@@ -46,6 +46,18 @@ pub struct Motion {
     pub peak_pressure_pa: f64,
 }
 
+/// The viscosity-free part of the journal's motion at one eccentricity and load
+/// ([`Bearing::squeeze_at`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Squeeze {
+    /// The load's magnitude, N.
+    load_n: f64,
+    /// The tables' answer at the eccentricity and the load's direction.
+    mobility: table::Mobility,
+    /// Direction of the squeeze velocity, rad, global frame.
+    direction: f64,
+}
+
 /// Largest eccentricity ratio the law lets the journal reach: the tables' edge. Beyond it the
 /// film is thinner than 0.5% of the clearance, where asperity contact (not modelled here)
 /// carries the load; the law reports the boundary regime there.
@@ -73,30 +85,60 @@ impl Bearing {
 
     /// The journal's eccentricity rate under `force` at `eps` (Booker's mobility method).
     pub fn motion(&self, eps: [f64; 2], force: [f64; 2], omega_bar: f64, mu: f64) -> Motion {
-        let e = eps[0].hypot(eps[1]).min(EPS_CAP);
+        let squeeze = self.squeeze_at(eps, force);
+        self.motion_with(squeeze.as_ref(), eps, omega_bar, mu)
+    }
+
+    /// The part of [`Bearing::motion`] that does not depend on the viscosity (`None` when the
+    /// film carries no load), for a caller that needs the motion at several viscosities.
+    pub fn squeeze_at(&self, eps: [f64; 2], force: [f64; 2]) -> Option<Squeeze> {
         let w = force[0].hypot(force[1]);
-        let whirl = [-omega_bar * eps[1], omega_bar * eps[0]];
-        if w <= 0.0 || mu <= 0.0 {
-            return Motion {
-                eps_rate: whirl,
-                squeeze: [0.0, 0.0],
-                peak_pressure_pa: 0.0,
-            };
+        if w <= 0.0 {
+            return None;
         }
+        let e = eps[0].hypot(eps[1]).min(EPS_CAP);
         // The eccentricity's direction (any at the centre, where the film is axisymmetric).
         let theta_e = if e > 0.0 { eps[1].atan2(eps[0]) } else { 0.0 };
         // The load the journal carries points against the film force.
         let theta_w = (-force[1]).atan2(-force[0]);
         let m = self.mobility(e, theta_w - theta_e);
-        let speed = w / (self.force_scale(mu) * m.g);
-        let dir = theta_e + m.gamma;
-        let v = [speed * dir.cos(), speed * dir.sin()];
+        Some(Squeeze {
+            load_n: w,
+            mobility: m,
+            direction: theta_e + m.gamma,
+        })
+    }
+
+    /// [`Bearing::motion`] from its viscosity-free part `squeeze` ([`Bearing::squeeze_at`] at
+    /// the same `eps` and force).
+    pub fn motion_with(
+        &self,
+        squeeze: Option<&Squeeze>,
+        eps: [f64; 2],
+        omega_bar: f64,
+        mu: f64,
+    ) -> Motion {
+        let whirl = [-omega_bar * eps[1], omega_bar * eps[0]];
+        // As before the split: no load or a viscosity `<= 0` leaves the whirl (a NaN
+        // viscosity goes on and reports itself as NaN).
+        let sq = match squeeze {
+            Some(sq) if mu.is_nan() || mu > 0.0 => sq,
+            _ => {
+                return Motion {
+                    eps_rate: whirl,
+                    squeeze: [0.0, 0.0],
+                    peak_pressure_pa: 0.0,
+                }
+            }
+        };
+        let speed = sq.load_n / (self.force_scale(mu) * sq.mobility.g);
+        let v = [speed * sq.direction.cos(), speed * sq.direction.sin()];
         Motion {
             eps_rate: [v[0] + whirl[0], v[1] + whirl[1]],
             squeeze: v,
             peak_pressure_pa: 12.0 * mu * self.radius_m.powi(2) * speed
                 / (self.clearance_m * self.clearance_m)
-                * m.peak,
+                * sq.mobility.peak,
         }
     }
 

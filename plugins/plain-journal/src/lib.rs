@@ -18,7 +18,7 @@ use tribo_plugin_api::{
     SUITS_PLAIN,
 };
 
-use bearing::{relative_torque, Bearing, Model, EPS_CAP};
+use bearing::{relative_torque, Bearing, Model, Squeeze, EPS_CAP};
 use thermal::{FilmTemperature, Oil};
 
 /// Parameters of [`PlainJournal`].
@@ -99,6 +99,9 @@ struct Film {
     mu: f64,
     /// The heat balance's answer (`thermal = "effective"`).
     temperature: Option<FilmTemperature>,
+    /// The viscosity-free part of the journal's motion at `eps`, where the heat balance has
+    /// computed it (the committed eccentricity of an effective film), for the peak pressure.
+    squeeze: Option<Squeeze>,
 }
 
 impl PlainJournal {
@@ -135,12 +138,19 @@ impl PlainJournal {
                 quasi_static(&bearing, force, omega_bar, mu)
             }
         };
+        let committed = placed.then(|| [state[0], state[1]]);
+        // The heat balance at the committed eccentricity needs the motion at the feed
+        // viscosity, the peak pressure at the film's: the mobility tables are read once.
+        let squeeze = match (self.thermal, committed) {
+            (Some(_), Some(eps)) => bearing.squeeze_at(eps, force),
+            _ => None,
+        };
         let temperature = self.thermal.map(|oil| {
             effective_film(
                 &oil,
                 &bearing,
                 input,
-                placed.then(|| [state[0], state[1]]),
+                committed.map(|eps| (eps, squeeze.as_ref())),
                 force,
                 omega_bar,
             )
@@ -154,6 +164,7 @@ impl PlainJournal {
             outer_angle,
             mu,
             temperature,
+            squeeze,
         }
     }
 
@@ -192,8 +203,8 @@ fn load_on_inner(input: &LawInput) -> [f64; 2] {
     f
 }
 
-/// The heat balance of a film at eccentricity `eps` (the quasi-static one of each viscosity
-/// when `None`): the heat source is the power the law books on the joint's relative rotation,
+/// The heat balance of a film at eccentricity `eps` with the viscosity-free part of its motion
+/// (the quasi-static eccentricity of each viscosity when `None`): the heat source is the power the law books on the joint's relative rotation,
 /// `-T w` (Couette shear proportional to the viscosity, the load's offset moment independent
 /// of it); the heat-carrying flow is Raimondi and Boyd's `Q - Q_s / 2` (inlet flow less half the
 /// side leakage, which leaves at the mean temperature) of the rotating film, `|omega_bar| R c L`
@@ -203,7 +214,7 @@ fn effective_film(
     oil: &Oil,
     b: &Bearing,
     input: &LawInput,
-    eps: Option<[f64; 2]>,
+    eps: Option<([f64; 2], Option<&Squeeze>)>,
     force: [f64; 2],
     omega_bar: f64,
 ) -> FilmTemperature {
@@ -219,13 +230,13 @@ fn effective_film(
     let rcl = b.radius_m * b.clearance_m * b.length_m;
     let q_rot = omega_bar.abs() * rcl;
     match eps {
-        Some(eps) => {
+        Some((eps, squeeze)) => {
             // At a fixed eccentricity the Couette power scales with mu and the squeeze speed
             // with 1 / mu: one evaluation at the feed viscosity gives the balance in closed form.
             let power = -relative_torque(b, eps, force, w, omega_bar, mu_feed) * w;
             let couette = b.couette(eps[0].hypot(eps[1]), mu_feed) * w * w;
             let offset = power - couette;
-            let m = b.motion(eps, force, omega_bar, mu_feed).squeeze;
+            let m = b.motion_with(squeeze, eps, omega_bar, mu_feed).squeeze;
             let q_squeeze = m[0].hypot(m[1]) * rcl;
             thermal::solve(oil, input.oil_temp_c, mu_feed, |mu| {
                 let r = mu / mu_feed;
@@ -392,10 +403,11 @@ impl Law for PlainJournal {
         );
         let e = f.eps[0].hypot(f.eps[1]).min(EPS_CAP);
         let h_min = self.clearance_m * (1.0 - e);
-        let peak = f
-            .bearing
-            .motion(f.eps, f.force, f.omega_bar, f.mu)
-            .peak_pressure_pa;
+        let motion = match f.squeeze {
+            Some(sq) => f.bearing.motion_with(Some(&sq), f.eps, f.omega_bar, f.mu),
+            None => f.bearing.motion(f.eps, f.force, f.omega_bar, f.mu),
+        };
+        let peak = motion.peak_pressure_pa;
         // The eccentricity in the outer member's frame.
         let (s, c) = (-f.outer_angle).sin_cos();
         let scale = if f.eps[0].hypot(f.eps[1]) > EPS_CAP {

@@ -825,7 +825,10 @@ pub enum Temperature {
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
 pub enum Drive {
     /// The crank follows the reference speed exactly; the motoring torque is the constraint torque.
-    Prescribed,
+    /// Written with braces (no fields) so that a PI setting given with it (`kp`,
+    /// `torque_limit_nm`, ...) is refused as an unknown field, not silently dropped (serde ignores
+    /// extra keys on a unit variant of an internally tagged enum).
+    Prescribed {},
     /// A PI speed controller applies a limited torque through an optional belt.
     Pi {
         /// Proportional gain, N m per rad/s of crank-speed error.
@@ -856,7 +859,7 @@ impl Drive {
                 motor_inertia_kg_m2,
                 ..
             } => motor_inertia_kg_m2 * belt_ratio * belt_ratio,
-            Drive::Prescribed => 0.0,
+            Drive::Prescribed {} => 0.0,
         }
     }
 }

@@ -300,7 +300,7 @@ impl Simulation {
         w: &mut Work,
     ) -> Result<Eval, SimError> {
         let at = match self.drive {
-            Drive::Prescribed => self.prescribed_point(t, dt, self.reference(t)),
+            Drive::Prescribed {} => self.prescribed_point(t, dt, self.reference(t)),
             Drive::Pi { .. } => self.driven_point(t, dt, y).0,
         };
         let mut e = w.eval();
@@ -383,6 +383,6 @@ pub(super) fn pi_drive(drive: &Drive, reference: f64, omega: f64, z: f64) -> (f6
             };
             (motor * belt_ratio, dz, margin)
         }
-        Drive::Prescribed => (0.0, 0.0, f64::INFINITY),
+        Drive::Prescribed {} => (0.0, 0.0, f64::INFINITY),
     }
 }

@@ -230,7 +230,7 @@ impl Run {
             "Pa",
         )?;
         if inputs.drive_torque_nm.is_some() {
-            if matches!(self.sim.drive, Drive::Prescribed) {
+            if matches!(self.sim.drive, Drive::Prescribed {}) {
                 return Err(bad("drive_torque_nm", "a prescribed crank follows its speed: a drive torque needs the PI drive (drive = {kind = \"pi\"}); set crank_speed_rad_s instead".into()));
             }
             if inputs.crank_speed_rad_s.is_some() {

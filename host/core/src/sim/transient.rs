@@ -70,7 +70,7 @@ impl Simulation {
     /// Which step method a transient run uses.
     fn method(&self, first: Eval, w: &mut Work) -> Method {
         match self.drive {
-            Drive::Prescribed => {
+            Drive::Prescribed {} => {
                 w.recycle(first);
                 Method::Quadrature(Quadrature)
             }
@@ -261,7 +261,7 @@ impl Simulation {
         Ok(RunResult {
             rig: self.rig_name.clone(),
             drive: match self.drive {
-                Drive::Prescribed => DriveKind::Prescribed,
+                Drive::Prescribed {} => DriveKind::Prescribed,
                 Drive::Pi { .. } => DriveKind::Pi,
             },
             plateaus: results,
@@ -302,7 +302,7 @@ impl Simulation {
         let spec = self.window_spec();
         let duration = self.cycle.duration();
         let mut breaks: Vec<f64> = self.cycle.breakpoints();
-        if matches!(self.drive, Drive::Prescribed) {
+        if matches!(self.drive, Drive::Prescribed {}) {
             for p in self.cycle.plateaus() {
                 let revs = spec.window_revs(p.omega);
                 breaks.push(p.t_end - revs as f64 * TAU / p.omega);

@@ -654,7 +654,7 @@ pub fn geometry(f: &crate::model::RigFile) -> Option<EngineGeometry> {
         crank_inertia_kg_m2: c.inertia_kg_m2 * c.inertia_scale,
         drive_inertia_kg_m2: f.drive.reflected_inertia_kg_m2(),
         gravity_m_s2: if f.geometry.gravity {
-            crate::sim::GRAVITY_M_S2
+            crate::model::GRAVITY_M_S2
         } else {
             0.0
         },

@@ -355,6 +355,11 @@ pub fn expand_joint(pattern: &str, rig: &RigFile) -> Vec<String> {
 /// Standard atmospheric pressure, Pa.
 pub const ATMOSPHERE_PA: f64 = 101_325.0;
 
+/// Standard gravity, m/s^2: the acceleration a rig's bodies feel when its `gravity` is on. Here
+/// with the model rather than the solver so the crank-train models read it without importing
+/// the solver that uses them.
+pub const GRAVITY_M_S2: f64 = 9.80665;
+
 fn atmosphere() -> f64 {
     ATMOSPHERE_PA
 }

@@ -67,8 +67,8 @@ use crank::{Crank, Role};
 use newton::Distance;
 use rates::{RateLayout, RegimeTimes};
 
-/// Standard gravity, m/s^2.
-pub const GRAVITY_M_S2: f64 = 9.80665;
+/// Standard gravity, m/s^2 (defined with the rig model; kept here for callers of the solver).
+pub use crate::model::GRAVITY_M_S2;
 
 /// What a commit hands a stateful law.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

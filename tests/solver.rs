@@ -789,25 +789,31 @@ fn a_step_rejected_at_a_hold_end_is_retried_shorter_and_the_run_ends() {
     assert!((rpm - 3000.0).abs() < 0.02 * 3000.0, "{rpm}");
 }
 
+/// The keys a table of type `T` takes, read from its schema: `text`, a table with the key
+/// `no_such_key` (and the `kind` of a tagged table), is refused with the keys it expects.
+fn schema_keys<T: tribo::plugin_api::serde::de::DeserializeOwned>(text: &str) -> Vec<String> {
+    let message = match toml::from_str::<T>(text) {
+        Ok(_) => panic!("an unknown key is refused: {text}"),
+        Err(e) => e.to_string(),
+    };
+    let expected = message
+        .split_once("unknown field `no_such_key`, expected")
+        .map(|(_, rest)| rest)
+        .unwrap_or_else(|| panic!("the refusal lists the keys: {message}"));
+    expected
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_string)
+        .collect()
+}
+
 /// Every key of the `[solver]` table, read from its schema rather than listed here: a table
 /// with a key it does not know is refused with the list of the keys it expects, so a key added
 /// to `SolverSettings` is a key this list has. The keys a default serialises to are checked to
 /// be among them (so the parse of the message cannot silently find fewer).
 fn solver_keys() -> Vec<String> {
-    let message = match toml::from_str::<tribo::model::SolverSettings>("no_such_key = 1") {
-        Ok(_) => panic!("an unknown key in [solver] is refused"),
-        Err(e) => e.to_string(),
-    };
-    let expected = message
-        .split_once("expected one of")
-        .map(|(_, rest)| rest)
-        .unwrap_or_else(|| panic!("the refusal lists the keys: {message}"));
-    let keys: Vec<String> = expected
-        .split('`')
-        .skip(1)
-        .step_by(2)
-        .map(str::to_string)
-        .collect();
+    let keys = schema_keys::<tribo::model::SolverSettings>("no_such_key = 1");
     let default = toml::to_string(&tribo::model::SolverSettings::default()).expect("serialises");
     let table: toml::Table = toml::from_str(&default).expect("TOML");
     for k in table.keys() {
@@ -844,9 +850,20 @@ fn results_with(
     sets: &[String],
     registry: &tribo::plugin_api::loader::LawRegistry,
 ) -> Result<Vec<serde_json::Value>, String> {
+    results_of(rig, &["prescribed", "pi"], sets, registry)
+}
+
+/// [`results_with`] with the drives `drives` only: `prescribed` (its run and the steady run),
+/// `steady` (the steady run only) or `pi`.
+fn results_of(
+    rig: &str,
+    drives: &[&str],
+    sets: &[String],
+    registry: &tribo::plugin_api::loader::LawRegistry,
+) -> Result<Vec<serde_json::Value>, String> {
     let short = "cycle.segments=[{kind=\"ramp\", to_rpm=3000.0, duration_s=0.1}, {kind=\"hold\", duration_s=0.12}]";
     let mut out = Vec::new();
-    for drive in ["prescribed", "pi"] {
+    for &drive in drives {
         let mut all = vec![
             short.to_string(),
             "oil.temperature_c=90.0".to_string(),
@@ -862,8 +879,11 @@ fn results_with(
             .expect("bundled law set")
             .apply(&mut rig);
         let mut sim = tribo::rig::simulation(&rig, registry).map_err(|e| e.to_string())?;
-        let mut runs = vec![sim.run()];
-        if drive == "prescribed" {
+        let mut runs = Vec::new();
+        if drive != "steady" {
+            runs.push(sim.run());
+        }
+        if drive != "pi" {
             runs.push(sim.run_steady());
         }
         for r in runs {
@@ -927,5 +947,139 @@ fn a_pi_setting_given_with_the_prescribed_drive_is_refused_naming_it() {
         // (The message names the field, `kp`, but not yet its table: `drive.kp` would be
         // clearer.)
         assert!(text.contains(&format!("`{key}`")), "{text}");
+    }
+}
+
+/// A valid value for each key of `[gas]`, its cylinder and crankcase models and the PI drive,
+/// different from what the rigs below give: each acts on the short cycle (another pressure,
+/// phase, volume, exponent, breather, gain or limit). A key without one here fails the test.
+fn gas_or_drive_probe(key: &str) -> Option<&'static str> {
+    Some(match key {
+        "gas.ambient_pa"
+        | "gas.cylinder.intake_pressure_pa"
+        | "gas.crankcase.pressure_at_tdc_pa" => "90000.0",
+        "gas.cycle_angle_at_zero_deg" => "360.0",
+        "gas.cylinder" => "{kind=\"motored\", compression_ratio=8.0, valves=\"four-stroke\"}",
+        "gas.crankcase" => "{kind=\"sealed\", volume_at_tdc_m3=0.01}",
+        "gas.cylinder.compression_ratio" => "8.0",
+        "gas.cylinder.polytropic_exponent" | "gas.crankcase.polytropic_exponent" => "1.1",
+        "gas.cylinder.valves" => "\"closed\"",
+        "gas.cylinder.crank_angle_deg" => "[0.0, 360.0]",
+        "gas.cylinder.pressure_pa" => "[1e5, 3e6]",
+        "gas.crankcase.volume_at_tdc_m3" => "0.02",
+        "gas.crankcase.breather_diameter_m" => "0.004",
+        "gas.crankcase.breather_area_m2" => "1e-5",
+        "gas.crankcase.discharge_coefficient" => "0.3",
+        "gas.crankcase.temperature_c" => "20.0",
+        "drive.kp" => "0.05",
+        "drive.ki" => "1.0",
+        "drive.torque_limit_nm" => "3.0",
+        "drive.belt_ratio" => "2.0",
+        "drive.motor_inertia_kg_m2" => "0.002",
+        _ => return None,
+    })
+}
+
+#[test]
+fn every_gas_crankcase_and_drive_key_a_rig_gives_is_used_or_refused_on_both_crank_trains() {
+    // Issue 28: settings a rig gives are used or refused, never ignored. Each key of [gas], of
+    // each cylinder and crankcase model and of the PI drive (from their schemas), set to
+    // another valid value on a single-cylinder rig with that model and on the inline-4 with
+    // it, either changes a result (the steady run for the gas, the PI run on the short cycle
+    // for the drive) or is refused with an error naming the key. (The cylinder trace's
+    // `source` is provenance text, not a setting.)
+    ensure_plugins_built();
+    let registry = load_paths(&[profile_dir()]).expect("plugins load");
+    use tribo::model::{CrankcasePressure, CylinderPressure, Drive, GasSpec};
+    let keys = |prefix: &str, keys: Vec<String>| -> Vec<String> {
+        keys.iter().map(|k| format!("{prefix}.{k}")).collect()
+    };
+    let tagged = |kind: &str| format!("kind = \"{kind}\"\nno_such_key = 1");
+    let gas = keys("gas", schema_keys::<GasSpec>("no_such_key = 1"));
+    let motored = keys(
+        "gas.cylinder",
+        schema_keys::<CylinderPressure>(&tagged("motored")),
+    );
+    let trace = keys(
+        "gas.cylinder",
+        schema_keys::<CylinderPressure>(&tagged("trace")),
+    );
+    let sealed = keys(
+        "gas.crankcase",
+        schema_keys::<CrankcasePressure>(&tagged("sealed")),
+    );
+    let vented = keys(
+        "gas.crankcase",
+        schema_keys::<CrankcasePressure>(&tagged("vented")),
+    );
+    let pi = keys("drive", schema_keys::<Drive>(&tagged("pi")));
+    assert!(gas.len() >= 4 && motored.len() >= 4 && vented.len() >= 6 && pi.len() >= 5);
+    // Another trace for the fired rig's `file`: its own pressures halved above the ambient.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let own = std::fs::read_to_string(workspace().join("rigs/data/crf250r-fired-synthetic.csv"))
+        .expect("trace exists");
+    let halved: String = own
+        .lines()
+        .filter_map(|l| {
+            let (a, p) = l.split_once(',')?;
+            let p: f64 = p.trim().parse().ok()?;
+            Some(format!("{a},{}\n", 101325.0 + 0.5 * (p - 101325.0)))
+        })
+        .collect();
+    let other = dir.path().join("halved.csv");
+    std::fs::write(&other, halved).expect("written");
+    let other_file = format!("gas.cylinder.file={:?}", other.display().to_string());
+    let motored_4b11 =
+        "gas.cylinder={kind=\"motored\", compression_ratio=10.0, valves=\"four-stroke\"}";
+    let sealed_set = "gas.crankcase={kind=\"sealed\", volume_at_tdc_m3=0.01}";
+    // The gas models act on the steady plateaus; the drive's keys on the PI run.
+    let both: &[&str] = &["steady"];
+    // (rig, sets that give it the model, drives, keys)
+    type Case<'a> = (&'a str, &'a [&'a str], &'a [&'a str], &'a [String]);
+    let cases: [Case; 10] = [
+        ("crf250r-compression", &[], both, &gas),
+        ("crf250r-compression", &[], both, &motored),
+        ("crf250r-fired", &[], both, &trace),
+        ("crf250r-compression", &[sealed_set], both, &sealed),
+        ("crf250r-vented", &[], both, &vented),
+        ("crf250r-compression", &[], &["pi"], &pi),
+        ("inline4-4b11-vented", &[motored_4b11], both, &gas),
+        ("inline4-4b11", &[motored_4b11, sealed_set], both, &sealed),
+        ("inline4-4b11-vented", &[], both, &vented),
+        ("inline4-4b11", &[], &["pi"], &pi),
+    ];
+    for (rig, given, drives, keys) in cases {
+        let given: Vec<String> = given.iter().map(|s| s.to_string()).collect();
+        let base = results_of(rig, drives, &given, &registry).expect("the rig runs");
+        assert!(
+            base.iter().all(|r| r.get("error").is_none()),
+            "{rig}: {base:?}"
+        );
+        for key in keys {
+            if key == "gas.cylinder.source" {
+                // Provenance for the reader (where the trace comes from), like a rig's
+                // `description`: text, not a setting of the model.
+                continue;
+            }
+            let set = match key.as_str() {
+                "gas.cylinder.file" => other_file.clone(),
+                _ => {
+                    let value = gas_or_drive_probe(key)
+                        .unwrap_or_else(|| panic!("no probe value for {key}"));
+                    format!("{key}={value}")
+                }
+            };
+            let sets: Vec<String> = given.iter().cloned().chain([set.clone()]).collect();
+            match results_of(rig, drives, &sets, &registry) {
+                Ok(got) => assert!(
+                    got != base,
+                    "{rig}: {set} changes no result: {key} is ignored"
+                ),
+                Err(refused) => assert!(
+                    refused.contains(key.as_str()),
+                    "{rig}: {set} refused without naming {key}: {refused}"
+                ),
+            }
+        }
     }
 }

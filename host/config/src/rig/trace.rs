@@ -8,7 +8,8 @@ use crate::files::read_text;
 /// Fill a cylinder-pressure `trace` given by `file` from that CSV: next to the rig file (or
 /// any file of its `extends` chain, child first), else a bundled data file. A row is
 /// `crank_angle_deg,pressure_pa`; a first row that is not numbers is a header; `#` starts a
-/// comment. A bad row is an error at the CSV's line and column.
+/// comment. A bad row is an error at the CSV's line and column; columns given beside `file`
+/// that differ from the file's are refused (they would be overwritten unread).
 pub(super) fn read_trace_file(rig: &mut Rig) -> Result<(), RigError> {
     let name = match &rig.file.gas.cylinder {
         CylinderPressure::Trace {
@@ -48,6 +49,26 @@ pub(super) fn read_trace_file(rig: &mut Rig) -> Result<(), RigError> {
     let (angles, pressures) = parse_trace(&text).map_err(|(line, col, msg)| {
         rig.error(field, format!("{}:{line}:{col}: {msg}", path.display()))
     })?;
+    if let CylinderPressure::Trace {
+        crank_angle_deg,
+        pressure_pa,
+        ..
+    } = &rig.file.gas.cylinder
+    {
+        for (column, given, read) in [
+            ("crank_angle_deg", crank_angle_deg, &angles),
+            ("pressure_pa", pressure_pa, &pressures),
+        ] {
+            // A column given beside `file` would be overwritten unread; one equal to the file's
+            // (a loaded rig written back out, as an FMU's model) is the same trace.
+            if !given.is_empty() && given != read {
+                return Err(rig.error(
+                    &format!("gas.cylinder.{column}"),
+                    format!("the trace is read from `file` (`{name}`): give its columns there or here without `file`, not both"),
+                ));
+            }
+        }
+    }
     if let CylinderPressure::Trace {
         crank_angle_deg,
         pressure_pa,

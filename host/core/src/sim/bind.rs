@@ -13,10 +13,10 @@ use tribo_plugin_api::{
     HAS_COEFFICIENT, HAS_DERIVATIVE, HAS_LOAD_DERIVATIVE,
 };
 
-use super::crank::Role;
 use super::error::{readable, Fault, SimError, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 use super::joints::joint_specs;
 use super::results::LawTime;
+use super::types::{Bodies, Role};
 use crate::model::RigFile;
 
 /// One law call in this many is timed; the total is scaled up. Keeps timing off the hot path:
@@ -196,23 +196,6 @@ pub(super) struct Contact {
     pub(super) length_m: f64,
     pub(super) bearing: BearingType,
     pub(super) inner: InnerBody,
-}
-
-/// A joint's two bodies at one instant: body A's and body B's (angle, velocity) (rad, rad/s;
-/// a slide's position along its axis, m, and velocity, m/s). The joint's relative velocity is
-/// A's velocity minus B's.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub(super) struct Bodies {
-    pub(super) a: (f64, f64),
-    pub(super) b: (f64, f64),
-}
-
-impl Bodies {
-    /// The relative velocity, body A's minus body B's: the one place it is computed.
-    #[inline(always)]
-    pub(super) fn relative(&self) -> f64 {
-        self.a.1 - self.b.1
-    }
 }
 
 /// What every law input of one instant shares: time, step, crank and oil.

@@ -7,63 +7,11 @@
 
 use nalgebra::Vector2;
 
-use super::bind::Bodies;
-use super::evaluate::Control;
+use super::types::{Bodies, Control, Role};
 use crate::engine::{CrankTrain, CylinderLoads, TrainKinematics, TrainLoads, TrainReactions};
 use crate::gas::{cycle_angle, GasModel, GasState, LawGas};
 use crate::mechanics::{JointLoads, Kinematics, Mechanism, Reactions};
 use tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
-
-/// What a joint is on the crank train: the law-bearing joints of any crank train.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Role {
-    /// Main bearing `i` (0-based, in axial order).
-    Main(usize),
-    /// Cylinder `k`'s big end (crank pin - rod).
-    BigEnd(usize),
-    /// Cylinder `k`'s small end (rod - piston pin).
-    SmallEnd(usize),
-    /// Cylinder `k`'s piston slide.
-    Piston(usize),
-}
-
-impl Role {
-    /// The joint's group, naming it in a model error and in law-set groups.
-    pub(crate) fn group(self) -> &'static str {
-        match self {
-            Role::Main(_) => "main_*",
-            Role::BigEnd(_) => "big_end_*",
-            Role::SmallEnd(_) => "small_end_*",
-            Role::Piston(_) => "piston_*",
-        }
-    }
-
-    /// The cylinder whose gas state the joint's laws see (the mains: cylinder 1's).
-    pub(crate) fn cylinder(self) -> usize {
-        match self {
-            Role::Main(_) => 0,
-            Role::BigEnd(k) | Role::SmallEnd(k) | Role::Piston(k) => k,
-        }
-    }
-
-    /// Which of the joint's bodies is the inner member: the crank's journal (A) in a main
-    /// bearing, the crank pin (B, the crank) in the big end, the piston pin (A, the piston) in
-    /// the small end, the piston (A) in the cylinder.
-    pub(crate) fn inner(self) -> tribo_plugin_api::InnerBody {
-        match self {
-            Role::BigEnd(_) => tribo_plugin_api::InnerBody::B,
-            _ => tribo_plugin_api::InnerBody::A,
-        }
-    }
-
-    /// Revolute for bearings and pins, prismatic for a piston slide: what a law is told.
-    pub(crate) fn kind(self) -> tribo_plugin_api::JointKind {
-        match self {
-            Role::Piston(_) => tribo_plugin_api::JointKind::Prismatic,
-            _ => tribo_plugin_api::JointKind::Revolute,
-        }
-    }
-}
 
 /// A crank model with its scratch.
 #[derive(Clone)]

@@ -8,23 +8,14 @@ use std::f64::consts::TAU;
 use tribo_plugin_api::loader::inflight;
 use tribo_plugin_api::LawInput;
 
-use super::bind::{set_load, Bodies, Instant, LawStates, Record};
+use super::bind::{set_load, Instant, LawStates, Record};
 use super::crank::Crank;
 use super::error::{SimError, Unsettled};
 use super::newton::{Trend, Verdict};
 use super::rates::RateLayout;
+use super::types::{Bodies, Control};
 use super::Simulation;
 use crate::gas::LawGas;
-
-/// How the crank is driven at an evaluation: its acceleration is known (prescribed crank,
-/// steady state), or a torque is applied and the acceleration follows from the dynamics.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum Control {
-    /// Crank acceleration, rad/s^2.
-    Acceleration(f64),
-    /// Drive torque on the crank, N m.
-    Torque(f64),
-}
 
 /// Where and how to evaluate the rig.
 #[derive(Debug, Clone, Copy)]

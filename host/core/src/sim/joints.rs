@@ -3,7 +3,7 @@
 //! one-cylinder engine with two mains (`main_a`, `main_b`) and its own joint names; an engine
 //! has `main_1 .. main_n`, then per cylinder `big_end_k`, `small_end_k`, `piston_k`.
 
-use super::crank::Role;
+use super::types::Role;
 use crate::model::{LawRef, RigFile};
 
 /// One joint as the rig describes it: name, role, contact radius and length (m), laws, and

@@ -15,7 +15,9 @@
 //! - `transient`: the run over the test cycle, a value advanced in time; `steady`: the steady
 //!   state; `crank_angle`: one cycle per plateau resolved in crank angle;
 //! - `plateau`: whole-revolution windows and plateau measurement; `energy`: the energy
-//!   balance; `results`: what a run returns.
+//!   balance; `results`: what a run returns;
+//! - `types`: the small value types the stages share (`Role`, `Bodies`, `Control`), in a leaf
+//!   module so the stages that share them need not import one another.
 //!
 //! The core does no I/O: per-step output (a time series, progress) goes to a
 //! [`StepObserver`].
@@ -38,6 +40,7 @@ mod stepping;
 #[cfg(test)]
 mod tests;
 mod transient;
+mod types;
 
 use std::f64::consts::PI;
 
@@ -63,9 +66,10 @@ pub use results::{
 pub use stepping::{Inputs, JointOutput, Outputs, Run, Snapshot};
 
 use bind::BoundJoint;
-use crank::{Crank, Role};
+use crank::Crank;
 use newton::Distance;
 use rates::{RateLayout, RegimeTimes};
+use types::Role;
 
 /// Standard gravity, m/s^2 (defined with the rig model; kept here for callers of the solver).
 pub use crate::model::GRAVITY_M_S2;
@@ -406,7 +410,7 @@ impl Simulation {
     #[inline]
     fn gas_speed(&self, at: &evaluate::Point) -> f64 {
         match at.control {
-            evaluate::Control::Torque(_)
+            types::Control::Torque(_)
                 if self.held.torque_nm.is_none()
                     && self.gas.iter().any(GasModel::depends_on_speed) =>
             {

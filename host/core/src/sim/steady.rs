@@ -3,10 +3,11 @@
 //! pressure) with the periodic trapezoid rule.
 
 use super::error::SimError;
-use super::evaluate::{Control, Point, Work};
+use super::evaluate::{Point, Work};
 use super::plateau::Measured;
 use super::rates::{RateLayout, RegimeTimes};
 use super::results::{DriveKind, EnergyBalance, RunResult};
+use super::types::Control;
 use super::Simulation;
 
 /// Cycles of the plateau's length (a revolution, two for a 4-stroke pressure) over which the

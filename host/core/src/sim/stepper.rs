@@ -3,8 +3,9 @@
 //! `adaptive.rs`; the PI drive's torque; what the run loop hands a stepper ([`Integration`]).
 
 use super::error::SimError;
-use super::evaluate::{Control, Eval, Point, Work};
+use super::evaluate::{Eval, Point, Work};
 use super::rates::RegimeTimes;
+use super::types::Control;
 use super::Simulation;
 use crate::model::Drive;
 

@@ -5,9 +5,10 @@ use std::f64::consts::{PI, TAU};
 use tribo_plugin_api::loader::LawRegistry;
 use tribo_plugin_api::{JointKind, LawInput, LawOutput};
 
-use super::evaluate::{crank_angle, Control, Eval, Point, Work};
+use super::evaluate::{crank_angle, Eval, Point, Work};
 use super::newton::plain_iteration_stalls;
 use super::rates::{RateLayout, RegimeTimes};
+use super::types::Control;
 use super::Simulation;
 use crate::mechanics::JointLoads;
 use crate::model::RigFile;

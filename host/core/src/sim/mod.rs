@@ -5,9 +5,10 @@
 //!   laws, law calls with sampled timing, output checks, commits of stateful laws;
 //! - `crank`: the crank model behind one type (the single-cylinder rig's `Mechanism`, an
 //!   engine's `CrankTrain`): kinematics once per evaluation, reactions under any friction;
-//! - `evaluate` (with `newton`): one instant, the friction/reaction iteration (`crank state ->
-//!   reactions -> law inputs -> laws -> friction -> reactions ...` until the normal loads
-//!   settle; phase 2's Newton iteration where the plain one stalls);
+//! - `evaluate` (with `newton` and `trend`): one instant, the friction/reaction iteration
+//!   (`crank state -> reactions -> law inputs -> laws -> friction -> reactions ...` until the
+//!   normal loads settle; `trend` judges phase 1's convergence and stalling, phase 2's Newton
+//!   iteration takes over where the plain one stalls);
 //! - `stepper` (with `adaptive`): one trait for a step method: Simpson quadrature of the
 //!   prescribed crank, the error-controlled Dormand-Prince 5(4) pair of the PI drive with its
 //!   step-size controller and switch handling, fixed-step RK4 (stateful laws or
@@ -40,6 +41,7 @@ mod stepping;
 #[cfg(test)]
 mod tests;
 mod transient;
+mod trend;
 mod types;
 
 use std::f64::consts::PI;
@@ -67,8 +69,8 @@ pub use stepping::{Inputs, JointOutput, Outputs, Run, Snapshot};
 
 use bind::BoundJoint;
 use crank::Crank;
-use newton::Distance;
 use rates::{RateLayout, RegimeTimes};
+use trend::Distance;
 use types::Role;
 
 /// Standard gravity, m/s^2 (defined with the rig model; kept here for callers of the solver).

@@ -6,8 +6,8 @@ use tribo_plugin_api::loader::LawRegistry;
 use tribo_plugin_api::{JointKind, LawInput, LawOutput};
 
 use super::evaluate::{crank_angle, Eval, Point, Work};
-use super::newton::plain_iteration_stalls;
 use super::rates::{RateLayout, RegimeTimes};
+use super::trend::plain_iteration_stalls;
 use super::types::Control;
 use super::Simulation;
 use crate::mechanics::JointLoads;

@@ -15,7 +15,7 @@ use super::rates::RateLayout;
 use super::trend::{Trend, Verdict};
 use super::types::{Bodies, Control};
 use super::Simulation;
-use crate::gas::LawGas;
+use crate::gas::{GasModel, LawGas};
 
 /// Where and how to evaluate the rig.
 #[derive(Debug, Clone, Copy)]
@@ -371,6 +371,24 @@ impl Simulation {
             change_n: changes.iter().fold(0.0, |m: f64, c| m.max(*c)),
             tol: self.tol,
             unsettled,
+        }
+    }
+
+    /// The crank speed a vented crankcase is read at for point `at`: the crank's own when it
+    /// follows the cycle exactly (prescribed crank, steady state); the cycle's reference speed
+    /// under the PI drive, whose speed ripples within a revolution far faster than the
+    /// crankcase breathes (the tables are quasi-steady in the cycle's speed, and the mean
+    /// speed follows the reference).
+    #[inline]
+    fn gas_speed(&self, at: &Point) -> f64 {
+        match at.control {
+            Control::Torque(_)
+                if self.held.torque_nm.is_none()
+                    && self.gas.iter().any(GasModel::depends_on_speed) =>
+            {
+                self.reference(at.t).1
+            }
+            _ => at.omega,
         }
     }
 }

@@ -404,24 +404,6 @@ impl Simulation {
         }
     }
 
-    /// The crank speed a vented crankcase is read at for point `at`: the crank's own when it
-    /// follows the cycle exactly (prescribed crank, steady state); the cycle's reference speed
-    /// under the PI drive, whose speed ripples within a revolution far faster than the
-    /// crankcase breathes (the tables are quasi-steady in the cycle's speed, and the mean
-    /// speed follows the reference).
-    #[inline]
-    fn gas_speed(&self, at: &evaluate::Point) -> f64 {
-        match at.control {
-            types::Control::Torque(_)
-                if self.held.torque_nm.is_none()
-                    && self.gas.iter().any(GasModel::depends_on_speed) =>
-            {
-                self.reference(at.t).1
-            }
-            _ => at.omega,
-        }
-    }
-
     /// Oil temperature and viscosity in force at time `t`: the plateau's value during a hold
     /// and the ramp leading to it; after the last plateau, the last value; a temperature set
     /// from outside (the stepping API) while it is set.

@@ -944,10 +944,20 @@ fn a_pi_setting_given_with_the_prescribed_drive_is_refused_naming_it() {
         let err = load(&[set.as_str()]).expect_err("refused");
         let key = extra.split('=').next().unwrap_or_default();
         let text = err.to_string();
-        // (The message names the field, `kp`, but not yet its table: `drive.kp` would be
-        // clearer.)
+        assert_eq!(err.field, format!("drive.{key}"), "{text}");
         assert!(text.contains(&format!("`{key}`")), "{text}");
+        assert!(
+            text.contains("prescribed") && text.contains("no settings"),
+            "{text}"
+        );
     }
+    // Written in the rig file itself: the same, at the file's line.
+    let text = base_text().replace("[drive]\n", "[drive]\nkp = 3.0\n");
+    assert!(text.contains("kp = 3.0"), "the rig has a [drive] table");
+    let err = load_rig_text(Path::new("rig.toml"), &text, &[]).expect_err("refused");
+    assert_eq!(err.field, "drive.kp", "{err}");
+    assert!(err.to_string().contains("prescribed"), "{err}");
+    assert!(err.line.is_some(), "{err}");
 }
 
 /// A valid value for each key of `[gas]`, its cylinder and crankcase models and the PI drive,

@@ -121,21 +121,25 @@ pub fn load_rig_text(path: &Path, text: &str, sets: &[String]) -> Result<Rig, Ri
         serde_path_to_error::deserialize::<_, RigFile>(toml::Deserializer::new(text)).map_err(
             |e| {
                 let field = e.path().to_string();
-                serde_error(path, text, e.inner(), &field)
+                let err = serde_error(path, text, e.inner(), &field);
+                unknown_key_in_table(err, &field, &table)
             },
         )?
     } else {
         // Merged tables have no spans: the path serde was at names the field, which is then
         // found in the file that sets it (or in --set); an unknown key is found by name.
-        serde_path_to_error::deserialize::<_, RigFile>(toml::Value::Table(table)).map_err(|e| {
-            let field = e.path().to_string();
-            let message = e.inner().message();
-            if message.starts_with("unknown field") || field.is_empty() || field == "." {
-                locate_key(&sources, message, &overridden)
-            } else {
-                field_error(&sources, &overridden, &field, message.to_string())
-            }
-        })?
+        serde_path_to_error::deserialize::<_, RigFile>(toml::Value::Table(table.clone())).map_err(
+            |e| {
+                let field = e.path().to_string();
+                let message = e.inner().message();
+                if message.starts_with("unknown field") || field.is_empty() || field == "." {
+                    let err = locate_key(&sources, message, &overridden);
+                    unknown_key_in_table(err, &field, &table)
+                } else {
+                    field_error(&sources, &overridden, &field, message.to_string())
+                }
+            },
+        )?
     };
     let mut rig = Rig {
         file,
@@ -293,4 +297,41 @@ pub fn load_rig(path: &Path, sets: &[String]) -> Result<Rig, RigError> {
             }
         }
     }
+}
+
+/// An unknown key named under the table it was found in (`drive.kp`, not `kp`; `table_path`
+/// is the path serde was at), and for a table whose `kind` takes no settings (the prescribed
+/// drive) that said plainly instead of serde's "there are no fields".
+fn unknown_key_in_table(mut err: RigError, table_path: &str, table: &toml::Table) -> RigError {
+    let Some(key) = err
+        .message
+        .strip_prefix("unknown field `")
+        .and_then(|rest| rest.split('`').next())
+        .map(str::to_string)
+    else {
+        return err;
+    };
+    if table_path.is_empty() || table_path == "." || err.field != key {
+        return err;
+    }
+    err.field = if table_path.rsplit('.').next() == Some(key.as_str()) {
+        table_path.to_string()
+    } else {
+        format!("{table_path}.{key}")
+    };
+    if err.message.ends_with("there are no fields") {
+        let owner = err.field.rsplit_once('.').map_or("", |(t, _)| t);
+        let kind = owner
+            .split('.')
+            .try_fold(table, |t, part| t.get(part)?.as_table())
+            .and_then(|t| t.get("kind"))
+            .and_then(|k| k.as_str());
+        err.message = match kind {
+            Some(kind) => format!(
+                "unknown field `{key}`: `{owner}` of kind \"{kind}\" takes no settings besides `kind`"
+            ),
+            None => format!("unknown field `{key}`: `{owner}` takes no settings"),
+        };
+    }
+    err
 }

@@ -1,5 +1,5 @@
 //! Contact mechanics the bundled film laws share (ring pack, piston skirt, plain journal) and any
-//! law author may call: the film-parameter regime, a bracketing root finder, and asperity
+//! law author may call: the film-parameter regime, two bracketing root finders (regula falsi; Newton for a residual with its slope), and asperity
 //! contact by Greenwood and Tripp, the nominal pressure the summits of two rough surfaces carry
 //! at a separation `h` of their mean planes,
 //!
@@ -74,6 +74,46 @@ pub fn root_increasing(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
         }
     }
     0.5 * (a + b)
+}
+
+/// The root of `f`, increasing on `[lo, hi]` with `f(lo) <= 0 <= f(hi)` (the caller knows the
+/// ends' signs; they are not evaluated), by Newton's method from `start` on the slope `f` returns
+/// beside its value, `f(x) = (value, slope)`. Every evaluation narrows the bracket; a step that
+/// would leave it, or a slope that is not positive, bisects instead, so the iteration converges
+/// wherever Newton's would not. Stops when a step or the bracket is at most `tol` and returns the
+/// point the last step reached, not evaluated (its error is of the order of the step squared
+/// once Newton's steps converge). For a law whose residual and slope come cheaply together
+/// (closed-form slopes); [`root_increasing`] needs no slope.
+pub fn newton_increasing(
+    mut f: impl FnMut(f64) -> (f64, f64),
+    lo: f64,
+    hi: f64,
+    start: f64,
+    tol: f64,
+) -> f64 {
+    let (mut lo, mut hi) = (lo, hi);
+    let mut x = start;
+    for _ in 0..200 {
+        let (value, slope) = f(x);
+        if value < 0.0 {
+            lo = x;
+        } else if value > 0.0 {
+            hi = x;
+        } else {
+            return x;
+        }
+        let newton = x - value / slope;
+        let next = if slope > 0.0 && newton >= lo && newton <= hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        if (next - x).abs() <= tol || hi - lo <= tol {
+            return next;
+        }
+        x = next;
+    }
+    x
 }
 
 use std::sync::OnceLock;
@@ -322,6 +362,36 @@ mod tests {
             let exact = gaussian_tail_moment(2.5, y);
             assert!((f52(y) - exact).abs() < 1e-7 * exact, "{y}");
         }
+    }
+
+    /// Newton's root in its bracket: quadratic convergence to rounding on a smooth function, the
+    /// bracket's bisection where Newton's steps would diverge (`atan`, from far out) or the slope
+    /// is wrong, and an exact zero returned as is.
+    #[test]
+    fn newton_in_its_bracket() {
+        let mut calls = 0;
+        let r = newton_increasing(
+            |x| {
+                calls += 1;
+                (x * x - 2.0, 2.0 * x)
+            },
+            0.0,
+            2.0,
+            1.0,
+            1e-15,
+        );
+        assert!((r - 2f64.sqrt()).abs() <= 4e-16, "{r}");
+        assert!(calls <= 7, "{calls} evaluations");
+        // Newton on atan from 3 overshoots to about -9.5 and diverges; the bracket holds it.
+        let r = newton_increasing(|x| (x.atan(), 1.0 / (1.0 + x * x)), -10.0, 20.0, 3.0, 1e-14);
+        assert!(r.abs() < 1e-14, "{r}");
+        // A slope of the wrong sign (here: always negative) leaves plain bisection.
+        let r = newton_increasing(|x| (x - 0.3, -1.0), 0.0, 1.0, 0.9, 1e-12);
+        assert!((r - 0.3).abs() < 2e-12, "{r}");
+        assert_eq!(
+            newton_increasing(|x| (x - 0.5, 1.0), 0.0, 1.0, 0.5, 1e-12),
+            0.5
+        );
     }
 
     /// The root finder finds a root to its tolerance, returns an end where `f` is already past

@@ -10,6 +10,8 @@
 
 use std::sync::OnceLock;
 
+use tribo_plugin_api::tribology::newton_increasing;
+
 /// The three antiderivatives `I_1, I_2, I_3` of `1 / (1 + k s^2)^n` at `s` (zero at `s = 0`).
 fn antiderivatives(k: f64, s: f64) -> [f64; 3] {
     let q = 1.0 + k * s * s;
@@ -125,33 +127,20 @@ fn rupture_start(k: f64) -> f64 {
     }
 }
 
-/// The rupture point by Newton's method from `start`, kept inside a shrinking bracket of
-/// `(0, 1)`, to rounding (a step below 1e-15 of the point).
+/// The rupture point by Newton's method from `start` ([`newton_increasing`] on `-G`), kept
+/// inside a shrinking bracket of `(0, 1)`, to rounding: a step below 1e-15 of the root's size,
+/// which is at least `0.475 / sqrt(1 + k)` (the start table's bounds).
 fn rupture_newton(k: f64, inlet: &[f64; 3], start: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
-    let mut s = start;
-    for _ in 0..200 {
-        let (g, dg) = rupture_residual_from(k, s, inlet);
-        if g == 0.0 {
-            return s;
-        }
-        if g > 0.0 {
-            lo = s;
-        } else {
-            hi = s;
-        }
-        let newton = s - g / dg;
-        let next = if dg < 0.0 && newton > lo && newton < hi {
-            newton
-        } else {
-            0.5 * (lo + hi)
-        };
-        if (next - s).abs() <= 1e-15 * s.max(1e-300) || hi - lo <= 1e-16 {
-            return next;
-        }
-        s = next;
-    }
-    s
+    newton_increasing(
+        |s| {
+            let (g, dg) = rupture_residual_from(k, s, inlet);
+            (-g, -dg)
+        },
+        0.0,
+        1.0,
+        start,
+        1e-15 * 0.475 / (1.0 + k).sqrt(),
+    )
 }
 
 /// The sliding film's factors at `k = crown / h0 > 0`. The film is full from the inlet edge

@@ -9,7 +9,7 @@
 //! `T = T_feed + P(mu(T)) / (2 rho c_p Q(mu(T)))` has exactly one root, bracketed by the feed
 //! temperature and the rise the feed viscosity would give.
 
-use tribo_plugin_api::tribology::WaltherLine;
+use tribo_plugin_api::tribology::{newton_increasing, WaltherLine};
 
 /// Largest half-rise `T_eff - T_feed` the balance may reach, K: a film with no through-flow
 /// (both members at rest or counter-rotating with no squeeze) would heat without bound in an
@@ -149,49 +149,32 @@ pub fn solve(
 /// The root of the balance's residual `g(T) = T - T_feed - half_rise(mu(T))` on
 /// `[T_feed, T_feed + first]` (`g = -first < 0` at the feed temperature, `>= 0` at the other
 /// end), with the viscosity there. `g` rises with a slope of at least 1 (`mu` falls with `T`,
-/// the half-rise does not fall with `mu`), so Newton's method converges fast; each step costs
-/// one point of the Walther line (its slope in closed form, the half-rise's in `mu` by a
-/// difference over 1e-7 of `mu`: the half-rise is cheap, the line is not). A step that would
-/// leave the bracket, which every step narrows, bisects instead. Converged when a step is below
-/// 1e-11 of the bracket (as the shared root finder's regula falsi this replaces, which needed
-/// about twice the points of the line).
+/// the half-rise does not fall with `mu`), so Newton's method ([`newton_increasing`]) converges
+/// fast; each step costs one point of the Walther line (its slope in closed form, the
+/// half-rise's in `mu` by a difference over 1e-7 of `mu`: the half-rise is cheap, the line is
+/// not). Converged when a step is below 1e-11 of the bracket (as the shared root finder's
+/// regula falsi this replaces, which needed about twice the points of the line).
 fn balance_root(
     line: &FeedLine,
     t_feed_c: f64,
     first: f64,
     half_rise: impl Fn(f64) -> f64,
 ) -> (f64, f64) {
-    let (mut lo, mut hi) = (t_feed_c, t_feed_c + first);
-    let tol = 1e-11 * first;
-    let (mut t, mut g, mut hr) = (t_feed_c, -first, first);
-    let (mut mu, mut dmu_dt) = line.viscosity_and_slope(t_feed_c);
-    for _ in 0..200 {
+    let residual_and_slope = |t: f64| {
+        let (mu, dmu_dt) = line.viscosity_and_slope(t);
+        let hr = if t == t_feed_c { first } else { half_rise(mu) };
         let dmu = 1e-7 * mu;
         let dhr_dmu = (half_rise(mu + dmu) - hr) / dmu;
-        let slope = 1.0 - dhr_dmu * dmu_dt;
-        let newton = t - g / slope;
-        let next = if slope > 0.0 && newton > lo && newton <= hi {
-            newton
-        } else {
-            0.5 * (lo + hi)
-        };
-        let step = next - t;
-        t = next;
-        (mu, dmu_dt) = line.viscosity_and_slope(t);
-        hr = half_rise(mu);
-        g = t - t_feed_c - hr;
-        if g < 0.0 {
-            lo = t;
-        } else if g > 0.0 {
-            hi = t;
-        } else {
-            break;
-        }
-        if step.abs() <= tol || hi - lo <= tol {
-            break;
-        }
-    }
-    (t, mu)
+        (t - t_feed_c - hr, 1.0 - dhr_dmu * dmu_dt)
+    };
+    let t = newton_increasing(
+        residual_and_slope,
+        t_feed_c,
+        t_feed_c + first,
+        t_feed_c,
+        1e-11 * first,
+    );
+    (t, line.viscosity_at(t))
 }
 
 #[cfg(test)]

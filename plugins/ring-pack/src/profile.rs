@@ -19,6 +19,8 @@
 //! point is the root of a monotone function of `s_c`; above it the full film's load is linear in
 //! `hdot`.
 
+use tribo_plugin_api::tribology::newton_increasing;
+
 /// The ring face: half its axial width and the height of its parabolic crown at the edges.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Face {
@@ -156,37 +158,24 @@ impl Branch {
 }
 
 /// The rupture branch in `(-big_s, big_s)` that carries `target` (in the branch's load units):
-/// Newton's method on the closed-form slope, inside a bracket every step narrows (bisection
+/// Newton's method on the closed-form slope ([`newton_increasing`]), inside a bracket every step narrows (bisection
 /// where a step would leave it). The branch's load rises from 0 at the inlet edge to the full
 /// film's at the outlet edge, which is above `target`, so the bracket needs no evaluation.
 /// Starts from `guess` (a nearby film's rupture point, in `s`) when there is one. Converged when
 /// a step moves the point by less than 1e-14 of the face's half width (in `s`).
 fn rupture_for_load(target: f64, lower: &Prims, big_s: f64, guess: Option<f64>) -> Branch {
-    let (mut lo, mut hi) = (-big_s, big_s);
-    let mut x = guess.filter(|g| *g > lo && *g < hi).unwrap_or(0.0);
-    let tol = 1e-14 * big_s;
-    for _ in 0..200 {
-        let b = Branch::at(x, lower);
-        let r = b.load - target;
-        if r < 0.0 {
-            lo = x;
-        } else if r > 0.0 {
-            hi = x;
-        } else {
-            return b;
-        }
-        let newton = x - r / b.slope;
-        let next = if b.slope > 0.0 && newton > lo && newton < hi {
-            newton
-        } else {
-            0.5 * (lo + hi)
-        };
-        if (next - x).abs() <= tol || hi - lo <= tol {
-            return Branch::at(next, lower);
-        }
-        x = next;
-    }
-    Branch::at(x, lower)
+    let start = guess.filter(|g| g.abs() < big_s).unwrap_or(0.0);
+    let sc = newton_increasing(
+        |x| {
+            let b = Branch::at(x, lower);
+            (b.load - target, b.slope)
+        },
+        -big_s,
+        big_s,
+        start,
+        1e-14 * big_s,
+    );
+    Branch::at(sc, lower)
 }
 
 /// The film of `face` at minimum film `h_m` (> 0), sliding speed `u_abs` (>= 0, m/s) and

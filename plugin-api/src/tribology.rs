@@ -1,7 +1,8 @@
 //! Contact mechanics the bundled film laws share (ring pack, piston skirt, plain journal) and any
-//! law author may call: the film-parameter regime, two bracketing root finders (regula falsi; Newton for a residual with its slope), and asperity
-//! contact by Greenwood and Tripp, the nominal pressure the summits of two rough surfaces carry
-//! at a separation `h` of their mean planes,
+//! law author may call: the film-parameter regime, two bracketing root finders (regula falsi;
+//! Newton for a residual with its slope), and asperity contact by Greenwood and Tripp, the
+//! nominal pressure the summits of two rough surfaces carry at a separation `h` of their mean
+//! planes,
 //!
 //! ```text
 //! p_a(h) = K E* F_5/2(h / sigma),    K = (16 sqrt(2) / 15) pi (eta beta sigma)^2 sqrt(sigma / beta)

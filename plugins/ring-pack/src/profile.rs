@@ -158,9 +158,10 @@ impl Branch {
 }
 
 /// The rupture branch in `(-big_s, big_s)` that carries `target` (in the branch's load units):
-/// Newton's method on the closed-form slope ([`newton_increasing`]), inside a bracket every step narrows (bisection
-/// where a step would leave it). The branch's load rises from 0 at the inlet edge to the full
-/// film's at the outlet edge, which is above `target`, so the bracket needs no evaluation.
+/// Newton's method on the closed-form slope ([`newton_increasing`]), inside a bracket every
+/// step narrows (bisection where a step would leave it). The branch's load rises from 0 at the
+/// inlet edge to the full film's at the outlet edge, which is above `target`, so the bracket
+/// needs no evaluation.
 /// Starts from `guess` (a nearby film's rupture point, in `s`) when there is one. Converged when
 /// a step moves the point by less than 1e-14 of the face's half width (in `s`).
 fn rupture_for_load(target: f64, lower: &Prims, big_s: f64, guess: Option<f64>) -> Branch {

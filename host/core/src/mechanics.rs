@@ -342,6 +342,22 @@ impl Mechanism {
         omega: f64,
         piston_force_n: f64,
     ) -> Kinematics {
+        let mut out = Kinematics::zeros();
+        self.kinematics_into(theta, omega, piston_force_n, &mut out);
+        out
+    }
+
+    /// [`Mechanism::kinematics_with_piston_force`] written into `out`: the solver's scratch,
+    /// filled field by field once per evaluation instead of a whole configuration returned
+    /// by value and copied in (720 bytes).
+    #[inline]
+    pub fn kinematics_into(
+        &self,
+        theta: f64,
+        omega: f64,
+        piston_force_n: f64,
+        out: &mut Kinematics,
+    ) {
         let (q, rotations) = self.pose(theta);
         let c = self.columns(&rotations);
         let mut e9 = Q::zeros();
@@ -351,9 +367,8 @@ impl Mechanism {
         // Accelerations: Phi_q q'' = gamma(q, q') + alpha * e9.
         let qdd0 = c.solve(&self.gamma(&rotations, &qd));
         let qdd_alpha = c.solve(&e9);
-        self.multipliers(q, qd, qdd0, qdd_alpha, piston_force_n, |rhs| {
-            c.solve_transpose(rhs)
-        })
+        let parts = (q, qd, qdd0, qdd_alpha);
+        self.multipliers(parts, piston_force_n, |rhs| c.solve_transpose(rhs), out);
     }
 
     /// [`Mechanism::kinematics`] by dense LU factorisation of the full constraint Jacobian: the
@@ -369,23 +384,29 @@ impl Mechanism {
         let qd = solve(&(e9 * omega));
         let qdd0 = solve(&self.gamma(&Rotations::of(&q), &qd));
         let qdd_alpha = solve(&e9);
-        self.multipliers(q, qd, qdd0, qdd_alpha, 0.0, |rhs| {
-            lu_t.solve(rhs).unwrap_or_else(Q::zeros)
-        })
+        let mut out = Kinematics::zeros();
+        let parts = (q, qd, qdd0, qdd_alpha);
+        self.multipliers(
+            parts,
+            0.0,
+            |rhs| lu_t.solve(rhs).unwrap_or_else(Q::zeros),
+            &mut out,
+        );
+        out
     }
 
     /// Multipliers' responses (gravity and inertia at alpha = 0, per unit alpha, per unit friction
     /// load) from `Phi_q^T lambda = Q - M q''`, given a solver for `Phi_q^T`; `piston_force_n`
-    /// is an applied force on the piston along +y besides gravity.
+    /// is an applied force on the piston along +y besides gravity. Written into `out` with the
+    /// positions, velocities and accelerations `(q, qd, qdd0, qdd_alpha)`.
+    #[inline]
     fn multipliers(
         &self,
-        q: Q,
-        qd: Q,
-        qdd0: Q,
-        qdd_alpha: Q,
+        (q, qd, qdd0, qdd_alpha): (Q, Q, Q, Q),
         piston_force_n: f64,
         solve_t: impl Fn(&Q) -> Q,
-    ) -> Kinematics {
+        out: &mut Kinematics,
+    ) {
         let gv = self.geo.gravity_m_s2;
         let mut gravity = Q::zeros();
         gravity[1] = -self.mass[0] * gv;
@@ -402,21 +423,17 @@ impl Mechanism {
             }
             solve_t(&f)
         };
-        Kinematics {
-            q,
-            qd,
-            qdd0,
-            qdd_alpha,
-            lambda0: solve_t(&(gravity - self.mass.component_mul(&qdd0))),
-            lambda_alpha: solve_t(&(-self.mass.component_mul(&qdd_alpha))),
-            // Generalised force patterns of each friction load (see JointLoads).
-            lambda_loads: [
-                unit(&[(2, 1.0)]),
-                unit(&[(2, -1.0), (5, 1.0)]),
-                unit(&[(5, -1.0), (8, 1.0)]),
-                unit(&[(7, 1.0)]),
-            ],
-        }
+        out.lambda0 = solve_t(&(gravity - self.mass.component_mul(&qdd0)));
+        out.lambda_alpha = solve_t(&(-self.mass.component_mul(&qdd_alpha)));
+        // Generalised force patterns of each friction load (see JointLoads).
+        out.lambda_loads[0] = unit(&[(2, 1.0)]);
+        out.lambda_loads[1] = unit(&[(2, -1.0), (5, 1.0)]);
+        out.lambda_loads[2] = unit(&[(5, -1.0), (8, 1.0)]);
+        out.lambda_loads[3] = unit(&[(7, 1.0)]);
+        out.q = q;
+        out.qd = qd;
+        out.qdd0 = qdd0;
+        out.qdd_alpha = qdd_alpha;
     }
 
     /// The position-dependent entries of `Phi_q` (see `jacobian_matrix` for the layout) in the
@@ -475,6 +492,20 @@ pub struct Kinematics {
 }
 
 impl Kinematics {
+    /// Every entry zero: a scratch to be filled by [`Mechanism::kinematics_into`].
+    pub fn zeros() -> Self {
+        let z = SVector::<f64, NC>::zeros();
+        Self {
+            q: Q::zeros(),
+            qd: Q::zeros(),
+            qdd0: Q::zeros(),
+            qdd_alpha: Q::zeros(),
+            lambda0: z,
+            lambda_alpha: z,
+            lambda_loads: [z; 4],
+        }
+    }
+
     /// Positions, velocities and accelerations at crank acceleration `alpha`.
     pub fn state(&self, alpha: f64) -> State {
         State {

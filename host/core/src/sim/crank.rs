@@ -368,7 +368,7 @@ impl RigCrank {
     ) -> f64 {
         match gas {
             None => {
-                self.kin = self.mech.kinematics(theta, omega);
+                self.mech.kinematics_into(theta, omega, 0.0, &mut self.kin);
                 law_gas.push(LawGas {
                     cylinder_pa: STANDARD_ATMOSPHERE_PA,
                     crankcase_pa: STANDARD_ATMOSPHERE_PA,
@@ -379,9 +379,8 @@ impl RigCrank {
             }
             Some(g) => {
                 let s = state(g, g.at(theta, gas_omega));
-                self.kin = self
-                    .mech
-                    .kinematics_with_piston_force(theta, omega, s.force_n);
+                self.mech
+                    .kinematics_into(theta, omega, s.force_n, &mut self.kin);
                 law_gas.push((&s).into());
                 -s.force_n * self.kin.qd[7]
             }

@@ -133,9 +133,10 @@ impl Stepper for Adaptive {
                 match &mut self.previous_end {
                     Some((tp, gp)) => {
                         *tp = t;
-                        gp.clone_from(&self.fsal.switches);
+                        gp.clear();
+                        gp.extend_from_slice(&self.fsal.switches);
                     }
-                    None => self.previous_end = Some((t, self.fsal.switches.clone())),
+                    None => self.previous_end = Some((t, self.fsal.switches.to_vec())),
                 }
                 let t1 = if h_try == remaining { b } else { t + h_try };
                 s.acc.iter_mut().zip(&self.incr).for_each(|(a, d)| *a += d);

@@ -51,7 +51,9 @@ impl Point {
     }
 }
 
-/// Output of one evaluation.
+/// Output of one evaluation. Its buffers are boxed slices of the run's fixed sizes (made once by
+/// [`Work::eval`]), so an evaluation is small enough (112 bytes) to be moved through the
+/// steppers, the pool and a step without a `memcpy` call.
 #[derive(Debug, Clone)]
 pub(super) struct Eval {
     pub(super) omega: f64,
@@ -60,24 +62,34 @@ pub(super) struct Eval {
     pub(super) drive_torque: f64,
     /// Rates accumulated over time: motor power, then per law dissipated power, per law
     /// normal load (see `RateLayout`).
-    pub(super) rates: Vec<f64>,
+    pub(super) rates: Box<[f64]>,
     /// Each law's lubrication regime (a `Regime` as code; see `RegimeTimes`).
-    pub(super) regimes: Vec<u8>,
+    pub(super) regimes: Box<[u8]>,
     /// Normal load per joint, N.
-    pub(super) normals: Vec<f64>,
+    pub(super) normals: Box<[f64]>,
     /// Where the rates stop being smooth when these change sign: each joint's relative
     /// velocity (a friction force reverses), each cylinder's side thrust (its normal load, an
     /// absolute value, has a kink) and last the PI drive's margin to its torque limit (the
     /// anti-windup switches its integrator).
-    pub(super) switches: Vec<f64>,
+    pub(super) switches: Box<[f64]>,
     /// Each joint's law force or torque in the final solve: the friction the next evaluation
     /// starts from.
-    pub(super) totals: Vec<f64>,
+    pub(super) totals: Box<[f64]>,
     pub(super) iterations: u32,
     /// Whether phase 2 (Newton) settled the loads; phase 1 otherwise. Read by the unit tests,
     /// which hold each phase to its own convergence test.
     #[cfg_attr(not(test), allow(dead_code))]
     pub(super) newton: bool,
+}
+
+/// The lengths of an evaluation's buffers in one run: rates, laws (regimes), joints (normal
+/// loads, totals) and switches.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct EvalSizes {
+    rates: usize,
+    laws: usize,
+    joints: usize,
+    switches: usize,
 }
 
 impl Eval {
@@ -103,21 +115,23 @@ pub(super) struct Work {
     pub(super) states: LawStates,
     /// Largest friction iteration count seen.
     pub(super) max_it: u32,
+    sizes: EvalSizes,
     pool: Vec<Eval>,
 }
 
 impl Work {
     /// A recycled evaluation (or a new one while the pool warms up).
     pub(super) fn eval(&mut self) -> Eval {
+        let n = self.sizes;
         self.pool.pop().unwrap_or_else(|| Eval {
             omega: 0.0,
             alpha: 0.0,
             drive_torque: 0.0,
-            rates: Vec::new(),
-            regimes: Vec::new(),
-            normals: Vec::new(),
-            switches: Vec::new(),
-            totals: Vec::new(),
+            rates: vec![0.0; n.rates].into_boxed_slice(),
+            regimes: vec![0; n.laws].into_boxed_slice(),
+            normals: vec![0.0; n.joints].into_boxed_slice(),
+            switches: vec![0.0; n.switches].into_boxed_slice(),
+            totals: vec![0.0; n.joints].into_boxed_slice(),
             iterations: 0,
             newton: false,
         })
@@ -156,6 +170,12 @@ impl Simulation {
             prev: vec![0.0; n],
             states: LawStates::new(&self.joints)?,
             max_it: 0,
+            sizes: EvalSizes {
+                rates: self.layout().len(),
+                laws: self.n_laws,
+                joints: n,
+                switches: n + self.crank.cylinders() + 1,
+            },
             pool: Vec::new(),
         })
     }
@@ -225,15 +245,13 @@ impl Simulation {
         e: &mut Eval,
     ) -> Result<(), SimError> {
         let layout = self.layout();
-        e.rates.clear();
-        e.rates.resize(layout.len(), 0.0);
-        // Every round that records writes every law's code.
-        e.regimes.resize(self.n_laws, 0);
-        e.normals.clear();
-        e.normals.resize(self.joints.len(), 0.0);
-        e.totals.clear();
-        e.totals.extend_from_slice(guess);
-        e.totals.resize(self.joints.len(), 0.0);
+        // The buffers have the run's sizes (`Work::eval`). Every round that records writes
+        // every law's code.
+        e.rates.fill(0.0);
+        e.normals.fill(0.0);
+        let given = guess.len().min(e.totals.len());
+        e.totals[..given].copy_from_slice(&guess[..given]);
+        e.totals[given..].fill(0.0);
         // Positions, velocities and the factorised constraints do not depend on the loads:
         // computed once, the iteration below only recombines the multipliers.
         let gas = self.gas_models();
@@ -308,11 +326,15 @@ impl Simulation {
         e.drive_torque = torque;
         e.iterations = it;
         e.newton = newton;
-        e.switches.clear();
-        e.switches.extend_from_slice(&w.rel);
-        e.switches
-            .extend((0..w.crank.cylinders()).map(|k| w.crank.lateral(k)));
-        e.switches.push(at.margin);
+        // Relative velocities, each cylinder's side thrust, the margin (`Work::eval`'s sizes).
+        let (rel, rest) = e.switches.split_at_mut(w.rel.len());
+        rel.copy_from_slice(&w.rel);
+        if let Some((margin, thrusts)) = rest.split_last_mut() {
+            for (k, s) in thrusts.iter_mut().enumerate() {
+                *s = w.crank.lateral(k);
+            }
+            *margin = at.margin;
+        }
         w.max_it = w.max_it.max(it);
     }
 
@@ -323,7 +345,7 @@ impl Simulation {
         let mut next = vec![0.0; self.joints.len()];
         w.crank.solve(at.control, &self.roles, &e.totals);
         w.crank.normals(&self.roles, &mut next);
-        let (before, after) = if it > 1 {
+        let (before, after): (&[f64], &[f64]) = if it > 1 {
             (&w.prev, &e.normals)
         } else {
             (&e.normals, &next)

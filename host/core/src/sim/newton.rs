@@ -434,7 +434,7 @@ impl Simulation {
         let n = self.joints.len();
         let (comps, moments): (Vec<_>, Vec<_>) =
             self.joints.iter().map(|j| w.crank.reaction(j.role)).unzip();
-        let entry_normals = e.normals.clone();
+        let entry_normals = e.normals.to_vec();
         let start = Round {
             u: entry_normals.iter().map(|n| n.sqrt()).collect(),
             normals: vec![0.0; n],

@@ -60,13 +60,15 @@ impl Integration {
     pub(super) fn record(&mut self, e: &Eval) {
         self.last_rates.copy_from_slice(&e.rates);
         self.last_regimes.copy_from_slice(&e.regimes);
-        self.last_normals.clone_from(&e.normals);
+        self.last_normals.clear();
+        self.last_normals.extend_from_slice(&e.normals);
         self.last_torque = e.drive_torque;
     }
 
     /// Take `e`'s settled friction as the next evaluation's start.
     pub(super) fn settle_from(&mut self, e: &Eval) {
-        self.guess.clone_from(&e.totals);
+        self.guess.clear();
+        self.guess.extend_from_slice(&e.totals);
     }
 }
 

@@ -243,7 +243,7 @@ fn evaluate_holds_the_fixed_point_where_the_plain_iteration_cannot() {
             // (Phase 1's exit is its documented estimate, the last change and its ratio to
             // the one before, which cannot be re-checked from the result alone.)
             // The reported loads and the booked power are those of that final solve.
-            assert_eq!(e.normals, normals);
+            assert_eq!(e.normals[..], normals[..]);
             assert_eq!(e.rates[sim.layout().power(0)], -(f * kin.qd[7]));
             if !plain_iteration_settles(&sim, &input, &kin, alpha) {
                 plain_failures += 1;
@@ -876,7 +876,8 @@ fn an_engine_settles_by_phase_2_where_its_plain_iteration_cannot() {
             }
             let normals = train_normals(train, &kin, &loads);
             assert_eq!(
-                e.normals, normals,
+                e.normals[..],
+                normals[..],
                 "the reported loads are the final solve's"
             );
             check_pistons(&sim, (&e, &w), &normals, &pistons, (omega, theta));

@@ -41,8 +41,15 @@ pub struct Film {
     /// Peak film pressure, Pa (gauge).
     pub peak_pa: f64,
     /// Where the film ruptures, m from the apex towards the outlet; the half width when the film
-    /// is whole to the outlet; minus the half width when it carries nothing.
+    /// is whole to the outlet; the inlet when it carries nothing.
     pub rupture_m: f64,
+    /// Where the full film begins, m from the apex (minus the half width when flooded; nearer
+    /// the apex when starved: where the gap closes to the oil available on the liner).
+    pub inlet_m: f64,
+    /// The film at the outlet boundary, m: at the rupture point, or at the trailing edge when
+    /// the film is whole to it. The flux leaving there is `|u| outlet_film_m / 2` or more
+    /// (exactly that at a rupture), which is what the oil left behind on the liner is built on.
+    pub outlet_film_m: f64,
 }
 
 /// Antiderivatives at `s` of `s^k / (1 + s^2)^3` (`m[k]`, k = 0..3), of `s^k / (1 + s^2)^2`
@@ -157,21 +164,33 @@ impl Branch {
     }
 }
 
-/// The rupture branch in `(-big_s, big_s)` that carries `target` (in the branch's load units):
-/// Newton's method on the closed-form slope ([`newton_increasing`]), inside a bracket every
-/// step narrows (bisection where a step would leave it). The branch's load rises from 0 at the
-/// inlet edge to the full film's at the outlet edge, which is above `target`, so the bracket
-/// needs no evaluation.
+/// The rupture branch in `(s_in, big_s)` (`s_in` the inlet, `lower`'s point) that carries
+/// `target` (in the branch's load units): Newton's method on the closed-form slope
+/// ([`newton_increasing`]), inside a bracket every step narrows (bisection where a step would
+/// leave it). The branch's load rises from 0 at the inlet to the full film's at the outlet
+/// edge, which is above `target`, so the bracket needs no evaluation.
 /// Starts from `guess` (a nearby film's rupture point, in `s`) when there is one. Converged when
 /// a step moves the point by less than 1e-14 of the face's half width (in `s`).
-fn rupture_for_load(target: f64, lower: &Prims, big_s: f64, guess: Option<f64>) -> Branch {
-    let start = guess.filter(|g| g.abs() < big_s).unwrap_or(0.0);
+fn rupture_for_load(
+    target: f64,
+    lower: &Prims,
+    s_in: f64,
+    big_s: f64,
+    guess: Option<f64>,
+) -> Branch {
+    // The apex when it lies inside the stretch (always, flooded), else the stretch's middle.
+    let middle = if s_in < 0.0 {
+        0.0
+    } else {
+        0.5 * (s_in + big_s)
+    };
+    let start = guess.filter(|g| *g > s_in && *g < big_s).unwrap_or(middle);
     let sc = newton_increasing(
         |x| {
             let b = Branch::at(x, lower);
             (b.load - target, b.slope)
         },
-        -big_s,
+        s_in,
         big_s,
         start,
         1e-14 * big_s,
@@ -199,6 +218,38 @@ pub fn film_for_load_near(
     mu: f64,
     rupture_guess_m: Option<f64>,
 ) -> Film {
+    film_for_load_supplied(face, h_m, u_abs, load_n_per_m, mu, rupture_guess_m, None)
+}
+
+/// The inlet, in `s`, of a face at minimum film `h_m` meeting a layer of oil `supply_m` thick
+/// on the liner: where the gap closes to the layer, `h (1 + s^2) = supply` on the converging
+/// side; the apex when the layer is no thicker than the minimum film. `None`: flooded (no
+/// supply given, or a layer at least as thick as the gap at the leading edge).
+pub fn starved_inlet_s(face: &Face, h_m: f64, supply_m: Option<f64>) -> Option<f64> {
+    let supply = supply_m?;
+    if supply >= h_m + face.crown_m {
+        return None;
+    }
+    Some(-((supply / h_m - 1.0).max(0.0)).sqrt())
+}
+
+/// [`film_for_load_near`] with the oil available at the inlet: `supply_m`, the thickness of the
+/// layer on the liner the face runs into (`None`: flooded). A starved face carries its film from
+/// where the gap closes to that layer ([`starved_inlet_s`]), with `p = 0` there; ahead of it the
+/// layer rides on the liner without touching the face (no shear). A layer at least as thick as
+/// the gap at the leading edge floods the face: the same film, to the bit, as without a supply.
+pub fn film_for_load_supplied(
+    face: &Face,
+    h_m: f64,
+    u_abs: f64,
+    load_n_per_m: f64,
+    mu: f64,
+    rupture_guess_m: Option<f64>,
+    supply_m: Option<f64>,
+) -> Film {
+    if let Some(s_in) = starved_inlet_s(face, h_m, supply_m) {
+        return starved(face, h_m, u_abs, load_n_per_m, mu, rupture_guess_m, s_in);
+    }
     let a = face.half_width_m;
     let big_s = (face.crown_m / h_m).sqrt();
     let l = a / big_s;
@@ -214,6 +265,8 @@ pub fn film_for_load_near(
             shear_n_per_m: shear_unit * (1.0 + big_s * big_s) * full.j2(),
             peak_pa: 0.0,
             rupture_m: -a,
+            inlet_m: -a,
+            outlet_film_m: h_m * (1.0 + big_s * big_s),
         };
     }
     // The whole film: dp/ds = (alpha (s^2 + c) + beta s) / (1 + s^2)^3, p(+-S) = 0.
@@ -232,12 +285,14 @@ pub fn film_for_load_near(
             shear_n_per_m: shear_unit * (full.j1 + 3.0 * (full.n[2] + c * full.n[0])),
             peak_pa: peak.max(0.0),
             rupture_m: a,
+            inlet_m: -a,
+            outlet_film_m: h_m * (1.0 + big_s * big_s),
         };
     }
     // Ruptured film: the rupture point whose load is the one asked for (the load rises
     // monotonically from 0 at the inlet edge to `w_edge` at the outlet edge).
     let target = load_n_per_m / (l * alpha);
-    let branch = rupture_for_load(target, &low, big_s, rupture_guess_m.map(|x| x / l));
+    let branch = rupture_for_load(target, &low, -big_s, big_s, rupture_guess_m.map(|x| x / l));
     let (sc, q, at_c, d) = (branch.sc, branch.q, branch.at, branch.d);
     let k = sc + q;
     let poiseuille = d.n[2] + (k - sc) * d.n[1] - sc * k * d.n[0];
@@ -250,6 +305,95 @@ pub fn film_for_load_near(
         shear_n_per_m: shear_unit * (d.j1 + 3.0 * poiseuille + streamers),
         peak_pa: peak.max(0.0),
         rupture_m: sc * l,
+        inlet_m: -a,
+        outlet_film_m: h_m * (1.0 + sc * sc),
+    }
+}
+
+/// The starved film: [`film_for_load_supplied`]'s three branches (nothing carried, whole to the
+/// trailing edge, ruptured) on the wetted stretch `[s_in, S]` instead of `[-S, S]`. The whole
+/// film's pressure gradient is `(alpha s^2 + beta s + gamma) / (1 + s^2)^3` in `s`, with `p = 0`
+/// at both ends of a stretch that is no longer symmetric (so the odd moments `m[1]`, `m[3]` and
+/// `n[1]` no longer vanish); `gamma` replaces the flooded code's `alpha c` so that a film at
+/// rest (`alpha = 0`) needs no division by the sliding speed.
+fn starved(
+    face: &Face,
+    h_m: f64,
+    u_abs: f64,
+    load_n_per_m: f64,
+    mu: f64,
+    rupture_guess_m: Option<f64>,
+    s_in: f64,
+) -> Film {
+    let a = face.half_width_m;
+    let big_s = (face.crown_m / h_m).sqrt();
+    let l = a / big_s;
+    let top = Prims::at(big_s);
+    let low = Prims::at(s_in);
+    let full = top.minus(&low);
+    let shear_unit = mu * u_abs * l / h_m;
+    let alpha = 6.0 * mu * u_abs * l / (h_m * h_m);
+    let inlet_film = h_m * (1.0 + s_in * s_in);
+    if load_n_per_m <= 0.0 {
+        // Nothing carried: the film ruptures at its inlet and the streamers carry the layer on.
+        return Film {
+            squeeze_m_s: face.crown_m * u_abs / a,
+            shear_n_per_m: shear_unit * (1.0 + s_in * s_in) * (top.j2() - low.j2()),
+            peak_pa: 0.0,
+            rupture_m: s_in * l,
+            inlet_m: s_in * l,
+            outlet_film_m: inlet_film,
+        };
+    }
+    let w_edge = l * alpha * Branch::at(big_s, &low).load;
+    if load_n_per_m >= w_edge {
+        // p(s_in) = p(S) = 0: alpha m2 + beta m1 + gamma m0 = 0; the load by parts:
+        // W / L = -(alpha m3 + beta m2 + gamma m1).
+        let m = full.m;
+        let beta =
+            -(load_n_per_m / l + alpha * (m[3] - m[2] * m[1] / m[0])) / (m[2] - m[1] * m[1] / m[0]);
+        let gamma = -(alpha * m[2] + beta * m[1]) / m[0];
+        let squeeze = beta * h_m.powi(3) / (12.0 * mu * l * l);
+        // Peak where the gradient first falls to zero (stable form of the smaller root).
+        let disc = (beta * beta - 4.0 * alpha * gamma).max(0.0);
+        let s1 = (2.0 * gamma / (disc.sqrt() - beta)).clamp(s_in, big_s);
+        let d = Prims::at(s1).minus(&low);
+        let peak = alpha * d.m[2] + beta * d.m[1] + gamma * d.m[0];
+        // Shear: the Couette part, and the Poiseuille part (h/2) dp/dx, whose factor
+        // 3 / alpha times shear_unit is h / 2.
+        // The Poiseuille part of an asymmetric (starved) squeeze film can push the liner along
+        // (`beta n1 < 0`); at low speed it may outweigh the Couette part. That work comes from
+        // the squeeze (`w hdot`), which the law does not book (no radial degree of freedom), so
+        // neither is the push: the shear booked is never negative (docs/laws/ring-pack.md).
+        let shear = (shear_unit * (full.j1 + 3.0 * full.n[2])
+            + 0.5 * h_m * (gamma * full.n[0] + beta * full.n[1]))
+            .max(0.0);
+        return Film {
+            squeeze_m_s: squeeze,
+            shear_n_per_m: shear,
+            peak_pa: peak.max(0.0),
+            rupture_m: a,
+            inlet_m: s_in * l,
+            outlet_film_m: h_m * (1.0 + big_s * big_s),
+        };
+    }
+    let target = load_n_per_m / (l * alpha);
+    let guess = rupture_guess_m.map(|x| x / l);
+    let branch = rupture_for_load(target, &low, s_in, big_s, guess);
+    let (sc, q, at_c, d) = (branch.sc, branch.q, branch.at, branch.d);
+    let k = sc + q;
+    let poiseuille = d.n[2] + (k - sc) * d.n[1] - sc * k * d.n[0];
+    let streamers = (1.0 + sc * sc) * (top.j2() - at_c.j2());
+    let sp = (-k).clamp(s_in, sc);
+    let dp = Prims::at(sp).minus(&low);
+    let peak = alpha * (dp.m[2] + (k - sc) * dp.m[1] - sc * k * dp.m[0]);
+    Film {
+        squeeze_m_s: q * h_m * u_abs / (2.0 * l),
+        shear_n_per_m: (shear_unit * (d.j1 + 3.0 * poiseuille + streamers)).max(0.0),
+        peak_pa: peak.max(0.0),
+        rupture_m: sc * l,
+        inlet_m: s_in * l,
+        outlet_film_m: h_m * (1.0 + sc * sc),
     }
 }
 
@@ -304,7 +448,7 @@ mod tests {
             for frac in [1e-6, 0.01, 0.3, 0.9, 0.999_999] {
                 let target = frac * w_max;
                 for guess in [None, Some(-0.99 * big_s), Some(0.0), Some(0.99 * big_s)] {
-                    let b = rupture_for_load(target, &low, big_s, guess);
+                    let b = rupture_for_load(target, &low, -big_s, big_s, guess);
                     assert!(
                         (b.load - target).abs() <= 1e-12 * w_max,
                         "S {big_s}, target {target}, guess {guess:?}: {}",
@@ -315,18 +459,29 @@ mod tests {
         }
     }
 
-    /// The rupture branch's load rises monotonically from zero at the inlet edge to the full
-    /// film's at the outlet edge (what the root search relies on).
+    /// The rupture branch's load rises monotonically from zero at the inlet to the full film's
+    /// at the outlet edge (what the root search relies on), flooded (inlet at the leading edge)
+    /// and starved (inlet inside the face, up to the apex).
     #[test]
     fn the_rupture_branch_load_is_monotone() {
-        for &big_s in &[0.3, 1.0, 4.0, 20.0] {
-            let low = Prims::at(-big_s);
+        for &(big_s, inlet) in &[
+            (0.3, 1.0),
+            (1.0, 1.0),
+            (4.0, 1.0),
+            (20.0, 1.0),
+            (1.0, 0.5),
+            (4.0, 0.2),
+            (20.0, 0.01),
+            (4.0, 0.0),
+        ] {
+            let s_in = -inlet * big_s;
+            let low = Prims::at(s_in);
             // Rounding: near the inlet edge the load is a difference of antiderivatives of
             // order one that nearly cancel (1e-16 absolute).
             let (_, w_max) = rupture_branch(big_s, &low);
             let mut last = -1.0;
             for i in 1..400 {
-                let sc = -big_s + 2.0 * big_s * i as f64 / 400.0;
+                let sc = s_in + (big_s - s_in) * i as f64 / 400.0;
                 let (_, w) = rupture_branch(sc, &low);
                 assert!(
                     w > last - 1e-12 * w_max,

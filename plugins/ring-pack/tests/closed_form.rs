@@ -19,9 +19,11 @@
 //!   streamers mu u h_c int dx / h^2    = mu u (1 + t_c^2) (L / h0) [ th/2 + sin(2 th)/4 ]_{th_c}^{th1}
 //! ```
 //!
-//! with `th0 = -atan(S)`, `th1 = atan(S)`, `S = sqrt(crown / h0)`.
+//! with `th0 = -atan(S)`, `th1 = atan(S)`, `S = sqrt(crown / h0)`. A starved face (a layer of oil
+//! `h_s` thick on the liner, thinner than the gap at the leading edge) has the same closed form
+//! with its inlet moved to where the gap closes to the layer: `th0 = -atan(sqrt(h_s / h0 - 1))`.
 
-use tribo_law_ring_pack::profile::{film_for_load, Face};
+use tribo_law_ring_pack::profile::{film_for_load, film_for_load_supplied, Face};
 use tribo_law_ring_pack::ring::Ring;
 use tribo_plugin_api::tribology::Roughness;
 
@@ -50,9 +52,19 @@ fn bisect(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> f64 {
 
 /// (load N/m, friction N/m, rupture angle) of the steady slider at film `h0`.
 fn slider(a: f64, crown: f64, h0: f64, u: f64, mu: f64) -> (f64, f64, f64) {
+    slider_fed(a, crown, h0, u, mu, f64::INFINITY)
+}
+
+/// [`slider`] fed by a layer of oil `supply` thick on the liner (infinite: flooded).
+fn slider_fed(a: f64, crown: f64, h0: f64, u: f64, mu: f64, supply: f64) -> (f64, f64, f64) {
     let s = (crown / h0).sqrt();
     let l = a / s;
-    let (th0, th1) = (-s.atan(), s.atan());
+    let th1 = s.atan();
+    let th0 = if supply < h0 + crown {
+        -(supply / h0 - 1.0).max(0.0).sqrt().atan()
+    } else {
+        -th1
+    };
     // p(th_c) as a function of th_c: negative just past the peak, zero at the rupture.
     let rupture = |tc: f64| {
         let t = tc.tan();
@@ -170,4 +182,151 @@ fn the_closed_form_tends_to_the_rigid_cylinder_on_a_plane() {
         "{}",
         f.squeeze_m_s
     );
+}
+
+/// A starved face (the oil layer on the liner thinner than the gap at the leading edge): at the
+/// closed form's film for a given load, the crate's starved film carries that load without
+/// squeeze, with the closed form's friction and rupture point, to 1e-6.
+#[test]
+fn a_starved_steady_film_matches_the_closed_form_from_its_inlet() {
+    let mu = 0.01;
+    for &(width, crown, u, load, supply) in &[
+        (0.8e-3, 5e-6, 10.0, 200.0, 2e-6),
+        (0.8e-3, 5e-6, 1.0, 600.0, 0.5e-6),
+        (1.2e-3, 10e-6, 15.0, 3000.0, 3e-6),
+        (0.3e-3, 2e-6, 5.0, 260.0, 1e-6),
+        (0.8e-3, 5e-6, 20.0, 50.0, 4e-6),
+    ] {
+        let a = 0.5 * width;
+        let face = Face {
+            half_width_m: a,
+            crown_m: crown,
+        };
+        let h_ref = bisect(
+            |lnh: f64| load - slider_fed(a, crown, lnh.exp(), u, mu, supply).0,
+            (1e-10f64).ln(),
+            f64::ln(supply),
+        )
+        .exp();
+        let (w_ref, f_ref, thc) = slider_fed(a, crown, h_ref, u, mu, supply);
+        assert!((w_ref - load).abs() <= 1e-9 * load, "{w_ref} vs {load}");
+        // Starved indeed: the inlet lies inside the face.
+        assert!(supply < h_ref + crown, "{supply} floods a film of {h_ref}");
+        let f = film_for_load_supplied(&face, h_ref, u, load, mu, None, Some(supply));
+        // No squeeze: the squeeze number 2 hdot L / (h u) is rounding, so the law's load at
+        // zero squeeze is the closed form's.
+        let l = a * (h_ref / crown).sqrt();
+        let q = 2.0 * f.squeeze_m_s * l / (h_ref * u);
+        assert!(
+            q.abs() <= 1e-7,
+            "width {width} supply {supply}: squeeze number {q}"
+        );
+        assert!(
+            (f.shear_n_per_m - f_ref).abs() <= 1e-6 * f_ref,
+            "friction: law {}, closed form {f_ref}",
+            f.shear_n_per_m
+        );
+        let x_ref = l * thc.tan();
+        assert!(
+            (f.rupture_m - x_ref).abs() <= 1e-5 * x_ref,
+            "rupture {} vs {x_ref}",
+            f.rupture_m
+        );
+        let x_in = -l * (supply / h_ref - 1.0).sqrt();
+        assert!(
+            (f.inlet_m - x_in).abs() <= 1e-12 * a,
+            "inlet {} vs {x_in}",
+            f.inlet_m
+        );
+        // Starving costs film: the flooded face carries the load on a thicker film.
+        let h_flooded = bisect(
+            |lnh: f64| load - slider(a, crown, lnh.exp(), u, mu).0,
+            (1e-10f64).ln(),
+            (1e-3f64).ln(),
+        )
+        .exp();
+        assert!(h_ref < h_flooded, "{h_ref} vs flooded {h_flooded}");
+    }
+}
+
+/// The faces and films of the starved checks: steady, approaching, separating, slow and at rest.
+fn starved_cases() -> Vec<(Face, f64, f64, f64, f64)> {
+    let mut v = Vec::new();
+    for (a, crown) in [(0.4e-3, 5e-6), (0.6e-3, 10e-6), (0.15e-3, 2e-6)] {
+        let face = Face {
+            half_width_m: a,
+            crown_m: crown,
+        };
+        for h in [0.3e-6, 1e-6, 3e-6] {
+            for frac in [1.0, 1.05, 1.5, 3.0] {
+                for u in [0.0, 0.05, 1.0, 10.0] {
+                    for load in [0.0, 20.0, 300.0, 3000.0] {
+                        v.push((face, h, u, load, frac * h));
+                    }
+                }
+            }
+        }
+    }
+    v
+}
+
+/// Flow continuity at the starved inlet: the oil a face carries out at its outlet (at least
+/// `|u| h_out / 2`, exactly that at a rupture) is never more than the layer it ran into brought
+/// in (`|u| supply`) plus what the approaching face squeezes out of the gap between its inlet
+/// and its outlet (`-hdot (x_out - x_in)` when `hdot < 0`). In steady sliding the ring leaves
+/// at most the layer it met.
+#[test]
+fn a_starved_face_never_carries_out_more_oil_than_it_had() {
+    let mu = 0.02;
+    for (face, h, u, load, supply) in starved_cases() {
+        let f = film_for_load_supplied(&face, h, u, load, mu, None, Some(supply));
+        let out = 0.5 * u * f.outlet_film_m;
+        let squeezed = (-f.squeeze_m_s).max(0.0) * (f.rupture_m - f.inlet_m);
+        assert!(
+            out <= u * supply + squeezed + 1e-12 * u * supply,
+            "{face:?} h {h} u {u} load {load} supply {supply}: out {out}, in {} + {squeezed}",
+            u * supply
+        );
+    }
+}
+
+/// The starved film never does negative work on the liner (its shear opposes the sliding) and
+/// never sucks (its peak pressure is not negative).
+#[test]
+fn a_starved_film_dissipates() {
+    let mu = 0.02;
+    for (face, h, u, load, supply) in starved_cases() {
+        let f = film_for_load_supplied(&face, h, u, load, mu, None, Some(supply));
+        assert!(
+            f.shear_n_per_m >= 0.0 && f.peak_pa >= 0.0 && f.squeeze_m_s.is_finite(),
+            "{face:?} h {h} u {u} load {load} supply {supply}: {f:?}"
+        );
+    }
+}
+
+/// The flooded limit: a layer at least as thick as the gap at the leading edge gives the flooded
+/// film to the bit, and a layer a hair thinner (the inlet a hair inside the edge) gives it to
+/// 1e-6 through the starved formulas (their asymmetric moments tend to the symmetric ones).
+#[test]
+fn the_flooded_limit_recovers_the_flooded_film() {
+    let mu = 0.02;
+    for (face, h, u, load, _) in starved_cases() {
+        let flooded = film_for_load(&face, h, u, load, mu);
+        let edge = h + face.crown_m;
+        let same = film_for_load_supplied(&face, h, u, load, mu, None, Some(edge));
+        assert_eq!(same, flooded);
+        let near = film_for_load_supplied(&face, h, u, load, mu, None, Some(edge * (1.0 - 1e-13)));
+        let close = |x: f64, y: f64, scale: f64| (x - y).abs() <= 1e-6 * scale;
+        let sq = face.crown_m * u.max(1.0) / face.half_width_m + flooded.squeeze_m_s.abs();
+        assert!(
+            close(near.squeeze_m_s, flooded.squeeze_m_s, sq)
+                && close(
+                    near.shear_n_per_m,
+                    flooded.shear_n_per_m,
+                    flooded.shear_n_per_m.max(0.5 * h * flooded.peak_pa)
+                )
+                && close(near.peak_pa, flooded.peak_pa, flooded.peak_pa.max(1.0)),
+            "{face:?} h {h} u {u} load {load}: {near:?} vs {flooded:?}"
+        );
+    }
 }

@@ -119,8 +119,19 @@ const PI_BETA: f64 = 0.04;
 impl Controller {
     /// The integral controller for `pair`.
     pub fn new(pair: &Pair) -> Self {
-        let k = pair.low_order as f64;
-        let target = 0.9_f64.powi(pair.low_order as i32);
+        Self::of_order(pair.low_order)
+    }
+
+    /// The proportional-integral controller for `pair`.
+    pub fn pi(pair: &Pair) -> Self {
+        Self::pi_of_order(pair.low_order)
+    }
+
+    /// The integral controller for an error estimate of order `k` (`O(h^(k + 1))` per step),
+    /// for step methods that are no Runge-Kutta pair (the prescribed crank's quadrature).
+    pub fn of_order(k: u32) -> Self {
+        let target = 0.9_f64.powi(k as i32);
+        let k = k as f64;
         Self {
             exponent: 1.0 / k,
             beta: 0.0,
@@ -129,11 +140,11 @@ impl Controller {
         }
     }
 
-    /// The proportional-integral controller for `pair`.
-    pub fn pi(pair: &Pair) -> Self {
+    /// The proportional-integral controller for an error estimate of order `k`.
+    pub fn pi_of_order(k: u32) -> Self {
         Self {
             beta: PI_BETA,
-            ..Self::new(pair)
+            ..Self::of_order(k)
         }
     }
 

@@ -947,8 +947,8 @@ pub struct SolverSettings {
     /// Iteration limit of the friction/reaction iteration.
     #[serde(default = "friction_iter")]
     pub friction_max_iter: u32,
-    /// Time integrator of a torque-driven (PI) crank; a prescribed crank is a quadrature at
-    /// `step_deg` whatever this says.
+    /// Time integrator of a torque-driven (PI) crank; a prescribed crank is a quadrature
+    /// (`quadrature`) whatever this says.
     #[serde(default)]
     pub integrator: Integrator,
     /// Relative error allowed per unit time by the adaptive integrator.
@@ -961,6 +961,26 @@ pub struct SolverSettings {
     /// Step-size controller of the adaptive integrator.
     #[serde(default)]
     pub step_control: StepControl,
+    /// Quadrature of a prescribed crank with stateless laws.
+    #[serde(default)]
+    pub quadrature: QuadratureRule,
+}
+
+/// How a prescribed crank's rates are integrated (the motion is known, so only quadrature is
+/// left). Law sets with a stateful law always get `Simpson`: their state is advanced once per
+/// step with the step's length, which must then not vary.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(rename_all = "kebab-case")]
+pub enum QuadratureRule {
+    /// Simpson's rule at the fixed crank-angle step `step_deg`: two evaluations per step, the
+    /// samples at fixed angles.
+    #[default]
+    Simpson,
+    /// Error-controlled Gauss-Lobatto quadrature (5 nodes, degree 7, the embedded Simpson rule
+    /// as error estimate) against `rel_tol`, up to `max_step_deg`, steps ending on the
+    /// friction reversals and side-thrust sign changes.
+    Lobatto,
 }
 
 /// How the adaptive integrator chooses its next step from the error estimates.
@@ -1050,6 +1070,7 @@ impl Default for SolverSettings {
             rel_tol: rel_tol(),
             max_step_deg: None,
             step_control: StepControl::default(),
+            quadrature: QuadratureRule::default(),
         }
     }
 }

@@ -234,7 +234,7 @@ impl Adaptive {
             _ => &end,
         });
         let crank = crank_error(pair, &k[..s], h, sim.rel_tol * (h + h_floor));
-        let rates = sim.rate_error(pair, &evals[..s], h, h_floor, incr, est);
+        let rates = sim.rate_error((pair.b, pair.e), &evals[..s], h, h_floor, incr, est);
         // The regimes by the same propagated weights, stage by stage as the rates.
         regime_incr.fill(0.0);
         for (e, b) in evals[..s].iter().zip(pair.b) {
@@ -358,13 +358,14 @@ fn first_crossing(sim: &Simulation, pair: &Pair, evals: &[&Eval]) -> Option<f64>
 }
 
 impl Simulation {
-    /// The step's increments (propagated weights, into `incr`) and error estimates (error
-    /// weights, into `est`) of every accumulated quantity, and the largest scaled error of
+    /// The step's increments (propagated weights `b`, into `incr`) and error estimates (error
+    /// weights `e`, into `est`) of every accumulated quantity, and the largest scaled error of
     /// the controlled groups. Stage by stage so the loops run over contiguous rates; only the
-    /// controlled groups need an error estimate.
-    fn rate_error(
+    /// controlled groups need an error estimate. The weights are fractions of the step: a
+    /// Runge-Kutta pair's, or the prescribed crank's quadrature rules (`lobatto.rs`).
+    pub(super) fn rate_error(
         &self,
-        pair: &Pair,
+        (weights, errors): (&[f64], &[f64]),
         evals: &[&Eval],
         h: f64,
         h_floor: f64,
@@ -374,9 +375,9 @@ impl Simulation {
         let controlled = self.layout().controlled();
         incr.fill(0.0);
         est.fill(0.0);
-        for (j, e) in evals.iter().enumerate() {
-            let r = &e.rates[..];
-            let (b, e) = (h * pair.b[j], h * pair.e[j]);
+        for (j, ev) in evals.iter().enumerate() {
+            let r = &ev.rates[..];
+            let (b, e) = (h * weights[j], h * errors[j]);
             if b != 0.0 {
                 incr.iter_mut().zip(r.iter()).for_each(|(d, r)| *d += b * r);
             }

@@ -9,9 +9,10 @@
 //!   (`crank state -> reactions -> law inputs -> laws -> friction -> reactions ...` until the
 //!   normal loads settle; `trend` judges phase 1's convergence and stalling, phase 2's Newton
 //!   iteration takes over where the plain one stalls);
-//! - `stepper` (with `adaptive`): one trait for a step method: Simpson quadrature of the
-//!   prescribed crank, the error-controlled Dormand-Prince 5(4) pair of the PI drive with its
-//!   step-size controller and switch handling, fixed-step RK4 (stateful laws or
+//! - `stepper` (with `adaptive` and `lobatto`): one trait for a step method: Simpson
+//!   quadrature of the prescribed crank or its error-controlled Gauss-Lobatto quadrature
+//!   (`solver.quadrature`), the error-controlled Dormand-Prince 5(4) pair of the PI drive with
+//!   its step-size controller and switch handling, fixed-step RK4 (stateful laws or
 //!   `solver.integrator = "rk4"`);
 //! - `transient`: the run over the test cycle, a value advanced in time; `steady`: the steady
 //!   state; `crank_angle`: one cycle per plateau resolved in crank angle;
@@ -31,6 +32,7 @@ mod energy;
 mod error;
 mod evaluate;
 mod joints;
+mod lobatto;
 mod newton;
 mod plateau;
 mod rates;
@@ -52,7 +54,7 @@ use crate::cycle::Cycle;
 use crate::engine::{cylinder_phases, geometry, top_dead_centres, CrankTrain};
 use crate::gas::GasModel;
 use crate::mechanics::{Mechanism, RigGeometry};
-use crate::model::{Drive, Integrator, RigFile, StepControl, Temperature};
+use crate::model::{Drive, Integrator, QuadratureRule, RigFile, StepControl, Temperature};
 use crate::observe::{NoObserver, StepObserver};
 
 pub use bind::suitability_notes;
@@ -145,6 +147,8 @@ pub struct Simulation {
     max_step_rad: f64,
     /// The adaptive integrator's step-size controller.
     step_control: StepControl,
+    /// The prescribed crank's quadrature (stateless laws).
+    quadrature: QuadratureRule,
     /// Which of an evaluation's `switches` matter: the relative velocities of joints that
     /// carry a law, the side thrust of cylinders whose piston does, the PI drive's margin.
     switch_mask: Vec<bool>,
@@ -310,6 +314,7 @@ impl Simulation {
             rel_tol: f.solver.rel_tol,
             max_step_rad: f.solver.max_step_deg(engine).to_radians(),
             step_control: f.solver.step_control,
+            quadrature: f.solver.quadrature,
             tol: f.solver.friction_tol,
             max_iter: f.solver.friction_max_iter,
             n_laws,

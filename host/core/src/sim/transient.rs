@@ -8,13 +8,14 @@ use std::f64::consts::TAU;
 use super::adaptive::Adaptive;
 use super::error::SimError;
 use super::evaluate::{Eval, Work};
+use super::lobatto::Lobatto;
 use super::plateau::Plateaus;
 use super::rates::RateLayout;
 use super::results::{DriveKind, EnergyBalance, RunResult};
 use super::stepper::{CrankState, Integration, Quadrature, Rk4, Step, Stepper};
 use super::{Commit, Simulation};
 use crate::erk::{Controller, DORMAND_PRINCE_54};
-use crate::model::{Drive, Integrator, StepControl};
+use crate::model::{Drive, Integrator, QuadratureRule, StepControl};
 use crate::observe::{StepObserver, StepSample};
 
 /// The step method of a transient run.
@@ -22,6 +23,9 @@ use crate::observe::{StepObserver, StepSample};
 pub(super) enum Method {
     /// Prescribed crank: Simpson quadrature of the exact reference motion.
     Quadrature(Quadrature),
+    /// Prescribed crank, stateless laws, `solver.quadrature = "lobatto"`: error-controlled
+    /// Gauss-Lobatto quadrature.
+    Lobatto(Box<Lobatto>),
     /// PI drive, stateless laws: error-controlled Dormand-Prince 5(4).
     Adaptive(Box<Adaptive>),
     /// PI drive with stateful laws, or `solver.integrator = "rk4"`: fixed-step RK4.
@@ -32,6 +36,7 @@ impl Method {
     fn stepper(&mut self) -> &mut dyn Stepper {
         match self {
             Method::Quadrature(q) => q,
+            Method::Lobatto(l) => l.as_mut(),
             Method::Adaptive(a) => a.as_mut(),
             Method::Rk4(r) => r,
         }
@@ -70,6 +75,14 @@ impl Simulation {
     /// Which step method a transient run uses.
     fn method(&self, first: Eval, w: &mut Work) -> Method {
         match self.drive {
+            // A stateful law's state is advanced with the step's length, which must then not
+            // vary: error-controlled steps are for stateless laws only.
+            Drive::Prescribed {}
+                if self.quadrature == QuadratureRule::Lobatto && !self.stateful =>
+            {
+                let pi = self.step_control == StepControl::Pi;
+                Method::Lobatto(Box::new(Lobatto::new(pi, first, self.layout().len())))
+            }
             Drive::Prescribed {} => {
                 w.recycle(first);
                 Method::Quadrature(Quadrature)

@@ -55,6 +55,13 @@ pub struct Params {
     pub critical_shear_rate_1_s: f64,
     /// For `cross`: the exponent of the thinning.
     pub cross_exponent: f64,
+    /// Oil feed pressure at the shell's groove, Pa (gauge); 0: no feed flow in the heat
+    /// balance.
+    pub feed_pressure_pa: f64,
+    /// The groove's arc, degrees (360: a full circumferential groove, 180: a grooved upper shell).
+    pub groove_arc_deg: f64,
+    /// Axial length of one land beside the central groove, m.
+    pub land_length_m: f64,
 }
 
 impl Default for Params {
@@ -92,6 +99,12 @@ impl Default for Params {
             // Cross (1965): 2/3 described the thinning of many polymer solutions and
             // dispersions; estimate for a multigrade oil (published fits 0.5-1).
             cross_exponent: 2.0 / 3.0,
+            // No feed flow unless a law set states its engine's oil pressure and grooves.
+            feed_pressure_pa: 0.0,
+            // estimate: a full circumferential groove, Shigley's case.
+            groove_arc_deg: 360.0,
+            // estimate: a 4 mm central groove in a 20 mm shell leaves two 8 mm lands.
+            land_length_m: 8e-3,
         }
     }
 }
@@ -106,6 +119,27 @@ pub struct PlainJournal {
     thermal: Option<Oil>,
     /// The oil's shear thinning, or `None` for a Newtonian oil.
     thinning: Option<Cross>,
+    /// The groove's feed flow per `R c^3 (1 + 1.5 eps^2) / mu`, m^3/s per (m^4 / (Pa s)):
+    /// `(arc / 360) pi p_s / (3 l')`; 0 without feed pressure.
+    feed_k: f64,
+}
+
+/// What the heat balance needs of the oil besides its line: the shear-thinning factor of the
+/// film and the groove's feed-flow coefficient.
+#[derive(Debug, Clone, Copy)]
+struct Supply {
+    /// `eta / eta_0` at the film's shear rate (1 for a Newtonian oil).
+    thin: f64,
+    /// [`PlainJournal::feed_k`] times `R c^3`: the feed flow is `k (1 + 1.5 eps^2) / mu`.
+    feed_k: f64,
+}
+
+impl Supply {
+    /// The groove's pressure flow at eccentricity ratio `eps` and viscosity `mu` (Shigley's
+    /// circumferential-groove side flow), m^3/s.
+    fn feed_flow(&self, eps: f64, mu: f64) -> f64 {
+        self.feed_k * (1.0 + 1.5 * eps * eps) / mu
+    }
 }
 
 /// State layout: the eccentricity ratio vector (global frame) and whether it has been placed.
@@ -181,7 +215,10 @@ impl PlainJournal {
                 committed.map(|eps| (eps, squeeze.as_ref())),
                 force,
                 omega_bar,
-                thin,
+                Supply {
+                    thin,
+                    feed_k: self.feed_k * bearing.radius_m * bearing.clearance_m.powi(3),
+                },
             )
         });
         let mu = thin * temperature.map_or(mu_feed, |t| t.viscosity_pa_s);
@@ -247,8 +284,10 @@ fn load_on_inner(input: &LawInput) -> [f64; 2] {
 /// viscosity, the load's offset moment independent of it); the heat-carrying flow is Raimondi and Boyd's `Q - Q_s / 2` (inlet flow less half the
 /// side leakage, which leaves at the mean temperature) of the rotating film, `|omega_bar| R c L`
 /// (exact for the short bearing at any eccentricity), or, when the squeeze dominates, half the
-/// squeeze film's side leakage `c |v| R L`, whichever is larger. The film shears at `thin`
-/// times the viscosity of its temperature (the oil's shear thinning, 1 for a Newtonian oil).
+/// squeeze film's side leakage `c |v| R L`, whichever is larger, plus the groove's feed flow
+/// where the law has a feed pressure (Shigley's, leaving at the exit temperature). The film
+/// shears at `supply.thin` times the viscosity of its temperature (the oil's shear thinning,
+/// 1 for a Newtonian oil).
 fn effective_film(
     oil: &Oil,
     b: &Bearing,
@@ -256,8 +295,9 @@ fn effective_film(
     eps: Option<([f64; 2], Option<&Squeeze>)>,
     force: [f64; 2],
     omega_bar: f64,
-    thin: f64,
+    supply: Supply,
 ) -> FilmTemperature {
+    let thin = supply.thin;
     let w = input.relative_velocity;
     let mu_feed = input.viscosity_pa_s;
     if mu_feed <= 0.0 {
@@ -278,9 +318,11 @@ fn effective_film(
             let offset = power - couette;
             let m = b.motion_with(squeeze, eps, omega_bar, mu_feed).squeeze;
             let q_squeeze = m[0].hypot(m[1]) * rcl;
+            let q_feed = supply.feed_flow(eps[0].hypot(eps[1]), mu_feed);
             thermal::solve(oil, input.oil_temp_c, mu_feed, |mu| {
                 let r = thin * mu / mu_feed;
-                (couette * r + offset, q_rot.max(q_squeeze / r))
+                let q = q_rot.max(q_squeeze / r);
+                (couette * r + offset, with_feed(q, q_feed / r))
             })
         }
         None => thermal::solve(oil, input.oil_temp_c, mu_feed, |mu| {
@@ -288,8 +330,19 @@ fn effective_film(
             let e = quasi_static(b, force, omega_bar, mu);
             let power = -relative_torque(b, e, force, w, omega_bar, mu) * w;
             let m = b.motion(e, force, omega_bar, mu).squeeze;
-            (power, q_rot.max(m[0].hypot(m[1]) * rcl))
+            let q = q_rot.max(m[0].hypot(m[1]) * rcl);
+            (power, with_feed(q, supply.feed_flow(e[0].hypot(e[1]), mu)))
         }),
+    }
+}
+
+/// The film's heat-carrying flow `q` with the groove's feed flow `q_feed` added (`q` itself,
+/// to the bit, without a feed).
+fn with_feed(q: f64, q_feed: f64) -> f64 {
+    if q_feed > 0.0 {
+        q + q_feed
+    } else {
+        q
     }
 }
 
@@ -393,6 +446,27 @@ impl Law for PlainJournal {
                 0.3,
                 1.0,
             ),
+            ParamSpec::number(
+                "feed_pressure_pa",
+                "Pa",
+                "oil feed pressure (gauge) at the shell's groove; its pressure flow through the lands joins the heat balance's carrying flow, for thermal = effective (0: none)",
+                0.0,
+                2e6,
+            ),
+            ParamSpec::number(
+                "groove_arc_deg",
+                "deg",
+                "the feed groove's arc (360: full circumferential groove; 180: grooved upper shell), scaling the feed flow",
+                0.0,
+                360.0,
+            ),
+            ParamSpec::number(
+                "land_length_m",
+                "m",
+                "axial length of one land beside the central groove (the feed flow's path)",
+                1e-4,
+                0.1,
+            ),
         ]
     }
 
@@ -463,6 +537,8 @@ impl Law for PlainJournal {
             roughness_m: p.roughness_m,
             thermal,
             thinning,
+            feed_k: p.groove_arc_deg / 360.0 * std::f64::consts::PI * p.feed_pressure_pa
+                / (3.0 * p.land_length_m),
         })
     }
 
@@ -884,6 +960,65 @@ mod tests {
         assert!(e.to_string().contains("hths_ratio"), "{e}");
         let e = law("shear_thinning = \"power-law\"").expect_err("unknown");
         assert!(e.to_string().contains("shear_thinning"), "{e}");
+    }
+
+    /// Without feed pressure the groove's parameters change nothing, to the bit.
+    #[test]
+    fn no_feed_pressure_is_no_feed_flow() {
+        let a = law(EFFECTIVE).expect("law");
+        let b = law(&format!(
+            "{EFFECTIVE}\nfeed_pressure_pa = 0.0\ngroove_arc_deg = 180.0\nland_length_m = 3e-3"
+        ))
+        .expect("law");
+        let mut i = main_bearing(300.0, 5000.0, 1e-4);
+        i.oil_temp_c = 90.0;
+        for s in [[0.0; STATE], [0.3, -0.5, 1.0]] {
+            assert_eq!(
+                a.evaluate(&i, &s).force.to_bits(),
+                b.evaluate(&i, &s).force.to_bits()
+            );
+            assert_eq!(a.film_temperature(&i, &s), b.film_temperature(&i, &s));
+        }
+    }
+
+    /// Unloaded with a feed pressure, the balance's flow is the Couette flow plus Shigley's
+    /// circumferential-groove flow `(arc / 360) pi p_s R c^3 / (3 mu l')` (concentric: `eps` =
+    /// 0) at the film's viscosity: the rise is Petroff's power over `rho c_p` times their sum.
+    /// More pressure, more flow: a cooler film, more torque.
+    #[test]
+    fn a_fed_film_carries_its_heat_in_the_couette_and_the_feed_flow() {
+        let fed = |p_s: f64| {
+            law(&format!(
+                "{EFFECTIVE}\nfeed_pressure_pa = {p_s}\ngroove_arc_deg = 180.0\nland_length_m = 8e-3"
+            ))
+            .expect("law")
+        };
+        let mut i = main_bearing(300.0, 0.0, 0.0);
+        i.oil_temp_c = 90.0;
+        i.viscosity_pa_s = rig_oil_viscosity(90.0);
+        let l = fed(3e5);
+        let t = l.film_temperature(&i, &[0.0; STATE]).expect("effective");
+        let mu = rig_oil_viscosity(t.effective_c);
+        let petroff = 2.0 * PI * mu * 0.025f64.powi(3) * 0.020 * 300.0 / 2e-5;
+        let q_couette = 150.0 * 0.025 * 2e-5 * 0.020;
+        let q_feed = 0.5 * PI * 3e5 * 0.025 * 2e-5f64.powi(3) / (3.0 * mu * 8e-3);
+        let rise = petroff * 300.0 / (850.0 * 2150.0 * (q_couette + q_feed));
+        assert!(
+            (t.rise_k - rise).abs() < 1e-6 * rise,
+            "{} vs {rise}",
+            t.rise_k
+        );
+        let films: Vec<(f64, f64)> = [0.0, 1e5, 3e5, 6e5]
+            .iter()
+            .map(|&p_s| {
+                let l = fed(p_s);
+                let t = l.film_temperature(&i, &[0.0; STATE]).expect("effective");
+                (t.effective_c, l.evaluate(&i, &[0.0; STATE]).force.abs())
+            })
+            .collect();
+        for w in films.windows(2) {
+            assert!(w[1].0 < w[0].0 && w[1].1 > w[0].1, "{films:?}");
+        }
     }
 
     /// Hotter, thinner oil: the journal runs more eccentric, the film thinner, the torque

@@ -213,11 +213,6 @@ pub(super) struct Instant {
 }
 
 impl BoundJoint {
-    /// The joint's law input at instant `at` with its bodies at `bodies`, unloaded.
-    pub(super) fn input(&self, at: &Instant, bodies: &Bodies) -> LawInput {
-        law_input(&self.contact, at, bodies)
-    }
-
     /// Whether any of the joint's laws keeps state.
     pub(super) fn is_stateful(&self) -> bool {
         self.laws.iter().any(BoundLaw::is_stateful)
@@ -317,16 +312,28 @@ fn law_field_of(j: &BoundJoint, i: usize) -> String {
     format!("joints.{}.laws[{i}]", j.name)
 }
 
-/// The law input of a joint with `contact` at instant `at` with its bodies at `bodies`,
-/// unloaded: what every law call of an instant starts from. Its relative velocity is
-/// [`Bodies::relative`].
-pub(super) fn law_input(contact: &Contact, at: &Instant, bodies: &Bodies) -> LawInput {
+/// The law input of a joint with `contact` at rest: its contact fields (kind, radius, length,
+/// bearing type, inner member) set, which stay the same for a whole run.
+pub(super) fn contact_input(contact: &Contact) -> LawInput {
     let mut input = LawInput::at_rest(contact.kind);
     input.contact_radius_m = contact.radius_m;
     input.contact_length_m = contact.length_m;
     input.bearing_type = contact.bearing as u32;
     input.inner_body = contact.inner as u32;
+    input
+}
 
+/// Make `input` (a joint's [`contact_input`]) the joint's unloaded input at instant `at` with
+/// its bodies at `bodies`, in place: every field but the contact's set, the loads to zero. The
+/// solver keeps one input per joint for a run and refreshes it each evaluation.
+#[inline(always)]
+pub(super) fn refresh_input(input: &mut LawInput, at: &Instant, bodies: &Bodies) {
+    input.normal_load_n = 0.0;
+    input.reaction_x_n = 0.0;
+    input.reaction_y_n = 0.0;
+    input.reaction_moment_nm = 0.0;
+    input.load_on_inner_x_n = 0.0;
+    input.load_on_inner_y_n = 0.0;
     input.oil_temp_c = at.oil.0;
     input.viscosity_pa_s = at.oil.1;
     input.engine_speed_rad_s = at.omega;
@@ -337,10 +344,14 @@ pub(super) fn law_input(contact: &Contact, at: &Instant, bodies: &Bodies) -> Law
     input.crankcase_pressure_pa = at.gas.crankcase_pa;
     input.piston_from_tdc_m = at.gas.piston_from_tdc_m;
     input.cycle_angle_rad = at.gas.cycle_angle_rad;
-    let mut input = input.with_velocity(bodies.relative());
+    let relative = bodies.relative();
+    input.relative_velocity = relative;
+    input.sliding_velocity_m_s = match input.kind() {
+        Some(JointKind::Revolute) => relative * input.contact_radius_m,
+        _ => relative,
+    };
     (input.body_a_angle, input.body_a_velocity) = bodies.a;
     (input.body_b_angle, input.body_b_velocity) = bodies.b;
-    input
 }
 
 /// Load a law input: normal load `w` (N), reaction components `comp` (the force body B exerts

@@ -8,7 +8,7 @@ use std::f64::consts::TAU;
 use tribo_plugin_api::loader::inflight;
 use tribo_plugin_api::LawInput;
 
-use super::bind::{set_load, Instant, LawStates, Record};
+use super::bind::{contact_input, refresh_input, set_load, Instant, LawStates, Record};
 use super::crank::Crank;
 use super::error::{SimError, Unsettled};
 use super::rates::RateLayout;
@@ -164,7 +164,15 @@ impl Simulation {
         Ok(Work {
             crank: self.crank.clone(),
             law_gas: Vec::with_capacity(self.crank.cylinders()),
-            inputs: Vec::with_capacity(n),
+            // One input per joint, refreshed each evaluation (none without laws).
+            inputs: if self.n_laws > 0 {
+                self.joints
+                    .iter()
+                    .map(|j| contact_input(&j.contact))
+                    .collect()
+            } else {
+                Vec::new()
+            },
             bodies: vec![Bodies::default(); n],
             rel: vec![0.0; n],
             prev: vec![0.0; n],
@@ -200,7 +208,10 @@ impl Simulation {
             let alpha = w.crank.solve(at.control, &self.roles, &e.totals);
             w.crank.normals(&self.roles, &mut e.normals);
             check_solve(self, at.t, alpha, w.crank.drive_torque(), &e.normals)?;
-            let scale = e.normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+            // The largest load (the laws' output check's scale) and the convergence scale, at
+            // least 1 N: the loads are finite and not negative, so this is the same maximum.
+            let reaction_n = e.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
+            let scale = reaction_n.max(1.0);
             let change = (it > 1).then(|| {
                 w.prev
                     .iter()
@@ -223,7 +234,7 @@ impl Simulation {
                 self.finish(at, w, e, alpha, it, true);
                 return Ok(());
             }
-            self.plain_round(w, e)?;
+            self.plain_round(w, e, reaction_n)?;
             if it == self.max_iter {
                 return Err(self.plain_failure(at, w, e, it));
             }
@@ -270,32 +281,30 @@ impl Simulation {
             *r = b.relative();
         }
         check_inputs(self, at, &w.rel)?;
-        // The law inputs but for the loads: built once, each round of laws sets only the loads.
-        w.inputs.clear();
-        if self.n_laws > 0 {
-            for (j, bodies) in self.joints.iter().zip(&w.bodies) {
+        // The law inputs but for the loads: refreshed once, each round of laws sets only the
+        // loads.
+        let angle = crank_angle(at.theta);
+        for ((input, j), bodies) in w.inputs.iter_mut().zip(&self.joints).zip(&w.bodies) {
+            let instant = Instant {
+                t: at.t,
+                dt: at.dt,
+                crank_angle: angle,
+                omega: at.omega,
+                oil: at.oil,
                 // A cylinder's joints see its own gas state; the mains, cylinder 1's.
-                let instant = Instant {
-                    t: at.t,
-                    dt: at.dt,
-                    crank_angle: crank_angle(at.theta),
-                    omega: at.omega,
-                    oil: at.oil,
-                    gas: w.law_gas[j.role.cylinder()],
-                };
-                w.inputs.push(j.input(&instant, bodies));
-            }
+                gas: w.law_gas[j.role.cylinder()],
+            };
+            refresh_input(input, &instant, bodies);
         }
         Ok(())
     }
 
     /// One round of phase 1: every law evaluated at the last solve's reactions (its normal
     /// loads in `e.normals`), powers and loads recorded in `e.rates`, regimes in `e.regimes`,
-    /// each joint's law total into `e.totals`.
+    /// each joint's law total into `e.totals`; `reaction_n` is the largest of those loads.
     #[inline(always)]
-    fn plain_round(&self, w: &mut Work, e: &mut Eval) -> Result<(), SimError> {
+    fn plain_round(&self, w: &mut Work, e: &mut Eval, reaction_n: f64) -> Result<(), SimError> {
         let layout = self.layout();
-        let reaction_n = e.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
         // The thread's crash-report slot, looked up once for the round's law calls.
         let mut marks = inflight::round();
         for (ji, j) in self.joints.iter().enumerate() {

@@ -205,9 +205,10 @@ impl Lobatto {
         match &mut self.previous {
             Some((tp, gp)) => {
                 *tp = t_node;
-                gp.clone_from(&self.nodes[2].switches);
+                gp.clear();
+                gp.extend_from_slice(&self.nodes[2].switches);
             }
-            None => self.previous = Some((t_node, self.nodes[2].switches.clone())),
+            None => self.previous = Some((t_node, self.nodes[2].switches.to_vec())),
         }
         let Some(end) = self.nodes.pop() else {
             unreachable!("an attempt evaluates every node")

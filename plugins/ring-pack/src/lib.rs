@@ -60,6 +60,12 @@ pub struct Params {
     pub boundary_mu: f64,
     /// Velocity scale of the boundary friction's smoothed sign, m/s.
     pub v_smooth_m_s: f64,
+    /// Oil supply at each face's inlet: `flooded` (every inlet full) or `starved` (each face
+    /// rides the layer the face ahead of it left on the liner).
+    pub inlet: String,
+    /// Starved: the oil layer on the liner above the top ring, met by the top ring on the
+    /// downstroke, m.
+    pub top_supply_film_m: f64,
 }
 
 impl Default for Params {
@@ -83,6 +89,8 @@ impl Default for Params {
             modulus_pa: 78e9,
             boundary_mu: 0.1,
             v_smooth_m_s: 0.01,
+            inlet: "flooded".into(),
+            top_supply_film_m: 1e-6,
         }
     }
 }
@@ -90,8 +98,23 @@ impl Default for Params {
 /// Number of faces: top, second, and one state for both identical oil-ring rails.
 pub const RINGS: usize = 3;
 
-/// State layout: the minimum film of each ring (m), then whether they have been placed.
-const STATE: usize = RINGS + 1;
+/// State layout: the minimum film of each ring (m; the oil ring's upper rail), whether they
+/// have been placed, then the oil ring's lower rail (the same as the upper when flooded).
+const STATE: usize = RINGS + 2;
+
+/// Index of the lower rail's film in the state.
+const LOWER_RAIL: usize = RINGS + 1;
+
+/// The faces in the order the liner meets them on the upstroke (piston towards the head: the
+/// oil ring's lower rail leads, fed from the crankcase side): lower rail, upper rail, second,
+/// top; indices into [`Faces`] (top 0, second 1, upper rail 2, lower rail 3).
+const UPSTROKE: [usize; 4] = [3, 2, 1, 0];
+
+/// The downstroke's order: the top ring leads, fed by the layer above it.
+const DOWNSTROKE: [usize; 4] = [0, 1, 2, 3];
+
+/// The four faces' values: top, second, the oil ring's upper and lower rails.
+type Faces<T> = [T; 4];
 
 /// The ring-pack law (crate docs).
 #[derive(Debug, Clone)]
@@ -100,13 +123,21 @@ pub struct RingPack {
     rough: Roughness,
     boundary_mu: f64,
     v_smooth: f64,
+    /// Starved inlets (`inlet = "starved"`); flooded otherwise.
+    starved: bool,
+    top_supply_m: f64,
 }
 
 /// One evaluation of the pack: every ring's contact and the total force.
 #[derive(Debug, Clone, Copy)]
 pub struct PackState {
-    /// Each ring's contact (the oil-ring entry is one rail).
+    /// Each ring's contact (the oil-ring entry is its upper rail).
     pub contacts: [Contact; RINGS],
+    /// The oil ring's lower rail (the same as the upper when flooded).
+    pub lower_rail: Contact,
+    /// The oil layer each face ran into, m (top, second, upper rail, lower rail; `None`:
+    /// flooded).
+    pub supplies: Faces<Option<f64>>,
     /// Friction force on the piston along the bore axis, N (opposes the sliding velocity).
     pub force_n: f64,
     /// The hydrodynamic (viscous shear) part of the force, N.
@@ -137,43 +168,93 @@ impl RingPack {
         self.rings.map(|r| r.load_per_length(bore, dp))
     }
 
-    /// The minimum films to evaluate at: the committed ones, or the quasi-static films of this
-    /// instant before the first commit.
-    fn films(&self, input: &LawInput, state: &[f64], loads: &[f64; RINGS]) -> [f64; RINGS] {
+    /// The ring behind face `f` (the two rails share the oil ring).
+    fn ring_of(&self, f: usize) -> &Ring {
+        &self.rings[f.min(RINGS - 1)]
+    }
+
+    /// The committed film of face `f`, if placed.
+    fn committed(state: &[f64], f: usize) -> Option<f64> {
         let placed = state.len() >= STATE && state[RINGS] != 0.0;
+        placed.then(|| state[if f == 3 { LOWER_RAIL } else { f }])
+    }
+
+    /// Every face's contact at the committed films (the quasi-static film of the instant before
+    /// the first commit), and the oil layer each ran into. Flooded: every inlet full, the two
+    /// rails alike. Starved: in the order the liner meets the faces in this stroke, each face's
+    /// supply is the layer the face ahead left (`h_out / 2`: the outlet flux `|u| h_out / 2`
+    /// spread on the liner moving at `|u|`; the whole layer when the face rode above it); the
+    /// leading face's is the crankcase side's (flooded) on the upstroke and `top_supply_film_m`
+    /// on the downstroke.
+    fn faces(
+        &self,
+        input: &LawInput,
+        state: &[f64],
+        loads: &[f64; RINGS],
+    ) -> (Faces<Contact>, Faces<Option<f64>>) {
         let u = input.relative_velocity.abs();
-        let mu = input.viscosity_pa_s;
-        std::array::from_fn(|i| {
-            if placed {
-                state[i]
-            } else {
-                self.rings[i].steady(&self.rough, u, loads[i], mu)
-            }
-        })
+        let mu = input.viscosity_pa_s.max(0.0);
+        let mu_raw = input.viscosity_pa_s;
+        let film = |f: usize, supply: Option<f64>| {
+            let r = self.ring_of(f);
+            let load = loads[f.min(RINGS - 1)];
+            let h = Self::committed(state, f)
+                .unwrap_or_else(|| r.steady(&self.rough, u, load, mu_raw, supply));
+            r.contact(&self.rough, h, u, load, mu, supply)
+        };
+        if !self.starved {
+            let c: [Contact; RINGS] = std::array::from_fn(|f| film(f, None));
+            return ([c[0], c[1], c[2], c[2]], [None; 4]);
+        }
+        let (order, lead) = if input.relative_velocity >= 0.0 {
+            (UPSTROKE, None)
+        } else {
+            (DOWNSTROKE, Some(self.top_supply_m))
+        };
+        let mut contacts = [film(order[0], lead); 4];
+        let mut supplies = [None; 4];
+        let mut supply = lead;
+        for &f in &order {
+            let c = film(f, supply);
+            contacts[f] = c;
+            supplies[f] = supply;
+            supply = Some(match supply {
+                Some(s) if c.h_m > s => s,
+                _ => 0.5 * c.film.outlet_film_m,
+            });
+        }
+        (contacts, supplies)
     }
 
     /// The pack at `input` with the committed `state`.
     pub fn pack(&self, input: &LawInput, state: &[f64]) -> PackState {
         let loads = self.loads(input);
-        let h = self.films(input, state, &loads);
         let v = input.relative_velocity;
-        let u = v.abs();
-        let mu = input.viscosity_pa_s.max(0.0);
         let circumference = 2.0 * std::f64::consts::PI * input.contact_radius_m;
-        let contacts: [Contact; RINGS] =
-            std::array::from_fn(|i| self.rings[i].contact(&self.rough, h[i], u, loads[i], mu));
+        let (faces, supplies) = self.faces(input, state, &loads);
+        let contacts = [faces[0], faces[1], faces[2]];
         let (mut shear, mut asp, mut radial) = (0.0, 0.0, 0.0);
-        for (r, c) in self.rings.iter().zip(&contacts) {
-            let faces = r.rails.max(1) as f64;
-            shear += faces * c.film.shear_n_per_m;
-            asp += faces * c.asperity_n_per_m;
-            radial += faces * c.load_n_per_m;
+        for (i, (r, c)) in self.rings.iter().zip(&contacts).enumerate() {
+            // The oil ring's two rails (identical when flooded: 2 x, exactly).
+            let (s, a) = if i == RINGS - 1 {
+                (
+                    c.film.shear_n_per_m + faces[3].film.shear_n_per_m,
+                    c.asperity_n_per_m + faces[3].asperity_n_per_m,
+                )
+            } else {
+                (c.film.shear_n_per_m, c.asperity_n_per_m)
+            };
+            shear += s;
+            asp += a;
+            radial += r.rails.max(1) as f64 * c.load_n_per_m;
         }
         let (sgn, _) = smooth_sign(v, self.v_smooth);
         let viscous = -v.signum() * shear * circumference;
         let boundary = -sgn * self.boundary_mu * asp * circumference;
         PackState {
             contacts,
+            lower_rail: faces[3],
+            supplies,
             force_n: viscous + boundary,
             viscous_n: viscous,
             boundary_n: boundary,
@@ -320,10 +401,32 @@ impl Law for RingPack {
                 1e-6,
                 1.0,
             ),
+            ParamSpec::choice(
+                "inlet",
+                "oil at each face's inlet: flooded, or starved (each face rides the layer the face ahead left on the liner)",
+                &["flooded", "starved"],
+            ),
+            n(
+                "top_supply_film_m",
+                "m",
+                "starved: oil layer on the liner above the top ring, met on the downstroke",
+                1e-9,
+                1e-4,
+            ),
         ]
     }
 
     fn new(p: Params) -> Result<Self, ParamError> {
+        let starved = match p.inlet.as_str() {
+            "flooded" => false,
+            "starved" => true,
+            other => {
+                return Err(ParamError::new(
+                    "inlet",
+                    format!("unknown inlet `{other}`: expected `flooded` or `starved`"),
+                ))
+            }
+        };
         let ring = |crown_param: &'static str,
                     width: f64,
                     crown: f64,
@@ -381,6 +484,8 @@ impl Law for RingPack {
             },
             boundary_mu: p.boundary_mu,
             v_smooth: p.v_smooth_m_s,
+            starved,
+            top_supply_m: p.top_supply_film_m,
         })
     }
 
@@ -422,18 +527,30 @@ impl Law for RingPack {
             return;
         }
         let loads = self.loads(input);
-        let h = self.films(input, state, &loads);
+        let (faces, supplies) = self.faces(input, state, &loads);
         let u = input.relative_velocity.abs();
         let mu = input.viscosity_pa_s;
-        for i in 0..RINGS {
+        // Flooded, the rails are alike: the upper rail's film is the lower's.
+        let count = if self.starved { 4 } else { RINGS };
+        for f in 0..count {
+            let h = faces[f].h_m;
+            let h = match Self::committed(state, f) {
+                Some(old) if !self.starved || old <= h => old,
+                // Placed above a layer that has thinned since: the face is on the layer.
+                Some(_) | None => h,
+            };
+            let (r, load) = (self.ring_of(f), loads[f.min(RINGS - 1)]);
             let next = if input.dt_s > 0.0 {
-                self.rings[i].advance(&self.rough, h[i], input.dt_s, u, loads[i], mu)
+                r.advance(&self.rough, h, input.dt_s, u, load, mu, supplies[f])
             } else {
-                h[i]
+                h
             };
             if next.is_finite() {
-                state[i] = next;
+                state[if f == 3 { LOWER_RAIL } else { f }] = next;
             }
+        }
+        if !self.starved {
+            state[LOWER_RAIL] = state[RINGS - 1];
         }
         state[RINGS] = 1.0;
     }
@@ -449,6 +566,50 @@ mod tests {
     #[test]
     fn conforms() {
         assert_law_conforms::<RingPack>();
+    }
+
+    #[test]
+    fn conforms_starved() {
+        tribo_plugin_api::conformance::assert_law_conforms_with::<RingPack>("inlet = \"starved\"");
+    }
+
+    #[test]
+    fn an_unknown_inlet_is_refused_naming_it() {
+        let e = law("inlet = \"drowned\"").expect_err("refused");
+        assert!(e.to_string().contains("inlet"), "{e}");
+    }
+
+    /// Starved, each face is fed by the one ahead of it in the sliding direction: upstroke from
+    /// the crankcase (flooded lower rail) up to the top ring, downstroke from the layer above
+    /// the top ring down to the lower rail; each following face's layer is what the face ahead
+    /// carried out (`h_out / 2`), never more than that face had run into in steady sliding
+    /// (continuity along the pack). Flooded, every inlet is full and both rails alike.
+    #[test]
+    fn a_starved_pack_feeds_each_ring_from_the_one_ahead() {
+        let starved = law("inlet = \"starved\"\ntop_supply_film_m = 0.4e-6").expect("starved");
+        for (v, order) in [(5.0, UPSTROKE), (-5.0, DOWNSTROKE)] {
+            let p = starved.pack(&piston(v, 0.0), &[0.0; STATE]);
+            let faces = [p.contacts[0], p.contacts[1], p.contacts[2], p.lower_rail];
+            let lead = if v > 0.0 { None } else { Some(0.4e-6) };
+            assert_eq!(p.supplies[order[0]], lead, "{v}");
+            for w in order.windows(2) {
+                let (ahead, next) = (w[0], w[1]);
+                // A face held above its layer by its asperities lets the layer pass.
+                let left = match p.supplies[ahead] {
+                    Some(had) if faces[ahead].h_m > had => had,
+                    _ => 0.5 * faces[ahead].film.outlet_film_m,
+                };
+                assert_eq!(p.supplies[next], Some(left), "{v}: face {next}");
+                if let Some(had) = p.supplies[ahead] {
+                    assert!(left <= had, "{v}: face {ahead} left {left} of {had}");
+                }
+            }
+        }
+        let flooded = law("")
+            .expect("defaults")
+            .pack(&piston(5.0, 0.0), &[0.0; STATE]);
+        assert_eq!(flooded.supplies, [None; 4]);
+        assert_eq!(flooded.lower_rail, flooded.contacts[2]);
     }
 
     fn law(text: &str) -> Result<RingPack, ParamError> {

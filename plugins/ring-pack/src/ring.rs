@@ -4,11 +4,11 @@
 //! The ring has no radial inertia worth keeping (a few grams against loads of hundreds of
 //! newtons per metre), so at every instant the film and the asperities carry the whole radial
 //! load: `w = w_film(h, hdot) + w_asperity(h)`. Given the minimum film `h` (the law's state)
-//! this fixes the squeeze velocity `hdot` ([`film_for_load`]); `commit` advances `h` by the
+//! this fixes the squeeze velocity `hdot` ([`crate::profile::film_for_load`]); `commit` advances `h` by the
 //! backward Euler rule `h_new = h_old + dt hdot(h_new)` (a monotone root: stable at any step,
 //! however stiff the squeeze film gets near contact).
 
-use crate::profile::{film_for_load, film_for_load_near, Face, Film};
+use crate::profile::{film_for_load_supplied, Face, Film};
 use tribo_plugin_api::tribology::{root_increasing, Roughness, LAMBDA_MAX};
 
 /// The thinnest film considered, in units of the composite roughness: below it the asperities
@@ -69,10 +69,25 @@ impl Ring {
         root_increasing(|h| load - self.asperity(rough, h), lo, hi)
     }
 
-    /// The face at minimum film `h_m` (raised to the floor of `load` if below it), sliding at
-    /// `u_abs` on oil of viscosity `mu` (Pa s, > 0).
-    pub fn contact(&self, rough: &Roughness, h_m: f64, u_abs: f64, load: f64, mu: f64) -> Contact {
-        let mut h = h_m.clamp(LAMBDA_MIN * rough.sigma_m, H_MAX_M);
+    /// The thickest film the ring can ride on: [`H_MAX_M`], or the oil layer it runs into when
+    /// starved (a face above the layer touches no oil, and nothing holds it off the liner).
+    pub fn ceiling(rough: &Roughness, supply_m: Option<f64>) -> f64 {
+        supply_m.map_or(H_MAX_M, |s| s.clamp(LAMBDA_MIN * rough.sigma_m, H_MAX_M))
+    }
+
+    /// The face at minimum film `h_m` (raised to the floor of `load` if below it, lowered to the
+    /// oil layer `supply_m` if above it), sliding at `u_abs` on oil of viscosity `mu` (Pa s,
+    /// > 0); `supply_m` `None`: flooded.
+    pub fn contact(
+        &self,
+        rough: &Roughness,
+        h_m: f64,
+        u_abs: f64,
+        load: f64,
+        mu: f64,
+        supply_m: Option<f64>,
+    ) -> Contact {
+        let mut h = h_m.clamp(LAMBDA_MIN * rough.sigma_m, Self::ceiling(rough, supply_m));
         let mut asp = self.asperity(rough, h);
         if asp > load {
             h = self.floor(rough, load);
@@ -82,22 +97,37 @@ impl Ring {
             h_m: h,
             load_n_per_m: load,
             asperity_n_per_m: asp,
-            film: film_for_load(&self.face, h, u_abs, load - asp, mu),
+            film: film_for_load_supplied(&self.face, h, u_abs, load - asp, mu, None, supply_m),
         }
     }
 
     /// The minimum film at which the load is carried without squeeze (`hdot = 0`): the
     /// quasi-static film of this instant (the floor at rest, where no wedge acts).
-    pub fn steady(&self, rough: &Roughness, u_abs: f64, load: f64, mu: f64) -> f64 {
+    pub fn steady(
+        &self,
+        rough: &Roughness,
+        u_abs: f64,
+        load: f64,
+        mu: f64,
+        supply_m: Option<f64>,
+    ) -> f64 {
         let guess = rough.sigma_m * 3.0;
-        self.solve(rough, guess, u_abs, load, mu, |_, hdot| -hdot)
+        self.solve(rough, guess, u_abs, load, mu, supply_m, |_, hdot| -hdot)
     }
 
     /// The squeeze velocity at film `h`, m/s: what makes film and asperities carry `load`
     /// (the fully ruptured film's lift where the asperities alone carry more).
-    pub fn squeeze(&self, rough: &Roughness, h: f64, u_abs: f64, load: f64, mu: f64) -> f64 {
+    pub fn squeeze(
+        &self,
+        rough: &Roughness,
+        h: f64,
+        u_abs: f64,
+        load: f64,
+        mu: f64,
+        supply_m: Option<f64>,
+    ) -> f64 {
         let asp = self.asperity(rough, h).min(load);
-        film_for_load(&self.face, h, u_abs, load - asp, mu).squeeze_m_s
+        film_for_load_supplied(&self.face, h, u_abs, load - asp, mu, None, supply_m).squeeze_m_s
     }
 
     /// The minimum film after a step of `dt_s` from `h_old`: linearly implicit (Rosenbrock)
@@ -105,7 +135,9 @@ impl Ring {
     /// (sub-steps where the film changes fast, near the dead centres). Like backward Euler it
     /// damps the squeeze film's relaxation (`dhdot/dh < 0`) at any step length instead of
     /// amplifying it; after 64 sub-steps the rest of the step is backward Euler solved to
-    /// rounding. Never below the floor of the asperities.
+    /// rounding. Never below the floor of the asperities, never above the oil layer when
+    /// starved (`supply_m`, held over the step; `None`: flooded).
+    #[allow(clippy::too_many_arguments)]
     pub fn advance(
         &self,
         rough: &Roughness,
@@ -114,6 +146,7 @@ impl Ring {
         u_abs: f64,
         load: f64,
         mu: f64,
+        supply_m: Option<f64>,
     ) -> f64 {
         let lo_limit = LAMBDA_MIN * rough.sigma_m;
         if mu.is_nan() || mu <= 0.0 || mu.is_infinite() {
@@ -121,14 +154,20 @@ impl Ring {
         }
         let film = |h: f64, guess: Option<f64>| {
             let asp = self.asperity(rough, h).min(load);
-            film_for_load_near(&self.face, h, u_abs, load - asp, mu, guess)
+            film_for_load_supplied(&self.face, h, u_abs, load - asp, mu, guess, supply_m)
         };
-        let mut h = h_old.clamp(lo_limit, H_MAX_M);
+        let hi_limit = Self::ceiling(rough, supply_m);
+        let mut h = h_old.clamp(lo_limit, hi_limit);
         let mut left = dt_s;
         for _ in 0..64 {
             let film0 = film(h, None);
             let f0 = film0.squeeze_m_s;
-            let dh = 1e-6 * h;
+            // A backward difference at the ceiling (the film is not defined above the layer).
+            let dh = if h + 1e-6 * h > hi_limit {
+                -1e-6 * h
+            } else {
+                1e-6 * h
+            };
             let slope = ((film(h + dh, Some(film0.rupture_m)).squeeze_m_s - f0) / dh).min(0.0);
             // The longest sub-step moving the film by 10%: |f0| t / (1 + t |slope|) <= h / 10.
             let room = f0.abs() - 0.1 * h * slope.abs();
@@ -141,7 +180,7 @@ impl Ring {
             if !step.is_finite() {
                 break;
             }
-            h = (h + step).clamp(lo_limit, H_MAX_M);
+            h = (h + step).clamp(lo_limit, hi_limit);
             left -= t;
             if left <= 0.0 {
                 return if self.asperity(rough, h) > load {
@@ -152,7 +191,7 @@ impl Ring {
             }
         }
         let h_start = h;
-        self.solve(rough, h_start, u_abs, load, mu, |x, hdot| {
+        self.solve(rough, h_start, u_abs, load, mu, supply_m, |x, hdot| {
             x - h_start - left * hdot
         })
     }
@@ -160,7 +199,8 @@ impl Ring {
     /// The film `h` where `g(h, hdot(h))`, increasing in `h`, vanishes (in `ln h`, bracketed
     /// outwards from `guess`), raised to the floor where the asperities alone would carry more
     /// than the load. Below the floor `hdot` is the fully ruptured film's lift, so `g` stays
-    /// increasing through it.
+    /// increasing through it. Below the oil layer when starved.
+    #[allow(clippy::too_many_arguments)]
     fn solve(
         &self,
         rough: &Roughness,
@@ -168,6 +208,7 @@ impl Ring {
         u_abs: f64,
         load: f64,
         mu: f64,
+        supply_m: Option<f64>,
         g: impl Fn(f64, f64) -> f64,
     ) -> f64 {
         let lo_limit = LAMBDA_MIN * rough.sigma_m;
@@ -176,10 +217,11 @@ impl Ring {
         }
         let f = |y: f64| {
             let h = y.exp();
-            g(h, self.squeeze(rough, h, u_abs, load, mu))
+            g(h, self.squeeze(rough, h, u_abs, load, mu, supply_m))
         };
-        let (y_min, y_max) = (lo_limit.ln(), H_MAX_M.ln());
-        let y0 = guess.clamp(lo_limit, H_MAX_M).ln();
+        let hi_limit = Self::ceiling(rough, supply_m);
+        let (y_min, y_max) = (lo_limit.ln(), hi_limit.ln());
+        let y0 = guess.clamp(lo_limit, hi_limit).ln();
         // Bracket: step outwards from the guess by doubling widths in ln h.
         let f0 = f(y0);
         let (mut a, mut b) = (y0, y0);

@@ -120,7 +120,7 @@ fn steady_film_and_friction_for_a_given_load_match_the_closed_form() {
         (0.8e-3, 5e-6, 20.0, 50.0),
     ] {
         let r = ring(width, crown);
-        let h = r.steady(&smooth(), u, load, mu);
+        let h = r.steady(&smooth(), u, load, mu, None);
         // The closed form's film for this load: its load falls monotonically with the film.
         let h_ref = bisect(
             |lnh: f64| load - slider(0.5 * width, crown, lnh.exp(), u, mu).0,
@@ -134,7 +134,7 @@ fn steady_film_and_friction_for_a_given_load_match_the_closed_form() {
         );
         let (w_ref, f_ref, thc) = slider(0.5 * width, crown, h_ref, u, mu);
         assert!((w_ref - load).abs() <= 1e-9 * load);
-        let c = r.contact(&smooth(), h, u, load, mu);
+        let c = r.contact(&smooth(), h, u, load, mu, None);
         assert_eq!(c.asperity_n_per_m, 0.0);
         let f = c.film.shear_n_per_m;
         assert!(

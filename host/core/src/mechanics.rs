@@ -524,7 +524,6 @@ impl Kinematics {
     }
 
     /// Joint reactions and the drive torque at crank acceleration `alpha` under `loads`.
-    #[inline]
     pub fn reactions(&self, alpha: f64, loads: &JointLoads) -> Reactions {
         let l = self.lambda(alpha, loads);
         // Constraint force on body k is -Phi_q_k^T lambda: read each joint's force on its second

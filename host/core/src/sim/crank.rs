@@ -195,8 +195,7 @@ impl Crank {
     /// Solve the reactions in the current configuration under the friction of each joint's
     /// laws, `totals[j]` for the joint `roles[j]` (the mains' torques add up); returns the
     /// crank acceleration (the control's, or the one the drive torque causes).
-    // Inlined into the friction iteration, as `normals` and `reaction`: once per solve.
-    #[inline(always)]
+    #[inline]
     pub(crate) fn solve(&mut self, control: Control, roles: &[Role], totals: &[f64]) -> f64 {
         match self {
             Crank::Rig(r) => {

@@ -241,8 +241,7 @@ impl Crank {
     }
 
     /// Each joint's normal load from the last solve, `out[j]` for `roles[j]`, N.
-    // Inlined into the friction iteration: called once per solve and per joint per round.
-    #[inline(always)]
+    #[inline]
     pub(crate) fn normals(&self, roles: &[Role], out: &mut [f64]) {
         match self {
             Crank::Rig(r) => {
@@ -267,7 +266,7 @@ impl Crank {
     /// The reaction the laws of joint `role` see in the last solve: its force (components:
     /// global frame for bearings and pins; for a slide, along its axis and across it) and
     /// moment.
-    #[inline(always)]
+    #[inline]
     pub(crate) fn reaction(&self, role: Role) -> (Vector2<f64>, f64) {
         match self {
             Crank::Rig(r) => match role {

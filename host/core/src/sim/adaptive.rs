@@ -116,13 +116,7 @@ impl Stepper for Adaptive {
         loop {
             let remaining = b - t;
             // End on the breakpoint, without leaving a sliver step before it.
-            let h_try = if remaining <= 1.1 * h {
-                remaining
-            } else if remaining < 2.0 * h {
-                0.5 * remaining
-            } else {
-                h
-            };
+            let h_try = landing(h, remaining);
             let a = self.attempt(sim, w, s, t, h_try, h_floor)?;
             if a.err <= 1.0 {
                 // A step cut short to land on `b` or a switch does not shrink the next one.
@@ -155,28 +149,8 @@ impl Stepper for Adaptive {
             w.recycle(a.end);
             s.rejected += 1;
             rejected = true;
-            h = self.control.next(h_try, a.err, true);
-            // A switch inside the failed step: retry up to it rather than by the error alone.
-            if let Some(f) = a.crossing {
-                if f > 0.02 && f < 0.95 {
-                    h = f * h_try;
-                }
-            }
-            // A failed step that landed on the breakpoint is retried short of it: otherwise a
-            // retry within 10% of it is snapped back by the landing rule above to the very
-            // step that failed, for ever (the PI drive at 3.8 N m: a crossing at 91-95% of a
-            // step ending 0.41 ms before a hold's end). Only that case changes: any run that
-            // ended before never met it.
-            if h_try == remaining {
-                h = h.min(0.9 * remaining / 1.1);
-            }
-            if h <= 1e-12 * t.abs().max(1e-3) {
-                return Err(SimError::StepTooSmall {
-                    time_s: t,
-                    step_s: h,
-                    rel_tol: sim.rel_tol,
-                });
-            }
+            let failed = (h_try, a.err, a.crossing);
+            h = retry_after_rejection(&self.control, failed, remaining, t, sim.rel_tol)?;
         }
     }
 
@@ -404,4 +378,49 @@ impl Simulation {
         }
         err
     }
+}
+
+/// The step to try with `h` planned and `remaining` left to the interval's end: the end itself
+/// when it is within 10% of `h`, half the way when it is within two steps (no sliver step before
+/// a breakpoint), else `h`. Shared by the error-controlled steppers.
+pub(super) fn landing(h: f64, remaining: f64) -> f64 {
+    if remaining <= 1.1 * h {
+        remaining
+    } else if remaining < 2.0 * h {
+        0.5 * remaining
+    } else {
+        h
+    }
+}
+
+/// The length to retry after a rejected step `failed = (h_try, err, crossing)` at `t`: the
+/// controller's, cut to a switch predicted inside the step, and kept short of a breakpoint the
+/// failed step landed on (otherwise a retry within 10% of it is snapped back by [`landing`] to
+/// the very step that failed, for ever: the PI drive at 3.8 N m, a crossing at 91-95% of a step
+/// ending 0.41 ms before a hold's end). A length the time's precision cannot resolve is an error.
+pub(super) fn retry_after_rejection(
+    control: &Controller,
+    failed: (f64, f64, Option<f64>),
+    remaining: f64,
+    t: f64,
+    rel_tol: f64,
+) -> Result<f64, SimError> {
+    let (h_try, err, crossing) = failed;
+    let mut h = control.next(h_try, err, true);
+    if let Some(f) = crossing {
+        if f > 0.02 && f < 0.95 {
+            h = f * h_try;
+        }
+    }
+    if h_try == remaining {
+        h = h.min(0.9 * remaining / 1.1);
+    }
+    if h <= 1e-12 * t.abs().max(1e-3) {
+        return Err(SimError::StepTooSmall {
+            time_s: t,
+            step_s: h,
+            rel_tol,
+        });
+    }
+    Ok(h)
 }

@@ -5,6 +5,7 @@
 //! against `solver.rel_tol` as the PI drive's step is, and steps ending on the host-known
 //! switches (friction reversals, side-thrust sign changes) so their kinks fall between steps.
 
+use super::adaptive::{landing, retry_after_rejection};
 use super::error::SimError;
 use super::evaluate::{Eval, Work};
 use super::rates::RegimeTimes;
@@ -259,13 +260,7 @@ impl Stepper for Lobatto {
         loop {
             let remaining = b - t;
             // End on the breakpoint, without leaving a sliver step before it.
-            let h_try = if remaining <= 1.1 * h {
-                remaining
-            } else if remaining < 2.0 * h {
-                0.5 * remaining
-            } else {
-                h
-            };
+            let h_try = landing(h, remaining);
             let t1 = if h_try == remaining { b } else { t + h_try };
             let (err, crossing) = self.attempt(sim, w, (t, t1), h_floor)?;
             if err <= 1.0 {
@@ -284,25 +279,13 @@ impl Stepper for Lobatto {
             }
             s.rejected += 1;
             rejected = true;
-            h = self.control.next(h_try, err, true);
-            // A switch inside the failed step: retry up to it rather than by the error alone.
-            if let Some(f) = crossing {
-                if f > 0.02 && f < 0.95 {
-                    h = f * h_try;
-                }
-            }
-            // A failed step that landed on the breakpoint is retried short of it (see the
-            // PI drive's stepper: the landing rule would otherwise snap back to it).
-            if h_try == remaining {
-                h = h.min(0.9 * remaining / 1.1);
-            }
-            if h <= 1e-12 * t.abs().max(1e-3) {
-                return Err(SimError::StepTooSmall {
-                    time_s: t,
-                    step_s: h,
-                    rel_tol: sim.rel_tol,
-                });
-            }
+            h = retry_after_rejection(
+                &self.control,
+                (h_try, err, crossing),
+                remaining,
+                t,
+                sim.rel_tol,
+            )?;
         }
     }
 

@@ -82,17 +82,13 @@ impl Adaptive {
         } else {
             sim.time_step(sim.step_rad, w)
         };
-        let mut h_switch = f64::INFINITY;
-        if let Some((tp, gp)) = &self.previous_end {
-            for (i, (&a, &g)) in gp.iter().zip(&self.fsal.switches).enumerate() {
-                if sim.switch_mask[i] && a * g > 0.0 && (g - a) * g < 0.0 && t > *tp {
-                    let dt = g * (t - *tp) / (a - g);
-                    if dt > 0.05 * planned && dt < planned {
-                        h_switch = h_switch.min(dt);
-                    }
-                }
-            }
-        }
+        let h_switch = first_switch(
+            sim,
+            self.previous_end.as_ref(),
+            &self.fsal.switches,
+            t,
+            planned,
+        );
         (planned.min(h_switch), planned, h_switch.is_finite())
     }
 }
@@ -423,4 +419,29 @@ pub(super) fn retry_after_rejection(
         });
     }
     Ok(h)
+}
+
+/// How far from `t` the first host-known switch is predicted to change sign, linearly from its
+/// value `before` (time and switching functions of an earlier sample) to its value `now` at
+/// `t`; only a crossing between 5% and 100% of the `planned` step counts (infinity: none).
+/// Shared by the error-controlled steppers, so a kink falls between steps.
+pub(super) fn first_switch(
+    sim: &Simulation,
+    before: Option<&(f64, Vec<f64>)>,
+    now: &[f64],
+    t: f64,
+    planned: f64,
+) -> f64 {
+    let mut h_switch = f64::INFINITY;
+    if let Some((tp, gp)) = before {
+        for (i, (&a, &g)) in gp.iter().zip(now).enumerate() {
+            if sim.switch_mask[i] && a * g > 0.0 && (g - a) * g < 0.0 && t > *tp {
+                let dt = g * (t - *tp) / (a - g);
+                if dt > 0.05 * planned && dt < planned {
+                    h_switch = h_switch.min(dt);
+                }
+            }
+        }
+    }
+    h_switch
 }

@@ -5,7 +5,7 @@
 //! against `solver.rel_tol` as the PI drive's step is, and steps ending on the host-known
 //! switches (friction reversals, side-thrust sign changes) so their kinks fall between steps.
 
-use super::adaptive::{landing, retry_after_rejection};
+use super::adaptive::{first_switch, landing, retry_after_rejection};
 use super::error::SimError;
 use super::evaluate::{Eval, Work};
 use super::rates::RegimeTimes;
@@ -97,17 +97,13 @@ impl Lobatto {
         } else {
             sim.time_step(sim.step_rad, w)
         };
-        let mut h_switch = f64::INFINITY;
-        if let Some((tp, gp)) = &self.previous {
-            for (i, (&a, &g)) in gp.iter().zip(&self.first.switches).enumerate() {
-                if sim.switch_mask[i] && a * g > 0.0 && (g - a) * g < 0.0 && t > *tp {
-                    let dt = g * (t - *tp) / (a - g);
-                    if dt > 0.05 * planned && dt < planned {
-                        h_switch = h_switch.min(dt);
-                    }
-                }
-            }
-        }
+        let h_switch = first_switch(
+            sim,
+            self.previous.as_ref(),
+            &self.first.switches,
+            t,
+            planned,
+        );
         (planned.min(h_switch), planned, h_switch.is_finite())
     }
 

@@ -75,21 +75,8 @@ impl Adaptive {
     /// the planned (uncut) step and whether a switch cut it.
     fn plan(&self, sim: &Simulation, t: f64, y: CrankState) -> (f64, f64, bool) {
         let w = y.1.abs().max(sim.reference(t).1.abs());
-        let h_cap = sim.time_step(sim.max_step_rad, w);
-        // The first step: one `step_deg` of crank angle.
-        let planned = if self.h_next.is_finite() {
-            self.h_next.min(h_cap)
-        } else {
-            sim.time_step(sim.step_rad, w)
-        };
-        let h_switch = first_switch(
-            sim,
-            self.previous_end.as_ref(),
-            &self.fsal.switches,
-            t,
-            planned,
-        );
-        (planned.min(h_switch), planned, h_switch.is_finite())
+        let before = self.previous_end.as_ref();
+        plan_step(sim, self.h_next, w, (t, before, &self.fsal.switches))
     }
 }
 
@@ -421,13 +408,36 @@ pub(super) fn retry_after_rejection(
     Ok(h)
 }
 
+/// A time and the switching functions there: the earlier sample a switch is predicted from.
+pub(super) type SwitchSample = (f64, Vec<f64>);
+
+/// The step an error-controlled stepper tries first at crank speed `w`: the controller's
+/// proposal `h_next` within the longest allowed step (one `step_deg` of crank angle for the
+/// first step), cut short to end on the first switch predicted from `at = (t, before, now)`
+/// (see [`first_switch`]). Returns the step, the planned (uncut) step and whether a switch cut it.
+pub(super) fn plan_step(
+    sim: &Simulation,
+    h_next: f64,
+    w: f64,
+    at: (f64, Option<&SwitchSample>, &[f64]),
+) -> (f64, f64, bool) {
+    let planned = if h_next.is_finite() {
+        h_next.min(sim.time_step(sim.max_step_rad, w))
+    } else {
+        sim.time_step(sim.step_rad, w)
+    };
+    let (t, before, now) = at;
+    let h_switch = first_switch(sim, before, now, t, planned);
+    (planned.min(h_switch), planned, h_switch.is_finite())
+}
+
 /// How far from `t` the first host-known switch is predicted to change sign, linearly from its
 /// value `before` (time and switching functions of an earlier sample) to its value `now` at
 /// `t`; only a crossing between 5% and 100% of the `planned` step counts (infinity: none).
 /// Shared by the error-controlled steppers, so a kink falls between steps.
-pub(super) fn first_switch(
+fn first_switch(
     sim: &Simulation,
-    before: Option<&(f64, Vec<f64>)>,
+    before: Option<&SwitchSample>,
     now: &[f64],
     t: f64,
     planned: f64,

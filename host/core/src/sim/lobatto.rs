@@ -5,11 +5,11 @@
 //! against `solver.rel_tol` as the PI drive's step is, and steps ending on the host-known
 //! switches (friction reversals, side-thrust sign changes) so their kinks fall between steps.
 
-use super::adaptive::{first_switch, landing, retry_after_rejection};
+use super::adaptive::{landing, plan_step, retry_after_rejection};
 use super::error::SimError;
 use super::evaluate::{Eval, Work};
 use super::rates::RegimeTimes;
-use super::stepper::{Integration, Step, Stepper};
+use super::stepper::{prescribed_interval_start, Integration, Step, Stepper};
 use super::Simulation;
 use crate::erk::Controller;
 
@@ -91,20 +91,12 @@ impl Lobatto {
     /// whether a switch cut it.
     fn plan(&self, sim: &Simulation, t: f64) -> (f64, f64, bool) {
         let w = sim.reference(t).1.abs();
-        let h_cap = sim.time_step(sim.max_step_rad, w);
-        let planned = if self.h_next.is_finite() {
-            self.h_next.min(h_cap)
-        } else {
-            sim.time_step(sim.step_rad, w)
-        };
-        let h_switch = first_switch(
+        plan_step(
             sim,
-            self.previous.as_ref(),
-            &self.first.switches,
-            t,
-            planned,
-        );
-        (planned.min(h_switch), planned, h_switch.is_finite())
+            self.h_next,
+            w,
+            (t, self.previous.as_ref(), &self.first.switches),
+        )
     }
 
     /// Evaluate the later nodes of the step from `t` to `t1` into `self.nodes`, each friction
@@ -228,11 +220,7 @@ impl Stepper for Lobatto {
         s: &mut Integration,
         dt: f64,
     ) -> Result<(), SimError> {
-        let at = sim.prescribed_point(s.t, dt, sim.reference_after(s.t));
-        let mut e0 = w.eval();
-        sim.evaluate(&at, &s.guess, w, &mut e0)?;
-        s.record(&e0);
-        s.settle_from(&e0);
+        let e0 = prescribed_interval_start(sim, w, s, dt)?;
         let old = std::mem::replace(&mut self.first, e0);
         w.recycle(old);
         self.previous = None;

@@ -138,12 +138,7 @@ impl Stepper for Quadrature {
     ) -> Result<(), SimError> {
         // The reference acceleration may jump at t: start this interval from its own side of
         // the jump so Simpson's rule never straddles it.
-        let (theta, omega, alpha) = sim.reference_after(s.t);
-        let at = sim.prescribed_point(s.t, dt, (theta, omega, alpha));
-        let mut e0 = w.eval();
-        sim.evaluate(&at, &s.guess, w, &mut e0)?;
-        s.record(&e0);
-        s.settle_from(&e0);
+        let e0 = prescribed_interval_start(sim, w, s, dt)?;
         w.recycle(e0);
         Ok(())
     }
@@ -187,6 +182,23 @@ impl Stepper for Quadrature {
     fn recycle(&mut self, end: Eval, _h: f64, w: &mut Work) {
         w.recycle(end);
     }
+}
+
+/// The prescribed crank's evaluation at the start `s.t` of an interval of the grid, from the
+/// side of the reference acceleration's jump the interval lies on, recorded and settled from:
+/// what both prescribed quadratures begin an interval with.
+pub(super) fn prescribed_interval_start(
+    sim: &Simulation,
+    w: &mut Work,
+    s: &mut Integration,
+    dt: f64,
+) -> Result<Eval, SimError> {
+    let at = sim.prescribed_point(s.t, dt, sim.reference_after(s.t));
+    let mut e0 = w.eval();
+    sim.evaluate(&at, &s.guess, w, &mut e0)?;
+    s.record(&e0);
+    s.settle_from(&e0);
+    Ok(e0)
 }
 
 /// Classical RK4 with fixed steps of crank angle, crank speed and controller integral (a PI

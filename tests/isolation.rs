@@ -47,7 +47,13 @@ fn hostile_setup(dir: &Path) {
     }
 }
 
-/// `tribo --plugin LIB compare --steady --no-cv ARGS` in `dir`.
+/// The per-call limit these tests give a law, s: longer than [`TIME_LIMIT_S`], so that the
+/// hanging law is stopped by the time limit this file tests. With the default call limit
+/// (10 s, equal to the time limit) the two raced, and a loaded machine let the call limit win.
+/// The call limit has its own tests in `tests/robustness/hostile.rs`.
+const CALL_LIMIT_S: &str = "60";
+
+/// `tribo --plugin LIB compare --steady --no-cv --call-limit-s 60 ARGS` in `dir`.
 fn compare(dir: &Path, args: &[&str]) -> std::process::Output {
     let mut all = vec![
         "--plugin",
@@ -55,6 +61,8 @@ fn compare(dir: &Path, args: &[&str]) -> std::process::Output {
         "compare",
         "--steady",
         "--no-cv",
+        "--call-limit-s",
+        CALL_LIMIT_S,
     ];
     all.extend_from_slice(args);
     tribo_in(&all, dir)

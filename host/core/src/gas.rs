@@ -342,6 +342,12 @@ impl GasModel {
         }
     }
 
+    /// The ambient pressure, Pa: what a vented crankcase breathes to and from (its breather
+    /// flow reverses where the crankcase pressure crosses it).
+    pub fn ambient_pa(&self) -> f64 {
+        self.ambient_pa
+    }
+
     /// Whether the pressures depend on the crank speed (a vented crankcase).
     pub fn depends_on_speed(&self) -> bool {
         matches!(self.crankcase, Crankcase::Vented(_))

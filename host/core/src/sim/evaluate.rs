@@ -69,8 +69,9 @@ pub(super) struct Eval {
     pub(super) normals: Box<[f64]>,
     /// Where the rates stop being smooth when these change sign: each joint's relative
     /// velocity (a friction force reverses), each cylinder's side thrust (its normal load, an
-    /// absolute value, has a kink) and last the PI drive's margin to its torque limit (the
-    /// anti-windup switches its integrator).
+    /// absolute value, has a kink), a vented crankcase's pressure above the ambient (the
+    /// breather's flow reverses: the orifice law's square-root foot) and last the PI drive's
+    /// margin to its torque limit (the anti-windup switches its integrator).
     pub(super) switches: Box<[f64]>,
     /// Each joint's law force or torque in the final solve: the friction the next evaluation
     /// starts from.
@@ -182,7 +183,7 @@ impl Simulation {
                 rates: self.layout().len(),
                 laws: self.n_laws,
                 joints: n,
-                switches: n + self.crank.cylinders() + 1,
+                switches: n + self.crank.cylinders() + 2,
             },
             pool: Vec::new(),
         })
@@ -335,12 +336,19 @@ impl Simulation {
         e.drive_torque = torque;
         e.iterations = it;
         e.newton = newton;
-        // Relative velocities, each cylinder's side thrust, the margin (`Work::eval`'s sizes).
+        // Relative velocities, each cylinder's side thrust, the crankcase pressure above the
+        // ambient, the margin (`Work::eval`'s sizes).
         let (rel, rest) = e.switches.split_at_mut(w.rel.len());
         rel.copy_from_slice(&w.rel);
-        if let Some((margin, thrusts)) = rest.split_last_mut() {
-            for (k, s) in thrusts.iter_mut().enumerate() {
-                *s = w.crank.lateral(k);
+        if let Some((margin, rest)) = rest.split_last_mut() {
+            if let Some((crankcase, thrusts)) = rest.split_last_mut() {
+                for (k, s) in thrusts.iter_mut().enumerate() {
+                    *s = w.crank.lateral(k);
+                }
+                *crankcase = match (self.gas_models().first(), w.law_gas.first()) {
+                    (Some(g), Some(s)) => s.crankcase_pa - g.ambient_pa(),
+                    _ => 0.0,
+                };
             }
             *margin = at.margin;
         }

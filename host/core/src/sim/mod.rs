@@ -266,13 +266,23 @@ fn crank_and_gas(f: &RigFile) -> Result<(Crank, [Vec<GasModel>; 2]), SimError> {
 }
 
 /// Which of an evaluation's switching functions matter (see `Simulation::switch_mask`).
-fn switch_mask(joints: &[BoundJoint], cylinders: usize, drive: &Drive) -> Vec<bool> {
+/// A vented crankcase's breather reversal is watched by the prescribed crank's error-controlled
+/// quadrature only: the PI drive reads the crankcase at the cycle's reference speed and was not
+/// measured with it (its steps, and so its numbers, would move).
+fn switch_mask(
+    joints: &[BoundJoint],
+    cylinders: usize,
+    drive: &Drive,
+    gas: &[GasModel],
+) -> Vec<bool> {
     let mut mask: Vec<bool> = joints.iter().map(|j| !j.laws.is_empty()).collect();
     mask.extend((0..cylinders).map(|k| {
         joints
             .iter()
             .any(|j| j.role == Role::Piston(k) && !j.laws.is_empty())
     }));
+    let vented = gas.first().is_some_and(GasModel::depends_on_speed);
+    mask.push(vented && matches!(drive, Drive::Prescribed { .. }));
     mask.push(matches!(drive, Drive::Pi { .. }));
     mask
 }
@@ -297,7 +307,7 @@ impl Simulation {
         Ok(Self {
             rig_name: f.name.clone(),
             engine,
-            switch_mask: switch_mask(&joints, cylinders, &f.drive),
+            switch_mask: switch_mask(&joints, cylinders, &f.drive, &gas),
             stateful: joints.iter().any(BoundJoint::is_stateful),
             roles: joints.iter().map(|j| j.role).collect(),
             crank,

@@ -121,23 +121,16 @@ pub fn solve(
     power_and_flow: impl Fn(f64) -> (f64, f64),
 ) -> FilmTemperature {
     let rho_cp = oil.heat_capacity_j_m3_k();
-    let half_rise = |mu: f64| -> f64 {
+    let rise_at = |mu: f64| -> f64 {
         let (p, q) = power_and_flow(mu);
-        let p = p.max(0.0);
-        if p == 0.0 {
-            0.0
-        } else if q > 0.0 {
-            (p / (2.0 * rho_cp * q)).min(MAX_HALF_RISE_K)
-        } else {
-            MAX_HALF_RISE_K
-        }
+        half_rise(rho_cp, p, q)
     };
     let line = oil.line_through(mu_feed_pa_s, t_feed_c);
-    let first = half_rise(mu_feed_pa_s);
+    let first = rise_at(mu_feed_pa_s);
     let (t_eff, mu) = if first <= 0.0 {
         (t_feed_c, line.viscosity_at(t_feed_c))
     } else {
-        balance_root(&line, t_feed_c, first, half_rise)
+        balance_root(&line, t_feed_c, first, rise_at)
     };
     FilmTemperature {
         effective_c: t_eff,
@@ -175,6 +168,58 @@ fn balance_root(
         1e-11 * first,
     );
     (t, line.viscosity_at(t))
+}
+
+/// The oil's temperature half-rise `T_eff - T_feed` at which power `power_w` (W) and
+/// carrying flow `flow_m3_s` (m^3/s) balance, K: `P / (2 rho c_p Q)`, 0 without power, the
+/// bound [`MAX_HALF_RISE_K`] without flow.
+pub fn half_rise(rho_cp: f64, power_w: f64, flow_m3_s: f64) -> f64 {
+    let p = power_w.max(0.0);
+    if p == 0.0 {
+        0.0
+    } else if flow_m3_s > 0.0 {
+        (p / (2.0 * rho_cp * flow_m3_s)).min(MAX_HALF_RISE_K)
+    } else {
+        MAX_HALF_RISE_K
+    }
+}
+
+/// The film's heat held over the cycle (docs/laws/plain-journal.md, "Thermal": the cycle-mean
+/// balance). The film and the surfaces next to it store heat: over a step `dt` at power `P` and
+/// carrying flow `Q` the half-rise `x = T_eff - T_feed` obeys the lumped balance
+/// `C dx/dt = P / 2 - rho c_p Q x` whose heat capacity `C = rho c_p Q_mean tau` gives the
+/// film the time constant `tau` at its mean flow. Over a periodic cycle (`x` nearly constant)
+/// its mean is `mean(P) = 2 rho c_p mean(Q) x`: the balance on the cycle means. The step is
+/// the linear equation's exact solution with `P` and `Q` held (stable at any step): a
+/// first-order lag towards `P / (2 rho c_p Q)` at the rate `Q / (Q_mean tau)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeldFilm {
+    /// The film's half-rise over the feed, `T_eff - T_feed`, K.
+    pub half_rise_k: f64,
+    /// The running mean of the carrying flow over the lag, m^3/s.
+    pub mean_flow_m3_s: f64,
+}
+
+impl HeldFilm {
+    /// The film after a step of `step_over_lag = dt / tau` at power `power_w` and carrying
+    /// flow `flow_m3_s` (`rho_cp` the oil's `rho c_p`, J/(m^3 K)). The mean flow follows the
+    /// same first-order lag; without flow the film keeps its temperature (no oil moves heat).
+    pub fn step(self, rho_cp: f64, power_w: f64, flow_m3_s: f64, step_over_lag: f64) -> Self {
+        let keep = (-step_over_lag).exp();
+        let mean = flow_m3_s + (self.mean_flow_m3_s - flow_m3_s) * keep;
+        if !(flow_m3_s > 0.0 && mean > 0.0) {
+            return Self {
+                half_rise_k: self.half_rise_k,
+                mean_flow_m3_s: mean.max(0.0),
+            };
+        }
+        let target = half_rise(rho_cp, power_w, flow_m3_s);
+        let x = target + (self.half_rise_k - target) * (-step_over_lag * flow_m3_s / mean).exp();
+        Self {
+            half_rise_k: x.min(MAX_HALF_RISE_K),
+            mean_flow_m3_s: mean,
+        }
+    }
 }
 
 #[cfg(test)]
@@ -303,6 +348,99 @@ mod tests {
                 OIL.viscosity_at(0.0117, 90.0, t.effective_c)
             );
         }
+    }
+
+    /// A held film at constant power and flow answers a step in the feed temperature as a
+    /// first-order lag: the film keeps its temperature at the step, then approaches the new
+    /// feed plus the same rise as `1 - exp(-t / tau)`, exactly (the step is the linear
+    /// equation's solution), whatever the step size.
+    #[test]
+    fn a_held_film_answers_a_feed_step_in_first_order() {
+        let rho_cp = OIL.heat_capacity_j_m3_k();
+        let (p, q) = (150.0, 1.5e-6);
+        let x_star = p / (2.0 * rho_cp * q);
+        let (t0, t1) = (90.0, 110.0);
+        for (s, n) in [(0.01, 400), (0.05, 80)] {
+            let mut t_film = t0 + x_star;
+            let mut mean = q;
+            for k in 1..=n {
+                let held = HeldFilm {
+                    half_rise_k: t_film - t1,
+                    mean_flow_m3_s: mean,
+                }
+                .step(rho_cp, p, q, s);
+                t_film = t1 + held.half_rise_k;
+                mean = held.mean_flow_m3_s;
+                let by_hand = t1 + x_star - (t1 - t0) * (-s * k as f64).exp();
+                assert!(
+                    (t_film - by_hand).abs() < 1e-11,
+                    "step {s}, {k}: {t_film} vs {by_hand}"
+                );
+            }
+        }
+    }
+
+    /// A film whose load alternates between two states each step, fast against the lag,
+    /// settles where the cycle's mean power balances its mean flow, `T = T_feed + (P_a(mu) +
+    /// P_b(mu)) / (2 rho c_p (Q_a + Q_b))` at the viscosity of `T` (found here by bisection),
+    /// not at the mean of the two states' own balances, which lies 2.5 K hotter.
+    #[test]
+    fn an_alternating_film_settles_at_the_balance_of_the_means() {
+        let rho_cp = OIL.heat_capacity_j_m3_k();
+        let (t_feed, mu_feed) = (40.0, 0.05);
+        let line = OIL.line_through(mu_feed, t_feed);
+        let states = [
+            |mu: f64| (2000.0 * mu + 5.0, 1.0e-6),
+            |mu: f64| (2000.0 * mu + 5.0, 4.0e-6),
+        ];
+        let (mut t_film, mut mean) = (t_feed, 1.0e-6);
+        let mut last = Vec::new();
+        let n = 60_000;
+        for k in 0..n {
+            let (p, q) = states[k % 2](line.viscosity_at(t_film));
+            let held = HeldFilm {
+                half_rise_k: t_film - t_feed,
+                mean_flow_m3_s: mean,
+            }
+            .step(rho_cp, p, q, 1e-3);
+            t_film = t_feed + held.half_rise_k;
+            mean = held.mean_flow_m3_s;
+            if k >= n - 2000 {
+                last.push(t_film);
+            }
+        }
+        let settled = last.iter().sum::<f64>() / last.len() as f64;
+        let g = |t: f64| {
+            let mu = line.viscosity_at(t);
+            let (pa, qa) = states[0](mu);
+            let (pb, qb) = states[1](mu);
+            t - t_feed - (pa + pb) / (2.0 * rho_cp * (qa + qb))
+        };
+        let (mut a, mut b) = (t_feed, t_feed + 100.0);
+        for _ in 0..200 {
+            let m = 0.5 * (a + b);
+            if g(m) < 0.0 {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        assert!((settled - a).abs() < 0.02, "{settled} vs {a}");
+        let own = |i: usize| solve(&OIL, t_feed, mu_feed, states[i]).effective_c;
+        let mean_of_own = 0.5 * (own(0) + own(1));
+        assert!(mean_of_own - a > 2.0, "{mean_of_own} vs {a}");
+    }
+
+    /// Without flow a held film keeps its temperature; the mean flow follows the flow.
+    #[test]
+    fn a_held_film_without_flow_keeps_its_temperature() {
+        let held = HeldFilm {
+            half_rise_k: 12.0,
+            mean_flow_m3_s: 1e-6,
+        }
+        .step(1.7e6, 50.0, 0.0, 0.5);
+        assert_eq!(held.half_rise_k, 12.0);
+        assert!((held.mean_flow_m3_s - 1e-6 * (-0.5f64).exp()).abs() < 1e-20);
     }
 
     /// No power, no rise; no flow, the bounded rise.

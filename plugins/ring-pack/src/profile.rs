@@ -19,7 +19,7 @@
 //! point is the root of a monotone function of `s_c`; above it the full film's load is linear in
 //! `hdot`.
 
-use tribo_plugin_api::tribology::newton_increasing;
+use tribo_plugin_api::tribology::{newton_increasing, root_increasing};
 
 /// The ring face: half its axial width and the height of its parabolic crown at the edges.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,6 +50,37 @@ pub struct Film {
     /// the film is whole to it. The flux leaving there is `|u| outlet_film_m / 2` or more
     /// (exactly that at a rupture), which is what the oil left behind on the liner is built on.
     pub outlet_film_m: f64,
+    /// The oil flux into the film at its inlet, m^2/s per metre of circumference (in the ring's
+    /// frame): `|u| h_in / 2 - h_in^3 p' / (12 mu)` there.
+    pub inflow_m2_s: f64,
+    /// The oil flux leaving at the outlet, m^2/s per metre of circumference: the inflow plus
+    /// what the squeeze pushes out between inlet and outlet (`dq/dx = -dh/dt`). It leaves a
+    /// layer `outflow / |u|` on the liner.
+    pub outflow_m2_s: f64,
+}
+
+impl Film {
+    /// The layer this face leaves on the liner behind it, m: its outflow spread on the liner
+    /// moving at `u_abs`, at most half the outlet film (the Couette share of a film whose
+    /// outlet is whole: the part of the outflow a squeeze pushes out there is not laid down,
+    /// which near the dead centres, where `|u|` vanishes, would make a layer of any
+    /// thickness); at rest, half the outlet film.
+    pub fn layer_left_m(&self, u_abs: f64) -> f64 {
+        let half = 0.5 * self.outlet_film_m;
+        if u_abs > 0.0 {
+            (self.outflow_m2_s / u_abs).min(half)
+        } else {
+            half
+        }
+    }
+}
+
+/// The flux of a whole film at `s` (its inlet or outlet): `|u| h / 2 - h^3 p' / (12 mu)` with
+/// `dp/ds = (alpha s^2 + beta s + gamma) / (1 + s^2)^3`, which is
+/// `|u| h_m / 2 - h_m^3 (beta s + gamma) / (12 mu L)` (the `alpha` terms cancel the Couette
+/// flux's `s^2` part).
+fn whole_film_flux(u_abs: f64, h_m: f64, mu: f64, l: f64, beta: f64, gamma: f64, s: f64) -> f64 {
+    0.5 * u_abs * h_m - h_m.powi(3) * (beta * s + gamma) / (12.0 * mu * l)
 }
 
 /// Antiderivatives at `s` of `s^k / (1 + s^2)^3` (`m[k]`, k = 0..3), of `s^k / (1 + s^2)^2`
@@ -221,10 +252,11 @@ pub fn film_for_load_near(
     film_for_load_supplied(face, h_m, u_abs, load_n_per_m, mu, rupture_guess_m, None)
 }
 
-/// The inlet, in `s`, of a face at minimum film `h_m` meeting a layer of oil `supply_m` thick
-/// on the liner: where the gap closes to the layer, `h (1 + s^2) = supply` on the converging
-/// side; the apex when the layer is no thicker than the minimum film. `None`: flooded (no
-/// supply given, or a layer at least as thick as the gap at the leading edge).
+/// The meniscus, in `s`, of a face at minimum film `h_m` meeting a layer of oil `supply_m`
+/// thick on the liner: where the gap closes to the layer, `h (1 + s^2) = supply` on the
+/// converging side; the apex when the layer is no thicker than the minimum film. `None`:
+/// flooded (no supply given, or a layer at least as thick as the gap at the leading edge).
+/// The film of a starved face begins there or further out ([`film_for_load_supplied`]).
 pub fn starved_inlet_s(face: &Face, h_m: f64, supply_m: Option<f64>) -> Option<f64> {
     let supply = supply_m?;
     if supply >= h_m + face.crown_m {
@@ -234,10 +266,25 @@ pub fn starved_inlet_s(face: &Face, h_m: f64, supply_m: Option<f64>) -> Option<f
 }
 
 /// [`film_for_load_near`] with the oil available at the inlet: `supply_m`, the thickness of the
-/// layer on the liner the face runs into (`None`: flooded). A starved face carries its film from
-/// where the gap closes to that layer ([`starved_inlet_s`]), with `p = 0` there; ahead of it the
-/// layer rides on the liner without touching the face (no shear). A layer at least as thick as
-/// the gap at the leading edge floods the face: the same film, to the bit, as without a supply.
+/// layer on the liner the face runs into (`None`: flooded). The layer brings `|u| supply` of
+/// oil per metre of circumference, and a face passes on what it takes in, so:
+///
+/// - the film begins where it takes in the layer's whole flux (its inflow, Couette less
+///   Poiseuille at the inlet, equals `|u| supply`), between the meniscus where the gap closes
+///   to the layer ([`starved_inlet_s`], the apex if it never does; a filled gap there takes at
+///   most half of it) and the leading edge: the oil a face cannot take in piles up ahead of it
+///   and moves its inlet out until it can (quasi-steady: the pile's own volume is not
+///   tracked); so the film's outflow is the layer's flux, and a ruptured film's outlet gap is
+///   twice the layer;
+/// - a face whose minimum film is above twice the layer can take none of it in (a gap that
+///   wide is not filled by the layer's flux): when the asperities carry the load the face is
+///   dry (no viscous shear) and the layer goes on whole; the ring's film never rises there
+///   ([`crate::ring::Ring::ceiling`]);
+/// - a face whose flooded film takes in no more than the layer brings is flooded (the rest
+///   stays ahead of it), as is one meeting a layer at least as thick as the gap at its leading
+///   edge: the same film, to the bit, as without a supply.
+///
+/// At rest (`u_abs = 0`) no oil is carried in and the film begins at the meniscus.
 pub fn film_for_load_supplied(
     face: &Face,
     h_m: f64,
@@ -247,9 +294,64 @@ pub fn film_for_load_supplied(
     rupture_guess_m: Option<f64>,
     supply_m: Option<f64>,
 ) -> Film {
-    if let Some(s_in) = starved_inlet_s(face, h_m, supply_m) {
-        return starved(face, h_m, u_abs, load_n_per_m, mu, rupture_guess_m, s_in);
+    let Some(meniscus) = starved_inlet_s(face, h_m, supply_m) else {
+        return flooded(face, h_m, u_abs, load_n_per_m, mu, rupture_guess_m);
+    };
+    let supply = supply_m.unwrap_or(f64::INFINITY);
+    let from =
+        |s_in: f64| film_from_inlet(face, h_m, u_abs, load_n_per_m, mu, rupture_guess_m, s_in);
+    if 2.0 * supply < h_m && load_n_per_m <= 0.0 {
+        return dry(u_abs, supply);
     }
+    if u_abs <= 0.0 || 2.0 * supply < h_m {
+        return from(meniscus);
+    }
+    let big_s = (face.crown_m / h_m).sqrt();
+    let intake = u_abs * supply;
+    if load_n_per_m <= 0.0 {
+        // Nothing carried: streamers from where the gap is twice the layer (their Couette flux
+        // `|u| h / 2` the layer's).
+        let s2 = (2.0 * supply / h_m - 1.0).max(0.0).sqrt();
+        return if s2 >= big_s {
+            flooded(face, h_m, u_abs, load_n_per_m, mu, rupture_guess_m)
+        } else {
+            from(-s2)
+        };
+    }
+    let full = flooded(face, h_m, u_abs, load_n_per_m, mu, rupture_guess_m);
+    if full.inflow_m2_s <= intake {
+        return full;
+    }
+    // Moving the inlet in takes in less: from more than the layer at the leading edge to at
+    // most half of it at the meniscus.
+    let s_in = root_increasing(|s| intake - from(s).inflow_m2_s, -big_s, meniscus);
+    from(s_in)
+}
+
+/// A face the layer passes under without bridging the gap: no film, no shear, the layer
+/// carried on whole.
+fn dry(u_abs: f64, supply: f64) -> Film {
+    Film {
+        squeeze_m_s: 0.0,
+        shear_n_per_m: 0.0,
+        peak_pa: 0.0,
+        rupture_m: 0.0,
+        inlet_m: 0.0,
+        outlet_film_m: 2.0 * supply,
+        inflow_m2_s: u_abs * supply,
+        outflow_m2_s: u_abs * supply,
+    }
+}
+
+/// The flooded film (inlet at the leading edge): [`film_for_load_near`].
+fn flooded(
+    face: &Face,
+    h_m: f64,
+    u_abs: f64,
+    load_n_per_m: f64,
+    mu: f64,
+    rupture_guess_m: Option<f64>,
+) -> Film {
     let a = face.half_width_m;
     let big_s = (face.crown_m / h_m).sqrt();
     let l = a / big_s;
@@ -259,6 +361,7 @@ pub fn film_for_load_supplied(
     // Units: the shear `mu |u| L / h`, the pressure gradient's sliding part `6 mu |u| L / h^2`.
     let shear_unit = mu * u_abs * l / h_m;
     let alpha = 6.0 * mu * u_abs * l / (h_m * h_m);
+    let edge_film = h_m * (1.0 + big_s * big_s);
     if load_n_per_m <= 0.0 {
         return Film {
             squeeze_m_s: face.crown_m * u_abs / a,
@@ -266,7 +369,9 @@ pub fn film_for_load_supplied(
             peak_pa: 0.0,
             rupture_m: -a,
             inlet_m: -a,
-            outlet_film_m: h_m * (1.0 + big_s * big_s),
+            outlet_film_m: edge_film,
+            inflow_m2_s: 0.5 * u_abs * edge_film,
+            outflow_m2_s: 0.5 * u_abs * edge_film,
         };
     }
     // The whole film: dp/ds = (alpha (s^2 + c) + beta s) / (1 + s^2)^3, p(+-S) = 0.
@@ -280,43 +385,72 @@ pub fn film_for_load_supplied(
         let s1 = 2.0 * alpha * c / (disc.sqrt() - beta);
         let d = Prims::at(s1).minus(&low);
         let peak = alpha * (d.m[2] + c * d.m[0]) + beta * d.m[1];
+        let flux = |s: f64| whole_film_flux(u_abs, h_m, mu, l, beta, alpha * c, s);
         return Film {
             squeeze_m_s: squeeze,
             shear_n_per_m: shear_unit * (full.j1 + 3.0 * (full.n[2] + c * full.n[0])),
             peak_pa: peak.max(0.0),
             rupture_m: a,
             inlet_m: -a,
-            outlet_film_m: h_m * (1.0 + big_s * big_s),
+            outlet_film_m: edge_film,
+            inflow_m2_s: flux(-big_s),
+            outflow_m2_s: flux(big_s),
         };
     }
     // Ruptured film: the rupture point whose load is the one asked for (the load rises
     // monotonically from 0 at the inlet edge to `w_edge` at the outlet edge).
     let target = load_n_per_m / (l * alpha);
     let branch = rupture_for_load(target, &low, -big_s, big_s, rupture_guess_m.map(|x| x / l));
+    ruptured(branch, &top, -big_s, h_m, u_abs, l, shear_unit, alpha)
+}
+
+/// The film of a ruptured `branch` whose inlet is `s_in` (`top` the trailing edge's
+/// antiderivatives): its squeeze, shear (Couette, Poiseuille and the streamers beyond the
+/// rupture), peak and fluxes (`|u| h_c / 2` at the rupture, `dq/dx = -dh/dt` back to the inlet).
+#[allow(clippy::too_many_arguments)]
+fn ruptured(
+    branch: Branch,
+    top: &Prims,
+    s_in: f64,
+    h_m: f64,
+    u_abs: f64,
+    l: f64,
+    shear_unit: f64,
+    alpha: f64,
+) -> Film {
     let (sc, q, at_c, d) = (branch.sc, branch.q, branch.at, branch.d);
     let k = sc + q;
     let poiseuille = d.n[2] + (k - sc) * d.n[1] - sc * k * d.n[0];
     let streamers = (1.0 + sc * sc) * (top.j2() - at_c.j2());
-    let sp = (-k).clamp(-big_s, sc);
-    let dp = Prims::at(sp).minus(&low);
+    let sp = (-k).clamp(s_in, sc);
+    let dp = Prims::at(sp).minus(&Prims::at(s_in));
     let peak = alpha * (dp.m[2] + (k - sc) * dp.m[1] - sc * k * dp.m[0]);
+    let squeeze = q * h_m * u_abs / (2.0 * l);
+    let outlet_film = h_m * (1.0 + sc * sc);
+    let outflow = 0.5 * u_abs * outlet_film;
+    // The shear booked is never negative: the push of an asymmetric (starved) squeeze film is
+    // the squeeze's work, which is not booked (as in `film_from_inlet`'s whole film).
     Film {
-        squeeze_m_s: q * h_m * u_abs / (2.0 * l),
-        shear_n_per_m: shear_unit * (d.j1 + 3.0 * poiseuille + streamers),
+        squeeze_m_s: squeeze,
+        shear_n_per_m: (shear_unit * (d.j1 + 3.0 * poiseuille + streamers)).max(0.0),
         peak_pa: peak.max(0.0),
         rupture_m: sc * l,
-        inlet_m: -a,
-        outlet_film_m: h_m * (1.0 + sc * sc),
+        inlet_m: s_in * l,
+        outlet_film_m: outlet_film,
+        inflow_m2_s: outflow + squeeze * (sc - s_in) * l,
+        outflow_m2_s: outflow,
     }
 }
 
-/// The starved film: [`film_for_load_supplied`]'s three branches (nothing carried, whole to the
-/// trailing edge, ruptured) on the wetted stretch `[s_in, S]` instead of `[-S, S]`. The whole
-/// film's pressure gradient is `(alpha s^2 + beta s + gamma) / (1 + s^2)^3` in `s`, with `p = 0`
-/// at both ends of a stretch that is no longer symmetric (so the odd moments `m[1]`, `m[3]` and
-/// `n[1]` no longer vanish); `gamma` replaces the flooded code's `alpha c` so that a film at
-/// rest (`alpha = 0`) needs no division by the sliding speed.
-fn starved(
+/// The film of a face whose full film begins at `s_in` (in `s`, `-S <= s_in <= 0`) with
+/// `p = 0` there: [`flooded`]'s three branches (nothing carried, whole to the trailing edge,
+/// ruptured) on the wetted stretch `[s_in, S]` instead of `[-S, S]`. The whole film's pressure
+/// gradient is `(alpha s^2 + beta s + gamma) / (1 + s^2)^3` in `s`, with `p = 0` at both ends
+/// of a stretch that is no longer symmetric (so the odd moments `m[1]`, `m[3]` and `n[1]` no
+/// longer vanish); `gamma` replaces the flooded code's `alpha c` so that a film at rest
+/// (`alpha = 0`) needs no division by the sliding speed. Public for the closed-form checks of
+/// a film from a given inlet.
+pub fn film_from_inlet(
     face: &Face,
     h_m: f64,
     u_abs: f64,
@@ -335,7 +469,7 @@ fn starved(
     let alpha = 6.0 * mu * u_abs * l / (h_m * h_m);
     let inlet_film = h_m * (1.0 + s_in * s_in);
     if load_n_per_m <= 0.0 {
-        // Nothing carried: the film ruptures at its inlet and the streamers carry the layer on.
+        // Nothing carried: the film ruptures at its inlet and the streamers carry the oil on.
         return Film {
             squeeze_m_s: face.crown_m * u_abs / a,
             shear_n_per_m: shear_unit * (1.0 + s_in * s_in) * (top.j2() - low.j2()),
@@ -343,6 +477,8 @@ fn starved(
             rupture_m: s_in * l,
             inlet_m: s_in * l,
             outlet_film_m: inlet_film,
+            inflow_m2_s: 0.5 * u_abs * inlet_film,
+            outflow_m2_s: 0.5 * u_abs * inlet_film,
         };
     }
     let w_edge = l * alpha * Branch::at(big_s, &low).load;
@@ -368,6 +504,7 @@ fn starved(
         let shear = (shear_unit * (full.j1 + 3.0 * full.n[2])
             + 0.5 * h_m * (gamma * full.n[0] + beta * full.n[1]))
             .max(0.0);
+        let flux = |s: f64| whole_film_flux(u_abs, h_m, mu, l, beta, gamma, s);
         return Film {
             squeeze_m_s: squeeze,
             shear_n_per_m: shear,
@@ -375,26 +512,14 @@ fn starved(
             rupture_m: a,
             inlet_m: s_in * l,
             outlet_film_m: h_m * (1.0 + big_s * big_s),
+            inflow_m2_s: flux(s_in),
+            outflow_m2_s: flux(big_s),
         };
     }
     let target = load_n_per_m / (l * alpha);
     let guess = rupture_guess_m.map(|x| x / l);
     let branch = rupture_for_load(target, &low, s_in, big_s, guess);
-    let (sc, q, at_c, d) = (branch.sc, branch.q, branch.at, branch.d);
-    let k = sc + q;
-    let poiseuille = d.n[2] + (k - sc) * d.n[1] - sc * k * d.n[0];
-    let streamers = (1.0 + sc * sc) * (top.j2() - at_c.j2());
-    let sp = (-k).clamp(s_in, sc);
-    let dp = Prims::at(sp).minus(&low);
-    let peak = alpha * (dp.m[2] + (k - sc) * dp.m[1] - sc * k * dp.m[0]);
-    Film {
-        squeeze_m_s: q * h_m * u_abs / (2.0 * l),
-        shear_n_per_m: (shear_unit * (d.j1 + 3.0 * poiseuille + streamers)).max(0.0),
-        peak_pa: peak.max(0.0),
-        rupture_m: sc * l,
-        inlet_m: s_in * l,
-        outlet_film_m: h_m * (1.0 + sc * sc),
-    }
+    ruptured(branch, &top, s_in, h_m, u_abs, l, shear_unit, alpha)
 }
 
 #[cfg(test)]

@@ -69,10 +69,14 @@ impl Ring {
         root_increasing(|h| load - self.asperity(rough, h), lo, hi)
     }
 
-    /// The thickest film the ring can ride on: [`H_MAX_M`], or the oil layer it runs into when
-    /// starved (a face above the layer touches no oil, and nothing holds it off the liner).
+    /// The thickest film the ring can ride on: [`H_MAX_M`], or, starved, twice the oil layer
+    /// it runs into: the layer's flux `|u| s` fills a gap of `2 s` at the Couette flux, so a
+    /// film can carry load up to that minimum gap (fed by the oil piled at its inlet) and
+    /// above it the face touches no oil, and nothing holds it off the liner.
     pub fn ceiling(rough: &Roughness, supply_m: Option<f64>) -> f64 {
-        supply_m.map_or(H_MAX_M, |s| s.clamp(LAMBDA_MIN * rough.sigma_m, H_MAX_M))
+        supply_m.map_or(H_MAX_M, |s| {
+            (2.0 * s).clamp(LAMBDA_MIN * rough.sigma_m, H_MAX_M)
+        })
     }
 
     /// The face at minimum film `h_m` (raised to the floor of `load` if below it, lowered to the

@@ -23,7 +23,9 @@
 //! `h_s` thick on the liner, thinner than the gap at the leading edge) has the same closed form
 //! with its inlet moved to where the gap closes to the layer: `th0 = -atan(sqrt(h_s / h0 - 1))`.
 
-use tribo_law_ring_pack::profile::{film_for_load, film_for_load_supplied, Face};
+use tribo_law_ring_pack::profile::{
+    film_for_load, film_for_load_supplied, film_from_inlet, starved_inlet_s, Face,
+};
 use tribo_law_ring_pack::ring::Ring;
 use tribo_plugin_api::tribology::Roughness;
 
@@ -55,16 +57,23 @@ fn slider(a: f64, crown: f64, h0: f64, u: f64, mu: f64) -> (f64, f64, f64) {
     slider_fed(a, crown, h0, u, mu, f64::INFINITY)
 }
 
-/// [`slider`] fed by a layer of oil `supply` thick on the liner (infinite: flooded).
+/// [`slider`] with its film beginning where the gap closes to a layer of oil `supply` thick on
+/// the liner (infinite: flooded).
 fn slider_fed(a: f64, crown: f64, h0: f64, u: f64, mu: f64, supply: f64) -> (f64, f64, f64) {
-    let s = (crown / h0).sqrt();
-    let l = a / s;
-    let th1 = s.atan();
+    let th1 = (crown / h0).sqrt().atan();
     let th0 = if supply < h0 + crown {
         -(supply / h0 - 1.0).max(0.0).sqrt().atan()
     } else {
         -th1
     };
+    slider_from(a, crown, h0, u, mu, th0)
+}
+
+/// [`slider`] with its film beginning at angle `th0` (`-atan(S) <= th0 < 0`).
+fn slider_from(a: f64, crown: f64, h0: f64, u: f64, mu: f64, th0: f64) -> (f64, f64, f64) {
+    let s = (crown / h0).sqrt();
+    let l = a / s;
+    let th1 = s.atan();
     // p(th_c) as a function of th_c: negative just past the peak, zero at the rupture.
     let rupture = |tc: f64| {
         let t = tc.tan();
@@ -184,9 +193,9 @@ fn the_closed_form_tends_to_the_rigid_cylinder_on_a_plane() {
     );
 }
 
-/// A starved face (the oil layer on the liner thinner than the gap at the leading edge): at the
-/// closed form's film for a given load, the crate's starved film carries that load without
-/// squeeze, with the closed form's friction and rupture point, to 1e-6.
+/// A film beginning where the gap closes to a layer of oil on the liner: at the closed form's
+/// film for a given load, the crate's film from that inlet carries that load without squeeze,
+/// with the closed form's friction and rupture point, to 1e-6.
 #[test]
 fn a_starved_steady_film_matches_the_closed_form_from_its_inlet() {
     let mu = 0.01;
@@ -212,7 +221,8 @@ fn a_starved_steady_film_matches_the_closed_form_from_its_inlet() {
         assert!((w_ref - load).abs() <= 1e-9 * load, "{w_ref} vs {load}");
         // Starved indeed: the inlet lies inside the face.
         assert!(supply < h_ref + crown, "{supply} floods a film of {h_ref}");
-        let f = film_for_load_supplied(&face, h_ref, u, load, mu, None, Some(supply));
+        let s_in = starved_inlet_s(&face, h_ref, Some(supply)).expect("starved");
+        let f = film_from_inlet(&face, h_ref, u, load, mu, None, s_in);
         // No squeeze: the squeeze number 2 hdot L / (h u) is rounding, so the law's load at
         // zero squeeze is the closed form's.
         let l = a * (h_ref / crown).sqrt();
@@ -249,6 +259,121 @@ fn a_starved_steady_film_matches_the_closed_form_from_its_inlet() {
     }
 }
 
+/// The starved slider takes in the whole layer it meets: in steady sliding (no squeeze) the
+/// flux through the film is `|u| h_c / 2` (Couette at the rupture) and must equal the layer's
+/// `|u| s`, so the rupture sits where the gap is twice the layer and the inlet where the film
+/// carries the load with that rupture. The closed form (the inlet angle found by bisection on
+/// `h_c = 2 s`, the film by bisection on the load) against the law's steady film, friction,
+/// inlet and rupture, to 1e-6; the law's inflow and the layer it leaves are the layer's, and
+/// the film is thinner than the flooded one (less oil) but not by the half the layer a
+/// meniscus at the layer's thickness would take in.
+#[test]
+fn a_starved_steady_slider_takes_in_the_whole_layer_as_the_closed_form_says() {
+    let mu = 0.01;
+    for &(width, crown, u, load) in &[
+        (0.8e-3, 5e-6, 10.0, 200.0),
+        (1.2e-3, 5e-6, 15.0, 209.0),
+        (1.2e-3, 10e-6, 15.0, 3000.0),
+        (0.3e-3, 2e-6, 5.0, 260.0),
+    ] {
+        let a = 0.5 * width;
+        let r = ring(width, crown);
+        let h_flooded = bisect(
+            |lnh: f64| load - slider(a, crown, lnh.exp(), u, mu).0,
+            (1e-10f64).ln(),
+            (1e-3f64).ln(),
+        )
+        .exp();
+        let hc_flooded = h_flooded * (1.0 + slider(a, crown, h_flooded, u, mu).2.tan().powi(2));
+        for frac in [0.2, 0.35, 0.48] {
+            let supply = frac * hc_flooded;
+            // The inlet whose rupture is at the gap 2 s, at film h0.
+            let inlet = |h0: f64| {
+                let th1 = (crown / h0).sqrt().atan();
+                bisect(
+                    |th0: f64| {
+                        let tc = slider_from(a, crown, h0, u, mu, th0).2.tan();
+                        2.0 * supply - h0 * (1.0 + tc * tc)
+                    },
+                    -th1,
+                    0.0,
+                )
+            };
+            let h_ref = bisect(
+                |lnh: f64| {
+                    let h0 = lnh.exp();
+                    load - slider_from(a, crown, h0, u, mu, inlet(h0)).0
+                },
+                (1e-10f64).ln(),
+                f64::ln(2.0 * supply),
+            )
+            .exp();
+            let th0 = inlet(h_ref);
+            let (w_ref, f_ref, thc) = slider_from(a, crown, h_ref, u, mu, th0);
+            assert!((w_ref - load).abs() <= 1e-6 * load, "{w_ref} vs {load}");
+            let case = format!("width {width} crown {crown} u {u} load {load} supply {supply}");
+            let h = r.steady(&smooth(), u, load, mu, Some(supply));
+            assert!(
+                (h - h_ref).abs() <= 1e-6 * h_ref,
+                "{case}: law {h}, closed form {h_ref}"
+            );
+            let c = r.contact(&smooth(), h, u, load, mu, Some(supply));
+            let f = c.film;
+            assert!(
+                (f.shear_n_per_m - f_ref).abs() <= 1e-6 * f_ref,
+                "{case}: friction {} vs {f_ref}",
+                f.shear_n_per_m
+            );
+            let l = a * (h_ref / crown).sqrt();
+            let (x_in, x_c) = (l * th0.tan(), l * thc.tan());
+            assert!(
+                (f.inlet_m - x_in).abs() <= 1e-5 * a && (f.rupture_m - x_c).abs() <= 1e-5 * a,
+                "{case}: inlet {} vs {x_in}, rupture {} vs {x_c}",
+                f.inlet_m,
+                f.rupture_m
+            );
+            assert!(
+                (f.outlet_film_m - 2.0 * supply).abs() <= 1e-6 * supply
+                    && (f.inflow_m2_s - u * supply).abs() <= 1e-6 * u * supply
+                    && (f.layer_left_m(u) - supply).abs() <= 1e-6 * supply,
+                "{case}: outlet {}, inflow {}, left {}",
+                f.outlet_film_m,
+                f.inflow_m2_s,
+                f.layer_left_m(u)
+            );
+            let h_meniscus = bisect(
+                |lnh: f64| load - slider_fed(a, crown, lnh.exp(), u, mu, supply).0,
+                (1e-10f64).ln(),
+                f64::ln(supply),
+            )
+            .exp();
+            assert!(
+                h_meniscus < h && h < h_flooded,
+                "{case}: {h_meniscus} < {h} < {h_flooded}"
+            );
+        }
+    }
+}
+
+/// A face whose minimum film is above twice the layer it meets cannot take the layer in (its
+/// Couette flux would fill no more than a gap of twice the layer): with the asperities carrying
+/// the load it is dry, shears nothing, and the layer passes on whole.
+#[test]
+fn a_face_above_twice_its_layer_is_dry_and_passes_the_layer_on() {
+    for (face, h, u, _, _) in starved_cases() {
+        for frac in [0.1, 0.3, 0.49] {
+            let supply = frac * h;
+            let f = film_for_load_supplied(&face, h, u, 0.0, 0.02, None, Some(supply));
+            assert_eq!(f.shear_n_per_m, 0.0, "{face:?} h {h} u {u} supply {supply}");
+            assert!(
+                (f.layer_left_m(u) - supply).abs() <= 1e-15 * supply,
+                "{face:?} h {h} u {u}: left {} of {supply}",
+                f.layer_left_m(u)
+            );
+        }
+    }
+}
+
 /// The faces and films of the starved checks: steady, approaching, separating, slow and at rest.
 fn starved_cases() -> Vec<(Face, f64, f64, f64, f64)> {
     let mut v = Vec::new();
@@ -270,22 +395,39 @@ fn starved_cases() -> Vec<(Face, f64, f64, f64, f64)> {
     v
 }
 
-/// Flow continuity at the starved inlet: the oil a face carries out at its outlet (at least
-/// `|u| h_out / 2`, exactly that at a rupture) is never more than the layer it ran into brought
-/// in (`|u| supply`) plus what the approaching face squeezes out of the gap between its inlet
-/// and its outlet (`-hdot (x_out - x_in)` when `hdot < 0`). In steady sliding the ring leaves
-/// at most the layer it met.
+/// Flow continuity at the starved inlet: the oil a face lays on the liner is never more than
+/// the layer it ran into brought in (`|u| supply`) plus what the approaching face squeezes out
+/// of the gap between its inlet and its outlet (`-hdot (x_out - x_in)` when `hdot < 0`).
 #[test]
 fn a_starved_face_never_carries_out_more_oil_than_it_had() {
     let mu = 0.02;
     for (face, h, u, load, supply) in starved_cases() {
         let f = film_for_load_supplied(&face, h, u, load, mu, None, Some(supply));
-        let out = 0.5 * u * f.outlet_film_m;
+        let out = u * f.layer_left_m(u);
         let squeezed = (-f.squeeze_m_s).max(0.0) * (f.rupture_m - f.inlet_m);
         assert!(
             out <= u * supply + squeezed + 1e-12 * u * supply,
             "{face:?} h {h} u {u} load {load} supply {supply}: out {out}, in {} + {squeezed}",
             u * supply
+        );
+        // The film's own continuity: what leaves is what came in plus what the squeeze pushed
+        // out between inlet and outlet (`dq/dx = -dh/dt`), and it takes in no more than the
+        // layer brings.
+        let x_out = if f.rupture_m > f.inlet_m {
+            f.rupture_m
+        } else {
+            f.inlet_m
+        };
+        let pushed = -f.squeeze_m_s * (x_out - f.inlet_m);
+        assert!(
+            (f.outflow_m2_s - (f.inflow_m2_s + pushed)).abs()
+                <= 1e-9 * (f.inflow_m2_s.abs() + pushed.abs() + 1e-18),
+            "{face:?} h {h} u {u} load {load} supply {supply}: {f:?}"
+        );
+        assert!(
+            f.inflow_m2_s <= u * supply * (1.0 + 1e-9) + 1e-18,
+            "{face:?} h {h} u {u} load {load} supply {supply}: inflow {}",
+            f.inflow_m2_s
         );
     }
 }

@@ -348,6 +348,46 @@ impl GasModel {
         self.ambient_pa
     }
 
+    /// The crank angles (this model's, as [`GasModel::at`] takes them; rad, in [0, 4 pi)) where
+    /// the cylinder pressure is not smooth, sorted: a pressure trace's samples where its slope
+    /// changes (it is linear between them), known before any run. Empty for the closed-form
+    /// models. The prescribed crank's error-controlled quadrature ends its steps on them.
+    pub fn pressure_kinks(&self) -> Vec<f64> {
+        let Cylinder::Trace {
+            angles_rad,
+            pressures_pa,
+        } = &self.cylinder
+        else {
+            return Vec::new();
+        };
+        let n = angles_rad.len().min(pressures_pa.len());
+        if n < 2 {
+            return Vec::new();
+        }
+        // Sample k's angle and pressure, periodic in the 4-stroke cycle.
+        let at = |k: isize| {
+            let i = k.rem_euclid(n as isize) as usize;
+            let wraps = k.div_euclid(n as isize) as f64;
+            (angles_rad[i] + wraps * CYCLE_4, pressures_pa[i])
+        };
+        let slope = |(a0, p0): (f64, f64), (a1, p1): (f64, f64)| {
+            if a1 > a0 {
+                (p1 - p0) / (a1 - a0)
+            } else {
+                0.0
+            }
+        };
+        let mut kinks: Vec<f64> = (0..n as isize)
+            .filter(|&k| {
+                let (left, right) = (slope(at(k - 1), at(k)), slope(at(k), at(k + 1)));
+                (right - left).abs() > 1e-12 * (left.abs() + right.abs())
+            })
+            .map(|k| cycle_angle(at(k).0 - self.phase_rad))
+            .collect();
+        kinks.sort_by(f64::total_cmp);
+        kinks
+    }
+
     /// Whether the pressures depend on the crank speed (a vented crankcase).
     pub fn depends_on_speed(&self) -> bool {
         matches!(self.crankcase, Crankcase::Vented(_))

@@ -239,9 +239,18 @@ impl Stepper for Lobatto {
     ) -> Result<Step, SimError> {
         let t = s.t;
         let h_floor = sim.time_step(sim.max_step_rad, sim.reference(t).1.abs());
-        let (mut h, planned, switch_cut) = self.plan(sim, t);
+        let (mut h, planned, mut switch_cut) = self.plan(sim, t);
         let mut rejected = false;
         loop {
+            // End on a cylinder pressure's kink; a retry is never lengthened to one (it would
+            // try the failed step again).
+            match sim.time_to_pressure_kink(t, h) {
+                Some(dt) if !rejected || dt < h => {
+                    switch_cut |= dt < h;
+                    h = dt;
+                }
+                _ => {}
+            }
             let remaining = b - t;
             // End on the breakpoint, without leaving a sliver step before it.
             let h_try = landing(h, remaining);
@@ -284,6 +293,38 @@ impl Stepper for Lobatto {
     fn restart(&mut self, _: &Simulation, _: &mut Work, _: &Integration) -> Result<(), SimError> {
         self.previous = None;
         Ok(())
+    }
+}
+
+impl Simulation {
+    /// The step from `t` that ends on the next kink of a cylinder pressure (a trace's sample),
+    /// when one lies within two planned steps `h` (as [`landing`] treats an interval's end: no
+    /// sliver step before it); `None` when none does. A kink closer than a thousandth of the
+    /// step is taken as on the step's start (the previous step ended on it).
+    fn time_to_pressure_kink(&self, t: f64, h: f64) -> Option<f64> {
+        let kinks = &self.pressure_kinks;
+        if kinks.is_empty() {
+            return None;
+        }
+        let (theta, omega, alpha) = self.reference_after(t);
+        let cycle = crate::gas::CYCLE_4;
+        let phi = crate::gas::cycle_angle(theta);
+        let first = kinks.partition_point(|a| *a <= phi);
+        for i in first..first + kinks.len() {
+            let (k, wraps) = (i % kinks.len(), (i / kinks.len()) as f64);
+            let gap = kinks[k] + wraps * cycle - phi;
+            // The time the reference motion (constant acceleration) takes to turn by `gap`.
+            let root = omega * omega + 2.0 * alpha * gap;
+            if root < 0.0 || omega + root.sqrt() <= 0.0 {
+                return None;
+            }
+            let dt = 2.0 * gap / (omega + root.sqrt());
+            if dt <= 1e-3 * h {
+                continue;
+            }
+            return (dt < 2.0 * h).then(|| landing(h, dt));
+        }
+        None
     }
 }
 

@@ -152,6 +152,10 @@ pub struct Simulation {
     /// Which of an evaluation's `switches` matter: the relative velocities of joints that
     /// carry a law, the side thrust of cylinders whose piston does, the PI drive's margin.
     switch_mask: Vec<bool>,
+    /// The crank angles in one 4-stroke cycle (rad, [0, 4 pi), sorted) where a cylinder's
+    /// pressure is not smooth (a trace's samples), on which the prescribed crank's
+    /// error-controlled quadrature ends its steps.
+    pressure_kinks: Vec<f64>,
     /// Whether any bound law keeps state (then steps are fixed and committed).
     stateful: bool,
     tol: f64,
@@ -287,6 +291,33 @@ fn switch_mask(
     mask
 }
 
+/// Every cylinder's pressure kinks ([`GasModel::pressure_kinks`], at the cylinder's own crank
+/// angle) as crank angles of the crank, in one 4-stroke cycle, sorted.
+fn pressure_kinks(crank: &Crank, gas: &[GasModel]) -> Vec<f64> {
+    // Cylinder k's angle is the crank's plus its throw's angle less its bank's.
+    let offset = |k: usize| {
+        crank.crank_train().map_or(0.0, |t| {
+            let geo = t.geometry();
+            geo.cylinders.get(k).map_or(0.0, |c| {
+                geo.throws.get(c.throw).map_or(0.0, |w| w.angle_rad) - c.bank_rad
+            })
+        })
+    };
+    let mut kinks: Vec<f64> = gas
+        .iter()
+        .enumerate()
+        .flat_map(|(k, g)| {
+            let d = offset(k);
+            g.pressure_kinks()
+                .into_iter()
+                .map(move |a| crate::gas::cycle_angle(a - d))
+        })
+        .collect();
+    kinks.sort_by(f64::total_cmp);
+    kinks.dedup();
+    kinks
+}
+
 impl Simulation {
     /// Check `model`'s laws against `registry` (each law known, its parameters' names, types
     /// and ranges) without creating an instance: no law code beyond its description runs.
@@ -308,6 +339,7 @@ impl Simulation {
             rig_name: f.name.clone(),
             engine,
             switch_mask: switch_mask(&joints, cylinders, &f.drive, &gas),
+            pressure_kinks: pressure_kinks(&crank, &gas),
             stateful: joints.iter().any(BoundJoint::is_stateful),
             roles: joints.iter().map(|j| j.role).collect(),
             crank,

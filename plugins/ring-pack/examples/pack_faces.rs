@@ -20,12 +20,13 @@ const CRANK_M: f64 = 0.043;
 const ROD_M: f64 = 0.143;
 const RADIUS_M: f64 = 0.043;
 
-/// Piston velocity at crank angle `th` from TDC, turning at `w` rad/s (away from the crank:
-/// positive towards the head).
-fn velocity(th: f64, w: f64) -> f64 {
+/// Piston travel from top dead centre (m) and velocity (m/s, positive towards the head) at
+/// crank angle `th` from TDC, turning at `w` rad/s.
+fn slider(th: f64, w: f64) -> (f64, f64) {
     let (s, c) = th.sin_cos();
     let root = (ROD_M * ROD_M - CRANK_M * CRANK_M * s * s).sqrt();
-    -CRANK_M * w * s * (1.0 + CRANK_M * c / root)
+    let travel = CRANK_M + ROD_M - (CRANK_M * c + root);
+    (travel, -CRANK_M * w * s * (1.0 + CRANK_M * c / root))
 }
 
 #[derive(Default, Clone, Copy)]
@@ -70,8 +71,9 @@ fn main() -> Result<(), Box<dyn Error>> {
     let bmu = 0.1;
     for step in 0..(10 * 360) {
         let th = step as f64 * PI / 180.0;
-        let v = velocity(th, w);
+        let (travel, v) = slider(th, w);
         let mut i = LawInput::at_rest(JointKind::Prismatic).with_velocity(v);
+        i.piston_from_tdc_m = travel;
         i.contact_radius_m = RADIUS_M;
         i.contact_length_m = 0.035;
         i.viscosity_pa_s = mu;

@@ -66,6 +66,10 @@ pub struct Params {
     /// Starved: the oil layer on the liner above the top ring, met by the top ring on the
     /// downstroke, m.
     pub top_supply_film_m: f64,
+    /// Starved: where the top ring's downstroke layer comes from: `fixed` (`top_supply_film_m`
+    /// everywhere) or `carried` (the layer the top ring itself left at that place of the
+    /// liner on the last upstroke, `top_supply_film_m` where it has not been yet).
+    pub top_supply: String,
 }
 
 impl Default for Params {
@@ -91,6 +95,7 @@ impl Default for Params {
             v_smooth_m_s: 0.01,
             inlet: "flooded".into(),
             top_supply_film_m: 1e-6,
+            top_supply: "fixed".into(),
         }
     }
 }
@@ -104,6 +109,27 @@ const STATE: usize = RINGS + 2;
 
 /// Index of the lower rail's film in the state.
 const LOWER_RAIL: usize = RINGS + 1;
+
+/// Carried top supply: the state after [`STATE`] holds the piston travel at the last commit
+/// (m from top dead centre) and whether it is set (0 no, 1 yes, 2 yes and the commit was on
+/// the upstroke), then per liner bin ([`LINER_BINS`] of [`LINER_BIN_M`] along the travel) the
+/// oil the top ring laid there on its last upstroke (m^2 per metre of circumference), then
+/// the length of the bin it covered (m): the layer met there is their quotient, so the oil
+/// the top ring meets on the downstroke is the oil it laid, whatever the steps.
+const TRAVEL: usize = STATE;
+
+/// The first liner bin's oil in the state.
+const BINS: usize = STATE + 2;
+
+/// The first liner bin's covered length in the state.
+const COVERED: usize = BINS + LINER_BINS;
+
+/// Length of one liner bin along the bore, m.
+pub const LINER_BIN_M: f64 = 1e-3;
+
+/// Number of liner bins: 256 mm of piston travel (strokes up to that; beyond it the layer is
+/// not kept).
+pub const LINER_BINS: usize = 256;
 
 /// The faces in the order the liner meets them on the upstroke (piston towards the head: the
 /// oil ring's lower rail leads, fed from the crankcase side): lower rail, upper rail, second,
@@ -126,6 +152,8 @@ pub struct RingPack {
     /// Starved inlets (`inlet = "starved"`); flooded otherwise.
     starved: bool,
     top_supply_m: f64,
+    /// Starved, the top ring's downstroke layer is the one it left on the last upstroke.
+    carried: bool,
 }
 
 /// One evaluation of the pack: every ring's contact and the total force.
@@ -209,7 +237,7 @@ impl RingPack {
         let (order, lead) = if input.relative_velocity >= 0.0 {
             (UPSTROKE, None)
         } else {
-            (DOWNSTROKE, Some(self.top_supply_m))
+            (DOWNSTROKE, Some(self.top_supply_at(input, state)))
         };
         let mut contacts = [film(order[0], lead); 4];
         let mut supplies = [None; 4];
@@ -221,6 +249,65 @@ impl RingPack {
             supply = Some(c.film.layer_left_m(u));
         }
         (contacts, supplies)
+    }
+
+    /// The liner bin of the piston travel `travel_m` (m from top dead centre).
+    fn bin(travel_m: f64) -> usize {
+        if travel_m.is_finite() && travel_m > 0.0 {
+            ((travel_m / LINER_BIN_M) as usize).min(LINER_BINS - 1)
+        } else {
+            0
+        }
+    }
+
+    /// The layer the top ring meets on the downstroke here: carried, the one it left at this
+    /// bin on the last upstroke (where it has been); `top_supply_film_m` otherwise.
+    fn top_supply_at(&self, input: &LawInput, state: &[f64]) -> f64 {
+        if !self.carried || state.len() < COVERED + LINER_BINS {
+            return self.top_supply_m;
+        }
+        let b = Self::bin(input.piston_from_tdc_m);
+        let covered = state[COVERED + b];
+        if covered > 0.0 {
+            state[BINS + b] / covered
+        } else {
+            self.top_supply_m
+        }
+    }
+
+    /// Carried: on the upstroke, the top ring lays `layer` on the stretch of liner it crossed
+    /// since the last commit, each bin receiving the oil over the length it shares with the
+    /// stretch; a bin the stroke reaches for the first time forgets the last upstroke's oil.
+    /// The travel is remembered for the next commit.
+    fn lay(&self, input: &LawInput, state: &mut [f64], layer: f64) {
+        if !(self.starved && self.carried) || state.len() < COVERED + LINER_BINS {
+            return;
+        }
+        let end = LINER_BINS as f64 * LINER_BIN_M;
+        let now = if input.piston_from_tdc_m.is_finite() {
+            input.piston_from_tdc_m.clamp(0.0, end)
+        } else {
+            0.0
+        };
+        let up = input.relative_velocity > 0.0 && layer.is_finite() && layer >= 0.0;
+        if up && state[TRAVEL + 1] != 0.0 {
+            let then = state[TRAVEL].clamp(0.0, end);
+            let continuing = state[TRAVEL + 1] == 2.0;
+            let (lo, hi) = (now.min(then), now.max(then));
+            let top = Self::bin(hi);
+            for b in Self::bin(lo)..=top {
+                let start = b as f64 * LINER_BIN_M;
+                let overlap = (hi.min(start + LINER_BIN_M) - lo.max(start)).max(0.0);
+                if !(continuing && b == top) {
+                    state[BINS + b] = 0.0;
+                    state[COVERED + b] = 0.0;
+                }
+                state[BINS + b] += layer * overlap;
+                state[COVERED + b] += overlap;
+            }
+        }
+        state[TRAVEL] = now;
+        state[TRAVEL + 1] = if up { 2.0 } else { 1.0 };
     }
 
     /// The pack at `input` with the committed `state`.
@@ -410,6 +497,11 @@ impl Law for RingPack {
                 1e-9,
                 1e-4,
             ),
+            ParamSpec::choice(
+                "top_supply",
+                "starved: the top ring's downstroke layer, fixed (top_supply_film_m) or carried (the layer it left there on the last upstroke)",
+                &["fixed", "carried"],
+            ),
         ]
     }
 
@@ -421,6 +513,16 @@ impl Law for RingPack {
                 return Err(ParamError::new(
                     "inlet",
                     format!("unknown inlet `{other}`: expected `flooded` or `starved`"),
+                ))
+            }
+        };
+        let carried = match p.top_supply.as_str() {
+            "fixed" => false,
+            "carried" => true,
+            other => {
+                return Err(ParamError::new(
+                    "top_supply",
+                    format!("unknown top_supply `{other}`: expected `fixed` or `carried`"),
                 ))
             }
         };
@@ -483,11 +585,16 @@ impl Law for RingPack {
             v_smooth: p.v_smooth_m_s,
             starved,
             top_supply_m: p.top_supply_film_m,
+            carried,
         })
     }
 
     fn state_size(&self) -> usize {
-        STATE
+        if self.starved && self.carried {
+            COVERED + LINER_BINS
+        } else {
+            STATE
+        }
     }
 
     fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
@@ -550,6 +657,7 @@ impl Law for RingPack {
             state[LOWER_RAIL] = state[RINGS - 1];
         }
         state[RINGS] = 1.0;
+        self.lay(input, state, faces[0].film.layer_left_m(u));
     }
 }
 
@@ -568,6 +676,19 @@ mod tests {
     #[test]
     fn conforms_starved() {
         tribo_plugin_api::conformance::assert_law_conforms_with::<RingPack>("inlet = \"starved\"");
+    }
+
+    #[test]
+    fn conforms_carried() {
+        tribo_plugin_api::conformance::assert_law_conforms_with::<RingPack>(
+            "inlet = \"starved\"\ntop_supply = \"carried\"",
+        );
+    }
+
+    #[test]
+    fn an_unknown_top_supply_is_refused_naming_it() {
+        let e = law("top_supply = \"borrowed\"").expect_err("refused");
+        assert!(e.to_string().contains("top_supply"), "{e}");
     }
 
     #[test]
@@ -617,6 +738,75 @@ mod tests {
             .pack(&piston(5.0, 0.0), &[0.0; STATE]);
         assert_eq!(flooded.supplies, [None; 4]);
         assert_eq!(flooded.lower_rail, flooded.contacts[2]);
+    }
+
+    /// Carried top supply: on the downstroke the top ring meets, at each place of the liner,
+    /// the layer it left there on the upstroke (the layer of a commit that crossed that bin);
+    /// where it has not been, `top_supply_film_m`. Fixed, the state has no bins.
+    #[test]
+    fn a_carried_top_supply_is_the_layer_the_top_ring_left_there() {
+        let text = "inlet = \"starved\"\ntop_supply = \"carried\"\ntop_supply_film_m = 0.7e-6";
+        let l = law(text).expect("carried");
+        assert_eq!(l.state_size(), COVERED + LINER_BINS);
+        let fixed = law("inlet = \"starved\"").expect("fixed");
+        assert_eq!(fixed.state_size(), STATE);
+        let mut s = vec![0.0; l.state_size()];
+        let at = |v: f64, travel: f64| {
+            let mut i = piston(v, 0.0);
+            i.piston_from_tdc_m = travel;
+            i.dt_s = 0.3e-3 / v.abs();
+            i
+        };
+        // Up the bore from 40 mm below TDC to 10 mm, 0.3 mm a step, the speed changing so that
+        // the layer left changes from step to step.
+        let mut laid = Vec::new();
+        let mut travel = 0.040;
+        while travel > 0.010 {
+            let v = 2.0 + 100.0 * travel;
+            let i = at(v, travel);
+            laid.push((travel, l.pack(&i, &s).contacts[0].film.layer_left_m(v)));
+            l.commit(&i, &mut s);
+            travel -= 0.3e-3;
+        }
+        assert!(laid.windows(2).all(|w| w[0].1 != w[1].1), "{laid:?}");
+        // Down again: the layer met is the mean of those laid over this bin (within a bin and
+        // a step of here), and over the whole stretch the oil met is the oil laid.
+        let near = |x: f64| {
+            laid.iter()
+                .filter(move |&&(y, _)| (y - x).abs() <= LINER_BIN_M + 0.3e-3)
+                .map(|&(_, left)| left)
+        };
+        for &(x, _) in laid.iter().skip(1).take(laid.len() - 2) {
+            let met = l.pack(&at(-3.0, x), &s).supplies[0].expect("starved");
+            let lo = near(x).fold(f64::INFINITY, f64::min);
+            let hi = near(x).fold(0.0, f64::max);
+            assert!(
+                met >= lo * (1.0 - 1e-12) && met <= hi * (1.0 + 1e-12),
+                "at {x}: met {met}, laid {lo}-{hi}"
+            );
+        }
+        // Each step laid its layer over the 0.3 mm it crossed before it (the first, nothing).
+        let oil_laid: f64 = laid.iter().skip(1).map(|&(_, left)| left * 0.3e-3).sum();
+        let (first, last) = (laid[0].0, laid[laid.len() - 1].0);
+        let oil_met: f64 = (0..LINER_BINS)
+            .map(|b| {
+                let start = b as f64 * LINER_BIN_M;
+                let share = (first.min(start + LINER_BIN_M) - last.max(start)).max(0.0);
+                if share > 0.0 {
+                    s[BINS + b] / s[COVERED + b] * share
+                } else {
+                    0.0
+                }
+            })
+            .sum();
+        assert!(
+            (oil_met - oil_laid).abs() <= 1e-9 * oil_laid,
+            "met {oil_met}, laid {oil_laid}"
+        );
+        // Never reached: the fixed layer.
+        for x in [0.005, 0.06] {
+            assert_eq!(l.pack(&at(-3.0, x), &s).supplies[0], Some(0.7e-6), "{x}");
+        }
     }
 
     fn law(text: &str) -> Result<RingPack, ParamError> {

@@ -111,9 +111,10 @@ impl Default for Params {
             groove_arc_deg: 360.0,
             // estimate: a 4 mm central groove in a 20 mm shell leaves two 8 mm lands.
             land_length_m: 8e-3,
-            // The balance of the law's first heat model, until the cycle-mean balance is
-            // measured on the bundled sets (docs/laws/plain-journal.md).
-            heat_balance: "instantaneous".into(),
+            // A film and the surfaces it wets hold heat over many revolutions: under a dynamic
+            // load only the cycle's means set its temperature (docs/laws/plain-journal.md,
+            // "Held over the cycle"); under a steady load both balances are one.
+            heat_balance: "cycle-mean".into(),
             // estimate: the oil crosses the film in about two revolutions (its mean speed is
             // half the surface speed), one four-stroke cycle; the shell and journal surfaces
             // hold heat longer, so two revolutions is the short end of the film's lag.

@@ -148,6 +148,17 @@ fn regime_name(code: u8) -> &'static str {
 /// what a resolution can make a run allocate (at 1e-9 degree it asked for terabytes).
 pub const MAX_SAMPLES_PER_CYCLE: usize = 72_000;
 
+/// The most cycles a stateful trace runs before its last one is returned: the steady run's
+/// bound. A law whose state settles over many revolutions (a bearing film holding its heat)
+/// needs tens of cycles; one warm-up cycle left such a film still settling.
+const MAX_TRACE_CYCLES: usize = 200;
+
+/// Whether a cycle's mean drive torque `torque` repeats the previous cycle's `last` to 1e-9
+/// relative, the steady run's test of a settled stateful cycle.
+pub(super) fn cycle_repeats(torque: f64, last: f64) -> bool {
+    (torque - last).abs() <= 1e-9 * torque.abs().max(1e-12)
+}
+
 /// Samples over a cycle of `cycle_rad` at `resolution_deg`, at least 4 and at most
 /// [`MAX_SAMPLES_PER_CYCLE`].
 fn samples_per_cycle(cycle_rad: f64, resolution_deg: f64) -> Result<usize, SimError> {
@@ -183,8 +194,9 @@ impl Simulation {
     /// Every plateau's cycle at the plateau's speed (constant: the steady state), sampled every
     /// `resolution_deg` degrees: each law's torque, power, load, sliding speed and regime, the
     /// loads and pressures; on an engine also each cylinder's and main bearing's loads. Laws
-    /// start from zero state; a stateful law runs one cycle first so the sampled one is
-    /// settled.
+    /// start from zero state; with stateful laws cycles are repeated until the cycle's mean
+    /// drive torque repeats to 1e-9 (as the steady run's cycles are; at most
+    /// [`MAX_TRACE_CYCLES`]), and the last cycle is the one sampled.
     pub fn crank_angle_traces(
         &mut self,
         resolution_deg: f64,
@@ -206,20 +218,34 @@ impl Simulation {
                 guess.fill(0.0);
             }
             let mut samples = sample_buffer(n)?;
-            let passes = if self.stateful { 2 } else { 1 };
-            for pass in 0..passes {
+            let (max_passes, mut last_torque) = if self.stateful {
+                (MAX_TRACE_CYCLES, f64::NAN)
+            } else {
+                (1, 0.0)
+            };
+            for pass in 0..max_passes {
+                // Every pass after the first is sampled (the last one kept), so the cycle that
+                // repeats its predecessor is the one returned.
+                samples.clear();
+                let mut torque_sum = 0.0;
                 for k in 0..n {
                     let theta = k as f64 * h_angle;
                     let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
                     self.evaluate(&at, &guess, &mut w, &mut e)?;
                     guess.copy_from_slice(&e.totals);
-                    if pass + 1 == passes {
+                    torque_sum += e.drive_torque;
+                    if pass > 0 || !self.stateful {
                         // Sampled before the commit: the laws' states are those the
                         // evaluation used.
                         samples.push(self.angle_sample(theta, omega, &w, &e)?);
                     }
                     self.commit(&mut w, &e)?;
                 }
+                let torque = torque_sum / n as f64;
+                if pass > 0 && cycle_repeats(torque, last_torque) {
+                    break;
+                }
+                last_torque = torque;
             }
             traces.push(CrankAngleTrace {
                 speed_rpm: self.cycle.plateaus()[pi].speed_rpm,

@@ -129,7 +129,7 @@ impl Simulation {
                 *steps += 1;
             }
             let torque = delta[RateLayout::MOTOR] / cycle;
-            if !self.stateful || (torque - last_torque).abs() <= 1e-9 * torque.abs().max(1e-12) {
+            if !self.stateful || super::crank_angle::cycle_repeats(torque, last_torque) {
                 break;
             }
             last_torque = torque;

@@ -340,7 +340,20 @@ fn the_crank_angle_traces_of_a_slowly_settling_law_are_the_steady_run_s_cycle() 
     let steady = sim.run_steady().expect("steady run");
     let traces = sim.crank_angle_traces(1.0).expect("traces");
     let (t, p) = (&traces[0], &steady.plateaus[0]);
-    let mut big_ends = 0;
+    assert_trace_means_are_the_plateau_s(t, p);
+    let big_ends = p.joints.iter().filter(|l| l.joint.starts_with("big_end"));
+    assert_eq!(
+        big_ends.count(),
+        4,
+        "the big ends' laws are among the checked ones"
+    );
+}
+
+/// Every law's mean friction torque over the trace `t` is its plateau `p`'s, to 0.2%.
+fn assert_trace_means_are_the_plateau_s(
+    t: &tribo::sim::CrankAngleTrace,
+    p: &tribo::sim::PlateauResult,
+) {
     for (k, law) in p.joints.iter().enumerate() {
         let mean: f64 = t
             .samples
@@ -348,16 +361,15 @@ fn the_crank_angle_traces_of_a_slowly_settling_law_are_the_steady_run_s_cycle() 
             .map(|s| s.laws[k].friction_torque_nm)
             .sum::<f64>()
             / t.samples.len() as f64;
-        big_ends += usize::from(law.joint.starts_with("big_end"));
         assert!(
             (mean - law.friction_torque_nm).abs() <= 2e-3 * law.friction_torque_nm.abs().max(1e-4),
-            "{} {}: trace mean {mean} vs plateau {}",
+            "{} rpm {} {}: trace mean {mean} vs plateau {}",
+            p.set_speed_rpm,
             law.joint,
             law.law,
             law.friction_torque_nm
         );
     }
-    assert_eq!(big_ends, 4, "the big ends' laws are among the checked ones");
 }
 
 #[test]
@@ -375,23 +387,7 @@ fn crank_angle_traces_average_to_the_plateau_values_and_are_written_by_run() {
         // 720 degrees at 0.5 degree: 1440 samples of a 4-stroke cycle.
         assert_eq!(t.samples.len(), 1440);
         assert!(t.samples.last().expect("samples").crank_angle_deg > 719.0);
-        for (k, law) in p.joints.iter().enumerate() {
-            let mean: f64 = t
-                .samples
-                .iter()
-                .map(|s| s.laws[k].friction_torque_nm)
-                .sum::<f64>()
-                / t.samples.len() as f64;
-            assert!(
-                (mean - law.friction_torque_nm).abs()
-                    <= 2e-3 * law.friction_torque_nm.abs().max(1e-4),
-                "{} rpm {} {}: trace mean {mean} vs plateau {}",
-                p.set_speed_rpm,
-                law.joint,
-                law.law,
-                law.friction_torque_nm
-            );
-        }
+        assert_trace_means_are_the_plateau_s(t, p);
         // The firing TDC (360 degrees) carries the compression peak.
         let at_tdc = &t.samples[720];
         assert!((at_tdc.pressures_pa[0] - 101_325.0 * 12.9_f64.powf(1.4)).abs() < 1.0);

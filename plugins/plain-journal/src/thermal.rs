@@ -226,6 +226,20 @@ impl HeldFilm {
 mod tests {
     use super::*;
 
+    /// The root of an increasing `g` in `[a, b]` by 200 halvings: to the last bit, and
+    /// independent of the law's own Newton root.
+    fn bisect(g: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+        for _ in 0..200 {
+            let m = 0.5 * (a + b);
+            if g(m) < 0.0 {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        a
+    }
+
     const OIL: Oil = Oil {
         walther_b: 3.5,
         density_kg_m3: 850.0,
@@ -329,15 +343,7 @@ mod tests {
                 let (p, q) = pf(OIL.viscosity_at(0.0117, 90.0, t_c));
                 t_c - 90.0 - (p / (2.0 * rho_cp * q)).min(MAX_HALF_RISE_K)
             };
-            let (mut a, mut b) = (90.0, 90.0 + MAX_HALF_RISE_K + 1.0);
-            for _ in 0..200 {
-                let m = 0.5 * (a + b);
-                if g(m) < 0.0 {
-                    a = m;
-                } else {
-                    b = m;
-                }
-            }
+            let a = bisect(g, 90.0, 90.0 + MAX_HALF_RISE_K + 1.0);
             assert!(
                 (t.effective_c - a).abs() < 1e-9,
                 "case {n}: {} vs {a}",
@@ -416,15 +422,7 @@ mod tests {
             let (pb, qb) = states[1](mu);
             t - t_feed - (pa + pb) / (2.0 * rho_cp * (qa + qb))
         };
-        let (mut a, mut b) = (t_feed, t_feed + 100.0);
-        for _ in 0..200 {
-            let m = 0.5 * (a + b);
-            if g(m) < 0.0 {
-                a = m;
-            } else {
-                b = m;
-            }
-        }
+        let a = bisect(g, t_feed, t_feed + 100.0);
         assert!((settled - a).abs() < 0.02, "{settled} vs {a}");
         let own = |i: usize| solve(&OIL, t_feed, mu_feed, states[i]).effective_c;
         let mean_of_own = 0.5 * (own(0) + own(1));

@@ -443,7 +443,7 @@ fn ruptured(
 }
 
 /// The film of a face whose full film begins at `s_in` (in `s`, `-S <= s_in <= 0`) with
-/// `p = 0` there: [`flooded`]'s three branches (nothing carried, whole to the trailing edge,
+/// `p = 0` there: `flooded`'s three branches (nothing carried, whole to the trailing edge,
 /// ruptured) on the wetted stretch `[s_in, S]` instead of `[-S, S]`. The whole film's pressure
 /// gradient is `(alpha s^2 + beta s + gamma) / (1 + s^2)^3` in `s`, with `p = 0` at both ends
 /// of a stretch that is no longer symmetric (so the odd moments `m[1]`, `m[3]` and `n[1]` no

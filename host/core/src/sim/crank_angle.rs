@@ -196,7 +196,7 @@ impl Simulation {
     /// loads and pressures; on an engine also each cylinder's and main bearing's loads. Laws
     /// start from zero state; with stateful laws cycles are repeated until the cycle's mean
     /// drive torque repeats to 1e-9 (as the steady run's cycles are; at most
-    /// [`MAX_TRACE_CYCLES`]), and the last cycle is the one sampled.
+    /// 200, the steady run's bound), and the last cycle is the one sampled.
     pub fn crank_angle_traces(
         &mut self,
         resolution_deg: f64,

@@ -127,8 +127,8 @@ const COVERED: usize = BINS + LINER_BINS;
 /// Length of one liner bin along the bore, m.
 pub const LINER_BIN_M: f64 = 1e-3;
 
-/// Number of liner bins: 256 mm of piston travel (strokes up to that; beyond it the layer is
-/// not kept).
+/// Number of liner bins: 256 mm of piston travel (strokes up to that; travel beyond it shares
+/// the last bin).
 pub const LINER_BINS: usize = 256;
 
 /// The faces in the order the liner meets them on the upstroke (piston towards the head: the
@@ -526,6 +526,12 @@ impl Law for RingPack {
                 ))
             }
         };
+        if carried && !starved {
+            return Err(ParamError::new(
+                "top_supply",
+                "top_supply = \"carried\" needs inlet = \"starved\" (a flooded pack meets no layer on the liner)",
+            ));
+        }
         let ring = |crown_param: &'static str,
                     width: f64,
                     crown: f64,

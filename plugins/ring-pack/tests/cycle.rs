@@ -183,6 +183,20 @@ fn the_dead_centres_run_in_mixed_film_more_so_hot_and_slow() {
 /// ring's lower rail let up past it from the crankcase side. Starved with the layer fixed at a
 /// thick 5 um instead, the top ring meets far more than it laid (the estimate feeds it).
 #[test]
+fn a_carried_top_supply_on_a_flooded_pack_is_refused_naming_both_fields() {
+    let p: Params = toml::from_str("top_supply = \"carried\"").expect("params");
+    assert_eq!(p.inlet, "flooded", "the default inlet");
+    let Err(e) = RingPack::new(p) else {
+        panic!("a carried supply on a flooded pack was accepted, and would do nothing");
+    };
+    let text = e.to_string();
+    assert!(
+        text.contains("top_supply") && text.contains("inlet"),
+        "{text}"
+    );
+}
+
+#[test]
 fn a_carried_top_supply_conserves_oil_over_the_cycle() {
     let carried = |text: &str| {
         let mut p: Params = toml::from_str(text).expect("params");

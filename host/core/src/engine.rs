@@ -144,6 +144,19 @@ pub struct EngineGeometry {
     pub cylinders: Vec<CylinderGeometry>,
 }
 
+impl EngineGeometry {
+    /// Cylinder `k`'s angle relative to the crank, rad: its throw's angle less its bank's, so
+    /// the cylinder's own crank angle (0 at its top dead centre) is the engine crank angle plus
+    /// this. The one place the kinematics, the gas, the pressure kinks and the top dead centres
+    /// read it from, so they cannot disagree on where a cylinder is. 0 for a cylinder that does
+    /// not exist or names no throw (refused by [`CrankTrain::new`]).
+    pub fn cylinder_offset_rad(&self, k: usize) -> f64 {
+        self.cylinders.get(k).map_or(0.0, |c| {
+            self.throws.get(c.throw).map_or(0.0, |t| t.angle_rad) - c.bank_rad
+        })
+    }
+}
+
 /// Friction loads of one cylinder's joints (the signs of `mechanics::JointLoads`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CylinderLoads {
@@ -415,7 +428,7 @@ impl CrankTrain {
         out.cylinders.clear();
         let r = self.geo.crank_radius_m;
         for (k, c) in self.geo.cylinders.iter().enumerate() {
-            let local = theta + self.geo.throws[c.throw].angle_rad - c.bank_rad;
+            let local = theta + self.geo.cylinder_offset_rad(k);
             let (s, co) = local.sin_cos();
             let l = c.rod.length_m;
             let a = c.rod.com_from_big_end_m;
@@ -693,11 +706,10 @@ pub fn geometry(f: &crate::model::RigFile) -> Option<EngineGeometry> {
 }
 
 /// Each cylinder's top dead centre in engine crank angle, rad: where its pin meets its axis
-/// (`bank - throw angle`).
+/// (`bank - throw angle`, minus [`EngineGeometry::cylinder_offset_rad`]).
 pub fn top_dead_centres(geo: &EngineGeometry) -> Vec<f64> {
-    geo.cylinders
-        .iter()
-        .map(|c| c.bank_rad - geo.throws.get(c.throw).map_or(0.0, |t| t.angle_rad))
+    (0..geo.cylinders.len())
+        .map(|k| -geo.cylinder_offset_rad(k))
         .collect()
 }
 

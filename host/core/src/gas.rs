@@ -513,8 +513,9 @@ fn underside(f: &RigFile, area: f64) -> Underside {
     let pistons: Vec<Slider> = geo
         .cylinders
         .iter()
-        .map(|c| Slider {
-            phase_rad: geo.throws.get(c.throw).map_or(0.0, |t| t.angle_rad) - c.bank_rad,
+        .enumerate()
+        .map(|(k, c)| Slider {
+            phase_rad: geo.cylinder_offset_rad(k),
             crank_radius_m: geo.crank_radius_m,
             rod_length_m: c.rod.length_m,
             offset_m: c.pin_offset_m + c.crank_offset_m,

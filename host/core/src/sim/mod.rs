@@ -294,14 +294,10 @@ fn switch_mask(
 /// Every cylinder's pressure kinks ([`GasModel::pressure_kinks`], at the cylinder's own crank
 /// angle) as crank angles of the crank, in one 4-stroke cycle, sorted.
 fn pressure_kinks(crank: &Crank, gas: &[GasModel]) -> Vec<f64> {
-    // Cylinder k's angle is the crank's plus its throw's angle less its bank's.
     let offset = |k: usize| {
-        crank.crank_train().map_or(0.0, |t| {
-            let geo = t.geometry();
-            geo.cylinders.get(k).map_or(0.0, |c| {
-                geo.throws.get(c.throw).map_or(0.0, |w| w.angle_rad) - c.bank_rad
-            })
-        })
+        crank
+            .crank_train()
+            .map_or(0.0, |t| t.geometry().cylinder_offset_rad(k))
     };
     let mut kinks: Vec<f64> = gas
         .iter()

@@ -881,12 +881,30 @@ fn schema_keys<T: tribo::plugin_api::serde::de::DeserializeOwned>(text: &str) ->
 
 /// Every key of the `[solver]` table, read from its schema rather than listed here: a table
 /// with a key it does not know is refused with the list of the keys it expects, so a key added
-/// to `SolverSettings` is a key this list has. The keys a default serialises to are checked to
-/// be among them (so the parse of the message cannot silently find fewer).
+/// to `SolverSettings` is a key this list has. The keys of settings away from every default
+/// (a rig writes out only those; the literal names every field, so a new one must be added)
+/// are checked to be among them (so the parse of the message cannot silently find fewer).
 fn solver_keys() -> Vec<String> {
-    let keys = schema_keys::<tribo::model::SolverSettings>("no_such_key = 1");
-    let default = toml::to_string(&tribo::model::SolverSettings::default()).expect("serialises");
-    let table: toml::Table = toml::from_str(&default).expect("TOML");
+    use tribo::model::{Integrator, QuadratureRule, SolverSettings, StepControl};
+    let keys = schema_keys::<SolverSettings>("no_such_key = 1");
+    let away = SolverSettings {
+        step_deg: 2.0,
+        max_step_s: 1e-4,
+        friction_tol: 1e-3,
+        friction_max_iter: 2,
+        integrator: Integrator::Rk4,
+        rel_tol: 1e-10,
+        max_step_deg: Some(1.0),
+        step_control: StepControl::Integral,
+        quadrature: QuadratureRule::Lobatto,
+    };
+    let written = toml::to_string(&away).expect("serialises");
+    let table: toml::Table = toml::from_str(&written).expect("TOML");
+    assert_eq!(
+        table.len(),
+        9,
+        "every setting away from its default is written: {written}"
+    );
     for k in table.keys() {
         assert!(
             keys.contains(k),
@@ -1163,5 +1181,227 @@ fn every_gas_crankcase_and_drive_key_a_rig_gives_is_used_or_refused_on_both_cran
                 ),
             }
         }
+    }
+}
+
+/// A short cycle for the settings' checks.
+const SHORT_CYCLE: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000.0, duration_s=0.1}, {kind=\"hold\", duration_s=0.12}]";
+
+/// One frictionless rig of each crank train (single cylinder, inline-4, V-twin) with the name
+/// of its pistons' joints.
+const TRAINS: [(&str, &str); 3] = [
+    ("reference-frictionless", "piston"),
+    ("inline4-4b11-frictionless", "piston_*"),
+    ("vtwin-90-frictionless", "piston_*"),
+];
+
+/// `rig` on the short cycle with `sets`, its pistons given a stateless law (Coulomb) or a
+/// stateful one (LuGre, which keeps its bristles' deflection), bound as `tribo run` binds it:
+/// the simulation, or the refusal as text.
+fn bound(
+    rig: &str,
+    pistons: &str,
+    stateful: bool,
+    sets: &[&str],
+) -> Result<tribo::sim::Simulation, String> {
+    ensure_plugins_built();
+    let registry = load_paths(&[profile_dir()]).expect("plugins load");
+    let mut all = vec![
+        SHORT_CYCLE.to_string(),
+        "oil.temperature_c=90.0".to_string(),
+    ];
+    all.extend(sets.iter().map(|s| s.to_string()));
+    let mut rig = tribo::rig::load_rig(Path::new(rig), &all).map_err(|e| e.to_string())?;
+    let law = if stateful { "lugre" } else { "coulomb" };
+    tribo::rig::attach_laws(&mut rig, &[format!("{pistons}={law}")]).expect("the law attaches");
+    tribo::rig::simulation(&rig, &registry).map_err(|e| e.to_string())
+}
+
+/// `bound` must refuse, naming `field` (as `FIELD: VALUE cannot be used`) and each of `words`.
+fn refused(got: Result<tribo::sim::Simulation, String>, field: &str, value: &str, words: &[&str]) {
+    let text = got
+        .err()
+        .unwrap_or_else(|| panic!("{field} = {value} is silently not used"));
+    assert!(
+        text.contains(&format!("{field}: {value} cannot be used by this run")),
+        "{text}"
+    );
+    for w in words {
+        assert!(text.contains(w), "`{w}` missing from: {text}");
+    }
+}
+
+#[test]
+fn a_lobatto_quadrature_given_with_a_stateful_law_is_refused_naming_the_law() {
+    // Settings used or refused (docs/solver.md): a stateful law's steps are fixed, so the
+    // prescribed crank would integrate with Simpson's rule whatever `quadrature` says.
+    let lobatto = "solver.quadrature=\"lobatto\"";
+    for (rig, pistons) in TRAINS {
+        refused(
+            bound(rig, pistons, true, &[lobatto]),
+            "solver.quadrature",
+            "\"lobatto\"",
+            &["law `lugre`", "Simpson"],
+        );
+        // Used with stateless laws.
+        bound(rig, pistons, false, &[lobatto]).unwrap_or_else(|e| panic!("{rig}: {e}"));
+    }
+}
+
+#[test]
+fn an_adaptive_integrator_given_with_a_stateful_law_on_the_pi_drive_is_refused_but_its_default_is_not(
+) {
+    // With a stateful law the PI drive's crank is integrated by fixed-step RK4: an adaptive
+    // integrator asked for is refused; left to its default, the run goes on with RK4 as
+    // documented.
+    for (rig, pistons) in TRAINS {
+        refused(
+            bound(
+                rig,
+                pistons,
+                true,
+                &[PI_DRIVE, "solver.integrator=\"adaptive\""],
+            ),
+            "solver.integrator",
+            "\"adaptive\"",
+            &["law `lugre`", "solver.integrator = \"rk4\""],
+        );
+        bound(rig, pistons, true, &[PI_DRIVE]).unwrap_or_else(|e| panic!("{rig}: {e}"));
+    }
+    // The default written out in the rig file is given too, and the refusal is at its line.
+    let text = format!(
+        "{}\n[solver]\nintegrator = \"adaptive\"\n",
+        base_text().replace("kind = \"prescribed\"", "kind = \"pi\"")
+    );
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("integrator"))
+        .expect("the line")
+        + 1;
+    let rig = load_rig_text(
+        Path::new("rig.toml"),
+        &text,
+        &[SHORT_CYCLE.into(), "oil.temperature_c=90.0".into()],
+    );
+    let mut rig = rig.expect("the rig loads");
+    tribo::rig::attach_laws(&mut rig, &["piston=lugre".into()]).expect("the law attaches");
+    ensure_plugins_built();
+    let registry = load_paths(&[profile_dir()]).expect("plugins load");
+    let err = tribo::rig::simulation(&rig, &registry)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(err.starts_with(&format!("rig.toml:{line}:")), "{err}");
+    assert!(
+        err.contains("solver.integrator: \"adaptive\" cannot be used"),
+        "{err}"
+    );
+}
+
+#[test]
+fn error_control_settings_given_to_a_fixed_step_run_are_refused() {
+    // rel_tol, max_step_deg and step_control steer the error-controlled steps only: given to a
+    // run with fixed steps (the prescribed crank's Simpson rule; the PI drive's RK4, asked for
+    // or forced by a stateful law) they are refused; the error-controlled runs use them.
+    let rk4 = "solver.integrator=\"rk4\"";
+    let lobatto = "solver.quadrature=\"lobatto\"";
+    for (rig, pistons) in TRAINS {
+        for (key, value) in [
+            ("solver.rel_tol", "1e-5"),
+            ("solver.max_step_deg", "5"),
+            ("solver.step_control", "\"integral\""),
+        ] {
+            let set = format!("{key}={value}");
+            let set = set.as_str();
+            refused(
+                bound(rig, pistons, false, &[set]),
+                key,
+                value,
+                &["Simpson", "lobatto"],
+            );
+            refused(
+                bound(rig, pistons, false, &[PI_DRIVE, rk4, set]),
+                key,
+                value,
+                &["RK4", "adaptive"],
+            );
+            refused(
+                bound(rig, pistons, true, &[PI_DRIVE, set]),
+                key,
+                value,
+                &["RK4"],
+            );
+            refused(
+                bound(rig, pistons, true, &[lobatto, set]),
+                "solver.quadrature",
+                "\"lobatto\"",
+                &[],
+            );
+            bound(rig, pistons, false, &[lobatto, set]).unwrap_or_else(|e| panic!("{rig}: {e}"));
+            bound(rig, pistons, false, &[PI_DRIVE, set]).unwrap_or_else(|e| panic!("{rig}: {e}"));
+        }
+    }
+}
+
+#[test]
+fn an_integrator_given_to_the_prescribed_drive_and_a_quadrature_given_to_the_pi_drive_are_refused()
+{
+    // Each drive has its own step method: the prescribed crank's quadrature, the PI drive's
+    // integrator. The other's setting, given, is refused (either value).
+    for (rig, pistons) in TRAINS {
+        for value in ["\"adaptive\"", "\"rk4\""] {
+            let set = format!("solver.integrator={value}");
+            refused(
+                bound(rig, pistons, false, &[&set]),
+                "solver.integrator",
+                value,
+                &["prescribed", "drive.kind = \"pi\""],
+            );
+        }
+        for value in ["\"simpson\"", "\"lobatto\""] {
+            let set = format!("solver.quadrature={value}");
+            refused(
+                bound(rig, pistons, false, &[PI_DRIVE, &set]),
+                "solver.quadrature",
+                value,
+                &["solver.integrator", "drive.kind = \"prescribed\""],
+            );
+        }
+    }
+}
+
+#[test]
+fn the_steady_state_names_in_its_warnings_the_given_settings_it_does_not_use() {
+    // The steady state turns the crank at exactly each plateau speed and integrates one cycle
+    // at solver.step_deg: the PI drive and the transient's step settings are not used; a
+    // rig giving them runs (they are the transient run's) and the result says so.
+    let not_used = |r: &RunResult, field: &str| {
+        r.warnings
+            .iter()
+            .any(|w| w.starts_with(&format!("{field} = ")) && w.contains("is not used"))
+    };
+    for (rig, pistons) in TRAINS {
+        let mut plain = bound(rig, pistons, false, &[]).expect("binds");
+        let r = plain.run_steady().expect("runs");
+        assert!(
+            !r.warnings.iter().any(|w| w.contains("is not used")),
+            "{:?}",
+            r.warnings
+        );
+        let sets = [PI_DRIVE, "solver.rel_tol=1e-5", "solver.max_step_s=1e-4"];
+        let mut given = bound(rig, pistons, false, &sets).expect("binds");
+        let r = given.run_steady().expect("runs");
+        for field in ["drive.kind", "solver.rel_tol", "solver.max_step_s"] {
+            assert!(
+                not_used(&r, field),
+                "{rig}: no warning for {field}: {:?}",
+                r.warnings
+            );
+        }
+        assert!(
+            !not_used(&r, "solver.integrator"),
+            "a default is not reported: {:?}",
+            r.warnings
+        );
     }
 }

@@ -930,45 +930,48 @@ impl Default for Measurement {
     }
 }
 
-/// Numerical settings; the defaults hold for every speed (no per-speed step table).
+/// Numerical settings; the defaults hold for every speed (no per-speed step table). Written
+/// out (an FMU's rig, a model handed to Python) with only the settings that differ from their
+/// defaults: a setting written is one given, which a run that cannot use it refuses
+/// (`docs/solver.md`, "Settings used or refused"), so a rig written back must not give them all.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(crate = "tribo_plugin_api::serde")]
 #[serde(deny_unknown_fields)]
 pub struct SolverSettings {
     /// Crank-angle step, degrees.
-    #[serde(default = "step_deg")]
+    #[serde(default = "step_deg", skip_serializing_if = "is_step_deg")]
     pub step_deg: f64,
     /// Largest time step, s (governs the start of the run when the crank is slow).
-    #[serde(default = "max_step")]
+    #[serde(default = "max_step", skip_serializing_if = "is_max_step")]
     pub max_step_s: f64,
     /// Relative tolerance on joint normal loads in the friction/reaction iteration.
-    #[serde(default = "friction_tol")]
+    #[serde(default = "friction_tol", skip_serializing_if = "is_friction_tol")]
     pub friction_tol: f64,
     /// Iteration limit of the friction/reaction iteration.
-    #[serde(default = "friction_iter")]
+    #[serde(default = "friction_iter", skip_serializing_if = "is_friction_iter")]
     pub friction_max_iter: u32,
     /// Time integrator of a torque-driven (PI) crank; a prescribed crank is a quadrature
-    /// (`quadrature`) whatever this says.
-    #[serde(default)]
+    /// (`quadrature`), so this given with it is refused (`sim::RUN_DEPENDENT_SETTINGS`).
+    #[serde(default, skip_serializing_if = "is_default")]
     pub integrator: Integrator,
     /// Relative error allowed per unit time by the adaptive integrator.
-    #[serde(default = "rel_tol")]
+    #[serde(default = "rel_tol", skip_serializing_if = "is_rel_tol")]
     pub rel_tol: f64,
     /// Largest crank-angle step of the adaptive integrator, degrees; absent: the default for
     /// the rig's crank train ([`SolverSettings::max_step_deg`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_step_deg: Option<f64>,
     /// Step-size controller of the adaptive integrator.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "is_default")]
     pub step_control: StepControl,
     /// Quadrature of a prescribed crank with stateless laws.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "is_default")]
     pub quadrature: QuadratureRule,
 }
 
 /// How a prescribed crank's rates are integrated (the motion is known, so only quadrature is
-/// left). Law sets with a stateful law always get `Simpson`: their state is advanced once per
-/// step with the step's length, which must then not vary.
+/// left). Law sets with a stateful law get `Simpson`: their state is advanced once per step
+/// with the step's length, which must then not vary (`Lobatto` given with one is refused).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(crate = "tribo_plugin_api::serde")]
 #[serde(rename_all = "kebab-case")]
@@ -1003,7 +1006,8 @@ pub enum StepControl {
 pub enum Integrator {
     /// Dormand-Prince 5(4) with error control: the step follows the dynamics within `rel_tol`,
     /// up to `max_step_deg`. Law sets with a stateful law use `rk4` instead: their state is
-    /// advanced once per step with the step's length, so it must not vary.
+    /// advanced once per step with the step's length, so it must not vary (`adaptive` given
+    /// with one is refused).
     #[default]
     Adaptive,
     /// Classical RK4 at the fixed crank-angle step `step_deg`.
@@ -1045,6 +1049,25 @@ const MAX_STEP_DEG_RIG: f64 = 10.0;
 // 3.5e-9, 7e-10, 1.7e-10); RK4 at 1 degree: 5.8e-11 with three times the evaluations
 // (docs/engines.md).
 const MAX_STEP_DEG_ENGINE: f64 = 3.0;
+
+fn is_step_deg(v: &f64) -> bool {
+    *v == step_deg()
+}
+fn is_max_step(v: &f64) -> bool {
+    *v == max_step()
+}
+fn is_friction_tol(v: &f64) -> bool {
+    *v == friction_tol()
+}
+fn is_friction_iter(v: &u32) -> bool {
+    *v == friction_iter()
+}
+fn is_rel_tol(v: &f64) -> bool {
+    *v == rel_tol()
+}
+fn is_default<T: Default + PartialEq>(v: &T) -> bool {
+    *v == T::default()
+}
 
 impl SolverSettings {
     /// Largest crank-angle step of the adaptive integrator, degrees: the rig's

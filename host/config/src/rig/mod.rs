@@ -157,6 +157,20 @@ impl Rig {
     pub fn model(&self) -> &RigFile {
         &self.file
     }
+
+    /// Whether the user gave `field` (dotted): written in the rig file or a file it extends,
+    /// or set by `--set` (the field or a table holding it), rather than left to its default.
+    pub fn gives(&self, field: &str) -> bool {
+        self.overridden.iter().any(|o| {
+            field == o
+                || field
+                    .strip_prefix(o.as_str())
+                    .is_some_and(|r| r.starts_with('.'))
+        }) || self
+            .sources
+            .iter()
+            .any(|s| locate(&s.text, field).is_some())
+    }
 }
 
 /// A simulation of `rig` (the single-cylinder rig or an engine: one solver runs both) with its
@@ -186,7 +200,12 @@ impl Rig {
 /// ```
 pub fn simulation(rig: &Rig, registry: &LawRegistry) -> Result<Simulation, SimError> {
     refuse_unattached(rig)?;
-    Simulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))
+    let mut sim = Simulation::new(rig.model(), registry).map_err(|e| locate_setup(rig, e))?;
+    // The core judged the settings by their values; the files say which the user wrote, so a
+    // default written out is held to what it asks for too.
+    sim.settings_given(|field| rig.gives(field))
+        .map_err(|e| locate_setup(rig, e))?;
+    Ok(sim)
 }
 
 /// The first law-set entry that names no joint of `rig`, as a setup error at the entry.

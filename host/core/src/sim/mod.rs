@@ -37,6 +37,7 @@ mod newton;
 mod plateau;
 mod rates;
 mod results;
+mod settings;
 mod steady;
 mod stepper;
 mod stepping;
@@ -67,6 +68,7 @@ pub use results::{
     ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
     PlateauFmep, PlateauResult, RegimeShare, RunResult,
 };
+pub use settings::RUN_DEPENDENT_SETTINGS;
 pub use stepping::{Inputs, JointOutput, Outputs, Run, Snapshot};
 
 use bind::BoundJoint;
@@ -174,6 +176,9 @@ pub struct Simulation {
     /// Warnings about the laws on this rig (a law on a bearing type it does not suit), first
     /// among every result's warnings.
     notes: Vec<String>,
+    /// Which of [`RUN_DEPENDENT_SETTINGS`] the user gave (`settings`): a run that cannot use
+    /// one refuses it or says so.
+    given: Vec<&'static str>,
     /// What a stepped run's inputs set instead of the rig's own (nothing in a plain run).
     held: stepping::Held,
     /// Each cylinder's ambient gas model on a rig without gas loads (else empty): what a
@@ -322,8 +327,18 @@ impl Simulation {
     }
 
     /// Bind the model's laws (from `registry`) and prepare the crank model, cycle and gas; the
-    /// laws' suitability to the rig's bearings is judged here ([`suitability_notes`]).
+    /// laws' suitability to the rig's bearings is judged here ([`suitability_notes`]). A
+    /// setting the transient run cannot use with these laws and this drive is refused (of the
+    /// settings given: here those that differ from their defaults, see
+    /// [`Simulation::settings_given`]).
     pub fn new(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
+        let sim = Self::bind(model, registry)?;
+        sim.refuse_unused_settings()?;
+        Ok(sim)
+    }
+
+    /// [`Simulation::new`] without the check of the settings.
+    fn bind(model: &RigFile, registry: &LawRegistry) -> Result<Self, SimError> {
         let f = model;
         let (crank, [gas, ambient_gas]) = crank_and_gas(f)?;
         let (joints, n_laws) = bind::bind_joints(f, registry)?;
@@ -369,6 +384,7 @@ impl Simulation {
             correlation: crate::correlation::EngineData::from_rig(f),
             rules: if engine { Rules::ENGINE } else { Rules::RIG },
             notes: bind::suitability_notes(f, registry),
+            given: settings::non_default_settings(f),
             held: stepping::Held::default(),
             ambient_gas,
             oil: (f.oil.viscosity.clone(), f.oil.density_kg_m3),

@@ -82,7 +82,7 @@ impl Simulation {
             steps,
             rejected_steps: 0,
             max_friction_iterations: w.max_it,
-            warnings: self.result_warnings(Vec::new()),
+            warnings: self.result_warnings(self.steady_settings_warnings()),
             law_time: super::bind::law_time(&self.joints),
         })
     }

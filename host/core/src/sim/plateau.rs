@@ -84,6 +84,12 @@ impl WindowSpec {
         TAU * self.revs_per_cycle as f64
     }
 
+    /// Where the measurement window of hold `p` starts when the crank follows the cycle
+    /// exactly (a prescribed crank), s: its whole revolutions before the hold's end.
+    pub(super) fn window_start(&self, p: &Plateau) -> f64 {
+        p.t_end - self.window_revs(p.omega) as f64 * TAU / p.omega
+    }
+
     /// Whole revolutions in the measurement window at speed `omega`: whole cycles (at least
     /// one).
     pub(super) fn window_revs(&self, omega: f64) -> u32 {

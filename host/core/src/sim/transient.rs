@@ -159,6 +159,11 @@ impl Simulation {
                         return Ok(taken);
                     };
                     r.next += 1;
+                    if self.starts_window(r.s.t, b) {
+                        // A window's first evaluation starts from the frictionless guess, so
+                        // the window's result owes nothing to how the hold was stepped.
+                        r.s.guess.fill(0.0);
+                    }
                     let iv = self.plan_interval(r, b);
                     r.method
                         .stepper()
@@ -309,6 +314,16 @@ impl Simulation {
         Ok(())
     }
 
+    /// Whether the interval of the grid from `t` to `b` (s) is a prescribed hold's whole
+    /// measurement window.
+    fn starts_window(&self, t: f64, b: f64) -> bool {
+        let spec = self.window_spec();
+        matches!(self.drive, Drive::Prescribed {})
+            && self.cycle.plateaus().iter().any(|p| {
+                b == p.t_end && (t - spec.window_start(p)).abs() <= 1e-12 * p.t_end.max(1.0)
+            })
+    }
+
     /// The run's grid over the cycle: segment ends, and for a prescribed crank the exact
     /// window starts, so every window begins and ends on a step.
     fn grid(&self) -> Vec<f64> {
@@ -316,10 +331,7 @@ impl Simulation {
         let duration = self.cycle.duration();
         let mut breaks: Vec<f64> = self.cycle.breakpoints();
         if matches!(self.drive, Drive::Prescribed {}) {
-            for p in self.cycle.plateaus() {
-                let revs = spec.window_revs(p.omega);
-                breaks.push(p.t_end - revs as f64 * TAU / p.omega);
-            }
+            breaks.extend(self.cycle.plateaus().iter().map(|p| spec.window_start(p)));
         }
         breaks.retain(|b| *b > 0.0 && *b <= duration);
         breaks.sort_by(f64::total_cmp);

@@ -627,6 +627,7 @@ struct RunOutput {
     traces: Option<Vec<tribo::sim::CrankAngleTrace>>,
     law_time: Vec<tribo::sim::LawTime>,
     rejected_steps: u64,
+    replayed_steps: u64,
 }
 
 impl RunJob {
@@ -666,6 +667,7 @@ impl RunJob {
         Ok(RunOutput {
             law_time: result.law_time.clone(),
             rejected_steps: result.rejected_steps,
+            replayed_steps: result.replayed_steps,
             result,
             traces,
         })
@@ -773,9 +775,11 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         traces,
         law_time,
         rejected_steps,
+        replayed_steps,
     } = output;
     result.law_time = law_time;
     result.rejected_steps = rejected_steps;
+    result.replayed_steps = replayed_steps;
     if let Some(dir) = &csv {
         tribo::report::write_csv(&result, dir)
             .with_context(|| format!("writing CSV into {}", dir.display()))?;

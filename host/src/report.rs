@@ -8,9 +8,13 @@ use crate::sim::RunResult;
 /// The plateau table, per-law contributions and the energy balance, for people.
 pub fn to_text(r: &RunResult) -> String {
     let mut out = String::new();
+    let replayed = match r.replayed_steps {
+        0 => String::new(),
+        n => format!(" ({n} replayed)"),
+    };
     let _ = writeln!(
         out,
-        "rig {}  drive {}  steps {}  max friction iterations {}",
+        "rig {}  drive {}  steps {}{replayed}  max friction iterations {}",
         r.rig, r.drive, r.steps, r.max_friction_iterations
     );
     let _ = writeln!(
@@ -1445,6 +1449,7 @@ mod tests {
             },
             steps: 1,
             rejected_steps: 0,
+            replayed_steps: 0,
             max_friction_iterations: 1,
             warnings: Vec::new(),
             law_time: Vec::new(),

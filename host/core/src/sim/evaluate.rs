@@ -94,6 +94,20 @@ pub(super) struct EvalSizes {
 }
 
 impl Eval {
+    /// Make this evaluation (a buffer of the same run) a copy of `other`, in place.
+    pub(super) fn copy_from(&mut self, other: &Eval) {
+        self.omega = other.omega;
+        self.alpha = other.alpha;
+        self.drive_torque = other.drive_torque;
+        self.rates.copy_from_slice(&other.rates);
+        self.regimes.copy_from_slice(&other.regimes);
+        self.normals.copy_from_slice(&other.normals);
+        self.switches.copy_from_slice(&other.switches);
+        self.totals.copy_from_slice(&other.totals);
+        self.iterations = other.iterations;
+        self.newton = other.newton;
+    }
+
     /// Whether the PI drive sat at its torque limit.
     pub(super) fn saturated(&self) -> bool {
         self.switches.last().is_some_and(|m| *m < 0.0)

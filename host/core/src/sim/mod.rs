@@ -36,6 +36,9 @@ mod lobatto;
 mod newton;
 mod plateau;
 mod rates;
+mod replay;
+#[cfg(test)]
+mod replay_tests;
 mod results;
 mod settings;
 mod steady;
@@ -160,6 +163,8 @@ pub struct Simulation {
     pressure_kinks: Vec<f64>,
     /// Whether any bound law keeps state (then steps are fixed and committed).
     stateful: bool,
+    /// Whether a prescribed hold's repeating cycles are replayed (`sim/replay.rs`).
+    hold_replay: replay::HoldReplay,
     tol: f64,
     max_iter: u32,
     n_laws: usize,
@@ -352,6 +357,7 @@ impl Simulation {
             switch_mask: switch_mask(&joints, cylinders, &f.drive, &gas),
             pressure_kinks: pressure_kinks(&crank, &gas),
             stateful: joints.iter().any(BoundJoint::is_stateful),
+            hold_replay: replay::HoldReplay::On,
             roles: joints.iter().map(|j| j.role).collect(),
             crank,
             joints,
@@ -533,6 +539,16 @@ impl Simulation {
             (false, Role::SmallEnd(_)) => "small_end",
             (false, Role::Piston(_)) => "piston",
         }
+    }
+
+    /// Step every cycle of a prescribed hold (`false`) instead of replaying the cycles that
+    /// repeat (`true`, the default): the same plateau torques, and every other result within
+    /// the quadrature's own error, at several times the cost. For checking the replay.
+    pub fn set_replay_holds(&mut self, replay: bool) {
+        self.hold_replay = match replay {
+            true => replay::HoldReplay::On,
+            false => replay::HoldReplay::Off,
+        };
     }
 
     /// Run the whole test cycle without per-step output.

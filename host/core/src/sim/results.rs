@@ -243,6 +243,10 @@ pub struct RunResult {
     /// steps). Not in the JSON, which stays what it was before the count existed.
     #[serde(skip)]
     pub rejected_steps: u64,
+    /// Accepted steps of a prescribed hold's repeating cycles that were replayed instead of
+    /// evaluated (counted in `steps` too; `sim/replay.rs`). Not in the JSON, as above.
+    #[serde(skip)]
+    pub replayed_steps: u64,
     /// Largest number of friction/reaction iterations needed at one evaluation.
     pub max_friction_iterations: u32,
     /// Warnings (a drive at its torque limit, say).

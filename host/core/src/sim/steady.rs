@@ -81,6 +81,7 @@ impl Simulation {
             energy,
             steps,
             rejected_steps: 0,
+            replayed_steps: 0,
             max_friction_iterations: w.max_it,
             warnings: self.result_warnings(self.steady_settings_warnings()),
             law_time: super::bind::law_time(&self.joints),

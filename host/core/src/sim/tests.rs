@@ -72,7 +72,7 @@ impl Law for SqrtLoad {
 
 /// The rig file `text` with the sqrt law (c_h = 5) on its piston (an engine's: on every
 /// piston) and no other law, and a registry holding the law.
-fn with_sqrt_piston(text: &str) -> (RigFile, LawRegistry) {
+pub(super) fn with_sqrt_piston(text: &str) -> (RigFile, LawRegistry) {
     let mut model: RigFile = toml::from_str(text).expect("rig parses");
     let params: toml::Table = toml::from_str("c_h = 5.0").expect("params");
     model.joints.piston.laws = vec![crate::model::LawRef {

@@ -11,6 +11,7 @@ use super::evaluate::{Eval, Work};
 use super::lobatto::Lobatto;
 use super::plateau::Plateaus;
 use super::rates::RateLayout;
+use super::replay::Replay;
 use super::results::{DriveKind, EnergyBalance, RunResult};
 use super::stepper::{CrankState, Integration, Quadrature, Rk4, Step, Stepper};
 use super::{Commit, Simulation};
@@ -44,13 +45,15 @@ impl Method {
 }
 
 /// The grid interval being stepped: its end `b`, its `m` equal steps of `dt` and how many
-/// are done.
+/// are done; for a hold stepped in whole cycles, its start `t0` (its steps end at `t0` plus
+/// whole steps, so every cycle's steps are at the same crank angles).
 #[derive(Debug, Clone, Copy)]
 struct Interval {
     b: f64,
     m: u64,
     dt: f64,
     done: u64,
+    cycles_from: Option<f64>,
 }
 
 /// A transient run in progress: the evaluation scratch (with every law's state), what the
@@ -64,6 +67,10 @@ pub(super) struct Transient {
     grid: Vec<f64>,
     next: usize,
     interval: Option<Interval>,
+    /// The replay of the hold interval under way, if it is stepped in whole cycles.
+    replay: Option<Box<Replay>>,
+    /// Steps replayed, not evaluated.
+    replayed: u64,
     /// The motoring torque through the first-order low-pass filter, N m.
     filtered: f64,
     steps: u64,
@@ -129,6 +136,8 @@ impl Simulation {
             grid: self.grid(),
             next: 0,
             interval: None,
+            replay: None,
+            replayed: 0,
             filtered: 0.0,
             steps: 0,
             e0: w.crank.mechanical_energy(0.0, 0.0),
@@ -155,16 +164,9 @@ impl Simulation {
             let iv = match r.interval {
                 Some(iv) if r.s.t < iv.b => iv,
                 _ => {
-                    let Some(&b) = r.grid.get(r.next) else {
+                    let Some(iv) = self.next_interval(r) else {
                         return Ok(taken);
                     };
-                    r.next += 1;
-                    if self.starts_window(r.s.t, b) {
-                        // A window's first evaluation starts from the frictionless guess, so
-                        // the window's result owes nothing to how the hold was stepped.
-                        r.s.guess.fill(0.0);
-                    }
-                    let iv = self.plan_interval(r, b);
                     r.method
                         .stepper()
                         .begin_interval(self, &mut r.w, &mut r.s, iv.dt)?;
@@ -174,13 +176,81 @@ impl Simulation {
             };
             let done = iv.done + 1;
             r.interval = Some(Interval { done, ..iv });
-            let t1 = if done == iv.m { iv.b } else { r.s.t + iv.dt };
-            let step = r
-                .method
-                .stepper()
-                .step(self, &mut r.w, &mut r.s, t1, iv.b)?;
+            let t1 = match iv.cycles_from {
+                _ if done == iv.m => iv.b,
+                Some(t0) => t0 + done as f64 * iv.dt,
+                None => r.s.t + iv.dt,
+            };
+            let step = self.take_step(r, done, t1, iv.b)?;
             self.accept(r, step, observer)?;
             taken += 1;
+        }
+    }
+
+    /// The next interval of the grid, from the run's time (`None` at the grid's end). An
+    /// interval of a hold long enough is cut to whole engine cycles, stepped in whole steps
+    /// per cycle, and its replay set up; the rest of it becomes an interval of its own.
+    fn next_interval(&self, r: &mut Transient) -> Option<Interval> {
+        let b = *r.grid.get(r.next)?;
+        let window = self.starts_window(r.s.t, b);
+        if window {
+            // A window's first evaluation starts from the frictionless guess, so the window's
+            // result owes nothing to how the hold was stepped.
+            r.s.guess.fill(0.0);
+        }
+        // A window is stepped as it always was, never replayed.
+        let simpson = matches!(r.method, Method::Quadrature(_)) && !window;
+        r.replay = None;
+        let Some(plan) = self.hold_cycles(r.s.t, b, simpson) else {
+            r.next += 1;
+            return Some(self.plan_interval(r, b));
+        };
+        if plan.end < b {
+            r.grid.insert(r.next, plan.end);
+        }
+        r.next += 1;
+        let sizes = (r.s.acc.len(), r.s.regime_time.len());
+        r.replay = Some(Box::new(Replay::new(
+            plan,
+            sizes,
+            self.hold_replay,
+            self.tol,
+        )));
+        let m = plan.n * plan.cycles;
+        Some(Interval {
+            b: plan.end,
+            m,
+            dt: (plan.end - r.s.t) / m as f64,
+            done: 0,
+            cycles_from: Some(r.s.t),
+        })
+    }
+
+    /// Step `done` of the interval under way, ending at `t1` (its end `b`): replayed where the
+    /// hold's cycles repeat, evaluated otherwise (its increments recorded in the cycles that
+    /// are compared and replayed).
+    fn take_step(&self, r: &mut Transient, done: u64, t1: f64, b: f64) -> Result<Step, SimError> {
+        let Some(replay) = r.replay.as_deref_mut() else {
+            return r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b);
+        };
+        if let Some(step) = replay.replay(self, done, t1, &mut r.s, &mut r.w) {
+            r.replayed += 1;
+            return Ok(step);
+        }
+        if !replay.records(done) {
+            return r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b);
+        }
+        replay.begin_step(&mut r.s);
+        match r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b) {
+            Ok(step) => {
+                replay.end_step(done, &mut r.s, &step);
+                Ok(step)
+            }
+            Err(e) => {
+                replay.abort_step(&mut r.s);
+                r.replay = None;
+                Err(e)
+            }
         }
     }
 
@@ -228,6 +298,7 @@ impl Simulation {
             m,
             dt: (b - t) / m as f64,
             done: 0,
+            cycles_from: None,
         }
     }
 
@@ -288,6 +359,7 @@ impl Simulation {
             energy,
             steps: r.steps,
             rejected_steps: r.s.rejected,
+            replayed_steps: r.replayed,
             max_friction_iterations: r.w.max_it,
             warnings,
             law_time: super::bind::law_time(&self.joints),

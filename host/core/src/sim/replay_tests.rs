@@ -1,0 +1,165 @@
+//! The hold replay (`replay.rs`) against the same holds evaluated: what it must reproduce.
+
+use std::f64::consts::TAU;
+
+use tribo_plugin_api::loader::{LawLibrary, LawRegistry};
+use tribo_plugin_api::{smooth_sign, Law, LawInput, LawOutput, ParamError, ParamSpec};
+
+use super::replay::HoldReplay;
+use super::results::RunResult;
+use super::tests::with_sqrt_piston;
+use super::Simulation;
+use crate::cycle::Segment;
+use crate::model::{RigFile, Temperature};
+
+/// The short cycle of these tests: up to 3000 rpm, a hold of 0.6 s (the window 0.08 s: two
+/// four-stroke cycles), up to 4500 rpm, a hold of 0.3 s.
+fn short_cycle(model: &mut RigFile) {
+    model.cycle.segments = Some(vec![
+        Segment::Ramp {
+            to_rpm: 3000.0,
+            duration_s: 0.15,
+        },
+        Segment::Hold { duration_s: 0.6 },
+        Segment::Ramp {
+            to_rpm: 4500.0,
+            duration_s: 0.1,
+        },
+        Segment::Hold { duration_s: 0.3 },
+    ]);
+    model.oil.temperature_c = Temperature::PerPlateau(vec![60.0, 90.0]);
+}
+
+/// The thesis rig on the short cycle with `model` and `registry`, run with hold replay `mode`.
+fn run(model: &RigFile, registry: &LawRegistry, mode: HoldReplay) -> RunResult {
+    let mut sim = Simulation::new(model, registry).expect("simulation builds");
+    sim.hold_replay = mode;
+    sim.run().expect("run")
+}
+
+fn relative(a: f64, b: f64) -> f64 {
+    (a - b).abs() / a.abs().max(b.abs()).max(1e-300)
+}
+
+/// Every plateau's motoring torque, per-law friction torque and mean load of `a` and `b`
+/// within `tol` relative.
+fn assert_plateaus_within(a: &RunResult, b: &RunResult, tol: f64) {
+    assert_eq!(a.plateaus.len(), b.plateaus.len());
+    for (p, q) in a.plateaus.iter().zip(&b.plateaus) {
+        let d = relative(p.motoring_torque_nm, q.motoring_torque_nm);
+        assert!(d <= tol, "{} rpm: torque {d:e} apart", p.set_speed_rpm);
+        assert_eq!(p.window_s, q.window_s);
+        for (j, k) in p.joints.iter().zip(&q.joints) {
+            let d = relative(j.friction_torque_nm, k.friction_torque_nm);
+            assert!(d <= tol, "{} rpm {}: {d:e} apart", p.set_speed_rpm, j.joint);
+            let d = relative(j.mean_normal_load_n, k.mean_normal_load_n);
+            assert!(
+                d <= tol,
+                "{} rpm {} load: {d:e} apart",
+                p.set_speed_rpm,
+                j.joint
+            );
+        }
+    }
+}
+
+/// The steps a replay of the short cycle must replay, counted from the cycle alone: each
+/// hold's time before its window in whole revolutions (the motored rig, without gas, repeats
+/// every revolution: 360 one-degree steps), less the two revolutions evaluated, where at least
+/// one is left.
+fn expected_replayed() -> u64 {
+    let mut replayed = 0;
+    for (rpm, hold_s) in [(3000.0_f64, 0.6_f64), (4500.0, 0.3)] {
+        let omega = rpm * TAU / 60.0;
+        let period_s = TAU / omega;
+        let window_cycles = (0.1 / period_s).floor();
+        let before_s = hold_s - window_cycles * period_s;
+        let cycles = (before_s / period_s + 1e-9).floor() as u64;
+        if cycles >= 3 {
+            replayed += (cycles - 2) * 360;
+        }
+    }
+    replayed
+}
+
+/// A hold replayed is the hold evaluated in the same steps: the same plateaus to round-off
+/// (the window is never replayed), the energy within the friction iteration's tolerance (the
+/// replayed cycle is settled to it), the same step count, with the steps it should replay
+/// counted independently; and the plateaus are those of the holds stepped as before, the
+/// energy within the quadrature's own error of theirs.
+#[test]
+fn a_replayed_hold_is_the_hold_evaluated() {
+    let (mut model, registry) =
+        with_sqrt_piston(include_str!("../../../../rigs/crf250r-motored.toml"));
+    short_cycle(&mut model);
+    let replayed = run(&model, &registry, HoldReplay::On);
+    let evaluated = run(&model, &registry, HoldReplay::Evaluate);
+    let stepped = run(&model, &registry, HoldReplay::Off);
+    let expected = expected_replayed();
+    assert!(
+        expected > 10_000,
+        "the short cycle replays {expected} steps"
+    );
+    assert_eq!(replayed.replayed_steps, expected);
+    assert_eq!((evaluated.replayed_steps, stepped.replayed_steps), (0, 0));
+    assert_eq!(replayed.steps, evaluated.steps);
+    assert_plateaus_within(&replayed, &evaluated, 1e-12);
+    let (e, f) = (&replayed.energy, &evaluated.energy);
+    assert!(relative(e.motor_work_j, f.motor_work_j) < 1e-8);
+    assert!(relative(e.dissipated_j, f.dissipated_j) < 1e-8);
+    assert!(replayed.energy.relative_residual.abs() < 1e-9);
+    assert_plateaus_within(&replayed, &stepped, 1e-12);
+    assert!(relative(e.motor_work_j, stepped.energy.motor_work_j) < 1e-6);
+    assert!(relative(e.dissipated_j, stepped.energy.dissipated_j) < 1e-6);
+}
+
+/// Parameters of [`Drifting`].
+#[derive(serde::Serialize, serde::Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+struct DriftParams {}
+
+/// A stateless law whose friction grows with time (1 N per second), so no two cycles of a
+/// hold see the same law.
+struct Drifting;
+
+impl Law for Drifting {
+    type Params = DriftParams;
+    const NAME: &'static str = "drifting-unit";
+    const VERSION: &'static str = "0";
+    const SUMMARY: &'static str = "friction growing with time (unit test)";
+
+    fn parameters() -> Vec<ParamSpec> {
+        Vec::new()
+    }
+
+    fn new(_: DriftParams) -> Result<Self, ParamError> {
+        Ok(Self)
+    }
+
+    fn evaluate(&self, input: &LawInput, _state: &[f64]) -> LawOutput {
+        let v = input.sliding_velocity_m_s;
+        LawOutput::force(-smooth_sign(v, 1e-3).0 * (1.0 + input.time_s))
+    }
+}
+
+/// A law whose output drifts with time makes the two evaluated cycles differ, and the hold is
+/// then evaluated to its end: nothing replayed, the same numbers as every cycle evaluated.
+#[test]
+fn a_hold_whose_cycles_differ_is_not_replayed() {
+    let text = include_str!("../../../../rigs/crf250r-motored.toml");
+    let mut model: RigFile = toml::from_str(text).expect("rig parses");
+    short_cycle(&mut model);
+    model.joints.piston.laws = vec![crate::model::LawRef {
+        law: "drifting-unit".into(),
+        params: toml::Table::new(),
+    }];
+    let mut registry = LawRegistry::new();
+    registry
+        .insert(LawLibrary::in_process::<Drifting>().expect("law describes itself"))
+        .expect("one law");
+    let replayed = run(&model, &registry, HoldReplay::On);
+    let evaluated = run(&model, &registry, HoldReplay::Evaluate);
+    assert_eq!(replayed.replayed_steps, 0);
+    assert_plateaus_within(&replayed, &evaluated, 0.0);
+    assert_eq!(replayed.energy.motor_work_j, evaluated.energy.motor_work_j);
+}

@@ -25,19 +25,21 @@ const AGREEMENT_FLOOR: f64 = 1e-10;
 /// Evaluated cycles before any is replayed: one to compare with and the one replayed.
 const EVALUATED_CYCLES: u64 = 2;
 
-/// The replay of one interval of a hold: its steps per cycle, what the evaluated cycles
-/// accumulated and the second cycle's steps.
+/// The replay of the interval of a hold under way: its steps per cycle, what the evaluated
+/// cycles accumulated and the second cycle's steps. One per run, its buffers reused hold after
+/// hold.
 #[derive(Clone)]
 pub(super) struct Replay {
-    /// Steps per engine cycle.
+    /// Steps per engine cycle (0: idle).
     n: u64,
     /// Each quantity's increment over the first cycle, then over the second: the accumulated
     /// quantities followed by the regime times.
     cycles: [Vec<f64>; 2],
     /// The second cycle's steps: their increments, `per_step` values each (same order).
     increments: Vec<f64>,
-    /// The second cycle's end evaluations.
+    /// The second cycle's end evaluations (the first `recorded` of these buffers).
     ends: Vec<Eval>,
+    recorded: usize,
     /// Where the step under way accumulates (the real totals are kept aside meanwhile).
     scratch: (Vec<f64>, Vec<f64>),
     /// Whether the two cycles agreed (`None` until the second is done).
@@ -111,25 +113,47 @@ impl Simulation {
 }
 
 impl Replay {
-    /// A replay of `plan` for a run accumulating `n_acc` quantities and `n_regime` regime
-    /// times, in `mode`, with the run's friction/reaction tolerance.
+    /// An idle replay for a run accumulating `n_acc` quantities and `n_regime` regime times,
+    /// in `mode`, with the run's friction/reaction tolerance.
     pub(super) fn new(
-        plan: HoldCycles,
         (n_acc, n_regime): (usize, usize),
         mode: HoldReplay,
         friction_tol: f64,
     ) -> Self {
         let per_step = n_acc + n_regime;
         Self {
-            n: plan.n,
+            n: 0,
             cycles: [vec![0.0; per_step], vec![0.0; per_step]],
-            increments: Vec::with_capacity(per_step * plan.n as usize),
-            ends: Vec::with_capacity(plan.n as usize),
+            increments: Vec::new(),
+            ends: Vec::new(),
+            recorded: 0,
             scratch: (vec![0.0; n_acc], vec![0.0; n_regime]),
             agreed: None,
             allowed: mode == HoldReplay::On,
             agreement: friction_tol.max(AGREEMENT_FLOOR),
         }
+    }
+
+    /// Start the replay of an interval planned as `plan`, keeping the buffers (a run's holds
+    /// have about the same steps per cycle, so only the first allocates).
+    pub(super) fn start(&mut self, plan: HoldCycles) {
+        self.n = plan.n;
+        for sums in &mut self.cycles {
+            sums.fill(0.0);
+        }
+        self.increments.clear();
+        self.recorded = 0;
+        self.agreed = None;
+    }
+
+    /// Idle: the interval under way is not replayed.
+    pub(super) fn stop(&mut self) {
+        self.n = 0;
+    }
+
+    /// Whether an interval is under way in whole cycles.
+    pub(super) fn active(&self) -> bool {
+        self.n > 0
     }
 
     /// The cycle step `done` (1-based within the interval) falls in.
@@ -151,17 +175,18 @@ impl Replay {
     }
 
     /// After an evaluated step that failed: the run's totals back as they were (a failed step
-    /// adds nothing).
+    /// adds nothing), the replay idle.
     pub(super) fn abort_step(&mut self, s: &mut Integration) {
         std::mem::swap(&mut s.acc, &mut self.scratch.0);
         std::mem::swap(&mut s.regime_time, &mut self.scratch.1);
+        self.stop();
     }
 
     /// After evaluated step `done` (ending with `step`): its increments added to the run's
     /// totals (the same additions the step would have made to them), kept for its cycle and,
     /// in the second cycle, kept for the replay; at the second cycle's end the two cycles
     /// compared.
-    pub(super) fn end_step(&mut self, done: u64, s: &mut Integration, step: &Step) {
+    pub(super) fn end_step(&mut self, done: u64, s: &mut Integration, step: &Step, w: &mut Work) {
         std::mem::swap(&mut s.acc, &mut self.scratch.0);
         std::mem::swap(&mut s.regime_time, &mut self.scratch.1);
         let (acc, times) = (&self.scratch.0, &self.scratch.1);
@@ -178,7 +203,11 @@ impl Replay {
         }
         if cycle == 1 {
             self.increments.extend(acc.iter().chain(times));
-            self.ends.push(step.end.clone());
+            if self.recorded == self.ends.len() {
+                self.ends.push(w.eval());
+            }
+            self.ends[self.recorded].copy_from(&step.end);
+            self.recorded += 1;
             if done == EVALUATED_CYCLES * self.n {
                 self.agreed = Some(self.allowed && self.cycles_agree());
             }
@@ -205,7 +234,7 @@ impl Replay {
         s: &mut Integration,
         w: &mut Work,
     ) -> Option<Step> {
-        if self.records(done) || self.agreed != Some(true) {
+        if !self.active() || self.records(done) || self.agreed != Some(true) {
             return None;
         }
         let k = ((done - 1) % self.n) as usize;

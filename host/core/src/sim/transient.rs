@@ -67,8 +67,8 @@ pub(super) struct Transient {
     grid: Vec<f64>,
     next: usize,
     interval: Option<Interval>,
-    /// The replay of the hold interval under way, if it is stepped in whole cycles.
-    replay: Option<Box<Replay>>,
+    /// The replay of the hold interval under way (idle unless it is stepped in whole cycles).
+    replay: Box<Replay>,
     /// Steps replayed, not evaluated.
     replayed: u64,
     /// The motoring torque through the first-order low-pass filter, N m.
@@ -136,7 +136,11 @@ impl Simulation {
             grid: self.grid(),
             next: 0,
             interval: None,
-            replay: None,
+            replay: Box::new(Replay::new(
+                (n, self.regime_times().len()),
+                self.hold_replay,
+                self.tol,
+            )),
             replayed: 0,
             filtered: 0.0,
             steps: 0,
@@ -200,7 +204,7 @@ impl Simulation {
         }
         // A window is stepped as it always was, never replayed.
         let simpson = matches!(r.method, Method::Quadrature(_)) && !window;
-        r.replay = None;
+        r.replay.stop();
         let Some(plan) = self.hold_cycles(r.s.t, b, simpson) else {
             r.next += 1;
             return Some(self.plan_interval(r, b));
@@ -209,13 +213,7 @@ impl Simulation {
             r.grid.insert(r.next, plan.end);
         }
         r.next += 1;
-        let sizes = (r.s.acc.len(), r.s.regime_time.len());
-        r.replay = Some(Box::new(Replay::new(
-            plan,
-            sizes,
-            self.hold_replay,
-            self.tol,
-        )));
+        r.replay.start(plan);
         let m = plan.n * plan.cycles;
         Some(Interval {
             b: plan.end,
@@ -230,9 +228,10 @@ impl Simulation {
     /// hold's cycles repeat, evaluated otherwise (its increments recorded in the cycles that
     /// are compared and replayed).
     fn take_step(&self, r: &mut Transient, done: u64, t1: f64, b: f64) -> Result<Step, SimError> {
-        let Some(replay) = r.replay.as_deref_mut() else {
+        let replay = &mut r.replay;
+        if !replay.active() {
             return r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b);
-        };
+        }
         if let Some(step) = replay.replay(self, done, t1, &mut r.s, &mut r.w) {
             r.replayed += 1;
             return Ok(step);
@@ -243,12 +242,11 @@ impl Simulation {
         replay.begin_step(&mut r.s);
         match r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b) {
             Ok(step) => {
-                replay.end_step(done, &mut r.s, &step);
+                replay.end_step(done, &mut r.s, &step, &mut r.w);
                 Ok(step)
             }
             Err(e) => {
                 replay.abort_step(&mut r.s);
-                r.replay = None;
                 Err(e)
             }
         }

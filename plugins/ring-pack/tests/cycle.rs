@@ -176,12 +176,8 @@ fn the_dead_centres_run_in_mixed_film_more_so_hot_and_slow() {
     );
 }
 
-/// Oil is conserved around the cycle when the top ring's downstroke layer is carried: over a
-/// settled revolution, the oil the top ring meets on the downstroke (the layer times the
-/// distance, summed over the stroke) is the oil it laid on the liner on the upstroke, to the
-/// bins' and the quarter degree's discretisation (1%); and the pack carries down no more than the oil
-/// ring's lower rail let up past it from the crankcase side. Starved with the layer fixed at a
-/// thick 5 um instead, the top ring meets far more than it laid (the estimate feeds it).
+/// A carried top supply on a flooded pack would do nothing (a flooded face meets no layer):
+/// it is refused, and the error names both fields.
 #[test]
 fn a_carried_top_supply_on_a_flooded_pack_is_refused_naming_both_fields() {
     let p: Params = toml::from_str("top_supply = \"carried\"").expect("params");
@@ -196,6 +192,13 @@ fn a_carried_top_supply_on_a_flooded_pack_is_refused_naming_both_fields() {
     );
 }
 
+/// Oil is conserved around the cycle when the top ring's downstroke layer is carried: over a
+/// settled revolution, the oil the top ring meets on the downstroke (the layer times the
+/// distance, summed over the stroke) is the oil it laid on the liner on the upstroke, to the
+/// bins' and the quarter degree's discretisation (1%); and the pack carries down no more than
+/// the oil ring's lower rail let up past it from the crankcase side. Starved with the layer
+/// fixed at a thick 5 um instead, the top ring meets far more than it laid (the estimate feeds
+/// it).
 #[test]
 fn a_carried_top_supply_conserves_oil_over_the_cycle() {
     let carried = |text: &str| {

@@ -148,10 +148,11 @@ fn regime_name(code: u8) -> &'static str {
 /// what a resolution can make a run allocate (at 1e-9 degree it asked for terabytes).
 pub const MAX_SAMPLES_PER_CYCLE: usize = 72_000;
 
-/// The most cycles a stateful trace runs before its last one is returned: the steady run's
-/// bound. A law whose state settles over many revolutions (a bearing film holding its heat)
-/// needs tens of cycles; one warm-up cycle left such a film still settling.
-const MAX_TRACE_CYCLES: usize = 200;
+/// The most cycles a stateful steady run or trace runs while its mean drive torque has not
+/// yet repeated (`cycle_repeats`); the last one is kept. A law whose state settles over many
+/// revolutions (a bearing film holding its heat) needs tens of cycles; one warm-up cycle left
+/// such a film still settling.
+pub(super) const MAX_SETTLING_CYCLES: usize = 200;
 
 /// Whether a cycle's mean drive torque `torque` repeats the previous cycle's `last` to 1e-9
 /// relative, the steady run's test of a settled stateful cycle.
@@ -219,7 +220,7 @@ impl Simulation {
             }
             let mut samples = sample_buffer(n)?;
             let (max_passes, mut last_torque) = if self.stateful {
-                (MAX_TRACE_CYCLES, f64::NAN)
+                (MAX_SETTLING_CYCLES, f64::NAN)
             } else {
                 (1, 0.0)
             };

@@ -108,7 +108,11 @@ impl Simulation {
         let mut last_torque = f64::NAN;
         let mut delta = vec![0.0; self.layout().len()];
         let mut regime_time = vec![0.0; self.regime_times().len()];
-        let max_cycles = if self.stateful { 200 } else { 1 };
+        let max_cycles = if self.stateful {
+            super::crank_angle::MAX_SETTLING_CYCLES
+        } else {
+            1
+        };
         let mut t = t0;
         let mut e = w.eval();
         for _ in 0..max_cycles {

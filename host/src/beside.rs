@@ -435,7 +435,7 @@ pub fn write_run(r: &RunResult, out: &mut ResultDir) -> Result<(), OutputError> 
     )?;
     out.write(
         "fmep_correlation.svg",
-        rendered("fmep_correlation.svg", run_svg(r))?.as_bytes(),
+        rendered("fmep_correlation.svg", run_svg(r, None))?.as_bytes(),
     )
 }
 
@@ -450,7 +450,10 @@ pub fn write_comparison(
     )?;
     for s in &c.sets {
         let name = format!("correlation_{}.svg", crate::plots::file_stem(&s.lawset));
-        out.write(&name, rendered(&name, run_svg(&s.run))?.as_bytes())?;
+        out.write(
+            &name,
+            rendered(&name, run_svg(&s.run, Some(&s.lawset)))?.as_bytes(),
+        )?;
     }
     Ok(())
 }
@@ -509,6 +512,7 @@ fn draw_speed_plot(
     chart
         .configure_mesh()
         .x_desc("engine speed (rpm)")
+        .x_label_formatter(&|x| format!("{x:.0}"))
         .y_desc("FMEP (kPa)")
         .draw()?;
     for (k, (label, x, tribo, corr)) in series.iter().enumerate() {
@@ -547,9 +551,10 @@ fn draw_speed_plot(
     Ok(())
 }
 
-/// `fmep_correlation.svg` of `run --fmep`: Tribo's and the correlation's FMEP per component
-/// against speed.
-pub fn run_svg(r: &RunResult) -> std::io::Result<String> {
+/// `fmep_correlation.svg` of `run --fmep` (`lawset` `None`) or `correlation_<lawset>.svg` of
+/// `compare`: Tribo's and the correlation's FMEP per component against speed, the law set named
+/// in the title where the run is one of several.
+pub fn run_svg(r: &RunResult, lawset: Option<&str>) -> std::io::Result<String> {
     let speeds: Vec<f64> = r.plateaus.iter().map(|p| p.set_speed_rpm).collect();
     let rows: Vec<Vec<Beside>> = r
         .plateaus
@@ -573,8 +578,12 @@ pub fn run_svg(r: &RunResult) -> std::io::Result<String> {
         })
         .filter(|(_, _, tribo, corr)| tribo.iter().chain(corr).any(Option::is_some))
         .collect::<Vec<_>>();
+    let run = match lawset {
+        Some(set) => format!("{}, {set}", r.rig),
+        None => r.rig.clone(),
+    };
     speed_plot(
-        &format!("{}: Tribo (solid) beside Sandoval-Heywood (dashed)", r.rig),
+        &format!("{run}: Tribo (solid) beside Sandoval-Heywood (dashed)"),
         &series,
     )
 }

@@ -291,7 +291,11 @@ pub fn load_rig(path: &Path, sets: &[String]) -> Result<Rig, RigError> {
                     field: "(file)".into(),
                     message: format!(
                         "{e}, and no bundled rig has that name; bundled: {}",
-                        crate::bundled::rig_names().join(", ")
+                        crate::bundled::rig_names()
+                            .iter()
+                            .map(|n| n.trim_end_matches(".toml"))
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     ),
                 }),
             }

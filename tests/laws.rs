@@ -529,6 +529,18 @@ fn check_law_passes_every_bundled_law_with_defaults_and_rig_parameters() {
         stdout.contains("law `c-coulomb`") && stdout.contains("all checks passed"),
         "{stdout}"
     );
+    // Every line of the table within 100 columns: plain-journal's long details are wrapped
+    // under their own column, its rows still starting with the check's name.
+    let out = run_tribo(&["check-law", "plain-journal"], None);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.lines().all(|l| l.chars().count() <= 100), "{stdout}");
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.starts_with("derivative             pass   dF/dv")),
+        "{stdout}"
+    );
 }
 
 #[test]

@@ -1657,6 +1657,34 @@ struct CheckOutput {
     failed: Vec<String>,
 }
 
+/// `check-law`'s table with every line within the report's width: the heading line broken
+/// at spaces, each check's detail wrapped under its own column (the first 30 characters of a
+/// row: name and result).
+fn wrap_check_table(table: &str) -> String {
+    const DETAIL: usize = 30;
+    let width = tribo::report::MAX_COLUMNS;
+    let (head, rows) = table.split_once('\n').unwrap_or((table, ""));
+    let mut out = tribo::report::wrap(head, width, "    ");
+    let indent = " ".repeat(DETAIL);
+    for row in rows.lines() {
+        match row.split_at_checked(DETAIL) {
+            Some((check, detail)) if row.chars().count() > width => {
+                let detail = tribo::report::wrap(detail, width - DETAIL, "");
+                for (k, line) in detail.lines().enumerate() {
+                    out.push_str(if k == 0 { check } else { &indent });
+                    out.push_str(line);
+                    out.push('\n');
+                }
+            }
+            _ => {
+                out.push_str(row);
+                out.push('\n');
+            }
+        }
+    }
+    out
+}
+
 impl CheckJob {
     /// Open the law and run the conformance checks on it.
     fn check(self, registry: &LawRegistry) -> anyhow::Result<CheckOutput> {
@@ -1670,7 +1698,7 @@ impl CheckJob {
         let text = if self.json {
             format!("{}\n", serde_json::to_string_pretty(&report)?)
         } else {
-            report.to_table()
+            wrap_check_table(&report.to_table())
         };
         Ok(CheckOutput {
             law: report.law.clone(),

@@ -1301,10 +1301,12 @@ fn an_adaptive_integrator_given_with_a_stateful_law_on_the_pi_drive_is_refused_b
 #[test]
 fn error_control_settings_given_to_a_fixed_step_run_are_refused() {
     // rel_tol, max_step_deg and step_control steer the error-controlled steps only: given to a
-    // run with fixed steps (the prescribed crank's Simpson rule; the PI drive's RK4, asked for
-    // or forced by a stateful law) they are refused; the error-controlled runs use them.
+    // run with fixed steps (the prescribed crank's Simpson rule, asked for; the PI drive's RK4,
+    // asked for or forced by a stateful law) they are refused; the error-controlled runs use
+    // them (the default "auto" quadrature's Lobatto steps on the ramps included).
     let rk4 = "solver.integrator=\"rk4\"";
     let lobatto = "solver.quadrature=\"lobatto\"";
+    let simpson = "solver.quadrature=\"simpson\"";
     for (rig, pistons) in TRAINS {
         for (key, value) in [
             ("solver.rel_tol", "1e-5"),
@@ -1314,11 +1316,12 @@ fn error_control_settings_given_to_a_fixed_step_run_are_refused() {
             let set = format!("{key}={value}");
             let set = set.as_str();
             refused(
-                bound(rig, pistons, false, &[set]),
+                bound(rig, pistons, false, &[simpson, set]),
                 key,
                 value,
                 &["Simpson", "lobatto"],
             );
+            bound(rig, pistons, false, &[set]).unwrap_or_else(|e| panic!("{rig}: {e}"));
             refused(
                 bound(rig, pistons, false, &[PI_DRIVE, rk4, set]),
                 key,

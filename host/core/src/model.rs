@@ -976,9 +976,15 @@ pub struct SolverSettings {
 #[serde(crate = "tribo_plugin_api::serde")]
 #[serde(rename_all = "kebab-case")]
 pub enum QuadratureRule {
+    /// Simpson's rule at `step_deg` where the result is measured (the plateaus' windows) and
+    /// where it repeats (a hold's replayed cycles), Gauss-Lobatto as `Lobatto` elsewhere (the
+    /// ramps): the plateaus of `Simpson` at the cost of fewer evaluations. With a stateful law
+    /// or a cylinder pressure trace (a kink at every sample, where Lobatto's steps cost more
+    /// than Simpson's), `Simpson` throughout.
+    #[default]
+    Auto,
     /// Simpson's rule at the fixed crank-angle step `step_deg`: two evaluations per step, the
     /// samples at fixed angles.
-    #[default]
     Simpson,
     /// Error-controlled Gauss-Lobatto quadrature (5 nodes, degree 7, the embedded Simpson rule
     /// as error estimate) against `rel_tol`, up to `max_step_deg`, steps ending on the

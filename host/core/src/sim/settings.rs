@@ -123,6 +123,7 @@ impl Simulation {
             Integrator::Rk4 => "rk4",
         };
         let quadrature = match self.quadrature {
+            QuadratureRule::Auto => "auto",
             QuadratureRule::Simpson => "simpson",
             QuadratureRule::Lobatto => "lobatto",
         };
@@ -159,8 +160,12 @@ impl Simulation {
                 if self.quadrature == QuadratureRule::Lobatto && self.stateful {
                     unused("solver.quadrature", &quadrature, format!("{} keeps state, which is advanced once per step with the step's length, so its steps must not vary; the run would integrate with Simpson's rule at solver.step_deg. Remove solver.quadrature (or set it to \"simpson\"), or use stateless laws", self.stateful_law()));
                 }
-                (self.quadrature == QuadratureRule::Simpson || self.stateful)
-                    .then_some("the prescribed crank is integrated by Simpson's rule at the fixed step solver.step_deg, without error control; remove it, or use solver.quadrature = \"lobatto\" (stateless laws) for error-controlled steps")
+                // "auto" is Simpson throughout with a stateful law or a pressure trace.
+                let simpson_only = self.quadrature == QuadratureRule::Simpson
+                    || self.stateful
+                    || (self.quadrature == QuadratureRule::Auto && !self.pressure_kinks.is_empty());
+                simpson_only
+                    .then_some("the prescribed crank is integrated by Simpson's rule at the fixed step solver.step_deg, without error control (solver.quadrature = \"simpson\"; \"auto\" with a stateful law or a cylinder pressure trace); remove it, or use solver.quadrature = \"lobatto\" (stateless laws) for error-controlled steps")
             }
             Drive::Pi { .. } => {
                 unused("solver.quadrature", &quadrature, "the quadrature is the prescribed crank's; with drive.kind = \"pi\" the crank's motion is integrated by solver.integrator. Remove solver.quadrature, or use drive.kind = \"prescribed\"".into());

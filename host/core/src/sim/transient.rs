@@ -27,6 +27,14 @@ pub(super) enum Method {
     /// Prescribed crank, stateless laws, `solver.quadrature = "lobatto"`: error-controlled
     /// Gauss-Lobatto quadrature.
     Lobatto(Box<Lobatto>),
+    /// Prescribed crank, stateless laws, `solver.quadrature = "auto"` (the default): Simpson
+    /// in the windows and a hold's whole cycles, Gauss-Lobatto elsewhere (`on_lobatto`, set
+    /// per interval).
+    Mixed {
+        simpson: Quadrature,
+        lobatto: Box<Lobatto>,
+        on_lobatto: bool,
+    },
     /// PI drive, stateless laws: error-controlled Dormand-Prince 5(4).
     Adaptive(Box<Adaptive>),
     /// PI drive with stateful laws, or `solver.integrator = "rk4"`: fixed-step RK4.
@@ -38,6 +46,12 @@ impl Method {
         match self {
             Method::Quadrature(q) => q,
             Method::Lobatto(l) => l.as_mut(),
+            Method::Mixed {
+                lobatto,
+                on_lobatto: true,
+                ..
+            } => lobatto.as_mut(),
+            Method::Mixed { simpson, .. } => simpson,
             Method::Adaptive(a) => a.as_mut(),
             Method::Rk4(r) => r,
         }
@@ -89,6 +103,19 @@ impl Simulation {
             {
                 let pi = self.step_control == StepControl::Pi;
                 Method::Lobatto(Box::new(Lobatto::new(pi, first, self.layout().len())))
+            }
+            // A pressure trace's kinks cost Lobatto more evaluations than Simpson's steps.
+            Drive::Prescribed {}
+                if self.quadrature == QuadratureRule::Auto
+                    && !self.stateful
+                    && self.pressure_kinks.is_empty() =>
+            {
+                let pi = self.step_control == StepControl::Pi;
+                Method::Mixed {
+                    simpson: Quadrature,
+                    lobatto: Box::new(Lobatto::new(pi, first, self.layout().len())),
+                    on_lobatto: false,
+                }
             }
             Drive::Prescribed {} => {
                 w.recycle(first);
@@ -203,9 +230,14 @@ impl Simulation {
             r.s.guess.fill(0.0);
         }
         // A window is stepped as it always was, never replayed.
-        let simpson = matches!(r.method, Method::Quadrature(_)) && !window;
+        let simpson = matches!(r.method, Method::Quadrature(_) | Method::Mixed { .. }) && !window;
         r.replay.stop();
-        let Some(plan) = self.hold_cycles(r.s.t, b, simpson) else {
+        let plan = self.hold_cycles(r.s.t, b, simpson);
+        if let Method::Mixed { on_lobatto, .. } = &mut r.method {
+            // Simpson where the result is measured or repeats, Lobatto elsewhere.
+            *on_lobatto = !window && plan.is_none();
+        }
+        let Some(plan) = plan else {
             r.next += 1;
             return Some(self.plan_interval(r, b));
         };
@@ -279,6 +311,9 @@ impl Simulation {
             if r.s.t < iv.b {
                 r.next -= 1;
             }
+        }
+        if let Method::Mixed { lobatto, .. } = &mut r.method {
+            lobatto.restart(self, &mut r.w, &r.s)?;
         }
         r.method.stepper().restart(self, &mut r.w, &r.s)
     }

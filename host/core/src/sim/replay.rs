@@ -223,17 +223,10 @@ impl Replay {
             .all(|(x, y)| (x - y).abs() <= self.agreement * x.abs().max(y.abs()).max(1e-6 * scale))
     }
 
-    /// Step `done`, ending at `t1` (s), replayed from the second cycle when the two cycles
-    /// agreed: its increments added to the run's totals, its end evaluation copied into a
-    /// buffer of `w`. `None`: step it.
-    pub(super) fn replay(
-        &mut self,
-        sim: &Simulation,
-        done: u64,
-        t1: f64,
-        s: &mut Integration,
-        w: &mut Work,
-    ) -> Option<Step> {
+    /// Step `done` replayed from the second cycle when the two cycles agreed: its increments
+    /// added to the run's totals, its friction the next evaluation's start. Returns which of
+    /// the cycle's steps it is (its end evaluation: [`Replay::end`]); `None`: step it.
+    pub(super) fn replay(&mut self, done: u64, s: &mut Integration) -> Option<usize> {
         if !self.active() || self.records(done) || self.agreed != Some(true) {
             return None;
         }
@@ -247,15 +240,12 @@ impl Replay {
         for (total, d) in s.regime_time.iter_mut().zip(times) {
             *total += d;
         }
-        let mut end = w.eval();
-        end.copy_from(&self.ends[k]);
-        s.settle_from(&end);
-        let (theta, omega, _) = sim.reference(t1);
-        Some(Step {
-            t1,
-            h: t1 - s.t,
-            end,
-            y: (theta, omega, 0.0),
-        })
+        s.settle_from(&self.ends[k]);
+        Some(k)
+    }
+
+    /// The end evaluation of the second cycle's step `k`.
+    pub(super) fn end(&self, k: usize) -> &Eval {
+        &self.ends[k]
     }
 }

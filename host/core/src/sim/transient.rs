@@ -85,9 +85,8 @@ pub(super) struct Transient {
     replay: Box<Replay>,
     /// Steps replayed, not evaluated.
     replayed: u64,
-    /// The motoring torque through the first-order low-pass filter, N m.
-    filtered: f64,
-    steps: u64,
+    /// Steps taken and the filtered motoring torque.
+    booked: Booked,
     /// The mechanism's energy at the start, J.
     e0: f64,
 }
@@ -169,8 +168,7 @@ impl Simulation {
                 self.tol,
             )),
             replayed: 0,
-            filtered: 0.0,
-            steps: 0,
+            booked: Booked::default(),
             e0: w.crank.mechanical_energy(0.0, 0.0),
             w,
             s,
@@ -212,8 +210,10 @@ impl Simulation {
                 Some(t0) => t0 + done as f64 * iv.dt,
                 None => r.s.t + iv.dt,
             };
-            let step = self.take_step(r, done, t1, iv.b)?;
-            self.accept(r, step, observer)?;
+            match self.take_step(r, done, t1, iv.b)? {
+                Taken::Evaluated(step) => self.accept(r, step, observer)?,
+                Taken::Replayed(k) => self.accept_replayed(r, t1, k, observer)?,
+            }
             taken += 1;
         }
     }
@@ -259,23 +259,32 @@ impl Simulation {
     /// Step `done` of the interval under way, ending at `t1` (its end `b`): replayed where the
     /// hold's cycles repeat, evaluated otherwise (its increments recorded in the cycles that
     /// are compared and replayed).
-    fn take_step(&self, r: &mut Transient, done: u64, t1: f64, b: f64) -> Result<Step, SimError> {
+    fn take_step(&self, r: &mut Transient, done: u64, t1: f64, b: f64) -> Result<Taken, SimError> {
         let replay = &mut r.replay;
+        let evaluated = |step| Ok(Taken::Evaluated(step));
         if !replay.active() {
-            return r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b);
+            return r
+                .method
+                .stepper()
+                .step(self, &mut r.w, &mut r.s, t1, b)
+                .and_then(evaluated);
         }
-        if let Some(step) = replay.replay(self, done, t1, &mut r.s, &mut r.w) {
+        if let Some(k) = replay.replay(done, &mut r.s) {
             r.replayed += 1;
-            return Ok(step);
+            return Ok(Taken::Replayed(k));
         }
         if !replay.records(done) {
-            return r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b);
+            return r
+                .method
+                .stepper()
+                .step(self, &mut r.w, &mut r.s, t1, b)
+                .and_then(evaluated);
         }
         replay.begin_step(&mut r.s);
         match r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b) {
             Ok(step) => {
                 replay.end_step(done, &mut r.s, &step, &mut r.w);
-                Ok(step)
+                Ok(Taken::Evaluated(step))
             }
             Err(e) => {
                 replay.abort_step(&mut r.s);
@@ -335,35 +344,64 @@ impl Simulation {
         }
     }
 
-    /// Take the accepted `step`: commit the laws' states, report progress, filter the torque,
-    /// hand it to the observer, record it for the plateau windows.
+    /// Take the accepted `step`: commit the laws' states, book it ([`Simulation::book`]), hand
+    /// its end evaluation back to the stepper.
     fn accept(
         &self,
         r: &mut Transient,
         step: Step,
         observer: &mut dyn StepObserver,
     ) -> Result<(), SimError> {
-        r.s.y = step.y;
         self.commit(&mut r.w, &step.end)?;
-        r.s.record(&step.end);
-        r.steps += 1;
-        if r.steps % 4096 == 0 {
-            let permille = (1000.0 * step.t1 / self.cycle.duration()) as u64;
-            if let Some(p) = &self.progress {
-                p.set(permille);
-            }
-            observer.progress(permille);
-        }
-        // Low-pass filter of the motoring torque (first order, exact discretisation).
-        let a = (-TAU * self.lowpass_hz * step.h).exp();
-        r.filtered = a * r.filtered + (1.0 - a) * step.end.drive_torque;
-        observe(observer, &step, r.s.y, r.filtered)?;
-        let crank = (r.s.y.0, r.s.y.1);
-        let sat = step.end.saturated();
-        r.plateaus.record(step.t1, step.h, crank, sat, &r.s);
-        r.s.t = step.t1;
+        let at = (step.t1, step.h, step.y);
+        self.book(r, at, &step.end, observer)?;
         r.method.stepper().recycle(step.end, step.h, &mut r.w);
         Ok(())
+    }
+
+    /// Take step `k` of the cycle a hold replays, ending at `t1` (its increments already
+    /// added): booked from the recorded evaluation in place, nothing to commit (stateless
+    /// laws) or hand back.
+    fn accept_replayed(
+        &self,
+        r: &mut Transient,
+        t1: f64,
+        k: usize,
+        observer: &mut dyn StepObserver,
+    ) -> Result<(), SimError> {
+        let (theta, omega, _) = self.reference(t1);
+        let at = (t1, t1 - r.s.t, (theta, omega, 0.0));
+        let end = r.replay.end(k);
+        book(
+            self,
+            &mut r.booked,
+            &mut r.s,
+            &mut r.plateaus,
+            at,
+            end,
+            observer,
+        )
+    }
+
+    /// Book an accepted step ending at `t1` after `h` (s) in crank state `y`, with end
+    /// evaluation `end`: report progress, filter the torque, hand it to the observer, record
+    /// it for the plateau windows.
+    fn book(
+        &self,
+        r: &mut Transient,
+        at: (f64, f64, CrankState),
+        end: &Eval,
+        observer: &mut dyn StepObserver,
+    ) -> Result<(), SimError> {
+        book(
+            self,
+            &mut r.booked,
+            &mut r.s,
+            &mut r.plateaus,
+            at,
+            end,
+            observer,
+        )
     }
 
     /// The finished run's result: energy balance and every plateau's window.
@@ -390,7 +428,7 @@ impl Simulation {
             fmep: self.fmep(),
             energy_residual_j: energy.residual_j,
             energy,
-            steps: r.steps,
+            steps: r.booked.steps,
             rejected_steps: r.s.rejected,
             replayed_steps: r.replayed,
             max_friction_iterations: r.w.max_it,
@@ -445,20 +483,55 @@ impl Simulation {
     }
 }
 
-/// Hand the accepted `step` (crank state `y` at its end, filtered torque) to the observer.
-fn observe(
-    observer: &mut dyn StepObserver,
-    step: &Step,
-    y: CrankState,
+/// An accepted step: evaluated by the stepper, or step `k` of the cycle a hold replays.
+enum Taken {
+    Evaluated(Step),
+    Replayed(usize),
+}
+
+/// What a run counts over its accepted steps: the steps, and the motoring torque through the
+/// first-order low-pass filter (N m).
+#[derive(Clone, Default)]
+struct Booked {
+    steps: u64,
     filtered: f64,
+}
+
+/// Book the accepted step ending at `t1` after `h` (s) in crank state `y` with end evaluation
+/// `end` into the run's counts `booked`, integration `s` and plateau records: progress, the
+/// filtered torque, the observer, the windows.
+fn book(
+    sim: &Simulation,
+    booked: &mut Booked,
+    s: &mut Integration,
+    plateaus: &mut Plateaus,
+    (t1, h, y): (f64, f64, CrankState),
+    end: &Eval,
+    observer: &mut dyn StepObserver,
 ) -> Result<(), SimError> {
+    s.y = y;
+    s.record(end);
+    booked.steps += 1;
+    if booked.steps % 4096 == 0 {
+        let permille = (1000.0 * t1 / sim.cycle.duration()) as u64;
+        if let Some(p) = &sim.progress {
+            p.set(permille);
+        }
+        observer.progress(permille);
+    }
+    // Low-pass filter of the motoring torque (first order, exact discretisation).
+    let a = (-TAU * sim.lowpass_hz * h).exp();
+    booked.filtered = a * booked.filtered + (1.0 - a) * end.drive_torque;
     let sample = StepSample {
-        time_s: step.t1,
+        time_s: t1,
         crank_angle_rad: y.0,
         speed_rad_s: y.1,
-        motoring_torque_nm: step.end.drive_torque,
-        filtered_torque_nm: filtered,
-        normal_loads_n: &step.end.normals,
+        motoring_torque_nm: end.drive_torque,
+        filtered_torque_nm: booked.filtered,
+        normal_loads_n: &end.normals,
     };
-    observer.step(&sample).map_err(SimError::Observer)
+    observer.step(&sample).map_err(SimError::Observer)?;
+    plateaus.record(t1, h, (y.0, y.1), end.saturated(), s);
+    s.t = t1;
+    Ok(())
 }

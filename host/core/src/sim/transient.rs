@@ -77,7 +77,6 @@ pub(super) struct Transient {
     pub(super) w: Work,
     pub(super) s: Integration,
     method: Method,
-    plateaus: Plateaus,
     grid: Vec<f64>,
     next: usize,
     interval: Option<Interval>,
@@ -154,11 +153,6 @@ impl Simulation {
         s.settle_from(&first);
         Ok(Transient {
             method: self.method(first, &mut w),
-            plateaus: Plateaus::new(
-                self.cycle.plateaus(),
-                self.window_spec(),
-                (n, self.regime_times()),
-            ),
             grid: self.grid(),
             next: 0,
             interval: None,
@@ -168,7 +162,15 @@ impl Simulation {
                 self.tol,
             )),
             replayed: 0,
-            booked: Booked::default(),
+            booked: Booked {
+                steps: 0,
+                filtered: 0.0,
+                plateaus: Plateaus::new(
+                    self.cycle.plateaus(),
+                    self.window_spec(),
+                    (n, self.regime_times()),
+                ),
+            },
             e0: w.crank.mechanical_energy(0.0, 0.0),
             w,
             s,
@@ -344,8 +346,8 @@ impl Simulation {
         }
     }
 
-    /// Take the accepted `step`: commit the laws' states, book it ([`Simulation::book`]), hand
-    /// its end evaluation back to the stepper.
+    /// Take the accepted `step`: commit the laws' states, book it ([`book`]), hand its end
+    /// evaluation back to the stepper.
     fn accept(
         &self,
         r: &mut Transient,
@@ -354,7 +356,7 @@ impl Simulation {
     ) -> Result<(), SimError> {
         self.commit(&mut r.w, &step.end)?;
         let at = (step.t1, step.h, step.y);
-        self.book(r, at, &step.end, observer)?;
+        book(self, &mut r.booked, &mut r.s, at, &step.end, observer)?;
         r.method.stepper().recycle(step.end, step.h, &mut r.w);
         Ok(())
     }
@@ -372,36 +374,7 @@ impl Simulation {
         let (theta, omega, _) = self.reference(t1);
         let at = (t1, t1 - r.s.t, (theta, omega, 0.0));
         let end = r.replay.end(k);
-        book(
-            self,
-            &mut r.booked,
-            &mut r.s,
-            &mut r.plateaus,
-            at,
-            end,
-            observer,
-        )
-    }
-
-    /// Book an accepted step ending at `t1` after `h` (s) in crank state `y`, with end
-    /// evaluation `end`: report progress, filter the torque, hand it to the observer, record
-    /// it for the plateau windows.
-    fn book(
-        &self,
-        r: &mut Transient,
-        at: (f64, f64, CrankState),
-        end: &Eval,
-        observer: &mut dyn StepObserver,
-    ) -> Result<(), SimError> {
-        book(
-            self,
-            &mut r.booked,
-            &mut r.s,
-            &mut r.plateaus,
-            at,
-            end,
-            observer,
-        )
+        book(self, &mut r.booked, &mut r.s, at, end, observer)
     }
 
     /// The finished run's result: energy balance and every plateau's window.
@@ -416,7 +389,10 @@ impl Simulation {
             r.s.acc[layout.gas()],
         )
         .relative_to(r.e0.abs().max((r.e0 + change).abs()));
-        let (results, run_warnings) = r.plateaus.results(|pi, m| self.plateau_result(pi, m))?;
+        let (results, run_warnings) = r
+            .booked
+            .plateaus
+            .results(|pi, m| self.plateau_result(pi, m))?;
         let warnings = self.result_warnings(run_warnings);
         Ok(RunResult {
             rig: self.rig_name.clone(),
@@ -489,22 +465,22 @@ enum Taken {
     Replayed(usize),
 }
 
-/// What a run counts over its accepted steps: the steps, and the motoring torque through the
-/// first-order low-pass filter (N m).
-#[derive(Clone, Default)]
+/// What a run keeps of its accepted steps: their count, the motoring torque through the
+/// first-order low-pass filter (N m) and the plateau windows' records.
+#[derive(Clone)]
 struct Booked {
     steps: u64,
     filtered: f64,
+    plateaus: Plateaus,
 }
 
 /// Book the accepted step ending at `t1` after `h` (s) in crank state `y` with end evaluation
-/// `end` into the run's counts `booked`, integration `s` and plateau records: progress, the
-/// filtered torque, the observer, the windows.
+/// `end` into the run's records `booked` and integration `s`: progress, the filtered torque,
+/// the observer, the windows.
 fn book(
     sim: &Simulation,
     booked: &mut Booked,
     s: &mut Integration,
-    plateaus: &mut Plateaus,
     (t1, h, y): (f64, f64, CrankState),
     end: &Eval,
     observer: &mut dyn StepObserver,
@@ -531,7 +507,9 @@ fn book(
         normal_loads_n: &end.normals,
     };
     observer.step(&sample).map_err(SimError::Observer)?;
-    plateaus.record(t1, h, (y.0, y.1), end.saturated(), s);
+    booked
+        .plateaus
+        .record(t1, h, (y.0, y.1), end.saturated(), s);
     s.t = t1;
     Ok(())
 }

@@ -1,4 +1,5 @@
-//! The hold replay (`replay.rs`) against the same holds evaluated: what it must reproduce.
+//! The hold replay (`replay.rs`) against the same holds evaluated: what it must reproduce; and
+//! the cycle repetition it relies on, where it never comes: a steady state that says so.
 
 use std::f64::consts::TAU;
 
@@ -194,4 +195,68 @@ fn the_auto_quadrature_keeps_simpsons_plateaus_in_fewer_steps() {
         auto.steps,
         simpson.steps
     );
+}
+
+/// A stateful law whose friction grows with the time it has been committed over (1 N per
+/// second), so its cycles never repeat.
+struct Creeping;
+
+impl Law for Creeping {
+    type Params = DriftParams;
+    const NAME: &'static str = "creeping-unit";
+    const VERSION: &'static str = "0";
+    const SUMMARY: &'static str = "friction growing with committed time (unit test)";
+
+    fn parameters() -> Vec<ParamSpec> {
+        Vec::new()
+    }
+
+    fn new(_: DriftParams) -> Result<Self, ParamError> {
+        Ok(Self)
+    }
+
+    fn state_size(&self) -> usize {
+        1
+    }
+
+    fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
+        let grown = state.first().copied().unwrap_or(0.0);
+        LawOutput::force(-smooth_sign(input.sliding_velocity_m_s, 1e-3).0 * (1.0 + grown))
+    }
+
+    fn commit(&self, input: &LawInput, state: &mut [f64]) {
+        if let Some(s) = state.first_mut() {
+            *s += input.dt_s;
+        }
+    }
+}
+
+/// The steady state of stateful laws whose cycles never repeat does not pass the last of its
+/// settling cycles off as a steady state: every plateau's result carries a warning naming the
+/// plateau and the bound.
+#[test]
+fn a_steady_state_whose_cycles_never_repeat_says_so() {
+    let text = include_str!("../../../../rigs/crf250r-motored.toml");
+    let mut model: RigFile = toml::from_str(text).expect("rig parses");
+    short_cycle(&mut model);
+    model.joints.piston.laws = vec![crate::model::LawRef {
+        law: "creeping-unit".into(),
+        params: toml::Table::new(),
+    }];
+    let mut registry = LawRegistry::new();
+    registry
+        .insert(LawLibrary::in_process::<Creeping>().expect("law describes itself"))
+        .expect("one law");
+    let mut sim = Simulation::new(&model, &registry).expect("simulation builds");
+    let result = sim.run_steady().expect("steady state");
+    for rpm in ["3000 rpm", "4500 rpm"] {
+        assert!(
+            result
+                .warnings
+                .iter()
+                .any(|w| w.contains(rpm) && w.contains("did not repeat a cycle within 200 cycles")),
+            "{rpm}: {:?}",
+            result.warnings
+        );
+    }
 }

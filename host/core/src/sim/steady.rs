@@ -29,21 +29,32 @@ impl Simulation {
         let (mut motor, mut dissipated, mut gas) = (0.0, 0.0, 0.0);
         let mut w = self.work()?;
         let mut steps = 0_u64;
+        let mut unsettled = Vec::new();
         let layout = self.layout();
         for pi in 0..n_plateaus {
             let omega = self.cycle.plateaus()[pi].omega;
             w.states.reset();
             let before = steps;
-            let (delta, regime_time, t) =
-                match self.steady_plateau(pi, omega, (0.0, 0.0), &mut w, &mut steps) {
-                    Err(_) if self.stateful => {
-                        steps = before;
-                        w.states.reset();
-                        let start = self.spin_up(pi, omega, &mut w, &mut steps)?;
-                        self.steady_plateau(pi, omega, start, &mut w, &mut steps)?
-                    }
-                    other => other?,
-                };
+            let SteadyCycle {
+                delta,
+                regime_time,
+                t,
+                unsettled: change,
+            } = match self.steady_plateau(pi, omega, (0.0, 0.0), &mut w, &mut steps) {
+                Err(_) if self.stateful => {
+                    steps = before;
+                    w.states.reset();
+                    let start = self.spin_up(pi, omega, &mut w, &mut steps)?;
+                    self.steady_plateau(pi, omega, start, &mut w, &mut steps)?
+                }
+                other => other?,
+            };
+            if let Some(change) = change {
+                unsettled.push(unsettled_warning(
+                    self.cycle.plateaus()[pi].speed_rpm,
+                    change,
+                ));
+            }
             motor += delta[RateLayout::MOTOR];
             dissipated += delta[layout.powers()].iter().sum::<f64>();
             gas += delta[layout.gas()];
@@ -83,14 +94,13 @@ impl Simulation {
             rejected_steps: 0,
             replayed_steps: 0,
             max_friction_iterations: w.max_it,
-            warnings: self.result_warnings(self.steady_settings_warnings()),
+            warnings: self.result_warnings([self.steady_settings_warnings(), unsettled].concat()),
             law_time: super::bind::law_time(&self.joints),
         })
     }
 
-    /// Plateau `pi` at speed `omega` from time `start.0` and crank angle `start.1`: the
-    /// accumulated quantities and the laws' regime times over its last cycle, and the time at
-    /// its end (from 0 at the plateau's start).
+    /// Plateau `pi` at speed `omega` from time `start.0` and crank angle `start.1`: its last
+    /// cycle ([`SteadyCycle`]).
     fn steady_plateau(
         &self,
         pi: usize,
@@ -98,7 +108,7 @@ impl Simulation {
         start: (f64, f64),
         w: &mut Work,
         steps: &mut u64,
-    ) -> Result<(Vec<f64>, Vec<f64>, f64), SimError> {
+    ) -> Result<SteadyCycle, SimError> {
         let (t0, theta0) = start;
         let oil = (self.temps[pi], self.viscosities[pi]);
         let cycle = self.cycle_angle();
@@ -115,6 +125,7 @@ impl Simulation {
         };
         let mut t = t0;
         let mut e = w.eval();
+        let mut unsettled = None;
         for _ in 0..max_cycles {
             delta.iter_mut().for_each(|x| *x = 0.0);
             regime_time.fill(0.0);
@@ -135,12 +146,19 @@ impl Simulation {
             }
             let torque = delta[RateLayout::MOTOR] / cycle;
             if !self.stateful || super::crank_angle::cycle_repeats(torque, last_torque) {
+                unsettled = None;
                 break;
             }
+            unsettled = Some((torque - last_torque) / torque.abs().max(1e-12));
             last_torque = torque;
         }
         w.recycle(e);
-        Ok((delta, regime_time, t))
+        Ok(SteadyCycle {
+            delta,
+            regime_time,
+            t,
+            unsettled,
+        })
     }
 
     /// Spin the crank up from rest to plateau `pi`'s speed `omega` at a constant acceleration
@@ -181,4 +199,24 @@ impl Simulation {
         w.recycle(e);
         Ok((duration, angle))
     }
+}
+
+/// A plateau's last steady cycle: the accumulated quantities and the laws' regime times over
+/// it, the time at its end (s, from the plateau's start), and, when stateful laws never
+/// repeated a cycle, the last cycle's relative change of the mean motoring torque.
+struct SteadyCycle {
+    delta: Vec<f64>,
+    regime_time: Vec<f64>,
+    t: f64,
+    unsettled: Option<f64>,
+}
+
+/// The warning of a plateau at `speed_rpm` whose stateful laws did not repeat a cycle within
+/// the settling bound, the last cycle's mean motoring torque still moving by `change`
+/// (relative): its values are that cycle's, not a steady state.
+fn unsettled_warning(speed_rpm: f64, change: f64) -> String {
+    format!(
+        "at the {speed_rpm:.0} rpm plateau the stateful laws did not repeat a cycle within {} cycles (the mean motoring torque still moved by {change:.1e} of itself in the last): its values are the last cycle's, not a steady state",
+        super::crank_angle::MAX_SETTLING_CYCLES
+    )
 }

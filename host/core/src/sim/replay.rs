@@ -190,12 +190,7 @@ impl Replay {
         std::mem::swap(&mut s.acc, &mut self.scratch.0);
         std::mem::swap(&mut s.regime_time, &mut self.scratch.1);
         let (acc, times) = (&self.scratch.0, &self.scratch.1);
-        for (total, d) in s.acc.iter_mut().zip(acc) {
-            *total += d;
-        }
-        for (total, d) in s.regime_time.iter_mut().zip(times) {
-            *total += d;
-        }
+        add_increments(s, acc, times);
         let cycle = self.cycle_of(done) as usize;
         let sums = &mut self.cycles[cycle];
         for (sum, d) in sums.iter_mut().zip(acc.iter().chain(times)) {
@@ -234,12 +229,7 @@ impl Replay {
         let per_step = s.acc.len() + s.regime_time.len();
         let inc = &self.increments[k * per_step..(k + 1) * per_step];
         let (acc, times) = inc.split_at(s.acc.len());
-        for (total, d) in s.acc.iter_mut().zip(acc) {
-            *total += d;
-        }
-        for (total, d) in s.regime_time.iter_mut().zip(times) {
-            *total += d;
-        }
+        add_increments(s, acc, times);
         s.settle_from(&self.ends[k]);
         Some(k)
     }
@@ -247,5 +237,16 @@ impl Replay {
     /// The end evaluation of the second cycle's step `k`.
     pub(super) fn end(&self, k: usize) -> &Eval {
         &self.ends[k]
+    }
+}
+
+/// Add one step's increments of the accumulated quantities `acc` and regime times `times` to
+/// the run's totals in `s`, as the step itself adds them.
+fn add_increments(s: &mut Integration, acc: &[f64], times: &[f64]) {
+    for (total, d) in s.acc.iter_mut().zip(acc) {
+        *total += d;
+    }
+    for (total, d) in s.regime_time.iter_mut().zip(times) {
+        *total += d;
     }
 }

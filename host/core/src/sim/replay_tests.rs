@@ -120,11 +120,17 @@ fn a_replayed_hold_is_the_hold_evaluated() {
 /// Parameters of [`Drifting`].
 #[derive(serde::Serialize, serde::Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
-struct DriftParams {}
+struct DriftParams {
+    /// 0: the friction grows with the input's time (stateless); 1: with the time committed
+    /// over, kept as state.
+    committed: f64,
+}
 
-/// A stateless law whose friction grows with time (1 N per second), so no two cycles of a
-/// hold see the same law.
-struct Drifting;
+/// A law whose friction grows by 1 N per second, of the run's time (stateless) or of the time
+/// it has been committed over (stateful), so no two cycles of a hold see the same law.
+struct Drifting {
+    stateful: bool,
+}
 
 impl Law for Drifting {
     type Params = DriftParams;
@@ -133,34 +139,62 @@ impl Law for Drifting {
     const SUMMARY: &'static str = "friction growing with time (unit test)";
 
     fn parameters() -> Vec<ParamSpec> {
-        Vec::new()
+        vec![ParamSpec::number(
+            "committed",
+            "-",
+            "0: time, 1: state",
+            0.0,
+            1.0,
+        )]
     }
 
-    fn new(_: DriftParams) -> Result<Self, ParamError> {
-        Ok(Self)
+    fn new(p: DriftParams) -> Result<Self, ParamError> {
+        Ok(Self {
+            stateful: p.committed > 0.5,
+        })
     }
 
-    fn evaluate(&self, input: &LawInput, _state: &[f64]) -> LawOutput {
-        let v = input.sliding_velocity_m_s;
-        LawOutput::force(-smooth_sign(v, 1e-3).0 * (1.0 + input.time_s))
+    fn state_size(&self) -> usize {
+        usize::from(self.stateful)
     }
+
+    fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
+        let grown = match self.stateful {
+            true => state.first().copied().unwrap_or(0.0),
+            false => input.time_s,
+        };
+        LawOutput::force(-smooth_sign(input.sliding_velocity_m_s, 1e-3).0 * (1.0 + grown))
+    }
+
+    fn commit(&self, input: &LawInput, state: &mut [f64]) {
+        if let Some(s) = state.first_mut() {
+            *s += input.dt_s;
+        }
+    }
+}
+
+/// The thesis rig on the short cycle with the drifting law (`params`) on its piston alone, and
+/// a registry holding the law.
+fn with_drifting_piston(params: &str) -> (RigFile, LawRegistry) {
+    let text = include_str!("../../../../rigs/crf250r-motored.toml");
+    let mut model: RigFile = toml::from_str(text).expect("rig parses");
+    short_cycle(&mut model);
+    model.joints.piston.laws = vec![crate::model::LawRef {
+        law: "drifting-unit".into(),
+        params: toml::from_str(params).expect("params"),
+    }];
+    let mut registry = LawRegistry::new();
+    registry
+        .insert(LawLibrary::in_process::<Drifting>().expect("law describes itself"))
+        .expect("one law");
+    (model, registry)
 }
 
 /// A law whose output drifts with time makes the two evaluated cycles differ, and the hold is
 /// then evaluated to its end: nothing replayed, the same numbers as every cycle evaluated.
 #[test]
 fn a_hold_whose_cycles_differ_is_not_replayed() {
-    let text = include_str!("../../../../rigs/crf250r-motored.toml");
-    let mut model: RigFile = toml::from_str(text).expect("rig parses");
-    short_cycle(&mut model);
-    model.joints.piston.laws = vec![crate::model::LawRef {
-        law: "drifting-unit".into(),
-        params: toml::Table::new(),
-    }];
-    let mut registry = LawRegistry::new();
-    registry
-        .insert(LawLibrary::in_process::<Drifting>().expect("law describes itself"))
-        .expect("one law");
+    let (model, registry) = with_drifting_piston("committed = 0.0");
     let replayed = run(&model, &registry, HoldReplay::On);
     let evaluated = run(&model, &registry, HoldReplay::Evaluate);
     assert_eq!(replayed.replayed_steps, 0);
@@ -197,56 +231,12 @@ fn the_auto_quadrature_keeps_simpsons_plateaus_in_fewer_steps() {
     );
 }
 
-/// A stateful law whose friction grows with the time it has been committed over (1 N per
-/// second), so its cycles never repeat.
-struct Creeping;
-
-impl Law for Creeping {
-    type Params = DriftParams;
-    const NAME: &'static str = "creeping-unit";
-    const VERSION: &'static str = "0";
-    const SUMMARY: &'static str = "friction growing with committed time (unit test)";
-
-    fn parameters() -> Vec<ParamSpec> {
-        Vec::new()
-    }
-
-    fn new(_: DriftParams) -> Result<Self, ParamError> {
-        Ok(Self)
-    }
-
-    fn state_size(&self) -> usize {
-        1
-    }
-
-    fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
-        let grown = state.first().copied().unwrap_or(0.0);
-        LawOutput::force(-smooth_sign(input.sliding_velocity_m_s, 1e-3).0 * (1.0 + grown))
-    }
-
-    fn commit(&self, input: &LawInput, state: &mut [f64]) {
-        if let Some(s) = state.first_mut() {
-            *s += input.dt_s;
-        }
-    }
-}
-
 /// The steady state of stateful laws whose cycles never repeat does not pass the last of its
 /// settling cycles off as a steady state: every plateau's result carries a warning naming the
 /// plateau and the bound.
 #[test]
 fn a_steady_state_whose_cycles_never_repeat_says_so() {
-    let text = include_str!("../../../../rigs/crf250r-motored.toml");
-    let mut model: RigFile = toml::from_str(text).expect("rig parses");
-    short_cycle(&mut model);
-    model.joints.piston.laws = vec![crate::model::LawRef {
-        law: "creeping-unit".into(),
-        params: toml::Table::new(),
-    }];
-    let mut registry = LawRegistry::new();
-    registry
-        .insert(LawLibrary::in_process::<Creeping>().expect("law describes itself"))
-        .expect("one law");
+    let (model, registry) = with_drifting_piston("committed = 1.0");
     let mut sim = Simulation::new(&model, &registry).expect("simulation builds");
     let result = sim.run_steady().expect("steady state");
     for rpm in ["3000 rpm", "4500 rpm"] {

@@ -263,36 +263,22 @@ impl Simulation {
     /// are compared and replayed).
     fn take_step(&self, r: &mut Transient, done: u64, t1: f64, b: f64) -> Result<Taken, SimError> {
         let replay = &mut r.replay;
-        let evaluated = |step| Ok(Taken::Evaluated(step));
-        if !replay.active() {
-            return r
-                .method
-                .stepper()
-                .step(self, &mut r.w, &mut r.s, t1, b)
-                .and_then(evaluated);
-        }
         if let Some(k) = replay.replay(done, &mut r.s) {
             r.replayed += 1;
             return Ok(Taken::Replayed(k));
         }
-        if !replay.records(done) {
-            return r
-                .method
-                .stepper()
-                .step(self, &mut r.w, &mut r.s, t1, b)
-                .and_then(evaluated);
+        let records = replay.active() && replay.records(done);
+        if records {
+            replay.begin_step(&mut r.s);
         }
-        replay.begin_step(&mut r.s);
-        match r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b) {
-            Ok(step) => {
-                replay.end_step(done, &mut r.s, &step, &mut r.w);
-                Ok(Taken::Evaluated(step))
-            }
-            Err(e) => {
-                replay.abort_step(&mut r.s);
-                Err(e)
+        let step = r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b);
+        if records {
+            match &step {
+                Ok(step) => replay.end_step(done, &mut r.s, step, &mut r.w),
+                Err(_) => replay.abort_step(&mut r.s),
             }
         }
+        step.map(Taken::Evaluated)
     }
 
     /// Make `t` (s, after the run's time) a point of the run's grid, so the run lands on it:

@@ -341,6 +341,8 @@ fn the_crank_angle_traces_of_a_slowly_settling_law_are_the_steady_run_s_cycle() 
     let traces = sim.crank_angle_traces(1.0).expect("traces");
     let (t, p) = (&traces[0], &steady.plateaus[0]);
     assert_trace_means_are_the_plateau_s(t, p);
+    // A cycle that settled within the bound is not warned about.
+    assert!(t.warnings.is_empty(), "{:?}", t.warnings);
     let big_ends = p.joints.iter().filter(|l| l.joint.starts_with("big_end"));
     assert_eq!(
         big_ends.count(),

@@ -780,6 +780,13 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
     result.law_time = law_time;
     result.rejected_steps = rejected_steps;
     result.replayed_steps = replayed_steps;
+    // A trace's warnings (a stateful cycle that never repeated) are reported with the run's,
+    // once where the steady run already gave the same one.
+    for w in traces.iter().flatten().flat_map(|t| &t.warnings) {
+        if !result.warnings.contains(w) {
+            result.warnings.push(format!("--crank-angle: {w}"));
+        }
+    }
     if let Some(dir) = &csv {
         tribo::report::write_csv(&result, dir)
             .with_context(|| format!("writing CSV into {}", dir.display()))?;

@@ -133,6 +133,11 @@ pub struct CrankAngleTrace {
     pub laws: Vec<(String, String)>,
     /// The samples, rising in crank angle.
     pub samples: Vec<AngleSample>,
+    /// What the user must know about this trace: with stateful laws whose cycle did not
+    /// repeat within [`MAX_SETTLING_CYCLES`], the same warning the steady run gives (the
+    /// samples are the last cycle's, not a settled one).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 fn regime_name(code: u8) -> &'static str {
@@ -158,6 +163,25 @@ pub(super) const MAX_SETTLING_CYCLES: usize = 200;
 /// relative, the steady run's test of a settled stateful cycle.
 pub(super) fn cycle_repeats(torque: f64, last: f64) -> bool {
     (torque - last).abs() <= 1e-9 * torque.abs().max(1e-12)
+}
+
+/// The warning of a plateau at `speed_rpm` whose stateful laws did not repeat a cycle within
+/// [`MAX_SETTLING_CYCLES`], the last cycle's mean motoring torque still moving by `change`
+/// (relative): its values are that cycle's, not a steady state. One text for the steady run
+/// and the crank-angle traces.
+pub(super) fn unsettled_warning(speed_rpm: f64, change: f64) -> String {
+    format!(
+        "at the {speed_rpm:.0} rpm plateau the stateful laws did not repeat a cycle within {MAX_SETTLING_CYCLES} cycles (the mean motoring torque still moved by {change:.1e} of itself in the last): its values are the last cycle's, not a steady state"
+    )
+}
+
+/// The crank-angle grid of a run's traces and what carries over from plateau to plateau: `n`
+/// samples `h_angle` apart (rad), the evaluation work space and the friction guess.
+struct TraceGrid {
+    n: usize,
+    h_angle: f64,
+    w: Work,
+    guess: Vec<f64>,
 }
 
 /// Samples over a cycle of `cycle_rad` at `resolution_deg`, at least 4 and at most
@@ -204,57 +228,89 @@ impl Simulation {
     ) -> Result<Vec<CrankAngleTrace>, SimError> {
         let cycle = self.cycle_angle();
         let n = samples_per_cycle(cycle, resolution_deg)?;
-        let h_angle = cycle / n as f64;
         let laws = self.law_names();
-        let mut w = self.work()?;
-        let mut e = w.eval();
-        let mut guess = vec![0.0; self.joints.len()];
+        let mut grid = TraceGrid {
+            n,
+            h_angle: cycle / n as f64,
+            w: self.work()?,
+            guess: vec![0.0; self.joints.len()],
+        };
         let mut traces = Vec::new();
         for pi in 0..self.cycle.plateaus().len() {
-            let omega = self.cycle.plateaus()[pi].omega;
-            let oil = (self.temps[pi], self.viscosities[pi]);
-            let h = h_angle / omega;
-            w.states.reset();
-            if self.rules.fresh_trace_guess {
-                guess.fill(0.0);
-            }
-            let mut samples = sample_buffer(n)?;
-            let (max_passes, mut last_torque) = if self.stateful {
-                (MAX_SETTLING_CYCLES, f64::NAN)
-            } else {
-                (1, 0.0)
-            };
-            for pass in 0..max_passes {
-                // Every pass after the first is sampled (the last one kept), so the cycle that
-                // repeats its predecessor is the one returned.
-                samples.clear();
-                let mut torque_sum = 0.0;
-                for k in 0..n {
-                    let theta = k as f64 * h_angle;
-                    let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
-                    self.evaluate(&at, &guess, &mut w, &mut e)?;
-                    guess.copy_from_slice(&e.totals);
-                    torque_sum += e.drive_torque;
-                    if pass > 0 || !self.stateful {
-                        // Sampled before the commit: the laws' states are those the
-                        // evaluation used.
-                        samples.push(self.angle_sample(theta, omega, &w, &e)?);
-                    }
-                    self.commit(&mut w, &e)?;
-                }
-                let torque = torque_sum / n as f64;
-                if pass > 0 && cycle_repeats(torque, last_torque) {
-                    break;
-                }
-                last_torque = torque;
-            }
+            let (samples, unsettled) = self.plateau_trace(pi, &mut grid)?;
+            let speed_rpm = self.cycle.plateaus()[pi].speed_rpm;
             traces.push(CrankAngleTrace {
-                speed_rpm: self.cycle.plateaus()[pi].speed_rpm,
+                speed_rpm,
                 laws: laws.clone(),
                 samples,
+                warnings: unsettled
+                    .map(|change| unsettled_warning(speed_rpm, change))
+                    .into_iter()
+                    .collect(),
             });
         }
         Ok(traces)
+    }
+
+    /// Plateau `pi`'s sampled cycle on `grid`, and, when its stateful laws did not repeat a
+    /// cycle within [`MAX_SETTLING_CYCLES`], the last cycle's relative change of the mean
+    /// drive torque.
+    fn plateau_trace(
+        &self,
+        pi: usize,
+        grid: &mut TraceGrid,
+    ) -> Result<(Vec<AngleSample>, Option<f64>), SimError> {
+        let TraceGrid {
+            n,
+            h_angle,
+            ref mut w,
+            ref mut guess,
+        } = *grid;
+        let omega = self.cycle.plateaus()[pi].omega;
+        let oil = (self.temps[pi], self.viscosities[pi]);
+        let h = h_angle / omega;
+        let mut e = w.eval();
+        w.states.reset();
+        if self.rules.fresh_trace_guess {
+            guess.fill(0.0);
+        }
+        let mut samples = sample_buffer(n)?;
+        let (max_passes, mut last_torque) = if self.stateful {
+            (MAX_SETTLING_CYCLES, f64::NAN)
+        } else {
+            (1, 0.0)
+        };
+        let mut unsettled = None;
+        for pass in 0..max_passes {
+            // Every pass after the first is sampled (the last one kept), so the cycle that
+            // repeats its predecessor is the one returned.
+            samples.clear();
+            let mut torque_sum = 0.0;
+            for k in 0..n {
+                let theta = k as f64 * h_angle;
+                let at = Point::steady((pass * n + k) as f64 * h, h, theta, omega, oil);
+                self.evaluate(&at, guess, w, &mut e)?;
+                guess.copy_from_slice(&e.totals);
+                torque_sum += e.drive_torque;
+                if pass > 0 || !self.stateful {
+                    // Sampled before the commit: the laws' states are those the
+                    // evaluation used.
+                    samples.push(self.angle_sample(theta, omega, w, &e)?);
+                }
+                self.commit(w, &e)?;
+            }
+            let torque = torque_sum / n as f64;
+            if !self.stateful || (pass > 0 && cycle_repeats(torque, last_torque)) {
+                unsettled = None;
+                break;
+            }
+            if pass > 0 {
+                unsettled = Some((torque - last_torque) / torque.abs().max(1e-12));
+            }
+            last_torque = torque;
+        }
+        w.recycle(e);
+        Ok((samples, unsettled))
     }
 
     /// Joint and law of every law, in the run-wide law order.

@@ -1,5 +1,6 @@
 //! The hold replay (`replay.rs`) against the same holds evaluated: what it must reproduce; and
-//! the cycle repetition it relies on, where it never comes: a steady state that says so.
+//! the cycle repetition it relies on, where it never comes: a steady state and a crank-angle
+//! trace that say so.
 
 use std::f64::consts::TAU;
 
@@ -247,6 +248,46 @@ fn a_steady_state_whose_cycles_never_repeat_says_so() {
                 .any(|w| w.contains(rpm) && w.contains("did not repeat a cycle within 200 cycles")),
             "{rpm}: {:?}",
             result.warnings
+        );
+    }
+}
+
+/// A crank-angle trace of stateful laws whose cycles never repeat says so as the steady run
+/// does (the same warning, naming the plateau and the bound), with the last cycle's change of
+/// the mean drive torque. The drifting law's force is (1 + t) N at committed time t, so with
+/// the piston's lever |dx/dtheta| (G) the mean torque of pass p (0-based, n samples h apart,
+/// cycle time T = n h) is mean(G) (1 + T p) + h mean(k G_k); on a slider crank without pin
+/// offset G is symmetric about the cycle's middle, which makes the second term mean(G) T / 2:
+/// the relative change of the last of 200 passes is T / (1 + T (199 + 1/2)).
+#[test]
+fn a_crank_angle_trace_whose_cycles_never_repeat_says_so() {
+    let (model, registry) = with_drifting_piston("committed = 1.0");
+    let mut sim = Simulation::new(&model, &registry).expect("simulation builds");
+    let traces = sim.crank_angle_traces(2.0).expect("traces");
+    assert_eq!(traces.len(), 2);
+    for t in &traces {
+        let rpm = format!("{:.0} rpm", t.speed_rpm);
+        let [warning] = t.warnings.as_slice() else {
+            panic!("{rpm}: one warning expected, got {:?}", t.warnings);
+        };
+        assert!(
+            warning.contains(&rpm) && warning.contains("did not repeat a cycle within 200 cycles"),
+            "{warning}"
+        );
+        // Without gas loads a cycle is one revolution.
+        assert_eq!(sim.revolutions_per_cycle(), 1);
+        let cycle_s = TAU / (t.speed_rpm * TAU / 60.0);
+        let expected = cycle_s / (1.0 + cycle_s * 199.5);
+        let reported: f64 = warning
+            .split("still moved by ")
+            .nth(1)
+            .and_then(|rest| rest.split_whitespace().next())
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("no change in {warning}"));
+        // Printed to two significant digits.
+        assert!(
+            (reported - expected).abs() <= 0.051 * 10f64.powf(expected.log10().floor()),
+            "{rpm}: reported {reported}, closed form {expected}: {warning}"
         );
     }
 }

@@ -50,7 +50,7 @@ impl Simulation {
                 other => other?,
             };
             if let Some(change) = change {
-                unsettled.push(unsettled_warning(
+                unsettled.push(super::crank_angle::unsettled_warning(
                     self.cycle.plateaus()[pi].speed_rpm,
                     change,
                 ));
@@ -209,14 +209,4 @@ struct SteadyCycle {
     regime_time: Vec<f64>,
     t: f64,
     unsettled: Option<f64>,
-}
-
-/// The warning of a plateau at `speed_rpm` whose stateful laws did not repeat a cycle within
-/// the settling bound, the last cycle's mean motoring torque still moving by `change`
-/// (relative): its values are that cycle's, not a steady state.
-fn unsettled_warning(speed_rpm: f64, change: f64) -> String {
-    format!(
-        "at the {speed_rpm:.0} rpm plateau the stateful laws did not repeat a cycle within {} cycles (the mean motoring torque still moved by {change:.1e} of itself in the last): its values are the last cycle's, not a steady state",
-        super::crank_angle::MAX_SETTLING_CYCLES
-    )
 }

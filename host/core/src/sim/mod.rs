@@ -34,6 +34,7 @@ mod evaluate;
 mod joints;
 mod lobatto;
 mod newton;
+mod orbit;
 mod plateau;
 mod rates;
 mod replay;

@@ -20,7 +20,7 @@ use super::Simulation;
 /// ramp's last friction as its iteration start: about 2e-9 on the bundled rig), but never
 /// tighter than this, far above round-off (the second cycle's crank angles are the first's plus
 /// a cycle, their sines differing in the last bits).
-const AGREEMENT_FLOOR: f64 = 1e-10;
+pub(super) const AGREEMENT_FLOOR: f64 = 1e-10;
 
 /// Evaluated cycles before any is replayed: one to compare with and the one replayed.
 const EVALUATED_CYCLES: u64 = 2;
@@ -40,8 +40,8 @@ pub(super) struct Replay {
     /// The second cycle's end evaluations (the first `recorded` of these buffers).
     ends: Vec<Eval>,
     recorded: usize,
-    /// Where the step under way accumulates (the real totals are kept aside meanwhile).
-    scratch: (Vec<f64>, Vec<f64>),
+    /// Where the step under way accumulates.
+    increments_now: StepIncrements,
     /// Whether the two cycles agreed (`None` until the second is done).
     agreed: Option<bool>,
     /// Whether the cycles may be replayed (not in [`HoldReplay::Evaluate`]).
@@ -127,7 +127,7 @@ impl Replay {
             increments: Vec::new(),
             ends: Vec::new(),
             recorded: 0,
-            scratch: (vec![0.0; n_acc], vec![0.0; n_regime]),
+            increments_now: StepIncrements::new(n_acc, n_regime),
             agreed: None,
             allowed: mode == HoldReplay::On,
             agreement: friction_tol.max(AGREEMENT_FLOOR),
@@ -166,19 +166,15 @@ impl Replay {
         self.cycle_of(done) < EVALUATED_CYCLES
     }
 
-    /// Before an evaluated step: the run's totals set aside, the step accumulates from zero.
+    /// Before an evaluated step: its increments to be kept apart.
     pub(super) fn begin_step(&mut self, s: &mut Integration) {
-        std::mem::swap(&mut s.acc, &mut self.scratch.0);
-        std::mem::swap(&mut s.regime_time, &mut self.scratch.1);
-        s.acc.fill(0.0);
-        s.regime_time.fill(0.0);
+        self.increments_now.begin(s);
     }
 
     /// After an evaluated step that failed: the run's totals back as they were (a failed step
     /// adds nothing), the replay idle.
     pub(super) fn abort_step(&mut self, s: &mut Integration) {
-        std::mem::swap(&mut s.acc, &mut self.scratch.0);
-        std::mem::swap(&mut s.regime_time, &mut self.scratch.1);
+        self.increments_now.abort(s);
         self.stop();
     }
 
@@ -187,11 +183,8 @@ impl Replay {
     /// in the second cycle, kept for the replay; at the second cycle's end the two cycles
     /// compared.
     pub(super) fn end_step(&mut self, done: u64, s: &mut Integration, step: &Step, w: &mut Work) {
-        std::mem::swap(&mut s.acc, &mut self.scratch.0);
-        std::mem::swap(&mut s.regime_time, &mut self.scratch.1);
-        let (acc, times) = (&self.scratch.0, &self.scratch.1);
-        add_increments(s, acc, times);
         let cycle = self.cycle_of(done) as usize;
+        let (acc, times) = self.increments_now.end(s);
         let sums = &mut self.cycles[cycle];
         for (sum, d) in sums.iter_mut().zip(acc.iter().chain(times)) {
             *sum += d;
@@ -212,10 +205,7 @@ impl Replay {
     /// Whether the two evaluated cycles accumulated the same, quantity by quantity.
     fn cycles_agree(&self) -> bool {
         let [a, b] = &self.cycles;
-        let scale = a.iter().chain(b).fold(0.0_f64, |m, v| m.max(v.abs()));
-        a.iter()
-            .zip(b)
-            .all(|(x, y)| (x - y).abs() <= self.agreement * x.abs().max(y.abs()).max(1e-6 * scale))
+        agree(a, b, self.agreement)
     }
 
     /// Step `done` replayed from the second cycle when the two cycles agreed: its increments
@@ -240,9 +230,58 @@ impl Replay {
     }
 }
 
+/// Whether two cycles' increments `a` and `b` agree quantity by quantity within `agreement`
+/// relative (of the larger, and at least of a millionth of the largest of all: a quantity
+/// near zero is not held to its own round-off).
+pub(super) fn agree(a: &[f64], b: &[f64], agreement: f64) -> bool {
+    let scale = a.iter().chain(b).fold(0.0_f64, |m, v| m.max(v.abs()));
+    a.iter()
+        .zip(b)
+        .all(|(x, y)| (x - y).abs() <= agreement * x.abs().max(y.abs()).max(1e-6 * scale))
+}
+
+/// One step's increments kept apart from the run's totals: the totals set aside while the
+/// stepper accumulates into zeroed buffers, then the increments added to them (the same
+/// additions the step would have made) and handed out.
+#[derive(Clone)]
+pub(super) struct StepIncrements {
+    kept: (Vec<f64>, Vec<f64>),
+}
+
+impl StepIncrements {
+    /// Buffers for `n_acc` accumulated quantities and `n_regime` regime times.
+    pub(super) fn new(n_acc: usize, n_regime: usize) -> Self {
+        Self {
+            kept: (vec![0.0; n_acc], vec![0.0; n_regime]),
+        }
+    }
+
+    /// Before the step: the run's totals set aside, the step accumulates from zero.
+    pub(super) fn begin(&mut self, s: &mut Integration) {
+        std::mem::swap(&mut s.acc, &mut self.kept.0);
+        std::mem::swap(&mut s.regime_time, &mut self.kept.1);
+        s.acc.fill(0.0);
+        s.regime_time.fill(0.0);
+    }
+
+    /// After a failed step: the run's totals back as they were.
+    pub(super) fn abort(&mut self, s: &mut Integration) {
+        std::mem::swap(&mut s.acc, &mut self.kept.0);
+        std::mem::swap(&mut s.regime_time, &mut self.kept.1);
+    }
+
+    /// After the step: its increments added to the run's totals, and returned (accumulated
+    /// quantities, regime times).
+    pub(super) fn end(&mut self, s: &mut Integration) -> (&[f64], &[f64]) {
+        self.abort(s);
+        add_increments(s, &self.kept.0, &self.kept.1);
+        (&self.kept.0, &self.kept.1)
+    }
+}
+
 /// Add one step's increments of the accumulated quantities `acc` and regime times `times` to
 /// the run's totals in `s`, as the step itself adds them.
-fn add_increments(s: &mut Integration, acc: &[f64], times: &[f64]) {
+pub(super) fn add_increments(s: &mut Integration, acc: &[f64], times: &[f64]) {
     for (total, d) in s.acc.iter_mut().zip(acc) {
         *total += d;
     }

@@ -47,13 +47,25 @@ fn relative(a: f64, b: f64) -> f64 {
 }
 
 /// Every plateau's motoring torque, per-law friction torque and mean load of `a` and `b`
-/// within `tol` relative.
+/// within `tol` relative, over the same window.
 fn assert_plateaus_within(a: &RunResult, b: &RunResult, tol: f64) {
+    assert_windows_within(a, b, tol, 0.0);
+}
+
+/// As [`assert_plateaus_within`], the windows' bounds within `window_tol_s` (a PI drive's
+/// window is found from the crank angle, which moves with the state).
+fn assert_windows_within(a: &RunResult, b: &RunResult, tol: f64, window_tol_s: f64) {
     assert_eq!(a.plateaus.len(), b.plateaus.len());
     for (p, q) in a.plateaus.iter().zip(&b.plateaus) {
         let d = relative(p.motoring_torque_nm, q.motoring_torque_nm);
         assert!(d <= tol, "{} rpm: torque {d:e} apart", p.set_speed_rpm);
-        assert_eq!(p.window_s, q.window_s);
+        for (x, y) in p.window_s.iter().zip(&q.window_s) {
+            assert!(
+                (x - y).abs() <= window_tol_s,
+                "{} rpm: window {x} against {y}",
+                p.set_speed_rpm
+            );
+        }
         for (j, k) in p.joints.iter().zip(&q.joints) {
             let d = relative(j.friction_torque_nm, k.friction_torque_nm);
             assert!(d <= tol, "{} rpm {}: {d:e} apart", p.set_speed_rpm, j.joint);
@@ -290,4 +302,78 @@ fn a_crank_angle_trace_whose_cycles_never_repeat_says_so() {
             "{rpm}: reported {reported}, closed form {expected}: {warning}"
         );
     }
+}
+
+/// The thesis rig under the PI drive (default gains, a torque limit it never reaches) on a
+/// cycle whose first hold is long enough for the controller to settle: up to 3000 rpm in
+/// 0.15 s, a hold of 1.5 s, up to 4500 rpm, a hold of 0.3 s (too short to settle).
+fn pi_cycle(model: &mut RigFile) {
+    short_cycle(model);
+    if let Some(segments) = &mut model.cycle.segments {
+        segments[1] = Segment::Hold { duration_s: 1.5 };
+    }
+    model.drive = crate::model::Drive::Pi {
+        kp: 0.2,
+        ki: 8.0,
+        torque_limit_nm: 400.0,
+        belt_ratio: 1.0,
+        motor_inertia_kg_m2: 0.0,
+    };
+}
+
+/// The rig `model` with `registry`, run with hold replay `mode` (the adaptive integrator).
+fn run_pi(model: &RigFile, registry: &LawRegistry, mode: HoldReplay) -> RunResult {
+    let mut sim = Simulation::new(model, registry).expect("simulation builds");
+    sim.hold_replay = mode;
+    sim.run().expect("run")
+}
+
+/// A PI hold replayed once its cycles agree is the hold evaluated in the same orbit cycles: the
+/// replay starts within the agreement (the friction tolerance, 1e-7) of where the evaluated run
+/// is, and the difference decays with the controller's settling, so the replayed hold's plateau
+/// is within that agreement, the energy terms within 1e-6, the later plateaus within the
+/// adaptive integrator's own tolerance; the energy balance still closes, and a settled hold
+/// does replay.
+#[test]
+fn a_replayed_pi_hold_is_the_hold_evaluated() {
+    let (mut model, registry) =
+        with_sqrt_piston(include_str!("../../../../rigs/crf250r-motored.toml"));
+    pi_cycle(&mut model);
+    let replayed = run_pi(&model, &registry, HoldReplay::On);
+    let evaluated = run_pi(&model, &registry, HoldReplay::Evaluate);
+    let stepped = run_pi(&model, &registry, HoldReplay::Off);
+    assert!(
+        replayed.replayed_steps > 1000,
+        "{} steps replayed",
+        replayed.replayed_steps
+    );
+    assert_eq!((evaluated.replayed_steps, stepped.replayed_steps), (0, 0));
+    // The replayed hold: its window starts from a state within a few times the agreement of
+    // the evaluated run's, and the difference decays through the window.
+    let (p, q) = (&replayed.plateaus[0], &evaluated.plateaus[0]);
+    let d = relative(p.motoring_torque_nm, q.motoring_torque_nm);
+    assert!(d <= 1e-7, "the replayed hold's torque {d:e} apart");
+    // The plateaus after it: the adaptive steps, started from states a little apart, part ways
+    // within the integrator's own tolerance.
+    assert_windows_within(&replayed, &evaluated, 1e-5, 1e-6);
+    let (e, f) = (&replayed.energy, &evaluated.energy);
+    assert!(relative(e.motor_work_j, f.motor_work_j) < 1e-6);
+    assert!(relative(e.dissipated_j, f.dissipated_j) < 1e-6);
+    assert!(replayed.energy.relative_residual.abs() < 1e-6);
+    // Cutting the hold into orbit cycles moves the steps, not the result beyond the adaptive
+    // integrator's own tolerance.
+    assert_windows_within(&replayed, &stepped, 1e-5, 1e-6);
+}
+
+/// Under the PI drive too, a law drifting with time keeps every cycle of a hold different: nothing
+/// replayed, the numbers of every cycle evaluated.
+#[test]
+fn a_pi_hold_whose_cycles_differ_is_not_replayed() {
+    let (mut model, registry) = with_drifting_piston("committed = 0.0");
+    pi_cycle(&mut model);
+    let replayed = run_pi(&model, &registry, HoldReplay::On);
+    let evaluated = run_pi(&model, &registry, HoldReplay::Evaluate);
+    assert_eq!(replayed.replayed_steps, 0);
+    assert_plateaus_within(&replayed, &evaluated, 0.0);
+    assert_eq!(replayed.energy.motor_work_j, evaluated.energy.motor_work_j);
 }

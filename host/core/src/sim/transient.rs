@@ -9,6 +9,7 @@ use super::adaptive::Adaptive;
 use super::error::SimError;
 use super::evaluate::{Eval, Work};
 use super::lobatto::Lobatto;
+use super::orbit::Orbit;
 use super::plateau::Plateaus;
 use super::rates::RateLayout;
 use super::replay::Replay;
@@ -82,6 +83,12 @@ pub(super) struct Transient {
     interval: Option<Interval>,
     /// The replay of the hold interval under way (idle unless it is stepped in whole cycles).
     replay: Box<Replay>,
+    /// The orbit replay of the PI hold stretch under way (idle unless one is stepped in
+    /// orbit cycles).
+    orbit: Box<Orbit>,
+    /// Whether steps were replayed since the stepper last evaluated: it starts again from
+    /// the run's state before its next step.
+    restart: bool,
     /// Steps replayed, not evaluated.
     replayed: u64,
     /// Steps taken and the filtered motoring torque.
@@ -161,6 +168,12 @@ impl Simulation {
                 self.hold_replay,
                 self.tol,
             )),
+            orbit: Box::new(Orbit::new(
+                (n, self.regime_times().len()),
+                self.hold_replay,
+                self.tol,
+            )),
+            restart: false,
             replayed: 0,
             booked: Booked {
                 steps: 0,
@@ -214,7 +227,7 @@ impl Simulation {
             };
             match self.take_step(r, done, t1, iv.b)? {
                 Taken::Evaluated(step) => self.accept(r, step, observer)?,
-                Taken::Replayed(k) => self.accept_replayed(r, t1, k, observer)?,
+                Taken::Replayed(replayed) => self.accept_replayed(r, replayed, observer)?,
             }
             taken += 1;
         }
@@ -224,6 +237,13 @@ impl Simulation {
     /// interval of a hold long enough is cut to whole engine cycles, stepped in whole steps
     /// per cycle, and its replay set up; the rest of it becomes an interval of its own.
     fn next_interval(&self, r: &mut Transient) -> Option<Interval> {
+        let orbit_was_active = r.orbit.active();
+        if let Some(end) = r.orbit.next_cycle(&r.s) {
+            return Some(self.plan_interval(r, end));
+        }
+        // After a stretch in orbit cycles the stepper starts again from the run's state,
+        // replayed or not, so what follows owes nothing to how the stretch was taken.
+        r.restart |= orbit_was_active;
         let b = *r.grid.get(r.next)?;
         let window = self.starts_window(r.s.t, b);
         if window {
@@ -240,8 +260,16 @@ impl Simulation {
             *on_lobatto = !window && plan.is_none();
         }
         let Some(plan) = plan else {
+            let orbit = match r.method {
+                Method::Adaptive(_) => self.orbit_cycles(r.s.t, b),
+                _ => None,
+            };
+            if let Some(orbit) = orbit.filter(|o| o.end < b) {
+                r.grid.insert(r.next, orbit.end);
+            }
             r.next += 1;
-            return Some(self.plan_interval(r, b));
+            let end = orbit.map_or(b, |o| r.orbit.start(o, &r.s));
+            return Some(self.plan_interval(r, end));
         };
         if plan.end < b {
             r.grid.insert(r.next, plan.end);
@@ -262,21 +290,33 @@ impl Simulation {
     /// hold's cycles repeat, evaluated otherwise (its increments recorded in the cycles that
     /// are compared and replayed).
     fn take_step(&self, r: &mut Transient, done: u64, t1: f64, b: f64) -> Result<Taken, SimError> {
-        let replay = &mut r.replay;
-        if let Some(k) = replay.replay(done, &mut r.s) {
+        if let Some(k) = r.replay.replay(done, &mut r.s) {
             r.replayed += 1;
-            return Ok(Taken::Replayed(k));
+            let (theta, omega, _) = self.reference(t1);
+            return Ok(Taken::Replayed((t1, (theta, omega, 0.0), k, false)));
         }
-        let records = replay.active() && replay.records(done);
+        if let Some((t1, y, k)) = r.orbit.replay(&mut r.s, b) {
+            r.replayed += 1;
+            r.restart = true;
+            return Ok(Taken::Replayed((t1, y, k, true)));
+        }
+        if std::mem::take(&mut r.restart) {
+            r.method.stepper().restart(self, &mut r.w, &r.s)?;
+        }
+        let records = r.replay.active() && r.replay.records(done);
+        let orbit = r.orbit.records();
         if records {
-            replay.begin_step(&mut r.s);
+            r.replay.begin_step(&mut r.s);
+        } else if orbit {
+            r.orbit.begin_step(&mut r.s);
         }
         let step = r.method.stepper().step(self, &mut r.w, &mut r.s, t1, b);
-        if records {
-            match &step {
-                Ok(step) => replay.end_step(done, &mut r.s, step, &mut r.w),
-                Err(_) => replay.abort_step(&mut r.s),
-            }
+        match (&step, records, orbit) {
+            (Ok(step), true, _) => r.replay.end_step(done, &mut r.s, step, &mut r.w),
+            (Err(_), true, _) => r.replay.abort_step(&mut r.s),
+            (Ok(step), false, true) => r.orbit.end_step(&mut r.s, step, &mut r.w),
+            (Err(_), false, true) => r.orbit.abort_step(&mut r.s),
+            (_, false, false) => {}
         }
         step.map(Taken::Evaluated)
     }
@@ -304,6 +344,8 @@ impl Simulation {
     /// Plan the interval under way again from the run's time (its step, and for a prescribed
     /// crank its start evaluation): after the inputs changed, or a state was restored.
     pub(super) fn replan(&self, r: &mut Transient) -> Result<(), SimError> {
+        r.orbit.stop();
+        r.restart = false;
         if let Some(iv) = r.interval.take() {
             if r.s.t < iv.b {
                 r.next -= 1;
@@ -347,19 +389,21 @@ impl Simulation {
         Ok(())
     }
 
-    /// Take step `k` of the cycle a hold replays, ending at `t1` (its increments already
-    /// added): booked from the recorded evaluation in place, nothing to commit (stateless
-    /// laws) or hand back.
+    /// Take the replayed step `(t1, y, k, orbit)`, ending at `t1` in crank state `y` (its
+    /// increments already added): booked from the recorded end evaluation `k` (of the orbit
+    /// replay's cycle if `orbit`, else of the prescribed hold's) in place, nothing to commit
+    /// (stateless laws) or hand back.
     fn accept_replayed(
         &self,
         r: &mut Transient,
-        t1: f64,
-        k: usize,
+        (t1, y, k, orbit): Replayed,
         observer: &mut dyn StepObserver,
     ) -> Result<(), SimError> {
-        let (theta, omega, _) = self.reference(t1);
-        let at = (t1, t1 - r.s.t, (theta, omega, 0.0));
-        let end = r.replay.end(k);
+        let at = (t1, t1 - r.s.t, y);
+        let end = match orbit {
+            true => r.orbit.end_eval(k),
+            false => r.replay.end(k),
+        };
         book(self, &mut r.booked, &mut r.s, at, end, observer)
     }
 
@@ -445,11 +489,15 @@ impl Simulation {
     }
 }
 
-/// An accepted step: evaluated by the stepper, or step `k` of the cycle a hold replays.
+/// An accepted step: evaluated by the stepper, or replayed ([`Replayed`]).
 enum Taken {
     Evaluated(Step),
-    Replayed(usize),
+    Replayed(Replayed),
 }
+
+/// A replayed step: its end time (s) and crank state, and which recorded step it repeats
+/// (its index, and whether of a PI hold's orbit cycle or of a prescribed hold's cycle).
+type Replayed = (f64, CrankState, usize, bool);
 
 /// What a run keeps of its accepted steps: their count, the motoring torque through the
 /// first-order low-pass filter (N m) and the plateau windows' records.

@@ -134,7 +134,7 @@ pub struct CrankAngleTrace {
     /// The samples, rising in crank angle.
     pub samples: Vec<AngleSample>,
     /// What the user must know about this trace: with stateful laws whose cycle did not
-    /// repeat within [`MAX_SETTLING_CYCLES`], the same warning the steady run gives (the
+    /// repeat within the settling bound (200 cycles), the same warning the steady run gives (the
     /// samples are the last cycle's, not a settled one).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,

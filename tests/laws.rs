@@ -1074,3 +1074,29 @@ fn a_law_that_crashes_check_law_is_named_with_the_signal() {
     assert!(!out.status.success(), "{stderr}");
     assert_mentions(&stderr, &["SIGSEGV", "fixture-crash-in-evaluate"]);
 }
+
+/// Across the plugin boundary the law knows which parameters were given: the plain journal,
+/// loaded as a plugin, refuses a heat-balance lag given to an isothermal film (it would be
+/// ignored), and accepts the same lag left at its default or given to a held film.
+#[test]
+fn a_plugin_is_told_which_parameters_were_given() {
+    let lib = LawLibrary::load(&built_library("tribo_law_plain_journal")).expect("loads");
+    let table = |text: &str| -> toml::Table { text.parse().expect("toml") };
+    let e = match lib.create(&table("thermal_lag_rev = 2.0")) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("a lag given to an isothermal film was accepted"),
+    };
+    assert_mentions(
+        &e,
+        &[
+            "thermal_lag_rev = 2",
+            "isothermal",
+            "remove thermal_lag_rev",
+        ],
+    );
+    lib.create(&table("")).expect("the defaults");
+    lib.create(&table(
+        "thermal = \"effective\"\noil_kv40_cst = 65.0\noil_kv100_cst = 11.0\nthermal_lag_rev = 2.0",
+    ))
+    .expect("a held film's lag");
+}

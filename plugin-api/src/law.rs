@@ -37,6 +37,15 @@ pub trait Law: Sized + Send + Sync + 'static {
     /// range but inconsistent (thresholds out of order, say) with a [`ParamError`].
     fn new(params: Self::Params) -> Result<Self, ParamError>;
 
+    /// [`Law::new`] told which parameters the user gave (`given`, their names; the others hold
+    /// their defaults). The default ignores `given`; a law overrides it to refuse a parameter
+    /// given where another's value leaves it without effect (a parameter given is used or
+    /// refused, never ignored).
+    fn new_given(params: Self::Params, given: &[&str]) -> Result<Self, ParamError> {
+        let _ = given;
+        Self::new(params)
+    }
+
     /// Number of `f64` state variables the host must keep for this instance (zero: stateless).
     fn state_size(&self) -> usize {
         0
@@ -134,7 +143,8 @@ pub fn describe<L: Law>() -> Result<LawDescription, ParamError> {
 }
 
 /// Create an instance of `L` from user TOML: check names, types and ranges against the
-/// description, deserialise into `L::Params`, then let the law check consistency.
+/// description, deserialise into `L::Params` (missing keys at their defaults), then let the law
+/// check consistency, told which keys the table gave ([`Law::new_given`]).
 pub fn create_from_table<L: Law>(table: &toml::Table) -> Result<L, ParamError> {
     let desc = describe::<L>()?;
     let values = check_params(&desc, table)?;
@@ -143,7 +153,8 @@ pub fn create_from_table<L: Law>(table: &toml::Table) -> Result<L, ParamError> {
         .map_err(|e: toml::de::Error| {
             ParamError::new("", e.message().to_string()).for_law(L::NAME)
         })?;
-    L::new(params).map_err(|e| e.for_law(L::NAME))
+    let given: Vec<&str> = table.keys().map(String::as_str).collect();
+    L::new_given(params, &given).map_err(|e| e.for_law(L::NAME))
 }
 
 /// For a law's unit tests: the declared parameters and `Params` agree, and the defaults are

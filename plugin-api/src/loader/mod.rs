@@ -370,9 +370,12 @@ impl LawLibrary {
         let _running = inflight::enter(self.code);
         let backend = match &self.backend {
             LibBackend::Rust(lib) => {
-                let text = toml::to_string(&values_to_table(&values)).map_err(|e| {
-                    self.param_error(ParamError::new("", e.to_string()).for_law(self.name()))
-                })?;
+                // Only the keys given cross (checked and converted): the law's side fills in
+                // the same defaults from the same description, and knows what was given.
+                let text = toml::to_string(&values_to_table(&given_values(&values, params)))
+                    .map_err(|e| {
+                        self.param_error(ParamError::new("", e.to_string()).for_law(self.name()))
+                    })?;
                 lib.create(&text, self)?
             }
             LibBackend::C(lib) => {
@@ -391,7 +394,7 @@ impl LawLibrary {
                 InstBackend::C(c_abi::CInstance::create(lib.clone(), &flat, self)?)
             }
             LibBackend::InProcess(create) => {
-                let table = values_to_table(&values);
+                let table = values_to_table(&given_values(&values, params));
                 InstBackend::InProcess(create(&table).map_err(|e| self.param_error(e))?)
             }
         };
@@ -434,6 +437,18 @@ impl LawLibrary {
             message,
         }
     }
+}
+
+/// The checked `values` of the keys `params` gives, in the description's order.
+fn given_values(
+    values: &[(String, ParamValue)],
+    params: &toml::Table,
+) -> Vec<(String, ParamValue)> {
+    values
+        .iter()
+        .filter(|(name, _)| params.contains_key(name))
+        .cloned()
+        .collect()
 }
 
 /// The crash-report name of law `name` from `path`.

@@ -559,6 +559,11 @@ impl Law for PlainJournal {
         ]
     }
 
+    fn new_given(p: Params, given: &[&str]) -> Result<Self, ParamError> {
+        refuse_unused_heat_parameters(&p, given)?;
+        Self::new(p)
+    }
+
     fn new(p: Params) -> Result<Self, ParamError> {
         let model = match p.model.as_str() {
             "finite" => Model::Finite,
@@ -725,11 +730,44 @@ impl Law for PlainJournal {
     }
 }
 
+/// The heat balance's parameters given (`given`) where `p` leaves them without effect: both
+/// with an isothermal film (no film temperature to balance), the lag with the instantaneous
+/// balance (nothing held). Refused, naming the parameter, its value, why and what to do.
+fn refuse_unused_heat_parameters(p: &Params, given: &[&str]) -> Result<(), ParamError> {
+    let is_given = |name: &str| given.contains(&name);
+    if p.thermal == "isothermal" {
+        let unused = [
+            ("heat_balance", format!("\"{}\"", p.heat_balance)),
+            ("thermal_lag_rev", p.thermal_lag_rev.to_string()),
+        ];
+        if let Some((name, value)) = unused.into_iter().find(|(n, _)| is_given(n)) {
+            return Err(ParamError::new(
+                name,
+                format!(
+                    "{name} = {value} is given with thermal = \"isothermal\", which shears the film at the oil's given viscosity and has no film temperature to balance, so it would be ignored; remove {name}, or set thermal = \"effective\" (with the oil's oil_kv40_cst and oil_kv100_cst) for the heat balance to use it"
+                ),
+            ));
+        }
+    } else if p.heat_balance == "instantaneous" && is_given("thermal_lag_rev") {
+        return Err(ParamError::new(
+            "thermal_lag_rev",
+            format!(
+                "thermal_lag_rev = {} is given with heat_balance = \"instantaneous\", which solves the balance at every instant and holds no heat, so the lag would be ignored; remove thermal_lag_rev, or set heat_balance = \"cycle-mean\" for the film to hold its heat with that lag",
+                p.thermal_lag_rev
+            ),
+        ));
+    }
+    Ok(())
+}
+
 impl PlainJournal {
     /// The cycle-mean heat balance's commit: the film's temperature and mean flow advanced over
     /// the step ([`thermal::HeldFilm`]) with the step's power and flow at the committed
-    /// eccentricity and the held viscosity, the lag `tau` being `thermal_lag_rev` revolutions
-    /// of the crank (of the film's mean speed where the host gives no engine speed). The first
+    /// eccentricity and the held viscosity: first-order lags (not delays), the mean flow's
+    /// with the time constant `tau`, the temperature's with `tau` at the mean flow (`tau` times
+    /// the mean over the step's flow). `tau` is `thermal_lag_rev` revolutions at the faster of
+    /// the engine speed and the film's mean angular speed `|omega_bar|` (on the host's mains
+    /// and big ends the engine speed; the film's where no engine speed is given). The first
     /// commit places the film at the instantaneous balance's root and flow.
     fn hold_heat(&self, input: &LawInput, f: &Film, state: &mut [f64]) {
         let (Some(oil), Some(lag_rev), Some(t)) = (self.thermal, self.lag_rev, f.temperature)
@@ -1261,6 +1299,99 @@ mod tests {
             "{}\nthermal_lag_rev = 0.1",
             held_film()
         ));
+    }
+
+    /// A heat-balance parameter given where it has no effect is refused naming it, its value,
+    /// why and what to do: both with an isothermal film (the default or stated), the lag with
+    /// the balance of the instant. Left at their defaults they are not refused, and given
+    /// where they act they are accepted.
+    #[test]
+    fn heat_balance_parameters_given_where_they_do_nothing_are_refused() {
+        for (text, name, value) in [
+            (
+                "heat_balance = \"instantaneous\"",
+                "heat_balance",
+                "\"instantaneous\"",
+            ),
+            (
+                "thermal = \"isothermal\"\nheat_balance = \"cycle-mean\"",
+                "heat_balance",
+                "\"cycle-mean\"",
+            ),
+            ("thermal_lag_rev = 4.0", "thermal_lag_rev", "4"),
+            (
+                "thermal = \"isothermal\"\nthermal_lag_rev = 2.0",
+                "thermal_lag_rev",
+                "2",
+            ),
+        ] {
+            let e = law(text).expect_err(text).to_string();
+            for word in [
+                format!("{name} = {value}"),
+                "isothermal".into(),
+                "no film temperature".into(),
+                format!("remove {name}"),
+                "thermal = \"effective\"".into(),
+            ] {
+                assert!(e.contains(&word), "{text}: `{word}` not in: {e}");
+            }
+        }
+        let e = law(&format!(
+            "{EFFECTIVE}\nheat_balance = \"instantaneous\"\nthermal_lag_rev = 0.5"
+        ))
+        .expect_err("a lag without a held film")
+        .to_string();
+        for word in [
+            "thermal_lag_rev = 0.5",
+            "instantaneous",
+            "holds no heat",
+            "remove thermal_lag_rev",
+        ] {
+            assert!(e.contains(word), "`{word}` not in: {e}");
+        }
+        law("clearance_m = 2e-5").expect("defaults left alone");
+        law(&format!("{}\nthermal_lag_rev = 0.5", held_film())).expect("a held film's lag");
+        law(&format!("{EFFECTIVE}\nheat_balance = \"instantaneous\"")).expect("balance given");
+    }
+
+    /// The lag given to a held film is used, as `hold_heat` says: a first-order lag whose time
+    /// constant is `thermal_lag_rev` revolutions at the faster of the engine speed and the
+    /// film's mean angular speed (150 rad/s here: journal 300, shell still). One step `dt` from
+    /// the same film, 10 K off its balance, moves it by the same offset times
+    /// `1 - exp(-dt / tau)`, so the ratio of two steps' moves is that of their factors (to 2%:
+    /// the held mean flow follows its own lag).
+    #[test]
+    fn a_given_lag_is_used_at_the_faster_speed() {
+        let dt = 1e-4;
+        let moved = |lag: f64, engine_rad_s: f64| {
+            let mut i = main_bearing(300.0, 5000.0, dt);
+            i.oil_temp_c = 90.0;
+            i.viscosity_pa_s = rig_oil_viscosity(90.0);
+            i.engine_speed_rad_s = engine_rad_s;
+            let l = law(&format!("{}\nthermal_lag_rev = {lag}", held_film())).expect("law");
+            let mut state = [0.0; STATE];
+            l.commit(&i, &mut state);
+            let balance = state[FILM_TEMP];
+            state[FILM_TEMP] = balance + 10.0;
+            l.commit(&i, &mut state);
+            balance + 10.0 - state[FILM_TEMP]
+        };
+        let factor = |lag: f64, omega: f64| 1.0 - (-dt * omega / (lag * 2.0 * PI)).exp();
+        let close = |a: f64, b: f64| (a / b - 1.0).abs() < 0.02;
+        let (short, long) = (moved(0.5, 0.0), moved(8.0, 0.0));
+        let expected = factor(0.5, 150.0) / factor(8.0, 150.0);
+        assert!(
+            close(short / long, expected),
+            "{short} / {long} vs {expected}"
+        );
+        let fast = moved(2.0, 600.0) / moved(2.0, 0.0);
+        let expected = factor(2.0, 600.0) / factor(2.0, 150.0);
+        assert!(
+            close(fast, expected),
+            "engine 600 rad/s: {fast} vs {expected}"
+        );
+        // An engine slower than the film's mean speed leaves the film's.
+        assert_eq!(moved(2.0, 100.0), moved(2.0, 0.0));
     }
 
     #[test]

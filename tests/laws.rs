@@ -416,6 +416,25 @@ fn plain_journal_diagnostics_in_the_crank_angle_results_obey_the_film_physics() 
         ] {
             assert!(svg.contains(label), "{rpm} rpm: no `{label}` in the plot");
         }
+        // The skirts' lateral offsets are drawn against crank angle on their own axes, not
+        // as journals' loci.
+        assert!(
+            !svg.contains("piston_"),
+            "{rpm} rpm: a piston among the journals"
+        );
+        let svg = std::fs::read_to_string(out_dir.join(format!("piston_offset_{rpm}.svg")))
+            .expect("the pistons' offsets");
+        for label in [
+            "piston_1 (piston-skirt)",
+            "piston_4 (piston-skirt)",
+            "crank angle (degrees)",
+            "lateral offset e/c (-), across the bore",
+        ] {
+            assert!(
+                svg.contains(label),
+                "{rpm} rpm: no `{label}` in the offset plot"
+            );
+        }
     }
     // Rolling-bearing and tuned laws report no eccentricity: no loci plot.
     let plain = dir.path().join("rolling");
@@ -436,6 +455,7 @@ fn plain_journal_diagnostics_in_the_crank_angle_results_obey_the_film_physics() 
     assert!(out.status.success(), "{}", text(&out).1);
     assert!(plain.join("bearing_loads_3000.svg").is_file());
     assert!(!plain.join("eccentricity_3000.svg").exists());
+    assert!(!plain.join("piston_offset_3000.svg").exists());
 }
 
 /// The rows of a `crank_angle.csv`, by column name.

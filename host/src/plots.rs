@@ -344,7 +344,7 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
                 let shares: Vec<_> = p
                     .joints
                     .iter()
-                    .filter(|j| j.joint == "piston" || j.joint.starts_with("piston_"))
+                    .filter(|j| is_piston(&j.joint))
                     .filter(|j| j.regime_share.none < 0.5)
                     .map(|j| j.regime_share)
                     .collect();
@@ -1018,45 +1018,76 @@ fn bearing_polar_plot(t: &crate::sim::CrankAngleTrace, out: &mut String) -> Plot
     Ok(())
 }
 
-/// The journals' eccentricity loci of a plateau's cycle: per joint whose law reports its
-/// eccentricity (contract v3), the ratio e/c over the cycle inside the unit circle (the
-/// bearing wall), in the outer member's frame; `None` where no law reports one
-/// (`run --crank-angle`, `eccentricity_RPM.svg`).
+/// Whether joint `name` is a piston (`piston`, `piston_N`): a slide, whose law's eccentricity is
+/// the lateral offset across the bore, not a journal's locus.
+fn is_piston(name: &str) -> bool {
+    name == "piston" || name.starts_with("piston_")
+}
+
+/// The journals' eccentricity loci of a plateau's cycle: per journal (main bearing, big end,
+/// small end) whose law reports its eccentricity (contract v3), the ratio e/c over the cycle
+/// inside the unit circle (the bearing wall), in the outer member's frame; `None` where no
+/// journal's law reports one (`run --crank-angle`, `eccentricity_RPM.svg`). The pistons'
+/// offsets are [`piston_offset_svg`]'s.
 pub fn eccentricity_polar_svg(t: &crate::sim::CrankAngleTrace) -> Option<std::io::Result<String>> {
-    let loci = eccentricity_loci(t);
+    let loci: Vec<Locus> = eccentricity_samples(t, false)
+        .into_iter()
+        .map(|(label, pts)| (label, pts.iter().map(|&(_, x, y)| (x, y)).collect()))
+        .collect();
     if loci.is_empty() {
         return None;
     }
     Some(svg(|s| eccentricity_polar_plot(t.speed_rpm, &loci, s)))
 }
 
-/// Per joint, the first of its laws that reports an eccentricity, and its locus (x, y).
-fn eccentricity_loci(t: &crate::sim::CrankAngleTrace) -> Vec<(String, Vec<(f64, f64)>)> {
-    let mut loci: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    for (k, (joint, _)) in t.laws.iter().enumerate() {
-        if loci.iter().any(|(j, _)| j == joint) {
+/// The pistons' lateral offsets over a plateau's cycle: per piston whose law reports its
+/// eccentricity (the piston skirt: `(0, e/c)` in the cylinder frame), the offset across the
+/// bore as a fraction of the skirt's clearance against crank angle; `None` where no piston's
+/// law reports one (`run --crank-angle`, `piston_offset_RPM.svg`).
+pub fn piston_offset_svg(t: &crate::sim::CrankAngleTrace) -> Option<std::io::Result<String>> {
+    let offsets: Vec<Locus> = eccentricity_samples(t, true)
+        .into_iter()
+        .map(|(label, pts)| (label, pts.iter().map(|&(a, _, y)| (a, y)).collect()))
+        .collect();
+    if offsets.is_empty() {
+        return None;
+    }
+    Some(svg(|s| piston_offset_plot(t, &offsets, s)))
+}
+
+/// A joint's legend label (joint and law) and its points.
+type Locus = (String, Vec<(f64, f64)>);
+
+/// A joint's legend label and its eccentricity ratio by crank angle: (degrees, x, y).
+type Sampled = (String, Vec<(f64, f64, f64)>);
+
+/// Per joint (the pistons if `pistons`, else the journals), the first of its laws that reports
+/// an eccentricity, labelled "joint (law)", and the ratio where it reports it: (crank angle in
+/// degrees, x, y).
+fn eccentricity_samples(t: &crate::sim::CrankAngleTrace, pistons: bool) -> Vec<Sampled> {
+    let mut loci: Vec<Sampled> = Vec::new();
+    let mut seen: Vec<&str> = Vec::new();
+    for (k, (joint, law)) in t.laws.iter().enumerate() {
+        if seen.contains(&joint.as_str()) || is_piston(joint) != pistons {
             continue;
         }
-        let pts: Vec<(f64, f64)> = t
+        let pts: Vec<(f64, f64, f64)> = t
             .samples
             .iter()
             .filter_map(|s| {
                 let l = s.laws.get(k)?;
-                Some((l.eccentricity_x?, l.eccentricity_y?))
+                Some((s.crank_angle_deg, l.eccentricity_x?, l.eccentricity_y?))
             })
             .collect();
         if !pts.is_empty() {
-            loci.push((joint.clone(), pts));
+            seen.push(joint);
+            loci.push((format!("{joint} ({law})"), pts));
         }
     }
     loci
 }
 
-fn eccentricity_polar_plot(
-    speed_rpm: f64,
-    loci: &[(String, Vec<(f64, f64)>)],
-    out: &mut String,
-) -> PlotResult {
+fn eccentricity_polar_plot(speed_rpm: f64, loci: &[Locus], out: &mut String) -> PlotResult {
     let root = SVGBackend::with_string(out, (900, 760)).into_drawing_area();
     root.fill(&WHITE)?;
     let names: Vec<String> = loci.iter().map(|(j, _)| j.clone()).collect();
@@ -1067,8 +1098,8 @@ fn eccentricity_polar_plot(
         &format!("Journal eccentricity e/c over the cycle at {speed_rpm:.0} rpm"),
         -1.1..1.1,
         -1.1..1.1,
-        "e/c, x: across the bore (mains) or the rod (big ends)",
-        "e/c, y: towards the head (mains) or the small end (big ends)",
+        "e/c, x (-): across the bore (mains) or the rod (big ends)",
+        "e/c, y (-): towards the head (mains) or the small end (big ends)",
     )?;
     // The bearing wall: |e| = c.
     let wall: Vec<(f64, f64)> = (0..=360)
@@ -1087,28 +1118,92 @@ fn eccentricity_polar_plot(
         // The cycle's start (crank angle 0) marked, so the direction of travel reads.
         draw_markers(&mut chart, k, &pts[..1.min(pts.len())], color)?;
     }
-    note.fill(&WHITE)?;
-    for (i, line) in [
-        "In the outer member's frame: the block for mains, the rod for big ends; angles",
-        "counter-clockwise from +x seen from the drive end. Marker: crank angle 0.",
-        "Circle: the bearing wall (e = c).",
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        note.draw(&Text::new(
-            line,
-            (20, 4 + 17 * i as i32),
-            ("sans-serif", 13),
-        ))?;
-    }
+    note_lines(
+        &note,
+        &[
+            "Journal centre offset e over the radial clearance c, in the outer member's frame: the",
+            "block for mains, the rod for big ends; angles counter-clockwise from +x seen from the",
+            "drive end. Marker: crank angle 0. Circle: the bearing wall (e = c).",
+        ],
+    )?;
     let entries: Vec<(String, Swatch)> = names
         .iter()
         .enumerate()
         .map(|(k, j)| (j.clone(), Swatch::Marked(distinct_color(k, n), k)))
         .collect();
-    legend_beside(&side, "joint", &entries)?;
+    legend_beside(&side, "journal (law)", &entries)?;
     root.present()?;
+    Ok(())
+}
+
+fn piston_offset_plot(
+    t: &crate::sim::CrankAngleTrace,
+    offsets: &[Locus],
+    out: &mut String,
+) -> PlotResult {
+    let root = SVGBackend::with_string(out, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let names: Vec<String> = offsets.iter().map(|(j, _)| j.clone()).collect();
+    let (plot, side) = root.split_horizontally(1000 - legend_width(&names).max(200));
+    let (plot, note) = plot.split_vertically(545);
+    let x1 = t
+        .samples
+        .last()
+        .map_or(360.0, |s| s.crank_angle_deg)
+        .max(1.0);
+    let mut chart = frame(
+        &plot,
+        &format!(
+            "Piston lateral offset in the bore over the cycle at {:.0} rpm",
+            t.speed_rpm
+        ),
+        0.0..x1,
+        -1.1..1.1,
+        "crank angle (degrees)",
+        "lateral offset e/c (-), across the bore",
+    )?;
+    // The skirt's pads on the liner: e = +c and e = -c.
+    for wall in [-1.0, 1.0] {
+        chart.draw_series(LineSeries::new(
+            [(0.0, wall), (x1, wall)],
+            BLACK.stroke_width(1),
+        ))?;
+    }
+    let n = offsets.len();
+    for (k, (_, pts)) in offsets.iter().enumerate() {
+        let color = distinct_color(k, n);
+        chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
+    }
+    note_lines(
+        &note,
+        &[
+            "The piston's offset e across the bore over the skirt's radial clearance c, positive",
+            "towards the cylinder frame's +y (normal to the bore's axis). Lines: the pads on the liner (e = c).",
+        ],
+    )?;
+    let entries: Vec<(String, Swatch)> = names
+        .iter()
+        .enumerate()
+        .map(|(k, j)| (j.clone(), Swatch::Line(distinct_color(k, n))))
+        .collect();
+    legend_beside(&side, "piston (law)", &entries)?;
+    root.present()?;
+    Ok(())
+}
+
+/// Lines of explanation under a plot, in `area`.
+fn note_lines(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    lines: &[&str],
+) -> PlotResult {
+    area.fill(&WHITE)?;
+    for (i, line) in lines.iter().enumerate() {
+        area.draw(&Text::new(
+            *line,
+            (20, 4 + 17 * i as i32),
+            ("sans-serif", 13),
+        ))?;
+    }
     Ok(())
 }
 
@@ -1154,5 +1249,125 @@ mod tests {
         .expect("drawn");
         assert!(text.contains("<svg"));
         assert!(start.elapsed().as_secs_f64() < 5.0, "{:?}", start.elapsed());
+    }
+}
+
+#[cfg(test)]
+mod eccentricity_tests {
+    use super::*;
+    use crate::sim::{AngleSample, CrankAngleTrace, LawSample};
+
+    /// A law's sample reporting the eccentricity ratio (x, y).
+    fn sample(x: f64, y: f64) -> LawSample {
+        LawSample {
+            friction_torque_nm: 0.1,
+            power_w: 10.0,
+            normal_load_n: 100.0,
+            sliding_speed_m_s: 1.0,
+            regime: "hydrodynamic".into(),
+            min_film_m: Some(1e-6),
+            eccentricity_x: Some(x),
+            eccentricity_y: Some(y),
+            peak_pressure_pa: None,
+            asperity_share: None,
+        }
+    }
+
+    /// A main bearing on a circle of e/c 0.5 and a skirt offset 0.3 sin(theta) across the bore.
+    fn trace() -> CrankAngleTrace {
+        let samples = (0..36)
+            .map(|k| {
+                let a = f64::from(k) * 10.0;
+                let r = a.to_radians();
+                AngleSample {
+                    crank_angle_deg: a,
+                    laws: vec![
+                        sample(0.5 * r.cos(), 0.5 * r.sin()),
+                        sample(0.0, 0.3 * r.sin()),
+                    ],
+                    big_end_n: [0.0; 2],
+                    main_n: [0.0; 2],
+                    pressures_pa: [1e5; 2],
+                    drive_torque_nm: 0.0,
+                    cylinders: Vec::new(),
+                    mains_n: Vec::new(),
+                }
+            })
+            .collect();
+        CrankAngleTrace {
+            speed_rpm: 3000.0,
+            laws: vec![
+                ("main_1".into(), "plain-journal".into()),
+                ("piston_1".into(), "piston-skirt".into()),
+            ],
+            samples,
+            warnings: Vec::new(),
+        }
+    }
+
+    /// The text elements of an SVG.
+    fn texts(svg: &str) -> Vec<String> {
+        svg.split("<text")
+            .skip(1)
+            .filter_map(|t| {
+                Some(
+                    t.split_once('>')?
+                        .1
+                        .split_once("</text>")?
+                        .0
+                        .trim()
+                        .to_string(),
+                )
+            })
+            .collect()
+    }
+
+    /// The journals' loci and the pistons' offsets are drawn apart, each on axes that say what
+    /// they are, with units, and a legend naming joint and law: the skirt's lateral offset is
+    /// not drawn as a journal's eccentricity.
+    #[test]
+    fn a_skirt_s_offset_is_not_drawn_as_a_journal_s_eccentricity() {
+        let t = trace();
+        let polar = eccentricity_polar_svg(&t)
+            .expect("a journal")
+            .expect("renders");
+        let polar = texts(&polar);
+        assert!(
+            polar.iter().any(|s| s == "main_1 (plain-journal)"),
+            "{polar:?}"
+        );
+        assert!(polar.iter().all(|s| !s.contains("piston")), "{polar:?}");
+        assert!(
+            polar.iter().any(|s| s.starts_with("e/c, x (-)")),
+            "{polar:?}"
+        );
+        let offset = piston_offset_svg(&t).expect("a piston").expect("renders");
+        let offset = texts(&offset);
+        for label in [
+            "Piston lateral offset in the bore over the cycle at 3000 rpm",
+            "crank angle (degrees)",
+            "lateral offset e/c (-), across the bore",
+            "piston_1 (piston-skirt)",
+        ] {
+            assert!(offset.iter().any(|s| s == label), "{label}: {offset:?}");
+        }
+        assert!(offset.iter().all(|s| !s.contains("main_1")), "{offset:?}");
+        // The offset is drawn against crank angle: its points are (angle, e/c across).
+        let pistons = eccentricity_samples(&t, true);
+        let (_, pts) = &pistons[0];
+        assert_eq!(pts.len(), 36);
+        let (a, _, y) = pts[9];
+        assert!(
+            (a - 90.0).abs() < 1e-12 && (y - 0.3).abs() < 1e-12,
+            "{a} {y}"
+        );
+        // A trace without pistons' eccentricity has no offset plot.
+        let mut journal_only = t.clone();
+        journal_only.laws.truncate(1);
+        journal_only
+            .samples
+            .iter_mut()
+            .for_each(|s| s.laws.truncate(1));
+        assert!(piston_offset_svg(&journal_only).is_none());
     }
 }

@@ -373,7 +373,9 @@ const DIAGNOSTIC_COLUMNS: [DiagnosticColumn; 5] = [
 /// vectors, cylinder and crankcase pressure, drive torque), and per plateau the friction
 /// torque of every joint over the cycle (`friction_vs_angle_RPM.svg`) and the polar diagram of
 /// the big-end and main-bearing loads (`bearing_loads_RPM.svg`), and where a law reports a
-/// journal's eccentricity the loci of e/c (`eccentricity_RPM.svg`). Swapped in whole.
+/// journal's eccentricity the loci of e/c (`eccentricity_RPM.svg`), where a law reports a
+/// piston's the lateral offset e/c against crank angle (`piston_offset_RPM.svg`). Swapped in
+/// whole.
 pub fn write_crank_angle(
     traces: &[crate::sim::CrankAngleTrace],
     dir: &Path,
@@ -510,6 +512,11 @@ pub fn write_crank_angle(
         out.write(&name, svg.as_bytes())?;
         if let Some(svg) = crate::plots::eccentricity_polar_svg(t) {
             let name = format!("eccentricity_{:.0}.svg", t.speed_rpm);
+            let svg = svg.map_err(|e| render(&name, e))?;
+            out.write(&name, svg.as_bytes())?;
+        }
+        if let Some(svg) = crate::plots::piston_offset_svg(t) {
+            let name = format!("piston_offset_{:.0}.svg", t.speed_rpm);
             let svg = svg.map_err(|e| render(&name, e))?;
             out.write(&name, svg.as_bytes())?;
         }

@@ -280,3 +280,58 @@ fn an_unusable_out_is_refused_before_any_law_runs() {
         "mine"
     );
 }
+
+/// A setting the run refuses (settings used or refused, docs/solver.md) reads the same from an
+/// isolated study as from an in-process one: the setting, its value, why and what to do, in the
+/// same words, with nothing written. (Isolated, each law set's worker refuses it, so it is
+/// listed under every set that failed; in process the first set's refusal ends the study.)
+#[test]
+fn a_refused_setting_reads_the_same_isolated_and_in_process() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let refusal = |extra: &[&str], out: &str| -> Vec<String> {
+        let mut args = vec![
+            "compare",
+            "--steady",
+            "--no-cv",
+            "--lawset",
+            "fedem-baseline",
+            "--lawset",
+            "mixed-film",
+            "--set",
+            "solver.integrator=\"rk4\"",
+            "--out",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        let r = tribo_in(&args, d);
+        let (_, stderr) = text(&r);
+        assert_eq!(r.status.code(), Some(1), "{stderr}");
+        assert!(!d.join(out).exists(), "{out} written: {stderr}");
+        // The refusal as the user reads it, from the setting on (each line names its set).
+        let lines: Vec<String> = stderr
+            .lines()
+            .filter_map(|l| {
+                l.split_once("--set: ")
+                    .map(|(_, rest)| rest.trim().to_string())
+            })
+            .collect();
+        assert!(!lines.is_empty(), "no refusal in: {stderr}");
+        lines
+    };
+    let isolated = refusal(&[], "iso");
+    let in_process = refusal(&["--in-process"], "inp");
+    assert_eq!(in_process.len(), 1, "{in_process:?}");
+    let expected = &in_process[0];
+    for words in [
+        "solver.integrator: \"rk4\" cannot be used by this run",
+        "the crank is prescribed (drive.kind = \"prescribed\")",
+        "remove solver.integrator, or use drive.kind = \"pi\"",
+    ] {
+        assert!(expected.contains(words), "`{words}` not in: {expected}");
+    }
+    assert_eq!(isolated.len(), 2, "{isolated:?}");
+    for line in &isolated {
+        assert_eq!(line, expected, "isolated against in-process");
+    }
+}

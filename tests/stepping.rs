@@ -125,6 +125,67 @@ fn a_saved_state_replays_bit_for_bit() {
     assert!(err.to_string().contains("restore"), "{err}");
 }
 
+/// Under the PI drive a settled hold's cycles are replayed (docs/solver.md). A run landed on a
+/// time inside the replayed stretch (2.25 s: the 3000 rpm hold replays from before it, checked
+/// below, and its stretch ends at 2.32 s, a whole number of revolutions before the window's
+/// records) leaves the replay there and steps on; a state saved at that time and restored
+/// after the run went on replays bit for bit; and the result is the uninterrupted run's within
+/// the adaptive integrator's own tolerance (1e-5: the steps differ after the landing).
+#[test]
+fn a_pi_run_landed_inside_a_replayed_hold_steps_on() {
+    let registry = registry();
+    let pi = ["drive={kind=\"pi\"}"];
+    let to_end = |run: &mut Run| while run.step().expect("step") {};
+    // The uninterrupted run, its drive torque recorded per step in the 3000 rpm hold: a replayed
+    // step repeats a step of a revolution (20 ms) before bit for bit, an evaluated one never.
+    let mut whole = run_of(Some("fedem-baseline"), &pi, &registry);
+    let mut hold: std::collections::HashMap<u64, f64> = std::collections::HashMap::new();
+    let mut replayed_by = f64::INFINITY;
+    while whole.step().expect("step") {
+        let out = whole.outputs();
+        if (1.5..2.5).contains(&out.time_s) {
+            let bits = out.drive_torque_nm.to_bits();
+            if let Some(t) = hold.get(&bits) {
+                let revs = (out.time_s - t) / 0.02;
+                if (revs - revs.round()).abs() < 1e-6 {
+                    replayed_by = replayed_by.min(out.time_s);
+                }
+            }
+            hold.insert(bits, out.time_s);
+        }
+    }
+    assert!(
+        replayed_by < 2.25,
+        "the hold replays first at {replayed_by} s"
+    );
+    let whole = whole.result().expect("result");
+    assert!(whole.replayed_steps > 0, "nothing replayed");
+    let landed = |restore: bool| {
+        let mut run = run_of(Some("fedem-baseline"), &pi, &registry);
+        run.advance_to(2.25).expect("advance");
+        assert_eq!(run.time_s(), 2.25);
+        if restore {
+            let saved = run.save();
+            run.advance_to(2.4).expect("advance");
+            run.restore(&saved).expect("restore");
+        }
+        to_end(&mut run);
+        run.result().expect("result")
+    };
+    let (plain, restored) = (landed(false), landed(true));
+    let json = |r: &tribo::sim::RunResult| serde_json::to_value(r).expect("json");
+    for key in ["plateaus", "energy", "steps"] {
+        assert_eq!(json(&restored)[key], json(&plain)[key], "{key}");
+    }
+    assert_close(
+        &json(&plain)["plateaus"],
+        &json(&whole)["plateaus"],
+        1e-5,
+        "plateaus",
+    );
+    assert!(plain.energy.relative_residual.abs() < 1e-6);
+}
+
 /// Two runs in one process share nothing: stepped in turns, one with other inputs, each gives
 /// what it gives alone.
 #[test]

@@ -15,7 +15,7 @@
 use std::f64::consts::TAU;
 
 use super::evaluate::{Eval, Work};
-use super::replay::{add_increments, agree, HoldReplay, StepIncrements, AGREEMENT_FLOOR};
+use super::replay::{agree, HoldReplay, RecordedSteps, StepIncrements, AGREEMENT_FLOOR};
 use super::stepper::{CrankState, Integration, Step};
 use super::Simulation;
 
@@ -30,24 +30,21 @@ pub(super) struct OrbitCycles {
     pub(super) end: f64,
 }
 
-/// One cycle's record: its steps (end time after the cycle's start, crank state with the
-/// angle counted from the cycle's start), their increments and end evaluations, the sums of
-/// the increments and the crank state at the cycle's end (angle from its start).
+/// One cycle's record: its steps (their end times after the cycle's start and crank states with
+/// the angle counted from the cycle's start; their increments and end evaluations), the sums
+/// of the increments and the crank state at the cycle's end (angle from its start).
 #[derive(Clone, Default)]
 struct CycleRecord {
-    steps: Vec<(f64, CrankState)>,
-    increments: Vec<f64>,
-    ends: Vec<Eval>,
-    recorded: usize,
+    at: Vec<(f64, CrankState)>,
+    steps: RecordedSteps,
     sums: Vec<f64>,
     end: CrankState,
 }
 
 impl CycleRecord {
     fn clear(&mut self, per_step: usize) {
+        self.at.clear();
         self.steps.clear();
-        self.increments.clear();
-        self.recorded = 0;
         self.sums.clear();
         self.sums.resize(per_step, 0.0);
     }
@@ -56,11 +53,11 @@ impl CycleRecord {
 /// The orbit replay of a PI hold's stretch under way.
 #[derive(Clone)]
 pub(super) struct Orbit {
-    /// Cycles of the stretch not yet done, the one under way included (0: idle).
-    left: u64,
+    /// The stretch's cycles (0: idle), their period (s), the stretch's start (s), the cycles
+    /// done and the stretch's end (s): the cycle under way ends a period after the cycles done,
+    /// the last one on the stretch's end.
+    cycles: u64,
     period: f64,
-    /// The stretch's start (s) and the cycles done: the end of the cycle under way is their
-    /// sum with one period more (the last one the stretch's end).
     from: f64,
     done: u64,
     end: f64,
@@ -69,8 +66,6 @@ pub(super) struct Orbit {
     /// The cycle under way and the last one finished (the one replayed once they agree).
     current: CycleRecord,
     last: CycleRecord,
-    /// Whether `last` may be compared (a whole cycle recorded before the one under way).
-    last_valid: bool,
     /// Whether the last two cycles agreed: the rest of the stretch replays `last`.
     agreed: bool,
     /// The next step of `last` to replay.
@@ -128,7 +123,7 @@ impl Orbit {
         friction_tol: f64,
     ) -> Self {
         Self {
-            left: 0,
+            cycles: 0,
             period: 0.0,
             from: 0.0,
             done: 0,
@@ -136,7 +131,6 @@ impl Orbit {
             start: (0.0, (0.0, 0.0, 0.0)),
             current: CycleRecord::default(),
             last: CycleRecord::default(),
-            last_valid: false,
             agreed: false,
             cursor: 0,
             increments: StepIncrements::new(n_acc, n_regime),
@@ -149,14 +143,13 @@ impl Orbit {
     /// end.
     pub(super) fn start(&mut self, plan: OrbitCycles, s: &Integration) -> f64 {
         let per_step = s.acc.len() + s.regime_time.len();
-        self.left = plan.cycles;
+        self.cycles = plan.cycles;
         self.period = plan.period;
         self.from = s.t;
         self.done = 0;
         self.end = plan.end;
         self.start = (s.t, s.y);
         self.current.clear(per_step);
-        self.last_valid = false;
         self.agreed = false;
         self.cursor = 0;
         self.cycle_end()
@@ -164,17 +157,17 @@ impl Orbit {
 
     /// Idle: the stretch is left (its cycles done, or the run planned again mid-cycle).
     pub(super) fn stop(&mut self) {
-        self.left = 0;
+        self.cycles = 0;
     }
 
     /// Whether a stretch is under way.
     pub(super) fn active(&self) -> bool {
-        self.left > 0
+        self.done < self.cycles
     }
 
     /// The end of the cycle under way, s.
     fn cycle_end(&self) -> f64 {
-        if self.left == 1 {
+        if self.done + 1 == self.cycles {
             self.end
         } else {
             self.from + (self.done + 1) as f64 * self.period
@@ -193,15 +186,14 @@ impl Orbit {
         if !self.agreed {
             let (_, y0) = self.start;
             self.current.end = (s.y.0 - y0.0, s.y.1, s.y.2);
-            self.agreed = self.allowed && self.last_valid && self.cycles_agree();
+            // `last` is this stretch's once a cycle of it is done.
+            self.agreed = self.allowed && self.done > 0 && self.cycles_agree();
             std::mem::swap(&mut self.current, &mut self.last);
-            self.last_valid = true;
             self.current.clear(s.acc.len() + s.regime_time.len());
         }
         self.cursor = 0;
         self.start = (s.t, s.y);
         self.done += 1;
-        self.left -= 1;
         self.active().then(|| self.cycle_end())
     }
 
@@ -243,14 +235,8 @@ impl Orbit {
         for (sum, d) in c.sums.iter_mut().zip(acc.iter().chain(times)) {
             *sum += d;
         }
-        c.increments.extend(acc.iter().chain(times));
-        c.steps
-            .push((step.t1 - t0, (step.y.0 - y0.0, step.y.1, step.y.2)));
-        if c.recorded == c.ends.len() {
-            c.ends.push(w.eval());
-        }
-        c.ends[c.recorded].copy_from(&step.end);
-        c.recorded += 1;
+        c.at.push((step.t1 - t0, (step.y.0 - y0.0, step.y.1, step.y.2)));
+        c.steps.push((acc, times), &step.end, w);
     }
 
     /// The next step of the cycle under way replayed, when the cycles agreed: its increments
@@ -267,12 +253,8 @@ impl Orbit {
         }
         let k = self.cursor;
         let rec = &self.last;
-        let (dt, y) = *rec.steps.get(k)?;
-        let per_step = s.acc.len() + s.regime_time.len();
-        let inc = &rec.increments[k * per_step..(k + 1) * per_step];
-        let (acc, times) = inc.split_at(s.acc.len());
-        add_increments(s, acc, times);
-        s.settle_from(&rec.ends[k]);
+        let (dt, y) = *rec.at.get(k)?;
+        rec.steps.apply(k, s);
         self.cursor += 1;
         let (t0, y0) = self.start;
         let t1 = if self.cursor == rec.steps.len() {
@@ -285,6 +267,6 @@ impl Orbit {
 
     /// The end evaluation of the replayed cycle's step `k`.
     pub(super) fn end_eval(&self, k: usize) -> &Eval {
-        &self.last.ends[k]
+        self.last.steps.end(k)
     }
 }

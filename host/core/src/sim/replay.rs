@@ -35,11 +35,8 @@ pub(super) struct Replay {
     /// Each quantity's increment over the first cycle, then over the second: the accumulated
     /// quantities followed by the regime times.
     cycles: [Vec<f64>; 2],
-    /// The second cycle's steps: their increments, `per_step` values each (same order).
-    increments: Vec<f64>,
-    /// The second cycle's end evaluations (the first `recorded` of these buffers).
-    ends: Vec<Eval>,
-    recorded: usize,
+    /// The second cycle's steps.
+    steps: RecordedSteps,
     /// Where the step under way accumulates.
     increments_now: StepIncrements,
     /// Whether the two cycles agreed (`None` until the second is done).
@@ -124,9 +121,7 @@ impl Replay {
         Self {
             n: 0,
             cycles: [vec![0.0; per_step], vec![0.0; per_step]],
-            increments: Vec::new(),
-            ends: Vec::new(),
-            recorded: 0,
+            steps: RecordedSteps::default(),
             increments_now: StepIncrements::new(n_acc, n_regime),
             agreed: None,
             allowed: mode == HoldReplay::On,
@@ -141,8 +136,7 @@ impl Replay {
         for sums in &mut self.cycles {
             sums.fill(0.0);
         }
-        self.increments.clear();
-        self.recorded = 0;
+        self.steps.clear();
         self.agreed = None;
     }
 
@@ -190,12 +184,7 @@ impl Replay {
             *sum += d;
         }
         if cycle == 1 {
-            self.increments.extend(acc.iter().chain(times));
-            if self.recorded == self.ends.len() {
-                self.ends.push(w.eval());
-            }
-            self.ends[self.recorded].copy_from(&step.end);
-            self.recorded += 1;
+            self.steps.push((acc, times), &step.end, w);
             if done == EVALUATED_CYCLES * self.n {
                 self.agreed = Some(self.allowed && self.cycles_agree());
             }
@@ -216,15 +205,60 @@ impl Replay {
             return None;
         }
         let k = ((done - 1) % self.n) as usize;
-        let per_step = s.acc.len() + s.regime_time.len();
-        let inc = &self.increments[k * per_step..(k + 1) * per_step];
-        let (acc, times) = inc.split_at(s.acc.len());
-        add_increments(s, acc, times);
-        s.settle_from(&self.ends[k]);
+        self.steps.apply(k, s);
         Some(k)
     }
 
     /// The end evaluation of the second cycle's step `k`.
+    pub(super) fn end(&self, k: usize) -> &Eval {
+        self.steps.end(k)
+    }
+}
+
+/// The steps of a cycle kept for replay: each step's increments (the accumulated quantities,
+/// then the regime times) and its end evaluation, in buffers kept from cycle to cycle (only
+/// the first cycle recorded allocates).
+#[derive(Clone, Default)]
+pub(super) struct RecordedSteps {
+    increments: Vec<f64>,
+    /// The end evaluations (the first `len` of these buffers).
+    ends: Vec<Eval>,
+    len: usize,
+}
+
+impl RecordedSteps {
+    /// Empty, the buffers kept.
+    pub(super) fn clear(&mut self) {
+        self.increments.clear();
+        self.len = 0;
+    }
+
+    /// Steps recorded.
+    pub(super) fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Record a step with increments `(acc, times)` and end evaluation `end`.
+    pub(super) fn push(&mut self, (acc, times): (&[f64], &[f64]), end: &Eval, w: &mut Work) {
+        self.increments.extend(acc.iter().chain(times));
+        if self.len == self.ends.len() {
+            self.ends.push(w.eval());
+        }
+        self.ends[self.len].copy_from(end);
+        self.len += 1;
+    }
+
+    /// Replay step `k` on the run `s`: its increments added to the run's totals, its friction
+    /// the next evaluation's start.
+    pub(super) fn apply(&self, k: usize, s: &mut Integration) {
+        let n_acc = s.acc.len();
+        let per_step = n_acc + s.regime_time.len();
+        let (acc, times) = self.increments[k * per_step..(k + 1) * per_step].split_at(n_acc);
+        add_increments(s, acc, times);
+        s.settle_from(&self.ends[k]);
+    }
+
+    /// The end evaluation of step `k`.
     pub(super) fn end(&self, k: usize) -> &Eval {
         &self.ends[k]
     }

@@ -86,8 +86,8 @@ pub(super) struct Transient {
     /// The orbit replay of the PI hold stretch under way (idle unless one is stepped in
     /// orbit cycles).
     orbit: Box<Orbit>,
-    /// Whether steps were replayed since the stepper last evaluated: it starts again from
-    /// the run's state before its next step.
+    /// Whether a stretch in orbit cycles ended (done, or left when the run was planned again
+    /// inside it): the stepper starts again from the run's state before its next step.
     restart: bool,
     /// Steps replayed, not evaluated.
     replayed: u64,
@@ -235,7 +235,9 @@ impl Simulation {
 
     /// The next interval of the grid, from the run's time (`None` at the grid's end). An
     /// interval of a hold long enough is cut to whole engine cycles, stepped in whole steps
-    /// per cycle, and its replay set up; the rest of it becomes an interval of its own.
+    /// per cycle, and its replay set up; the rest of it becomes an interval of its own. Under
+    /// the PI drive a hold's stretch before its window's records is stepped in orbit cycles,
+    /// each an interval ([`Orbit`]).
     fn next_interval(&self, r: &mut Transient) -> Option<Interval> {
         let orbit_was_active = r.orbit.active();
         if let Some(end) = r.orbit.next_cycle(&r.s) {
@@ -297,7 +299,6 @@ impl Simulation {
         }
         if let Some((t1, y, k)) = r.orbit.replay(&mut r.s, b) {
             r.replayed += 1;
-            r.restart = true;
             return Ok(Taken::Replayed((t1, y, k, true)));
         }
         if std::mem::take(&mut r.restart) {

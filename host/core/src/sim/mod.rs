@@ -42,6 +42,7 @@ mod replay;
 mod replay_tests;
 mod results;
 mod settings;
+mod settle;
 mod steady;
 mod stepper;
 mod stepping;

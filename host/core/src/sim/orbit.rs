@@ -8,6 +8,12 @@
 //! stretch then take that cycle's steps again, shifted in time and angle, without calling a
 //! law. The window is always evaluated, from the state the replay leaves.
 //!
+//! The settling need not be waited for: once the last cycles settle as a linear system does,
+//! their recurrence gives the orbit they settle to and what the rest of the settling would add
+//! to each total ([`super::settle`]). The run jumps there, books that tail, and the cycle after
+//! the jump must agree with the orbit extrapolated, as two evaluated cycles must, before any
+//! cycle is replayed.
+//!
 //! What a replay leaves out is the rest of the settling: each cycle's change decays
 //! geometrically, so the state where replay starts is within a few times the agreement of the
 //! orbit, and the window, a tenth of a second later, is closer still.
@@ -15,7 +21,9 @@
 use std::f64::consts::TAU;
 
 use super::evaluate::{Eval, Work};
+use super::rates::RateLayout;
 use super::replay::{agree, HoldReplay, RecordedSteps, StepIncrements, AGREEMENT_FLOOR};
+use super::settle::{Recurrence, CYCLES};
 use super::stepper::{CrankState, Integration, Step};
 use super::Simulation;
 
@@ -74,7 +82,44 @@ pub(super) struct Orbit {
     /// Whether cycles may be replayed (not in [`HoldReplay::Evaluate`]).
     allowed: bool,
     agreement: f64,
+    /// The settling's extrapolation ([`Settling`]).
+    settling: Settling,
 }
+
+/// The settling's extrapolation: the last cycles since the stretch's start or its last jump,
+/// each a row of `width` quantities `[angle turned, speed, integral, sums...]` (`kept` of
+/// `CYCLES` rows, the oldest first), the limit and tail computed from them, the jumps made in
+/// this stretch, and whether the run's state jumped at the end of the last cycle (the stepper
+/// must start again).
+#[derive(Clone, Default)]
+struct Settling {
+    /// Whether jumps are made ([`HoldReplay::On`]).
+    extrapolates: bool,
+    rows: Vec<f64>,
+    kept: usize,
+    width: usize,
+    limit: Vec<f64>,
+    tail: Vec<f64>,
+    jumps: u32,
+    jumped: bool,
+}
+
+/// What the energy balance needs of a jump: the mechanism's mechanical energy (J) at a crank
+/// angle and speed, and the accumulated quantities that take energy from the crank (the laws'
+/// dissipation and the gas).
+pub(super) struct Energy<'a> {
+    pub(super) at: &'a dyn Fn(f64, f64) -> f64,
+    pub(super) taken: std::ops::Range<usize>,
+    pub(super) gas: usize,
+}
+
+/// Jumps to an extrapolated orbit in one stretch at most: each is checked by the cycle after
+/// it, and one that fails is followed by cycles nearer the orbit than before it.
+const MAX_JUMPS: u32 = 3;
+
+/// The crank-state quantities of a cycle's row (angle turned, speed, integral), which the
+/// recurrence is fitted to; the sums after them follow it.
+const STATE: usize = 3;
 
 impl Simulation {
     /// Whether the interval of the grid from `t` to `b` (s) holds a PI hold's stretch to step
@@ -134,8 +179,12 @@ impl Orbit {
             agreed: false,
             cursor: 0,
             increments: StepIncrements::new(n_acc, n_regime),
-            allowed: mode == HoldReplay::On,
+            allowed: matches!(mode, HoldReplay::On | HoldReplay::Agreed),
             agreement: friction_tol.max(AGREEMENT_FLOOR),
+            settling: Settling {
+                extrapolates: mode == HoldReplay::On,
+                ..Settling::default()
+            },
         }
     }
 
@@ -152,6 +201,7 @@ impl Orbit {
         self.current.clear(per_step);
         self.agreed = false;
         self.cursor = 0;
+        self.settling.start(STATE + per_step);
         self.cycle_end()
     }
 
@@ -178,7 +228,7 @@ impl Orbit {
     /// finished (compared with the one before, when evaluated) and the next one's end is
     /// returned; otherwise (the run was planned again mid-cycle) or at the stretch's end the
     /// replay goes idle (`None`).
-    pub(super) fn next_cycle(&mut self, s: &Integration) -> Option<f64> {
+    pub(super) fn next_cycle(&mut self, s: &mut Integration, energy: &Energy) -> Option<f64> {
         if !self.active() || s.t != self.cycle_end() {
             self.stop();
             return None;
@@ -190,6 +240,9 @@ impl Orbit {
             self.agreed = self.allowed && self.done > 0 && self.cycles_agree();
             std::mem::swap(&mut self.current, &mut self.last);
             self.current.clear(s.acc.len() + s.regime_time.len());
+            if self.settling.extrapolates && !self.agreed && self.done + 2 < self.cycles {
+                self.extrapolate(s, energy);
+            }
         }
         self.cursor = 0;
         self.start = (s.t, s.y);
@@ -197,17 +250,80 @@ impl Orbit {
         self.active().then(|| self.cycle_end())
     }
 
-    /// Whether the cycle just finished agrees with the one before: every increment and the
-    /// end state (angle turned, speed, controller integral).
+    /// Whether the cycle just finished agrees with the one before (or, after a jump, with
+    /// the orbit jumped to): every increment and the end state (angle turned, speed,
+    /// controller integral).
     fn cycles_agree(&self) -> bool {
         let (a, b) = (&self.last, &self.current);
+        agree(&a.sums, &b.sums, self.agreement) && self.ends_agree(a.end, b.end)
+    }
+
+    /// Whether two cycles' end states agree: angle turned, speed, controller integral (held
+    /// to a millionth of the angle turned at least, as it passes through zero).
+    fn ends_agree(&self, a: CrankState, b: CrankState) -> bool {
         let tol = self.agreement;
         let close =
             |x: f64, y: f64, floor: f64| (x - y).abs() <= tol * x.abs().max(y.abs()).max(floor);
-        agree(&a.sums, &b.sums, tol)
-            && close(a.end.0, b.end.0, 0.0)
-            && close(a.end.1, b.end.1, 0.0)
-            && close(a.end.2, b.end.2, 1e-6 * b.end.0.abs())
+        close(a.0, b.0, 0.0) && close(a.1, b.1, 0.0) && close(a.2, b.2, 1e-6 * b.0.abs())
+    }
+
+    /// After evaluated cycle `last`, which did not agree with the one before: once the last
+    /// [`CYCLES`] settle as a linear system does, jump to the orbit they settle to
+    /// ([`super::settle`]). The run's crank state becomes the orbit's at this time (the
+    /// angle ahead by what the rest of the settling would still turn), every total gains
+    /// what the rest of the settling would still add, and `last` becomes the orbit's cycle,
+    /// which the next cycle, started from it, must agree with to be replayed.
+    ///
+    /// The motor's share is what keeps the run's energy balance through the jump: the
+    /// mechanical energy jumped by, plus what the laws and the gas would still take. The
+    /// recurrence follows the settling to first order; the motor's power, a product of the
+    /// controller's torque and the speed, both settling, has a second-order part it does not,
+    /// and the balance is the exact statement of what the motor supplies.
+    fn extrapolate(&mut self, s: &mut Integration, energy: &Energy) {
+        let last = &self.last;
+        let row = [last.end.0, last.end.1, last.end.2];
+        let reported =
+            |k: usize| k == RateLayout::MOTOR || energy.taken.contains(&k) || k == energy.gas;
+        // What the replay of the stretch's remaining cycles may miss each sum by.
+        let budget = self.agreement * (self.cycles - self.done) as f64;
+        if !self.settling.push((&row, &last.sums), budget, reported) {
+            return;
+        }
+        let limit = &self.settling.limit;
+        let orbit = (limit[0], limit[1], limit[2]);
+        if self.jumps_nowhere(orbit, &limit[STATE..]) {
+            return;
+        }
+        let st = &mut self.settling;
+        let (limit, tail) = (&st.limit, &st.tail);
+        let y = (s.y.0 + tail[0], orbit.1, orbit.2);
+        let n_acc = s.acc.len();
+        let taken = energy.taken.clone().chain([energy.gas]);
+        let taken: f64 = taken.map(|i| tail[STATE + i]).sum();
+        let motor = (energy.at)(y.0, y.1) - (energy.at)(s.y.0, s.y.1) + taken;
+        s.y = y;
+        for (total, d) in s.acc.iter_mut().zip(&tail[STATE..STATE + n_acc]) {
+            *total += d;
+        }
+        s.acc[RateLayout::MOTOR] += motor - tail[STATE + RateLayout::MOTOR];
+        for (total, d) in s.regime_time.iter_mut().zip(&tail[STATE + n_acc..]) {
+            *total += d;
+        }
+        self.last.end = orbit;
+        self.last.sums.copy_from_slice(&limit[STATE..]);
+        st.jumped();
+    }
+
+    /// Whether the orbit extrapolated to is the last cycle already, within the agreement: the
+    /// cycles will agree without a jump.
+    fn jumps_nowhere(&self, orbit: CrankState, sums: &[f64]) -> bool {
+        agree(&self.last.sums, sums, self.agreement) && self.ends_agree(self.last.end, orbit)
+    }
+
+    /// Whether the run's state jumped at the end of the last cycle (once: the caller starts
+    /// the stepper again from it).
+    pub(super) fn take_jump(&mut self) -> bool {
+        std::mem::take(&mut self.settling.jumped)
     }
 
     /// Whether the step under way is recorded (its cycle is evaluated).
@@ -268,5 +384,81 @@ impl Orbit {
     /// The end evaluation of the replayed cycle's step `k`.
     pub(super) fn end_eval(&self, k: usize) -> &Eval {
         self.last.steps.end(k)
+    }
+}
+
+impl Settling {
+    /// A stretch starts: no cycles kept, no jumps, rows of `width` quantities.
+    fn start(&mut self, width: usize) {
+        self.width = width;
+        self.rows.resize(CYCLES * width, 0.0);
+        self.limit.resize(width, 0.0);
+        self.tail.resize(width, 0.0);
+        self.kept = 0;
+        self.jumps = 0;
+        self.jumped = false;
+    }
+
+    /// Keep a finished cycle's row (its end state `state` and its `sums`). With [`CYCLES`]
+    /// kept and a jump left, fit their recurrence; when one fits, the limit of every quantity
+    /// and (for the increments: angle turned, sums) the tail still to come after this cycle
+    /// are left in `limit` and `tail`. Whether they are good for a jump: the tails of the
+    /// `reported` sums known within `budget` (relative, of a cycle's sum).
+    fn push(
+        &mut self,
+        (state, sums): (&[f64; STATE], &[f64]),
+        budget: f64,
+        reported: impl Fn(usize) -> bool,
+    ) -> bool {
+        let w = self.width;
+        if self.kept == CYCLES {
+            self.rows.copy_within(w.., 0);
+            self.kept -= 1;
+        }
+        let row = &mut self.rows[self.kept * w..(self.kept + 1) * w];
+        row[..STATE].copy_from_slice(state);
+        row[STATE..].copy_from_slice(sums);
+        self.kept += 1;
+        if self.kept < CYCLES || self.jumps >= MAX_JUMPS {
+            return false;
+        }
+        let x = |j: usize, c: usize| self.rows[j * w + c];
+        let d = |j: usize, c: usize| x(j + 1, c) - x(j, c);
+        let Some(rec) = Recurrence::fit(d, STATE) else {
+            return false;
+        };
+        let m = rec.order();
+        for c in 0..w {
+            // The limit from the last m changes; what the cycles after the last would add
+            // beyond the limit, from the last m values' deviations.
+            let from = CYCLES - 1 - m;
+            let limit = x(from, c) + rec.sum(|l| d(from + l, c));
+            let settled = rec.sum(|l| x(CYCLES - m + l, c) - limit);
+            let seen: f64 = (CYCLES - m..CYCLES).map(|j| x(j, c) - limit).sum();
+            self.limit[c] = limit;
+            self.tail[c] = settled - seen;
+        }
+        // A reported total's tail is only as good as the recurrence follows its sum: a sum
+        // whose change is mostly of second order (a dissipation whose first-order part cancels
+        // over the loop's oscillation) is not followed. The jump waits until each such tail is
+        // known within what the replay of the stretch's remaining cycles may miss it by (the
+        // agreement per cycle, as in `agree`). The other totals are read only as differences
+        // over a window, which is evaluated: their tails reach no result.
+        let sums = STATE..w;
+        let scale = self.limit[sums.clone()]
+            .iter()
+            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        let known = |c: usize| {
+            let allowed = budget * self.limit[c].abs().max(1e-6 * scale);
+            self.tail[c].abs() <= allowed || rec.misses(d, c) * self.tail[c].abs() <= allowed
+        };
+        sums.filter(|c| reported(c - STATE)).all(known)
+    }
+
+    /// The run jumped to the limit: the cycles kept belong to the trajectory left.
+    fn jumped(&mut self) {
+        self.kept = 0;
+        self.jumps += 1;
+        self.jumped = true;
     }
 }

@@ -58,6 +58,10 @@ pub(super) enum HoldReplay {
     /// replay must reproduce (the tests' reference).
     #[cfg_attr(not(test), allow(dead_code))]
     Evaluate,
+    /// Replay as `On`, but a PI hold only once two evaluated cycles agree, its settling not
+    /// extrapolated ([`super::settle`]): what the extrapolation must reproduce.
+    #[cfg_attr(not(test), allow(dead_code))]
+    Agreed,
 }
 
 /// An interval of a hold stepped in whole cycles: its steps per cycle and its cycles.
@@ -124,7 +128,7 @@ impl Replay {
             steps: RecordedSteps::default(),
             increments_now: StepIncrements::new(n_acc, n_regime),
             agreed: None,
-            allowed: mode == HoldReplay::On,
+            allowed: matches!(mode, HoldReplay::On | HoldReplay::Agreed),
             agreement: friction_tol.max(AGREEMENT_FLOOR),
         }
     }

@@ -377,3 +377,33 @@ fn a_pi_hold_whose_cycles_differ_is_not_replayed() {
     assert_plateaus_within(&replayed, &evaluated, 0.0);
     assert_eq!(replayed.energy.motor_work_j, evaluated.energy.motor_work_j);
 }
+
+/// A PI hold's settling extrapolated to its orbit (`settle.rs`) is the settling waited for: the
+/// orbit is jumped to only once the cycles settle as a linear system does, the cycle after the
+/// jump must agree with it, and what the rest of the settling would add is booked. So the replay
+/// starts earlier than when waiting for two cycles to agree, the replayed hold's plateau stays
+/// within the agreement (1e-7) of the hold evaluated, the energy terms within 1e-6, and the
+/// energy balance closes (the motor's tail is what keeps it).
+#[test]
+fn a_pi_hold_settling_extrapolated_is_the_settling_waited_for() {
+    let (mut model, registry) =
+        with_sqrt_piston(include_str!("../../../../rigs/crf250r-motored.toml"));
+    pi_cycle(&mut model);
+    let jumped = run_pi(&model, &registry, HoldReplay::On);
+    let waited = run_pi(&model, &registry, HoldReplay::Agreed);
+    let evaluated = run_pi(&model, &registry, HoldReplay::Evaluate);
+    assert!(
+        2 * jumped.replayed_steps > 3 * waited.replayed_steps,
+        "{} steps replayed with the settling extrapolated, {} without",
+        jumped.replayed_steps,
+        waited.replayed_steps
+    );
+    let (p, q) = (&jumped.plateaus[0], &evaluated.plateaus[0]);
+    let d = relative(p.motoring_torque_nm, q.motoring_torque_nm);
+    assert!(d <= 1e-7, "the extrapolated hold's torque {d:e} apart");
+    assert_windows_within(&jumped, &evaluated, 1e-5, 1e-6);
+    let (e, f) = (&jumped.energy, &evaluated.energy);
+    assert!(relative(e.motor_work_j, f.motor_work_j) < 1e-6);
+    assert!(relative(e.dissipated_j, f.dissipated_j) < 1e-6);
+    assert!(e.relative_residual.abs() < 1e-6, "{e:?}");
+}

@@ -9,7 +9,7 @@ use super::adaptive::Adaptive;
 use super::error::SimError;
 use super::evaluate::{Eval, Work};
 use super::lobatto::Lobatto;
-use super::orbit::Orbit;
+use super::orbit::{Energy, Orbit};
 use super::plateau::Plateaus;
 use super::rates::RateLayout;
 use super::replay::Replay;
@@ -240,7 +240,16 @@ impl Simulation {
     /// each an interval ([`Orbit`]).
     fn next_interval(&self, r: &mut Transient) -> Option<Interval> {
         let orbit_was_active = r.orbit.active();
-        if let Some(end) = r.orbit.next_cycle(&r.s) {
+        let layout = self.layout();
+        let crank = &r.w.crank;
+        let energy = Energy {
+            at: &|theta, omega| crank.mechanical_energy(theta, omega),
+            taken: layout.powers(),
+            gas: layout.gas(),
+        };
+        if let Some(end) = r.orbit.next_cycle(&mut r.s, &energy) {
+            // A jump to the settled orbit: the stepper starts again from the state jumped to.
+            r.restart |= r.orbit.take_jump();
             return Some(self.plan_interval(r, end));
         }
         // After a stretch in orbit cycles the stepper starts again from the run's state,

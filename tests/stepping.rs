@@ -397,3 +397,42 @@ fn a_drive_torque_set_from_outside_turns_the_crank() {
     assert!(none < 0.0, "friction alone slows the crank: {none} rad/s");
     assert!(some > none, "{some} vs {none} rad/s");
 }
+
+/// The PI drive crossing its torque limit: in the thesis cycle's fast ramps the 5 N m limit is
+/// met and left many times a revolution, and the controller's integral stops and restarts there
+/// (a jump in its rate). The adaptive integrator ends a step on each crossing
+/// (`host/core/src/sim/limit.rs`) instead of crawling across the jump, and the run keeps its
+/// tolerance: against the same run at a hundred times tighter `solver.rel_tol`, the plateau
+/// torques and energy terms within 1e-5, the mechanical energy at the end within 1e-6 (the
+/// final crank phase, which every crossing's timing error would shift).
+#[test]
+fn a_pi_drive_crossing_its_torque_limit_keeps_the_integrators_accuracy() {
+    let registry = registry();
+    let drive = "drive={kind=\"pi\",torque_limit_nm=5.0,belt_ratio=1.0}";
+    let mut run = run_of(Some("fedem-baseline"), &[drive], &registry);
+    let (mut crossings, mut was) = (0_u64, false);
+    while run.step().expect("step") {
+        let at_limit = (run.outputs().drive_torque_nm.abs() - 5.0).abs() < 1e-9;
+        crossings += u64::from(at_limit != was);
+        was = at_limit;
+    }
+    assert!(crossings > 100, "{crossings} crossings of the torque limit");
+    let fast = run.result().expect("result");
+    let mut tight = run_of(
+        Some("fedem-baseline"),
+        &[drive, "solver.rel_tol=1e-8"],
+        &registry,
+    );
+    while tight.step().expect("step") {}
+    let tight = tight.result().expect("result");
+    let rel = |a: f64, b: f64| (a - b).abs() / a.abs().max(b.abs());
+    for (p, q) in fast.plateaus.iter().zip(&tight.plateaus) {
+        let d = rel(p.motoring_torque_nm, q.motoring_torque_nm);
+        assert!(d < 1e-5, "{} rpm: {d:e}", p.set_speed_rpm);
+    }
+    let (e, f) = (&fast.energy, &tight.energy);
+    assert!(rel(e.motor_work_j, f.motor_work_j) < 1e-5);
+    assert!(rel(e.dissipated_j, f.dissipated_j) < 1e-5);
+    let change = rel(e.mechanical_energy_change_j, f.mechanical_energy_change_j);
+    assert!(change < 1e-6, "mechanical energy change {change:e} apart");
+}

@@ -1,11 +1,14 @@
 //! The error-controlled PI-drive stepper: the embedded Dormand-Prince 5(4) pair, its
 //! step-size controller, and the handling of switches (steps end on predicted sign changes of
-//! joint velocities, side thrust and drive margin; a failed step is retried up to a crossing).
+//! joint velocities, side thrust and drive margin; a failed step is retried up to a crossing;
+//! a step's stages are held on one side of the drive's torque limit and a step ends on each
+//! crossing of it, `super::limit`).
 
 use super::error::SimError;
 use super::evaluate::{Eval, Work};
+use super::limit::{Landing, LimitCrossing};
 use super::rates::RegimeTimes;
-use super::stepper::{CrankState, Integration, Step, Stepper};
+use super::stepper::{CrankState, Integration, Side, Step, Stepper};
 use super::Simulation;
 use crate::erk::{Controller, Pair};
 
@@ -33,6 +36,9 @@ pub(super) struct Adaptive {
     previous_end: Option<(f64, Vec<f64>)>,
     /// The friction guess of the next stage (extrapolated from the two latest stages).
     guess: Vec<f64>,
+    /// The side of the PI drive's torque limit the next step is held on when the last one
+    /// ended on a crossing of it ([`super::limit`]).
+    side: Option<Side>,
 }
 
 /// One attempted step.
@@ -43,6 +49,9 @@ struct Attempt {
     y: CrankState,
     /// The first switch to change sign within the step, as a fraction of it.
     crossing: Option<f64>,
+    /// The first middle stage past the torque limit on the side the step was held on: its
+    /// time from the step's start and its margin.
+    stage_past: Option<(f64, f64)>,
 }
 
 impl Adaptive {
@@ -66,6 +75,7 @@ impl Adaptive {
             h_next: f64::INFINITY,
             previous_end: None,
             guess: Vec::new(),
+            side: None,
         }
     }
 
@@ -95,39 +105,35 @@ impl Stepper for Adaptive {
         // Across a jump a step may err as much as a longest step of smooth running may.
         let h_floor = sim.time_step(sim.max_step_rad, y.1.abs().max(sim.reference(t).1.abs()));
         let (mut h, planned, switch_cut) = self.plan(sim, t, y);
+        let mut limit = LimitCrossing::start(self.side.take(), margin(&self.fsal));
         let mut rejected = false;
         loop {
             let remaining = b - t;
-            // End on the breakpoint, without leaving a sliver step before it.
-            let h_try = landing(h, remaining);
-            let a = self.attempt(sim, w, s, t, h_try, h_floor)?;
+            // End on the breakpoint, without leaving a sliver step before it (unless landing
+            // on the torque limit, which must be met where it is).
+            let h_try = match limit.landing() {
+                true => h.min(remaining),
+                false => landing(h, remaining),
+            };
+            let a = self.attempt(sim, w, s, (t, h_try, h_floor), limit.side())?;
             if a.err <= 1.0 {
-                // A step cut short to land on `b` or a switch does not shrink the next one.
-                let next = self.control.next(h_try, a.err, rejected);
-                self.control.accepted(a.err);
-                let cut_short = switch_cut || h_try < h;
-                self.h_next = if cut_short { next.max(planned) } else { next };
-                match &mut self.previous_end {
-                    Some((tp, gp)) => {
-                        *tp = t;
-                        gp.clear();
-                        gp.extend_from_slice(&self.fsal.switches);
+                let tol_t = sim.rel_tol * (h_try + h_floor);
+                match limit.check((h_try, margin(&a.end)), a.stage_past, tol_t) {
+                    Landing::Take { on_crossing } => {
+                        // A step cut short to land on `b` or a switch does not shrink the next.
+                        let next = self.control.next(h_try, a.err, rejected);
+                        self.control.accepted(a.err);
+                        let cut_short = switch_cut || h_try < h || on_crossing;
+                        self.h_next = if cut_short { next.max(planned) } else { next };
+                        self.side = on_crossing.then(|| opposite(limit.side()));
+                        let t1 = if h_try == remaining { b } else { t + h_try };
+                        return Ok(self.take(s, t, t1, a));
                     }
-                    None => self.previous_end = Some((t, self.fsal.switches.to_vec())),
+                    Landing::Retry(next) => h = next,
+                    Landing::Reside(_) | Landing::Live => h = h_try,
                 }
-                let t1 = if h_try == remaining { b } else { t + h_try };
-                s.acc.iter_mut().zip(&self.incr).for_each(|(a, d)| *a += d);
-                s.regime_time
-                    .iter_mut()
-                    .zip(&self.regime_incr)
-                    .for_each(|(a, d)| *a += d);
-                s.settle_from(&a.end);
-                return Ok(Step {
-                    t1,
-                    h: t1 - t,
-                    end: a.end,
-                    y: a.y,
-                });
+                w.recycle(a.end);
+                continue;
             }
             w.recycle(a.end);
             s.rejected += 1;
@@ -148,11 +154,50 @@ impl Stepper for Adaptive {
         let e = sim.step_eval(s.t, 0.0, s.y, &s.guess, w)?;
         self.recycle(e, 0.0, w);
         self.previous_end = None;
+        self.side = None;
         Ok(())
     }
 }
 
+/// The PI drive's margin to its torque limit at an evaluation (the last switch).
+fn margin(e: &Eval) -> f64 {
+    e.switches.last().copied().unwrap_or(f64::INFINITY)
+}
+
+/// The other side of the torque limit.
+fn opposite(side: Side) -> Side {
+    match side {
+        Side::Within => Side::Beyond,
+        _ => Side::Within,
+    }
+}
+
 impl Adaptive {
+    /// The accepted attempt `a` from `t` to `t1`: its increments added to the run's totals,
+    /// the switches at its start kept to predict the next crossing from.
+    fn take(&mut self, s: &mut Integration, t: f64, t1: f64, a: Attempt) -> Step {
+        match &mut self.previous_end {
+            Some((tp, gp)) => {
+                *tp = t;
+                gp.clear();
+                gp.extend_from_slice(&self.fsal.switches);
+            }
+            None => self.previous_end = Some((t, self.fsal.switches.to_vec())),
+        }
+        s.acc.iter_mut().zip(&self.incr).for_each(|(a, d)| *a += d);
+        s.regime_time
+            .iter_mut()
+            .zip(&self.regime_incr)
+            .for_each(|(a, d)| *a += d);
+        s.settle_from(&a.end);
+        Step {
+            t1,
+            h: t1 - t,
+            end: a.end,
+            y: a.y,
+        }
+    }
+
     /// One attempted step of length `h` from `w`'s state at `t`, the start evaluation being
     /// `self.fsal`. The step's increment of every accumulated quantity goes to `self.incr`.
     ///
@@ -168,13 +213,12 @@ impl Adaptive {
         sim: &Simulation,
         w: &mut Work,
         state: &Integration,
-        t: f64,
-        h: f64,
-        h_floor: f64,
+        (t, h, h_floor): (f64, f64, f64),
+        side: Side,
     ) -> Result<Attempt, SimError> {
         let s = self.pair.stages();
         debug_assert!(s <= MAX_STAGES);
-        let (k, end, y) = self.stages(sim, w, state, t, h)?;
+        let (k, end, y) = self.stages(sim, w, state, (t, h), side)?;
         let Self {
             pair,
             fsal,
@@ -201,6 +245,10 @@ impl Adaptive {
             }
         }
         let crossing = first_crossing(sim, pair, &evals[..s]);
+        // A middle stage past the torque limit (the margin out and back within the step).
+        let stage_past = (1..s - 1)
+            .find(|&j| side.left_by(margin(evals[j])))
+            .map(|j| (pair.c[j] * h, margin(evals[j])));
         for e in stages.drain(..) {
             w.recycle(e);
         }
@@ -209,6 +257,7 @@ impl Adaptive {
             end,
             y,
             crossing,
+            stage_past,
         })
     }
 
@@ -220,12 +269,12 @@ impl Adaptive {
         sim: &Simulation,
         w: &mut Work,
         s: &Integration,
-        t: f64,
-        h: f64,
+        (t, h): (f64, f64),
+        side: Side,
     ) -> Result<([[f64; 3]; MAX_STAGES], Eval, CrankState), SimError> {
         let (pair, y) = (self.pair, s.y);
         let mut k = [[0.0_f64; 3]; MAX_STAGES];
-        let (_, dz, _) = sim.pi_torque(t, y.1, y.2);
+        let (_, dz, _) = sim.pi_torque(t, y.1, y.2, side);
         k[0] = [y.1, self.fsal.alpha, dz];
         self.stages.clear();
         let mut y1 = [y.0, y.1, y.2];
@@ -237,7 +286,7 @@ impl Adaptive {
                 }
             }
             let ts = t + pair.c[st] * h;
-            let (at, dz) = sim.driven_point(ts, h, (ys[0], ys[1], ys[2]));
+            let (at, dz) = sim.driven_point(ts, h, (ys[0], ys[1], ys[2]), side);
             self.extrapolate(t, h, st);
             let mut e = w.eval();
             sim.evaluate(&at, &self.guess, w, &mut e)?;

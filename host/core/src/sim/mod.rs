@@ -32,6 +32,7 @@ mod energy;
 mod error;
 mod evaluate;
 mod joints;
+mod limit;
 mod lobatto;
 mod newton;
 mod orbit;

@@ -278,8 +278,8 @@ impl Simulation {
     /// The evaluation point of the PI-driven crank at `t` in state `y`, and the controller
     /// integral's rate there.
     #[inline]
-    pub(super) fn driven_point(&self, t: f64, dt: f64, y: CrankState) -> (Point, f64) {
-        let (torque, dz, margin) = self.pi_torque(t, y.1, y.2);
+    pub(super) fn driven_point(&self, t: f64, dt: f64, y: CrankState, side: Side) -> (Point, f64) {
+        let (torque, dz, margin) = self.pi_torque(t, y.1, y.2, side);
         let at = Point {
             t,
             dt,
@@ -293,13 +293,13 @@ impl Simulation {
     }
 
     /// The drive torque, the controller integral's rate and the margin to the torque limit
-    /// (negative while saturated) for a PI drive.
+    /// (negative while saturated) for a PI drive, its law taken on `side` of the limit.
     #[inline]
-    pub(super) fn pi_torque(&self, t: f64, omega: f64, z: f64) -> (f64, f64, f64) {
+    pub(super) fn pi_torque(&self, t: f64, omega: f64, z: f64, side: Side) -> (f64, f64, f64) {
         match self.held.torque_nm {
             // A drive torque set from outside replaces the controller (which holds still).
             Some(torque) => (torque, 0.0, f64::INFINITY),
-            None => pi_drive(&self.drive, self.reference(t).1, omega, z),
+            None => pi_drive(&self.drive, self.reference(t).1, omega, z, side),
         }
     }
 
@@ -316,7 +316,7 @@ impl Simulation {
     ) -> Result<Eval, SimError> {
         let at = match self.drive {
             Drive::Prescribed {} => self.prescribed_point(t, dt, self.reference(t)),
-            Drive::Pi { .. } => self.driven_point(t, dt, y).0,
+            Drive::Pi { .. } => self.driven_point(t, dt, y, Side::Live).0,
         };
         let mut e = w.eval();
         self.evaluate(&at, guess, w, &mut e)?;
@@ -335,7 +335,7 @@ impl Simulation {
     ) -> Result<(Eval, CrankState), SimError> {
         let (t, (theta, omega, z)) = (s.t, s.y);
         let stage = |tt: f64, y: CrankState, g: &[f64], w: &mut Work| {
-            let (at, dz) = self.driven_point(tt, h, y);
+            let (at, dz) = self.driven_point(tt, h, y, Side::Live);
             let mut e = w.eval();
             self.evaluate(&at, g, w, &mut e)?;
             let k = [y.1, e.alpha, dz];
@@ -343,7 +343,7 @@ impl Simulation {
         };
         let (e1, k1) = match first {
             Some(e) => {
-                let (_, dz, _) = self.pi_torque(t, omega, z);
+                let (_, dz, _) = self.pi_torque(t, omega, z, Side::Live);
                 let k = [omega, e.alpha, dz];
                 (e, k)
             }
@@ -373,10 +373,16 @@ impl Simulation {
 
 /// The PI drive `drive` at crank speed `omega` against the reference speed `reference`, with
 /// controller integral `z`: the torque on the crank (through the belt), the integral's rate
-/// and the margin to the torque limit (negative while saturated). A prescribed crank has no
-/// drive torque of its own (0, 0, infinite margin).
+/// and the margin to the torque limit (negative while saturated), its law taken on `side` of
+/// the limit. A prescribed crank has no drive torque of its own (0, 0, infinite margin).
 #[inline]
-pub(super) fn pi_drive(drive: &Drive, reference: f64, omega: f64, z: f64) -> (f64, f64, f64) {
+pub(super) fn pi_drive(
+    drive: &Drive,
+    reference: f64,
+    omega: f64,
+    z: f64,
+    side: Side,
+) -> (f64, f64, f64) {
     match *drive {
         Drive::Pi {
             kp,
@@ -387,17 +393,44 @@ pub(super) fn pi_drive(drive: &Drive, reference: f64, omega: f64, z: f64) -> (f6
         } => {
             let e = reference - omega;
             let raw = kp * e + ki * z;
-            let motor = raw.clamp(-torque_limit_nm, torque_limit_nm);
             let margin = torque_limit_nm - raw.abs();
+            let beyond = match side {
+                Side::Live => margin < 0.0,
+                Side::Within => false,
+                Side::Beyond => true,
+            };
+            if !beyond {
+                return (raw * belt_ratio, e, margin);
+            }
             // Conditional integration: stop integrating while saturated in the direction
             // the error pushes, so the integral cannot wind up.
-            let dz = if margin < 0.0 && raw.signum() == e.signum() {
-                0.0
-            } else {
-                e
-            };
-            (motor * belt_ratio, dz, margin)
+            let dz = if raw.signum() == e.signum() { 0.0 } else { e };
+            (torque_limit_nm.copysign(raw) * belt_ratio, dz, margin)
         }
         Drive::Prescribed {} => (0.0, 0.0, f64::INFINITY),
+    }
+}
+
+/// Which side of the PI drive's torque limit its law is taken on. `Live`: the side the state
+/// is on, as the drive itself. The adaptive integrator holds a step's stages on the side its
+/// start is on (`Within`: the controller's torque and integration; `Beyond`: the limit, the
+/// integral held while the error pushes further), so they see one smooth field, and ends a step
+/// on a located crossing of the limit: the integral's rate jumps there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Side {
+    Live,
+    Within,
+    Beyond,
+}
+
+impl Side {
+    /// Whether margin `m` (N m) is past the limit, seen from this side (never for `Live`,
+    /// which follows the state).
+    pub(super) fn left_by(self, m: f64) -> bool {
+        match self {
+            Side::Within => m < 0.0,
+            Side::Beyond => m > 0.0,
+            Side::Live => false,
+        }
     }
 }

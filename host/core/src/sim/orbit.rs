@@ -286,12 +286,21 @@ impl Orbit {
             |k: usize| k == RateLayout::MOTOR || energy.taken.contains(&k) || k == energy.gas;
         // What the replay of the stretch's remaining cycles may miss each sum by.
         let budget = self.agreement * (self.cycles - self.done) as f64;
-        if !self.settling.push((&row, &last.sums), budget, reported) {
+        let Some(rec) = self.settling.push((&row, &last.sums), budget, reported) else {
             return;
-        }
+        };
         let limit = &self.settling.limit;
         let orbit = (limit[0], limit[1], limit[2]);
         if self.jumps_nowhere(orbit, &limit[STATE..]) {
+            return;
+        }
+        // The window measures the trajectory, settled or not: jump only when the settling left
+        // by the stretch's end is within the agreement, as a replay of agreed cycles assumes.
+        let left = self
+            .settling
+            .left_after(&rec, (self.cycles - self.done) as usize);
+        let at_end = (orbit.0 + left[0], orbit.1 + left[1], orbit.2 + left[2]);
+        if !self.ends_agree(orbit, at_end) {
             return;
         }
         let st = &mut self.settling;
@@ -402,14 +411,15 @@ impl Settling {
     /// Keep a finished cycle's row (its end state `state` and its `sums`). With [`CYCLES`]
     /// kept and a jump left, fit their recurrence; when one fits, the limit of every quantity
     /// and (for the increments: angle turned, sums) the tail still to come after this cycle
-    /// are left in `limit` and `tail`. Whether they are good for a jump: the tails of the
-    /// `reported` sums known within `budget` (relative, of a cycle's sum).
+    /// are left in `limit` and `tail`, and the recurrence returned when they are good for a
+    /// jump: the tails of the `reported` sums known within `budget` (relative, of a cycle's
+    /// sum).
     fn push(
         &mut self,
         (state, sums): (&[f64; STATE], &[f64]),
         budget: f64,
         reported: impl Fn(usize) -> bool,
-    ) -> bool {
+    ) -> Option<Recurrence> {
         let w = self.width;
         if self.kept == CYCLES {
             self.rows.copy_within(w.., 0);
@@ -420,13 +430,11 @@ impl Settling {
         row[STATE..].copy_from_slice(sums);
         self.kept += 1;
         if self.kept < CYCLES || self.jumps >= MAX_JUMPS {
-            return false;
+            return None;
         }
         let x = |j: usize, c: usize| self.rows[j * w + c];
         let d = |j: usize, c: usize| x(j + 1, c) - x(j, c);
-        let Some(rec) = Recurrence::fit(d, STATE) else {
-            return false;
-        };
+        let rec = Recurrence::fit(d, STATE)?;
         let m = rec.order();
         for c in 0..w {
             // The limit from the last m changes; what the cycles after the last would add
@@ -452,7 +460,22 @@ impl Settling {
             let allowed = budget * self.limit[c].abs().max(1e-6 * scale);
             self.tail[c].abs() <= allowed || rec.misses(d, c) * self.tail[c].abs() <= allowed
         };
-        sums.filter(|c| reported(c - STATE)).all(known)
+        sums.filter(|c| reported(c - STATE))
+            .all(known)
+            .then_some(rec)
+    }
+
+    /// The settling left `k` cycles after the last one kept, by the recurrence: each state
+    /// quantity's deviation from its limit (angle turned, speed, integral).
+    fn left_after(&self, rec: &Recurrence, k: usize) -> [f64; STATE] {
+        let w = self.width;
+        std::array::from_fn(|c| {
+            let last = [
+                self.rows[(CYCLES - 2) * w + c] - self.limit[c],
+                self.rows[(CYCLES - 1) * w + c] - self.limit[c],
+            ];
+            rec.ahead(&last, k)
+        })
     }
 
     /// The run jumped to the limit: the cycles kept belong to the trajectory left.

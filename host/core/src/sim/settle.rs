@@ -133,6 +133,20 @@ impl Recurrence {
         }
     }
 
+    /// The term `k` places after the last of `last` (a sequence's latest terms, oldest first,
+    /// at least `order()` of them) of a sequence obeying the recurrence.
+    pub(super) fn ahead(&self, last: &[f64], k: usize) -> f64 {
+        let m = self.m;
+        let mut w = [0.0; 2];
+        w[..m].copy_from_slice(&last[last.len() - m..]);
+        for _ in 0..k {
+            let next = -(0..m).map(|i| self.a[i] * w[i]).sum::<f64>();
+            w.copy_within(1..m, 0);
+            w[m - 1] = next;
+        }
+        w[m - 1]
+    }
+
     /// The sum of every term of a sequence obeying the recurrence, from the first `m` terms
     /// `e(0), ..., e(m - 1)`: summing the recurrence over the sequence gives
     /// `sum(a) S = sum over i of a[i] (e(0) + ... + e(i - 1))`.
@@ -180,6 +194,13 @@ mod tests {
                 (limit - exact).abs() < 1e-12 * exact,
                 "{c}: {limit} vs {exact}"
             );
+            // And its deviation 20 cycles after the last one kept, as the closed form has it.
+            let last = [
+                settling(CYCLES - 2, c) - exact,
+                settling(CYCLES - 1, c) - exact,
+            ];
+            let later = settling(CYCLES - 1 + 20, c) - exact;
+            assert!((rec.ahead(&last, 20) - later).abs() < 1e-12 * exact, "{c}");
         }
     }
 

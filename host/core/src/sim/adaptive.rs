@@ -122,7 +122,11 @@ impl Stepper for Adaptive {
                     Landing::Take { on_crossing } => {
                         // A step cut short to land on `b` or a switch does not shrink the next.
                         let next = self.control.next(h_try, a.err, rejected);
-                        self.control.accepted(a.err);
+                        // A step landed on the torque limit has the crossing's length, not the
+                        // controller's: its error tells the controller nothing of the field.
+                        if !limit.landing() {
+                            self.control.accepted(a.err);
+                        }
                         let cut_short = switch_cut || h_try < h || on_crossing;
                         self.h_next = if cut_short { next.max(planned) } else { next };
                         self.side = on_crossing.then(|| opposite(limit.side()));

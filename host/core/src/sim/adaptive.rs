@@ -129,12 +129,12 @@ impl Stepper for Adaptive {
                         }
                         let cut_short = switch_cut || h_try < h || on_crossing;
                         self.h_next = if cut_short { next.max(planned) } else { next };
-                        self.side = on_crossing.then(|| opposite(limit.side()));
+                        self.side = on_crossing.then(|| limit.side().other());
                         let t1 = if h_try == remaining { b } else { t + h_try };
                         return Ok(self.take(s, t, t1, a));
                     }
                     Landing::Retry(next) => h = next,
-                    Landing::Reside(_) | Landing::Live => h = h_try,
+                    Landing::Again => h = h_try,
                 }
                 w.recycle(a.end);
                 continue;
@@ -166,14 +166,6 @@ impl Stepper for Adaptive {
 /// The PI drive's margin to its torque limit at an evaluation (the last switch).
 fn margin(e: &Eval) -> f64 {
     e.switches.last().copied().unwrap_or(f64::INFINITY)
-}
-
-/// The other side of the torque limit.
-fn opposite(side: Side) -> Side {
-    match side {
-        Side::Within => Side::Beyond,
-        _ => Side::Within,
-    }
 }
 
 impl Adaptive {

@@ -24,12 +24,11 @@ pub(super) enum Landing {
     Take { on_crossing: bool },
     /// Try again with this length, on the same side.
     Retry(f64),
-    /// The side the step was held on was wrong (the crossing it started on was grazed, not
-    /// passed): try the same length again on this side.
-    Reside(Side),
-    /// The crossing is at the step's very start: try the same length again with the drive
-    /// switching as it goes (`Side::Live`), under error control alone.
-    Live,
+    /// Try the same length again on the side the search now holds: the side the margin is
+    /// on when the crossing the step started on was grazed, not passed; `Side::Live` (the
+    /// drive switching as it goes, under error control alone) when the crossing is at the
+    /// step's very start.
+    Again,
 }
 
 /// One step's search for the crossing of the torque limit: the side its stages are held on,
@@ -96,14 +95,10 @@ impl LimitCrossing {
             self.first = h;
         }
         if self.forced && self.outside.is_none() && left(m1) && left(self.m0) {
-            // Started on the crossing but went back: the limit was grazed.
-            let other = match self.side {
-                Side::Within => Side::Beyond,
-                _ => Side::Within,
-            };
-            *self = Self::start(Some(other), self.m0);
-            self.forced = false;
-            return Landing::Reside(other);
+            // Started on the crossing but went back: the limit was grazed. The side the start
+            // is on is the other one.
+            *self = Self::start(None, self.m0);
+            return Landing::Again;
         }
         let rate = ((m1 - self.m0) / h).abs();
         let near = m1.abs() <= tol_t * rate;
@@ -128,7 +123,7 @@ impl LimitCrossing {
         };
         if next < MIN_LANDING * self.first {
             self.side = Side::Live;
-            return Landing::Live;
+            return Landing::Again;
         }
         Landing::Retry(next)
     }
@@ -203,10 +198,7 @@ mod tests {
     fn a_grazed_crossing_is_stepped_again_on_the_side_it_is_on() {
         // Landed on the limit from within, held beyond, but the margin went back up.
         let mut search = LimitCrossing::start(Some(Side::Beyond), 1e-12);
-        assert_eq!(
-            search.check((1e-4, 0.2), None, 1e-10),
-            Landing::Reside(Side::Within)
-        );
+        assert_eq!(search.check((1e-4, 0.2), None, 1e-10), Landing::Again);
         assert_eq!(search.side(), Side::Within);
     }
 }

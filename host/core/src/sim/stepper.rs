@@ -424,6 +424,14 @@ pub(super) enum Side {
 }
 
 impl Side {
+    /// The other side of the limit (`Within` for `Live`, which is on no side of its own).
+    pub(super) fn other(self) -> Side {
+        match self {
+            Side::Within => Side::Beyond,
+            Side::Beyond | Side::Live => Side::Within,
+        }
+    }
+
     /// Whether margin `m` (N m) is past the limit, seen from this side (never for `Live`,
     /// which follows the state).
     pub(super) fn left_by(self, m: f64) -> bool {

@@ -8,7 +8,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use crate::interface::{Causality, Interface, Kind, Role, Variability, DEFAULT_CALL_TIMEOUT_S};
-use crate::log::Logger;
+use crate::log::{Logger, Status};
 use crate::process::Worker;
 use crate::protocol::{Reply, Report, Request};
 use crate::stepping::Inputs;
@@ -180,6 +180,9 @@ impl Instance {
         match self.call(request)? {
             Reply::Outputs(r) => {
                 self.report = *r;
+                for w in &self.report.warnings {
+                    self.log.log(Status::Warning, crate::log::WARNING, w);
+                }
                 Ok(())
             }
             other => self.fail(format!("the worker answered {other:?} instead of outputs")),

@@ -14,7 +14,7 @@ const MAX_FRAME: usize = 256 << 20;
 
 /// The version of these messages: the FMU's library and its worker must agree on it (a
 /// library and a `tribo` from different builds are refused, not misread).
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// What the FMU asks its worker.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -75,6 +75,9 @@ pub struct Report {
     pub friction_torque_cycle_mean_nm: f64,
     /// The drive torque's mean over the last whole cycle, N m.
     pub drive_torque_cycle_mean_nm: f64,
+    /// What the run warned of since the last report, each warning once (the library logs
+    /// them to the importer with status fmi2Warning).
+    pub warnings: Vec<String>,
 }
 
 /// Why a frame could not be read or written.

@@ -122,6 +122,8 @@ pub struct QuasiSteady {
     table: Arc<Table>,
     cache: Vec<Arc<Table>>,
     state: State,
+    /// What the tables built since the last [`Stepping::take_warnings`] warned of.
+    warnings: Vec<String>,
 }
 
 impl QuasiSteady {
@@ -161,6 +163,7 @@ impl QuasiSteady {
             },
             model,
             registry,
+            warnings: Vec::new(),
         };
         s.state.energy_j = vec![0.0; s.joints.len()];
         s.set_inputs(inputs)?;
@@ -188,7 +191,14 @@ impl QuasiSteady {
         {
             return Ok(Arc::clone(t));
         }
-        let table = Arc::new(self.evaluate(omega, temp)?);
+        let (table, warnings) = self.evaluate(omega, temp)?;
+        let table = Arc::new(table);
+        let rpm = omega * 30.0 / std::f64::consts::PI;
+        self.warnings.extend(
+            warnings
+                .into_iter()
+                .map(|w| format!("the steady cycle at {rpm:.0} rpm, oil at {temp} C: {w}")),
+        );
         if self.cache.len() == CACHE {
             self.cache.remove(0);
         }
@@ -196,8 +206,9 @@ impl QuasiSteady {
         Ok(table)
     }
 
-    /// One steady cycle of the rig at crank speed `omega` and oil temperature `temp`.
-    fn evaluate(&self, omega: f64, temp: f64) -> Result<Table, StepError> {
+    /// One steady cycle of the rig at crank speed `omega` and oil temperature `temp`, and what
+    /// the solver warned of it (stateful laws that did not settle to a cycle).
+    fn evaluate(&self, omega: f64, temp: f64) -> Result<(Table, Vec<String>), StepError> {
         let mut m = self.model.clone();
         let rpm = omega * 30.0 / std::f64::consts::PI;
         m.cycle.segments = Some(vec![
@@ -228,12 +239,13 @@ impl QuasiSteady {
         // The evaluated grid must be the steady run's, or the cycle integrals differ from it.
         debug_assert!((step - self.step).abs() <= 1e-12 * self.step);
         let drive: Vec<f64> = trace.samples.iter().map(|s| s.drive_torque_nm).collect();
-        Ok(Table {
+        let table = Table {
             omega,
             oil_temperature_c: temp,
             power: power.into_iter().map(|p| Channel::new(p, step)).collect(),
             drive: Channel::new(drive, step),
-        })
+        };
+        Ok((table, trace.warnings))
     }
 }
 
@@ -246,6 +258,10 @@ impl Stepping for QuasiSteady {
         self.table = self.table(inputs)?;
         self.state.inputs = *inputs;
         Ok(())
+    }
+
+    fn take_warnings(&mut self) -> Vec<String> {
+        std::mem::take(&mut self.warnings)
     }
 
     fn advance_to(&mut self, t_s: f64) -> Result<(), StepError> {
@@ -320,6 +336,110 @@ impl Stepping for QuasiSteady {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tribo_plugin_api::loader::LawLibrary;
+    use tribo_plugin_api::{Law, LawInput, LawOutput, ParamError, ParamSpec};
+
+    /// Parameters of [`Creeping`].
+    #[derive(Serialize, Deserialize, Default)]
+    #[serde(deny_unknown_fields, default)]
+    struct CreepParams {
+        /// 0: a stateless Coulomb law; 1: its level grows with the time committed over.
+        stateful: f64,
+    }
+
+    /// A Coulomb-like piston law whose level, when stateful, grows by 1 N per second committed:
+    /// its cycle never repeats, so no steady cycle exists.
+    struct Creeping {
+        stateful: bool,
+    }
+
+    impl Law for Creeping {
+        type Params = CreepParams;
+        const NAME: &'static str = "creeping-unit";
+        const VERSION: &'static str = "0";
+        const SUMMARY: &'static str = "friction creeping up with committed time (unit test)";
+
+        fn parameters() -> Vec<ParamSpec> {
+            vec![ParamSpec::number("stateful", "-", "0 or 1", 0.0, 1.0)]
+        }
+
+        fn new(p: CreepParams) -> Result<Self, ParamError> {
+            Ok(Self {
+                stateful: p.stateful > 0.5,
+            })
+        }
+
+        fn state_size(&self) -> usize {
+            usize::from(self.stateful)
+        }
+
+        fn evaluate(&self, input: &LawInput, state: &[f64]) -> LawOutput {
+            let level = 1.0 + state.first().copied().unwrap_or(0.0);
+            let v = input.sliding_velocity_m_s;
+            LawOutput::force(-level * v / (v.abs() + 1e-3))
+        }
+
+        fn commit(&self, input: &LawInput, state: &mut [f64]) {
+            if let Some(s) = state.first_mut() {
+                *s += input.dt_s;
+            }
+        }
+    }
+
+    /// The thesis rig with the creeping law (`stateful` 0 or 1) on its piston alone, started
+    /// at 3000 rpm and 60 C.
+    fn creeping_rig(stateful: f64) -> Result<QuasiSteady, StepError> {
+        let text = include_str!("../../../rigs/crf250r-motored.toml");
+        let mut model: RigFile =
+            toml::from_str(text).map_err(|e| StepError::Input(e.to_string()))?;
+        model.joints.piston.laws = vec![tribo_core::model::LawRef {
+            law: "creeping-unit".into(),
+            params: toml::from_str(&format!("stateful = {stateful:.1}"))
+                .map_err(|e| StepError::Input(e.to_string()))?,
+        }];
+        let mut registry = LawRegistry::new();
+        let lib =
+            LawLibrary::in_process::<Creeping>().map_err(|e| StepError::Input(e.to_string()))?;
+        registry
+            .insert(lib)
+            .map_err(|e| StepError::Input(e.to_string()))?;
+        let inputs = Inputs {
+            drive: 3000.0 * std::f64::consts::PI / 30.0,
+            oil_temperature_c: 60.0,
+        };
+        QuasiSteady::new(model, Arc::new(registry), 0.0, &inputs)
+    }
+
+    /// A steady cycle whose stateful laws never settle is still tabulated (as `tribo run
+    /// --steady` reports it: the last cycle's values), but the solver's warning reaches the
+    /// importer, once per cycle evaluated, naming the speed and oil temperature; a law that
+    /// settles raises none.
+    #[test]
+    fn an_unsettled_steady_cycle_is_a_warning_once_per_table() {
+        let mut settled = creeping_rig(0.0).expect("the stateless law runs");
+        assert_eq!(settled.take_warnings(), Vec::<String>::new());
+        let mut run = creeping_rig(1.0).expect("the stateful law runs");
+        let first = run.take_warnings();
+        assert_eq!(first.len(), 1, "{first:?}");
+        assert!(first[0].contains("3000 rpm, oil at 60 C"), "{}", first[0]);
+        assert!(first[0].contains("did not repeat a cycle"), "{}", first[0]);
+        // Taken once: the same inputs again come from the cache and warn of nothing new.
+        let same = Inputs {
+            drive: 3000.0 * std::f64::consts::PI / 30.0,
+            oil_temperature_c: 60.0,
+        };
+        run.set_inputs(&same).expect("the same inputs");
+        assert_eq!(run.take_warnings(), Vec::<String>::new());
+        // Another speed is another cycle, and its own warning.
+        let faster = Inputs {
+            drive: 4000.0 * std::f64::consts::PI / 30.0,
+            ..same
+        };
+        run.set_inputs(&faster).expect("another speed");
+        let second = run.take_warnings();
+        assert_eq!(second.len(), 1, "{second:?}");
+        assert!(second[0].contains("4000 rpm"), "{}", second[0]);
+    }
 
     /// y = 1 + sin(phi) sampled on 8 steps: the integral over any span equals the trapezoid
     /// areas of the linear interpolant, summed by hand here.

@@ -103,6 +103,13 @@ pub trait Stepping {
 
     /// Go back to a state [`Stepping::save`] gave.
     fn restore(&mut self, state: &[u8]) -> Result<(), StepError>;
+
+    /// What the run warned of since the last call, each warning once: results it computed
+    /// that the importer must not take at face value (a steady cycle whose stateful laws did
+    /// not settle).
+    fn take_warnings(&mut self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// A stepping run of `model` (laws from `registry`) driven as `drive` from `start_time_s` with

@@ -312,12 +312,15 @@ impl Session {
 
     fn report(&mut self) -> Result<Report, StepError> {
         let cycle = f64::from(self.iface.revolutions_per_cycle) * std::f64::consts::TAU;
-        let now = self.run()?.outputs();
+        let run = self.run()?;
+        let now = run.outputs();
+        let warnings = run.take_warnings();
         let (friction, drive) = self.means.means(&now, cycle);
         Ok(Report {
             now,
             friction_torque_cycle_mean_nm: friction,
             drive_torque_cycle_mean_nm: drive,
+            warnings,
         })
     }
 }

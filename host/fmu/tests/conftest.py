@@ -86,6 +86,24 @@ def hostile_lib(tmp_path_factory) -> Path:
     return lib
 
 
+@pytest.fixture(scope="session")
+def creeping_lib(tmp_path_factory) -> Path:
+    """A stateful law whose cycle never repeats (tests/fixtures/c/creeping.c: viscous friction
+    growing with the time committed over) on the piston, built with the system C compiler,
+    with its law set `creeping.toml` beside it."""
+    d = tmp_path_factory.mktemp("creeping")
+    lib = d / "libtribo_law_fixture_creeping.so"
+    cc = os.environ.get("CC", "cc")
+    subprocess.run(
+        [cc, "-shared", "-fPIC", "-O1", "-I", str(ROOT / "plugin-api" / "include"),
+         str(ROOT / "tests" / "fixtures" / "c" / "creeping.c"), "-o", str(lib)],
+        check=True,
+    )
+    lawset = d / "creeping.toml"
+    lawset.write_text('name = "creeping"\n\n[[laws]]\njoint = "piston"\nlaw = "fixture-creeping"\n')
+    return lib
+
+
 class Fmu:
     """One FMU instance driven through FMPy's FMU2Slave (the FMI 2.0 C calls), with its log."""
 

@@ -365,6 +365,28 @@ def test_a_law_that_crashes_hangs_or_exits_is_an_fmi_error_not_the_importers_end
     g.free()
 
 
+def test_a_steady_cycle_that_never_repeats_is_a_logged_warning_once_per_speed(exported, creeping_lib):
+    """A stateful law that never settles to a cycle still gives outputs (the last cycle's, as
+    `tribo run --steady` reports them), and the steady solver's warning reaches the importer's
+    logger with status fmi2Warning, naming the speed and the oil temperature: once per speed
+    evaluated, while the call itself succeeds."""
+    _, unzipdir = exported(RIG, "--lawset", str(creeping_lib.parent / "creeping.toml"), plugin=creeping_lib)
+    log: list[tuple[int, str]] = []
+    f = Fmu(unzipdir, log=log, start={"crank_speed": rad_s(3000.0), "oil_temperature": 60.0})
+    warnings = [m for status, m in log if status == 1]
+    assert len(warnings) == 1, log
+    assert "did not repeat a cycle" in warnings[0] and "3000 rpm, oil at 60 C" in warnings[0], warnings
+    f.step(1e-3)
+    assert f.get("piston.friction_power")[0] > 0.0
+    assert len([m for status, m in log if status == 1]) == 1, log
+    f.set("crank_speed", rad_s(4000.0))
+    f.step(1e-3)
+    warnings = [m for status, m in log if status == 1]
+    assert len(warnings) == 2 and "4000 rpm" in warnings[1], warnings
+    assert all(status == 1 for status, _ in log), log
+    f.free()
+
+
 def test_a_law_printing_to_standard_output_cannot_garble_the_fmu_s_channel(exported, hostile_lib):
     _, unzipdir = exported(RIG, "--lawset", str(hostile_lib.parent / "hostile.toml"), plugin=hostile_lib)
     quiet = Fmu(unzipdir, start={"crank_speed": rad_s(5000.0)})

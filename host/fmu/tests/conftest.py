@@ -68,40 +68,35 @@ def exported(tribo_bin, tmp_path_factory):
     return export
 
 
-@pytest.fixture(scope="session")
-def hostile_lib(tmp_path_factory) -> Path:
-    """The hostile test law (tests/fixtures/c/hostile.c: parameter `mode` 0 behaves, 1
-    segfaults, 2 aborts, 3 hangs, 5 calls exit(0), 6 prints on standard output) built with the
-    system C compiler."""
-    d = tmp_path_factory.mktemp("hostile")
-    lib = d / "libtribo_law_fixture_hostile.so"
+def build_fixture_law(tmp_path_factory, source: str, law: str, lawset: str) -> Path:
+    """The C fixture law `tests/fixtures/c/SOURCE.c` built with the system C compiler as
+    `libtribo_law_fixture_SOURCE.so`, and beside it `SOURCE.toml`, a law set putting `law` on
+    the piston (`lawset`: its law table's extra lines)."""
+    d = tmp_path_factory.mktemp(source)
+    lib = d / f"libtribo_law_fixture_{source}.so"
     cc = os.environ.get("CC", "cc")
     subprocess.run(
         [cc, "-shared", "-fPIC", "-O1", "-I", str(ROOT / "plugin-api" / "include"),
-         str(ROOT / "tests" / "fixtures" / "c" / "hostile.c"), "-o", str(lib)],
+         str(ROOT / "tests" / "fixtures" / "c" / f"{source}.c"), "-o", str(lib)],
         check=True,
     )
-    lawset = d / "hostile.toml"
-    lawset.write_text('name = "hostile"\n\n[[laws]]\njoint = "piston"\nlaw = "fixture-hostile"\nparams = { mode = 0 }\n')
+    text = f'name = "{source}"\n\n[[laws]]\njoint = "piston"\nlaw = "{law}"\n{lawset}'
+    (d / f"{source}.toml").write_text(text)
     return lib
+
+
+@pytest.fixture(scope="session")
+def hostile_lib(tmp_path_factory) -> Path:
+    """The hostile test law (tests/fixtures/c/hostile.c: parameter `mode` 0 behaves, 1
+    segfaults, 2 aborts, 3 hangs, 5 calls exit(0), 6 prints on standard output)."""
+    return build_fixture_law(tmp_path_factory, "hostile", "fixture-hostile", "params = { mode = 0 }\n")
 
 
 @pytest.fixture(scope="session")
 def creeping_lib(tmp_path_factory) -> Path:
     """A stateful law whose cycle never repeats (tests/fixtures/c/creeping.c: viscous friction
-    growing with the time committed over) on the piston, built with the system C compiler,
-    with its law set `creeping.toml` beside it."""
-    d = tmp_path_factory.mktemp("creeping")
-    lib = d / "libtribo_law_fixture_creeping.so"
-    cc = os.environ.get("CC", "cc")
-    subprocess.run(
-        [cc, "-shared", "-fPIC", "-O1", "-I", str(ROOT / "plugin-api" / "include"),
-         str(ROOT / "tests" / "fixtures" / "c" / "creeping.c"), "-o", str(lib)],
-        check=True,
-    )
-    lawset = d / "creeping.toml"
-    lawset.write_text('name = "creeping"\n\n[[laws]]\njoint = "piston"\nlaw = "fixture-creeping"\n')
-    return lib
+    growing with the time committed over) on the piston."""
+    return build_fixture_law(tmp_path_factory, "creeping", "fixture-creeping", "")
 
 
 class Fmu:

@@ -122,7 +122,8 @@ pub struct QuasiSteady {
     table: Arc<Table>,
     cache: Vec<Arc<Table>>,
     state: State,
-    /// What the tables built since the last [`Stepping::take_warnings`] warned of.
+    /// What the rig's notes and the tables built since the last [`Stepping::take_warnings`]
+    /// warned of.
     warnings: Vec<String>,
 }
 
@@ -166,6 +167,9 @@ impl QuasiSteady {
             warnings: Vec::new(),
         };
         s.state.energy_j = vec![0.0; s.joints.len()];
+        // The rig's own notes (a law on a bearing it is not made for), as every result of
+        // `tribo run` carries them first: once, at the start.
+        s.warnings = tribo_core::sim::suitability_notes(&s.model, &s.registry);
         s.set_inputs(inputs)?;
         Ok(s)
     }

@@ -104,9 +104,9 @@ pub trait Stepping {
     /// Go back to a state [`Stepping::save`] gave.
     fn restore(&mut self, state: &[u8]) -> Result<(), StepError>;
 
-    /// What the run warned of since the last call, each warning once: results it computed
-    /// that the importer must not take at face value (a steady cycle whose stateful laws did
-    /// not settle).
+    /// What the run warned of since the last call, each warning once: what `tribo run` prints
+    /// with its results and the importer must know too (a law on a bearing it is not made
+    /// for; a steady cycle whose stateful laws did not settle).
     fn take_warnings(&mut self) -> Vec<String> {
         Vec::new()
     }

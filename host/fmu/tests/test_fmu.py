@@ -387,6 +387,24 @@ def test_a_steady_cycle_that_never_repeats_is_a_logged_warning_once_per_speed(ex
     f.free()
 
 
+def test_a_law_on_a_bearing_it_is_not_made_for_is_a_logged_warning_at_the_start(exported):
+    """The rig's own notes, which `tribo run` prints first with every result, reach the
+    importer too: the 4B11's plain-journal law on the CRF 250 R's rolling-element mains is
+    logged with status fmi2Warning once, when the run starts, naming the joint and the law."""
+    _, unzipdir = exported(RIG, "--lawset", "4b11-physical")
+    log: list[tuple[int, str]] = []
+    f = Fmu(unzipdir, log=log, start={"crank_speed": rad_s(3000.0)})
+    f.step(1e-3)
+    f.set("crank_speed", rad_s(4000.0))
+    f.step(1e-3)
+    warnings = [m for status, m in log if status == 1]
+    for joint in ("main_a", "main_b"):
+        notes = [m for m in warnings if f"joint `{joint}`: law `plain-journal` is made for plain bearings" in m]
+        assert len(notes) == 1, (joint, warnings)
+    assert all(status == 1 for status, _ in log), log
+    f.free()
+
+
 def test_a_law_printing_to_standard_output_cannot_garble_the_fmu_s_channel(exported, hostile_lib):
     _, unzipdir = exported(RIG, "--lawset", str(hostile_lib.parent / "hostile.toml"), plugin=hostile_lib)
     quiet = Fmu(unzipdir, start={"crank_speed": rad_s(5000.0)})

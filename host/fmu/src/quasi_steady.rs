@@ -197,12 +197,7 @@ impl QuasiSteady {
         }
         let (table, warnings) = self.evaluate(omega, temp)?;
         let table = Arc::new(table);
-        let rpm = omega * 30.0 / std::f64::consts::PI;
-        self.warnings.extend(
-            warnings
-                .into_iter()
-                .map(|w| format!("the steady cycle at {rpm:.0} rpm, oil at {temp} C: {w}")),
-        );
+        self.warnings.extend(warnings);
         if self.cache.len() == CACHE {
             self.cache.remove(0);
         }
@@ -211,7 +206,8 @@ impl QuasiSteady {
     }
 
     /// One steady cycle of the rig at crank speed `omega` and oil temperature `temp`, and what
-    /// the solver warned of it (stateful laws that did not settle to a cycle).
+    /// the solver warned of it (stateful laws that did not settle to a cycle; the solver's
+    /// words name the speed, the oil temperature is added).
     fn evaluate(&self, omega: f64, temp: f64) -> Result<(Table, Vec<String>), StepError> {
         let mut m = self.model.clone();
         let rpm = omega * 30.0 / std::f64::consts::PI;
@@ -249,7 +245,11 @@ impl QuasiSteady {
             power: power.into_iter().map(|p| Channel::new(p, step)).collect(),
             drive: Channel::new(drive, step),
         };
-        Ok((table, trace.warnings))
+        let warnings = trace.warnings.into_iter();
+        Ok((
+            table,
+            warnings.map(|w| format!("oil at {temp} C, {w}")).collect(),
+        ))
     }
 }
 
@@ -340,6 +340,7 @@ impl Stepping for QuasiSteady {
 #[cfg(test)]
 mod tests {
     use super::*;
+
     /// y = 1 + sin(phi) sampled on 8 steps: the integral over any span equals the trapezoid
     /// areas of the linear interpolant, summed by hand here.
     #[test]

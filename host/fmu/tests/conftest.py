@@ -89,7 +89,8 @@ def build_fixture_law(tmp_path_factory, source: str, law: str, lawset: str) -> P
 def hostile_lib(tmp_path_factory) -> Path:
     """The hostile test law (tests/fixtures/c/hostile.c: parameter `mode` 0 behaves, 1
     segfaults, 2 aborts, 3 hangs, 5 calls exit(0), 6 prints on standard output)."""
-    return build_fixture_law(tmp_path_factory, "hostile", "fixture-hostile", "params = { mode = 0 }\n")
+    params = "params = { mode = 0 }\n"
+    return build_fixture_law(tmp_path_factory, "hostile", "fixture-hostile", params)
 
 
 @pytest.fixture(scope="session")

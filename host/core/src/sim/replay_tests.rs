@@ -328,6 +328,35 @@ fn run_pi(model: &RigFile, registry: &LawRegistry, mode: HoldReplay) -> RunResul
     sim.run().expect("run")
 }
 
+/// The thesis rig with the square-root-load piston law on [`pi_cycle`], and its registry.
+fn sqrt_pi_rig() -> (RigFile, LawRegistry) {
+    let (mut model, registry) =
+        with_sqrt_piston(include_str!("../../../../rigs/crf250r-motored.toml"));
+    pi_cycle(&mut model);
+    (model, registry)
+}
+
+/// A PI run whose settled hold was replayed (`replayed`) against the same run with every
+/// cycle evaluated: the replayed hold's plateau within the agreement (1e-7), the later
+/// plateaus within the adaptive integrator's own tolerance (1e-5, windows 1e-6 s), the energy
+/// terms within 1e-6, and the energy balance closed.
+fn assert_replay_is_evaluation(replayed: &RunResult, evaluated: &RunResult) {
+    let (p, q) = (&replayed.plateaus[0], &evaluated.plateaus[0]);
+    let d = relative(p.motoring_torque_nm, q.motoring_torque_nm);
+    assert!(d <= 1e-7, "the replayed hold's torque {d:e} apart");
+    assert_windows_within(replayed, evaluated, 1e-5, 1e-6);
+    let (e, f) = (&replayed.energy, &evaluated.energy);
+    assert!(
+        relative(e.motor_work_j, f.motor_work_j) < 1e-6,
+        "{e:?} {f:?}"
+    );
+    assert!(
+        relative(e.dissipated_j, f.dissipated_j) < 1e-6,
+        "{e:?} {f:?}"
+    );
+    assert!(e.relative_residual.abs() < 1e-6, "{e:?}");
+}
+
 /// A PI hold replayed once its cycles agree is the hold evaluated in the same orbit cycles: the
 /// replay starts within the agreement (the friction tolerance, 1e-7) of where the evaluated run
 /// is, and the difference decays with the controller's settling, so the replayed hold's plateau
@@ -336,9 +365,7 @@ fn run_pi(model: &RigFile, registry: &LawRegistry, mode: HoldReplay) -> RunResul
 /// does replay.
 #[test]
 fn a_replayed_pi_hold_is_the_hold_evaluated() {
-    let (mut model, registry) =
-        with_sqrt_piston(include_str!("../../../../rigs/crf250r-motored.toml"));
-    pi_cycle(&mut model);
+    let (model, registry) = sqrt_pi_rig();
     let replayed = run_pi(&model, &registry, HoldReplay::On);
     let evaluated = run_pi(&model, &registry, HoldReplay::Evaluate);
     let stepped = run_pi(&model, &registry, HoldReplay::Off);
@@ -349,17 +376,9 @@ fn a_replayed_pi_hold_is_the_hold_evaluated() {
     );
     assert_eq!((evaluated.replayed_steps, stepped.replayed_steps), (0, 0));
     // The replayed hold: its window starts from a state within a few times the agreement of
-    // the evaluated run's, and the difference decays through the window.
-    let (p, q) = (&replayed.plateaus[0], &evaluated.plateaus[0]);
-    let d = relative(p.motoring_torque_nm, q.motoring_torque_nm);
-    assert!(d <= 1e-7, "the replayed hold's torque {d:e} apart");
-    // The plateaus after it: the adaptive steps, started from states a little apart, part ways
-    // within the integrator's own tolerance.
-    assert_windows_within(&replayed, &evaluated, 1e-5, 1e-6);
-    let (e, f) = (&replayed.energy, &evaluated.energy);
-    assert!(relative(e.motor_work_j, f.motor_work_j) < 1e-6);
-    assert!(relative(e.dissipated_j, f.dissipated_j) < 1e-6);
-    assert!(replayed.energy.relative_residual.abs() < 1e-6);
+    // the evaluated run's, and the difference decays through the window; the plateaus after
+    // it, started from states a little apart, part ways within the integrator's tolerance.
+    assert_replay_is_evaluation(&replayed, &evaluated);
     // Cutting the hold into orbit cycles moves the steps, not the result beyond the adaptive
     // integrator's own tolerance.
     assert_windows_within(&replayed, &stepped, 1e-5, 1e-6);
@@ -386,9 +405,7 @@ fn a_pi_hold_whose_cycles_differ_is_not_replayed() {
 /// energy balance closes (the motor's tail is what keeps it).
 #[test]
 fn a_pi_hold_settling_extrapolated_is_the_settling_waited_for() {
-    let (mut model, registry) =
-        with_sqrt_piston(include_str!("../../../../rigs/crf250r-motored.toml"));
-    pi_cycle(&mut model);
+    let (model, registry) = sqrt_pi_rig();
     let jumped = run_pi(&model, &registry, HoldReplay::On);
     let waited = run_pi(&model, &registry, HoldReplay::Agreed);
     let evaluated = run_pi(&model, &registry, HoldReplay::Evaluate);
@@ -398,12 +415,5 @@ fn a_pi_hold_settling_extrapolated_is_the_settling_waited_for() {
         jumped.replayed_steps,
         waited.replayed_steps
     );
-    let (p, q) = (&jumped.plateaus[0], &evaluated.plateaus[0]);
-    let d = relative(p.motoring_torque_nm, q.motoring_torque_nm);
-    assert!(d <= 1e-7, "the extrapolated hold's torque {d:e} apart");
-    assert_windows_within(&jumped, &evaluated, 1e-5, 1e-6);
-    let (e, f) = (&jumped.energy, &evaluated.energy);
-    assert!(relative(e.motor_work_j, f.motor_work_j) < 1e-6);
-    assert!(relative(e.dissipated_j, f.dissipated_j) < 1e-6);
-    assert!(e.relative_residual.abs() < 1e-6, "{e:?}");
+    assert_replay_is_evaluation(&jumped, &evaluated);
 }

@@ -1508,20 +1508,26 @@ fn work(g: &Globals, job: WorkerJob, session: &isolate::Session) -> anyhow::Resu
         }
         WorkerJob::Run(job) => {
             let position = tribo::progress::Position::default();
-            let done = std::sync::atomic::AtomicBool::new(false);
             let mut sink = DataSink {
                 session,
                 buf: Vec::new(),
             };
+            // The progress reporter ticks every 50 ms and stops as soon as the run ends (the
+            // sender dropped), not at its next tick: a sleeping reporter held every run's exit
+            // by up to 50 ms.
+            let (finished, ended) = std::sync::mpsc::channel::<()>();
             let output = std::thread::scope(|s| {
-                s.spawn(|| {
-                    while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                let position = &position;
+                s.spawn(move || {
+                    let tick = std::time::Duration::from_millis(50);
+                    while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                        ended.recv_timeout(tick)
+                    {
                         session.progress(position.get());
-                        std::thread::sleep(std::time::Duration::from_millis(50));
                     }
                 });
                 let r = job.simulate(&registry, position.clone(), Some(&mut sink));
-                done.store(true, std::sync::atomic::Ordering::Relaxed);
+                drop(finished);
                 r
             })?;
             use std::io::Write as _;

@@ -3,10 +3,9 @@
 //! not ask for `--quiet`. The work itself only stores a position in an atomic now and then.
 
 use std::io::IsTerminal;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::mpsc::{channel, RecvTimeoutError, Sender};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -15,27 +14,32 @@ pub use tribo_core::observe::Position;
 /// A progress display; stops and clears itself when dropped.
 pub struct Progress {
     position: Position,
-    done: Arc<AtomicBool>,
+    /// Dropped to stop the display: its thread wakes at once instead of at its next tick, so a
+    /// finished run does not wait for it.
+    stop: Option<Sender<()>>,
     thread: Option<JoinHandle<()>>,
 }
 
 /// How long work may run before a progress display appears.
 const DELAY: Duration = Duration::from_millis(1000);
 
+/// How often the display is redrawn.
+const TICK: Duration = Duration::from_millis(100);
+
 impl Progress {
     /// Start watching work described by `what`, with `total` units if known (a spinner if not).
     pub fn start(what: &str, total: Option<u64>, quiet: bool) -> Self {
         let position = Position::default();
-        let done = Arc::new(AtomicBool::new(false));
+        let (stop, stopped) = channel::<()>();
         let thread = (!quiet && std::io::stderr().is_terminal()).then(|| {
-            let (pos, stop, what) = (position.clone(), done.clone(), what.to_string());
+            let (pos, what) = (position.clone(), what.to_string());
             std::thread::spawn(move || {
-                let start = Instant::now();
-                while start.elapsed() < DELAY {
-                    if stop.load(Ordering::Relaxed) {
-                        return;
-                    }
-                    std::thread::sleep(Duration::from_millis(20));
+                // Work done within the delay shows nothing; the sender dropped wakes this.
+                let running = |wait: Duration| {
+                    matches!(stopped.recv_timeout(wait), Err(RecvTimeoutError::Timeout))
+                };
+                if !running(DELAY) {
+                    return;
                 }
                 let bar = match total {
                     Some(n) => ProgressBar::new(n).with_style(
@@ -51,17 +55,19 @@ impl Progress {
                     ),
                 };
                 bar.set_message(what);
-                while !stop.load(Ordering::Relaxed) {
+                loop {
                     bar.set_position(pos.get());
                     bar.tick();
-                    std::thread::sleep(Duration::from_millis(100));
+                    if !running(TICK) {
+                        break;
+                    }
                 }
                 bar.finish_and_clear();
             })
         });
         Self {
             position,
-            done,
+            stop: Some(stop),
             thread,
         }
     }
@@ -74,7 +80,7 @@ impl Progress {
 
 impl Drop for Progress {
     fn drop(&mut self) {
-        self.done.store(true, Ordering::Relaxed);
+        drop(self.stop.take());
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }

@@ -1513,16 +1513,13 @@ fn work(g: &Globals, job: WorkerJob, session: &isolate::Session) -> anyhow::Resu
                 buf: Vec::new(),
             };
             // The progress reporter ticks every 50 ms and stops as soon as the run ends (the
-            // sender dropped), not at its next tick: a sleeping reporter held every run's exit
-            // by up to 50 ms.
+            // sender dropped), not at its next tick.
             let (finished, ended) = std::sync::mpsc::channel::<()>();
             let output = std::thread::scope(|s| {
                 let position = &position;
                 s.spawn(move || {
                     let tick = std::time::Duration::from_millis(50);
-                    while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
-                        ended.recv_timeout(tick)
-                    {
+                    while tribo::progress::still_running(&ended, tick) {
                         session.progress(position.get());
                     }
                 });

@@ -3,7 +3,7 @@
 //! not ask for `--quiet`. The work itself only stores a position in an atomic now and then.
 
 use std::io::IsTerminal;
-use std::sync::mpsc::{channel, RecvTimeoutError, Sender};
+use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -18,6 +18,12 @@ pub struct Progress {
     /// finished run does not wait for it.
     stop: Option<Sender<()>>,
     thread: Option<JoinHandle<()>>,
+}
+
+/// Wait up to `wait` for the work watched through `stopped` to end (its sender dropped): `true`
+/// if it is still running. A watcher that sleeps instead holds the work's end until it wakes.
+pub fn still_running(stopped: &Receiver<()>, wait: Duration) -> bool {
+    matches!(stopped.recv_timeout(wait), Err(RecvTimeoutError::Timeout))
 }
 
 /// How long work may run before a progress display appears.
@@ -35,9 +41,7 @@ impl Progress {
             let (pos, what) = (position.clone(), what.to_string());
             std::thread::spawn(move || {
                 // Work done within the delay shows nothing; the sender dropped wakes this.
-                let running = |wait: Duration| {
-                    matches!(stopped.recv_timeout(wait), Err(RecvTimeoutError::Timeout))
-                };
+                let running = |wait: Duration| still_running(&stopped, wait);
                 if !running(DELAY) {
                     return;
                 }

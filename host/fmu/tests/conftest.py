@@ -68,10 +68,10 @@ def exported(tribo_bin, tmp_path_factory):
     return export
 
 
-def build_fixture_law(tmp_path_factory, source: str, law: str, lawset: str) -> Path:
+def build_fixture_law(tmp_path_factory, source: str, law: str, extra: str) -> Path:
     """The C fixture law `tests/fixtures/c/SOURCE.c` built with the system C compiler as
     `libtribo_law_fixture_SOURCE.so`, and beside it `SOURCE.toml`, a law set putting `law` on
-    the piston (`lawset`: its law table's extra lines)."""
+    the piston (`extra`: its law table's further lines)."""
     d = tmp_path_factory.mktemp(source)
     lib = d / f"libtribo_law_fixture_{source}.so"
     cc = os.environ.get("CC", "cc")
@@ -80,7 +80,7 @@ def build_fixture_law(tmp_path_factory, source: str, law: str, lawset: str) -> P
          str(ROOT / "tests" / "fixtures" / "c" / f"{source}.c"), "-o", str(lib)],
         check=True,
     )
-    text = f'name = "{source}"\n\n[[laws]]\njoint = "piston"\nlaw = "{law}"\n{lawset}'
+    text = f'name = "{source}"\n\n[[laws]]\njoint = "piston"\nlaw = "{law}"\n{extra}'
     (d / f"{source}.toml").write_text(text)
     return lib
 

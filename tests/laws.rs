@@ -820,6 +820,29 @@ impl Law for WrongLoadDerivative {
     }
 }
 
+/// Friction whose coefficient grows with the load (`mu (1 + N / 10 kN)`), its true local dF/dN
+/// reported, but its output marked affine in the load: a promise the host would act on.
+struct FalselyAffine(f64);
+impl Law for FalselyAffine {
+    type Params = MuParams;
+    const NAME: &'static str = "fixture-falsely-affine";
+    const VERSION: &'static str = "0.1.0";
+    const SUMMARY: &'static str = "load-dependent friction marked affine in the load";
+    fn parameters() -> Vec<ParamSpec> {
+        mu_spec()
+    }
+    fn new(p: MuParams) -> Result<Self, ParamError> {
+        Ok(Self(p.mu))
+    }
+    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+        let (s, _) = tribo::plugin_api::smooth_sign(input.sliding_velocity_m_s, 1e-3);
+        let n = input.normal_load_n;
+        let per_newton = -self.0 * arm(input) * s;
+        LawOutput::force(per_newton * n * (1.0 + n / 1e4))
+            .affine_in_load(per_newton * (1.0 + 2.0 * n / 1e4))
+    }
+}
+
 /// A stateful viscous law (its coefficient grows with the distance slid) whose batch call
 /// reads the first input's state for every input: the stride ignored.
 struct BatchIgnoresStride(f64);
@@ -953,6 +976,22 @@ fn a_wrong_load_derivative_fails_load_derivative() {
         Some(Status::Skip),
         "{r}"
     );
+}
+
+#[test]
+fn a_law_falsely_marked_affine_in_the_load_fails_load_derivative() {
+    let r = report_of::<FalselyAffine>();
+    assert_eq!(r.failed(), vec![Check::LoadDerivative], "{r}");
+    let d = detail(&r, Check::LoadDerivative);
+    assert!(d.contains("marked affine in the load"), "{d}");
+    // The bundled laws that mark it pass (the poly-line damper, its slope 0).
+    ensure_plugins_built();
+    let registry = tribo::plugin_api::loader::load_paths(&[profile_dir()]).expect("plugins load");
+    let lib = registry.get("polyline-damper").expect("bundled");
+    let r = conformance::check_law(lib, &toml::Table::new());
+    assert!(r.passed(), "{r}");
+    let d = detail(&r, Check::LoadDerivative);
+    assert!(!d.contains("no dF/dN"), "the damper marks its slope: {d}");
 }
 
 #[test]

@@ -62,6 +62,9 @@ module tribo_law
   integer(c_int32_t), parameter, public :: TRIBO_HAS_ECCENTRICITY = 32      ! version 3
   integer(c_int32_t), parameter, public :: TRIBO_HAS_PEAK_PRESSURE = 64     ! version 3
   integer(c_int32_t), parameter, public :: TRIBO_HAS_ASPERITY_SHARE = 128   ! version 3
+  !> Version 3: force affine in normal_load_n, slope dforce_dload (flag it too); the rest of
+  !> the output independent of the load, so the host may skip calls where only the load changes.
+  integer(c_int32_t), parameter, public :: TRIBO_AFFINE_IN_LOAD = 256       ! version 3
 
   !> Bearing types (tribo_law_input%bearing_type): what the rig declares for the joint.
   integer(c_int32_t), parameter, public :: TRIBO_BEARING_UNSPECIFIED = 0

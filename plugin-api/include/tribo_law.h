@@ -140,6 +140,10 @@ extern "C" {
 #define TRIBO_HAS_ECCENTRICITY 32u    /* version 3: eccentricity_x and eccentricity_y */
 #define TRIBO_HAS_PEAK_PRESSURE 64u   /* version 3: peak_pressure_pa */
 #define TRIBO_HAS_ASPERITY_SHARE 128u /* version 3: asperity_share */
+/* Version 3: the force is affine in normal_load_n with slope dforce_dload (flag it too), the
+   rest of the output independent of the load: the host may move the force along the slope
+   instead of calling again when only the load changes. 0 slope: independent of the load. */
+#define TRIBO_AFFINE_IN_LOAD 256u
 
 /* Bearing types (tribo_law_input.bearing_type): what the rig declares for the joint. */
 #define TRIBO_BEARING_UNSPECIFIED 0u

@@ -52,7 +52,8 @@ pub enum Check {
     Dissipative,
     /// A reported `dforce_dvelocity` agrees with central finite differences.
     Derivative,
-    /// A reported `dforce_dload` agrees with central finite differences in the normal load.
+    /// A reported `dforce_dload` agrees with central finite differences in the normal load; an
+    /// output marked affine in the load is so at far loads and with the load turned.
     LoadDerivative,
     /// `evaluate` twice on one state gives bit-identical outputs and leaves the state unchanged.
     PureEvaluate,
@@ -1027,6 +1028,9 @@ fn check_instance(lib: &LawLibrary, inst: &LawInstance, options: &Options) -> Ve
                 dfdn.at_zero_load += 1;
             }
         }
+        if out.flags & crate::contract::AFFINE_IN_LOAD != 0 {
+            affine_claim(inst, input, &out, &zero, &mut dfdn, &mut errors);
+        }
     }
     let mut results = Vec::new();
     let commit = if stateful {
@@ -1095,6 +1099,75 @@ fn at_load(input: &LawInput, n: f64) -> LawInput {
     }
     i.normal_load_n = n;
     i
+}
+
+/// An output marked affine in the load (`AFFINE_IN_LOAD`, which the host takes at its word to
+/// skip calls) checked at other loads, far ones and the load turned: everything the same but
+/// the force, which follows the flagged slope to rounding.
+fn affine_claim(
+    inst: &LawInstance,
+    input: &LawInput,
+    out: &LawOutput,
+    zero: &[f64],
+    dfdn: &mut DerivativeFindings,
+    errors: &mut Findings,
+) {
+    dfdn.reported += 1;
+    dfdn.findings.tried();
+    let Some(slope) = out.load_slope() else {
+        dfdn.findings.found(|| {
+            format!(
+                "the output is marked affine in the load without a finite slope (dF/dN) at {}",
+                describe_input(input)
+            )
+        });
+        return;
+    };
+    let n = input.normal_load_n;
+    let mut others: Vec<LawInput> = [0.0, 0.5 * n, 3.0 * n + 100.0]
+        .into_iter()
+        .map(|x| at_load(input, x))
+        .collect();
+    // The same load turned a quarter turn, the moment reversed.
+    let mut turned = *input;
+    (turned.reaction_x_n, turned.reaction_y_n) = (-input.reaction_y_n, input.reaction_x_n);
+    (turned.load_on_inner_x_n, turned.load_on_inner_y_n) =
+        (-input.load_on_inner_y_n, input.load_on_inner_x_n);
+    turned.reaction_moment_nm = -input.reaction_moment_nm;
+    others.push(turned);
+    let rest = |o: &LawOutput| {
+        let mut r = *o;
+        r.force = 0.0;
+        output_bits(&r)
+    };
+    for other in others {
+        let got = match eval(inst, &other, zero) {
+            Ok(o) => o,
+            Err(e) => {
+                errors.found(|| format!("{e} at {}", describe_input(&other)));
+                continue;
+            }
+        };
+        let expected = out.force + slope * (other.normal_load_n - n);
+        let scale = [out.force, got.force, slope * other.normal_load_n, slope * n]
+            .iter()
+            .fold(f64::MIN_POSITIVE, |m, x| m.max(x.abs()));
+        // Not finite counts as off.
+        let force_off = (got.force - expected)
+            .abs()
+            .partial_cmp(&(64.0 * f64::EPSILON * scale))
+            .is_none_or(|o| o.is_gt());
+        if force_off || rest(&got) != rest(out) {
+            dfdn.findings.found(|| {
+                format!(
+                    "marked affine in the load (slope {slope:e}), but at {} it gives {} where {} and a force of {expected:e} were promised",
+                    describe_input(&other),
+                    describe_output(&got),
+                    describe_output(out)
+                )
+            });
+        }
+    }
 }
 
 /// One derivative check's findings (dF/dv or dF/dN): judged points and their failures, and

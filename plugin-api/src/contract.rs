@@ -697,6 +697,15 @@ pub const HAS_ECCENTRICITY: u32 = 32;
 pub const HAS_PEAK_PRESSURE: u32 = 64;
 /// [`LawOutput::flags`] bit (contract version 3): `asperity_share` holds a value.
 pub const HAS_ASPERITY_SHARE: u32 = 128;
+/// [`LawOutput::flags`] bit (contract version 3): the output depends on the load only through
+/// `normal_load_n`, and affinely. At the same input (and state) but any other load (normal
+/// load, components, moment) the law would return the same output but for a force of
+/// `force + dforce_dload * (new normal_load_n - normal_load_n)`. The slope must be flagged
+/// ([`HAS_LOAD_DERIVATIVE`]); 0 says the output does not depend on the load at all. The host
+/// may then compute the output at another load instead of calling the law again: the later
+/// rounds of one evaluation's friction/reaction iteration change only the loads. A Coulomb law
+/// (`mu N`) or a damper may set it; a law whose coefficient depends on the load may not.
+pub const AFFINE_IN_LOAD: u32 = 256;
 /// The flag bits of the diagnostics (film, eccentricity, pressure, asperity share): what the
 /// host checks for sense and carries into results.
 pub const DIAGNOSTIC_FLAGS: u32 =
@@ -813,6 +822,21 @@ impl LawOutput {
         self.dforce_dload = dfdn;
         self.flags |= HAS_LOAD_DERIVATIVE;
         self
+    }
+
+    /// Mark the force as affine in the normal load with slope `dfdn`, everything else as
+    /// independent of the load ([`AFFINE_IN_LOAD`], with [`HAS_LOAD_DERIVATIVE`]).
+    pub fn affine_in_load(self, dfdn: f64) -> Self {
+        let mut out = self.with_load_derivative(dfdn);
+        out.flags |= AFFINE_IN_LOAD;
+        out
+    }
+
+    /// The slope of the force in the normal load, if the law marked the output as affine in
+    /// it ([`AFFINE_IN_LOAD`] with [`HAS_LOAD_DERIVATIVE`]; the slope finite).
+    pub fn load_slope(&self) -> Option<f64> {
+        let both = AFFINE_IN_LOAD | HAS_LOAD_DERIVATIVE;
+        (self.flags & both == both && self.dforce_dload.is_finite()).then_some(self.dforce_dload)
     }
 
     /// Attach the minimum film thickness, m.

@@ -28,9 +28,9 @@ pub mod tribology;
 
 pub use contract::{
     smooth_sign, suits, suits_text, suits_words, BadDiagnostic, BearingType, InnerBody, JointKind,
-    LawInput, LawOutput, Regime, CONTRACT_VERSION, DIAGNOSTIC_FLAGS, HAS_ASPERITY_SHARE,
-    HAS_COEFFICIENT, HAS_DERIVATIVE, HAS_DUTY_PARAMETER, HAS_ECCENTRICITY, HAS_LOAD_DERIVATIVE,
-    HAS_MIN_FILM, HAS_PEAK_PRESSURE, SUITS_PLAIN, SUITS_ROLLING, SUITS_SLIDE,
+    LawInput, LawOutput, Regime, AFFINE_IN_LOAD, CONTRACT_VERSION, DIAGNOSTIC_FLAGS,
+    HAS_ASPERITY_SHARE, HAS_COEFFICIENT, HAS_DERIVATIVE, HAS_DUTY_PARAMETER, HAS_ECCENTRICITY,
+    HAS_LOAD_DERIVATIVE, HAS_MIN_FILM, HAS_PEAK_PRESSURE, SUITS_PLAIN, SUITS_ROLLING, SUITS_SLIDE,
 };
 pub use describe::{LawDescription, ParamError, ParamSpec, ParamValue};
 pub use law::{assert_law_is_consistent, create_from_table, describe as describe_law, Law};

@@ -19,9 +19,10 @@ use tribo_plugin_api::contract::v2::{LawInput as V2Input, LawOutput as V2Output}
 
 use tribo_plugin_api::contract::{CLawDescription, CParamSpec};
 use tribo_plugin_api::{
-    BearingType, InnerBody, JointKind, LawInput, LawOutput, Regime, CONTRACT_VERSION,
-    HAS_ASPERITY_SHARE, HAS_COEFFICIENT, HAS_DERIVATIVE, HAS_DUTY_PARAMETER, HAS_ECCENTRICITY,
-    HAS_LOAD_DERIVATIVE, HAS_MIN_FILM, HAS_PEAK_PRESSURE, SUITS_PLAIN, SUITS_ROLLING, SUITS_SLIDE,
+    BearingType, InnerBody, JointKind, LawInput, LawOutput, Regime, AFFINE_IN_LOAD,
+    CONTRACT_VERSION, HAS_ASPERITY_SHARE, HAS_COEFFICIENT, HAS_DERIVATIVE, HAS_DUTY_PARAMETER,
+    HAS_ECCENTRICITY, HAS_LOAD_DERIVATIVE, HAS_MIN_FILM, HAS_PEAK_PRESSURE, SUITS_PLAIN,
+    SUITS_ROLLING, SUITS_SLIDE,
 };
 
 /// Offset and size of one field.
@@ -255,6 +256,7 @@ fn rust_constants() -> BTreeMap<String, u64> {
         ("TRIBO_HAS_ECCENTRICITY", HAS_ECCENTRICITY),
         ("TRIBO_HAS_PEAK_PRESSURE", HAS_PEAK_PRESSURE),
         ("TRIBO_HAS_ASPERITY_SHARE", HAS_ASPERITY_SHARE),
+        ("TRIBO_AFFINE_IN_LOAD", AFFINE_IN_LOAD),
         ("TRIBO_SUITS_PLAIN", SUITS_PLAIN),
         ("TRIBO_SUITS_ROLLING", SUITS_ROLLING),
         ("TRIBO_SUITS_SLIDE", SUITS_SLIDE),

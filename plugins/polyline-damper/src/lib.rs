@@ -143,7 +143,9 @@ impl Law for PolylineDamper {
             // Bounded at standstill, where the relative velocity vanishes with the engine speed.
             c /= w.abs().max(1e-3);
         }
-        LawOutput::force(-c * input.relative_velocity).with_derivative(-c)
+        LawOutput::force(-c * input.relative_velocity)
+            .with_derivative(-c)
+            .affine_in_load(0.0)
     }
 }
 

@@ -232,27 +232,35 @@ impl BoundJoint {
     }
 
     /// The friction force (slide) or torque (revolute) of all the joint's laws at `input`, each
-    /// with its state from `states` and marked running through `round`, checked (finite, of a
+    /// with its state from `laws` and marked running through `round`, checked (finite, of a
     /// physical size against `reaction_n`, a stateless law not adding energy). With `record`,
-    /// each law's power and load are written into the rates and its regime into the codes.
+    /// each law's power and load are written into the rates and its regime into the codes. A
+    /// law whose output this evaluation said is affine in the load is not called again.
     #[inline(always)]
     pub(super) fn force(
         &self,
         input: &LawInput,
-        states: &LawStates,
+        laws: &mut LawMemory<'_>,
         reaction_n: f64,
         mut record: Option<Record<'_>>,
         layout: super::rates::RateLayout,
         round: &mut Round,
     ) -> Result<f64, SimError> {
         let mut total = 0.0;
-        let mut out = LawOutput::force(0.0);
+        let mut fresh = LawOutput::force(0.0);
         for (i, law) in self.laws.iter().enumerate() {
             let k = self.first_law + i;
-            if let Err(e) = law.call(input, &states.0[k], &mut out, round) {
-                return Err(law_failed(&self.name, input, e));
+            match laws.reuse.at(k, input.normal_load_n) {
+                Some(out) => fresh = out,
+                None => {
+                    if let Err(e) = law.call(input, &laws.states.0[k], &mut fresh, round) {
+                        return Err(law_failed(&self.name, input, e));
+                    }
+                    laws.reuse.keep(k, &fresh, input.normal_load_n);
+                }
             }
-            let power = checked_power(&self.name, self.role.kind(), law, input, &out, reaction_n)?;
+            let out = &fresh;
+            let power = checked_power(&self.name, self.role.kind(), law, input, out, reaction_n)?;
             total += out.force;
             if let Some(r) = record.as_mut() {
                 let regime = out.regime().unwrap_or(tribo_plugin_api::Regime::None);
@@ -262,6 +270,67 @@ impl BoundJoint {
             }
         }
         Ok(total)
+    }
+}
+
+/// What the laws of one evaluation are called with besides their input: their committed
+/// states, and the outputs kept for the evaluation's later rounds.
+pub(super) struct LawMemory<'a> {
+    pub(super) states: &'a LawStates,
+    pub(super) reuse: &'a mut Reuse,
+}
+
+/// The outputs of one evaluation that their laws marked affine in the load
+/// (`LawOutput::load_slope`), with the load each was made at, by run-wide law index: the
+/// evaluation's later rounds change only the loads, so the output at a new load is computed
+/// from these instead of calling the law again. Forgotten at the start of every evaluation.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Reuse {
+    outputs: Vec<Option<(LawOutput, f64)>>,
+    any: bool,
+}
+
+impl Reuse {
+    /// Room for `n_laws` laws, none kept.
+    pub(super) fn new(n_laws: usize) -> Self {
+        Self {
+            outputs: vec![None; n_laws],
+            any: false,
+        }
+    }
+
+    /// Forget every kept output: a new evaluation (another instant, or another state).
+    #[inline(always)]
+    pub(super) fn forget(&mut self) {
+        if self.any {
+            self.outputs.fill(None);
+            self.any = false;
+        }
+    }
+
+    /// Law `k`'s output at the normal load `load_n` from its kept one, if it has one: the
+    /// force moved along its slope (unchanged, bit for bit, for a slope of 0).
+    #[inline(always)]
+    fn at(&self, k: usize, load_n: f64) -> Option<LawOutput> {
+        if !self.any {
+            return None;
+        }
+        self.outputs[k].map(|(mut out, kept_n)| {
+            if out.dforce_dload != 0.0 {
+                out.force += out.dforce_dload * (load_n - kept_n);
+            }
+            out
+        })
+    }
+
+    /// Keep law `k`'s output `out`, made at the normal load `load_n`, if the law marked it
+    /// affine in the load.
+    #[inline(always)]
+    fn keep(&mut self, k: usize, out: &LawOutput, load_n: f64) {
+        if out.load_slope().is_some() {
+            self.outputs[k] = Some((*out, load_n));
+            self.any = true;
+        }
     }
 }
 

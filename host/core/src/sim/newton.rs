@@ -12,7 +12,7 @@ use nalgebra::{DMatrix, DVector, Vector2};
 use tribo_plugin_api::loader::inflight;
 use tribo_plugin_api::LawInput;
 
-use super::bind::Record;
+use super::bind::{LawMemory, Record};
 use super::error::SimError;
 use super::evaluate::{check_solve, Eval, Point, Work};
 use super::Simulation;
@@ -278,9 +278,13 @@ impl Iterate<'_> {
                     rates: &mut *self.rates,
                     regimes: &mut *self.regimes,
                 });
+                let mut laws = LawMemory {
+                    states: &w.states,
+                    reuse: &mut w.reuse,
+                };
                 r.totals[ji] = j.force(
                     input,
-                    &w.states,
+                    &mut laws,
                     self.reaction_n,
                     record,
                     layout,
@@ -308,8 +312,12 @@ impl Iterate<'_> {
         self.totals.clone_from(&self.cur.totals);
         let layout = sim.layout();
         let mut marks = inflight::round();
+        let mut laws = LawMemory {
+            states: &w.states,
+            reuse: &mut w.reuse,
+        };
         self.totals[j] =
-            sim.joints[j].force(input, &w.states, self.reaction_n, None, layout, &mut marks)?;
+            sim.joints[j].force(input, &mut laws, self.reaction_n, None, layout, &mut marks)?;
         w.crank.solve(self.at.control, &sim.roles, &self.totals);
         w.crank.normals(&sim.roles, &mut self.normals);
         Ok(())

@@ -1018,3 +1018,112 @@ fn each_cylinder_is_handed_its_own_four_stroke_phase_from_the_firing_order() {
     let friction: f64 = p.joints.iter().map(|l| l.friction_torque_nm).sum();
     assert!((p.motoring_torque_nm - friction).abs() < 1e-6 * (1.0 + friction.abs()));
 }
+
+/// Calls made to [`CoulombUnit`], plain (0) and marked affine in the load (1).
+static COULOMB_CALLS: [std::sync::atomic::AtomicUsize; 2] =
+    [const { std::sync::atomic::AtomicUsize::new(0) }; 2];
+
+/// Coulomb friction `mu N` on the joint's arm, with its output marked affine in the load (the
+/// slope `-mu arm sign`) or not: the same law either way, counting its calls.
+struct CoulombUnit<const AFFINE: bool>;
+
+impl<const AFFINE: bool> Law for CoulombUnit<AFFINE> {
+    type Params = SqrtParams;
+    const NAME: &'static str = if AFFINE {
+        "coulomb-affine-unit"
+    } else {
+        "coulomb-plain-unit"
+    };
+    const VERSION: &'static str = "0";
+    const SUMMARY: &'static str = "Coulomb friction, mu = 0.05 (unit test)";
+
+    fn parameters() -> Vec<ParamSpec> {
+        SqrtLoad::parameters()
+    }
+
+    fn new(_: SqrtParams) -> Result<Self, ParamError> {
+        Ok(Self)
+    }
+
+    fn evaluate(&self, input: &LawInput, _state: &[f64]) -> LawOutput {
+        COULOMB_CALLS[usize::from(AFFINE)].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let arm = match input.kind() {
+            Some(JointKind::Revolute) => input.contact_radius_m,
+            _ => 1.0,
+        };
+        let slope = -0.05 * arm * smooth_sign(input.sliding_velocity_m_s, 1e-3).0;
+        let out = LawOutput::force(slope * input.normal_load_n);
+        if AFFINE {
+            out.affine_in_load(slope)
+        } else {
+            out
+        }
+    }
+}
+
+/// The bundled rig with [`CoulombUnit`] on every joint, marked affine or not.
+fn coulomb_simulation<const AFFINE: bool>() -> Simulation {
+    let text = include_str!("../../../../rigs/crf250r-motored.toml");
+    let mut model: RigFile = toml::from_str(text).expect("rig parses");
+    for joint in ["main_a", "main_b", "big_end", "small_end", "piston"] {
+        model.joints.get_mut(joint).expect("joint").laws = vec![crate::model::LawRef {
+            law: CoulombUnit::<AFFINE>::NAME.into(),
+            params: toml::Table::new(),
+        }];
+    }
+    let mut registry = LawRegistry::new();
+    registry
+        .insert(LawLibrary::in_process::<CoulombUnit<AFFINE>>().expect("law describes itself"))
+        .expect("one law");
+    Simulation::new(&model, &registry).expect("simulation builds")
+}
+
+#[test]
+fn a_law_marked_affine_in_the_load_is_called_once_per_evaluation_to_the_same_result() {
+    let calls = |affine: bool| {
+        COULOMB_CALLS[usize::from(affine)].load(std::sync::atomic::Ordering::Relaxed)
+    };
+    let (plain, affine) = (coulomb_simulation::<false>(), coulomb_simulation::<true>());
+    for (theta, rpm, alpha) in [
+        (1.0, 3000.0, 0.0),
+        (2.5, 9000.0, 800.0),
+        (4.0, 6000.0, -500.0),
+    ] {
+        let at = Point {
+            t: 0.5,
+            dt: 1e-5,
+            theta,
+            omega: rpm * TAU / 60.0,
+            control: Control::Acceleration(alpha),
+            margin: f64::INFINITY,
+            oil: plain.oil_at(0.5),
+        };
+        let before = (calls(false), calls(true));
+        let (p, _) = evaluate_at(&plain, &at).expect("plain evaluation");
+        let (a, _) = evaluate_at(&affine, &at).expect("affine evaluation");
+        let made = (calls(false) - before.0, calls(true) - before.1);
+        // Every round of the plain law calls it on the five joints; the affine one once.
+        assert!(
+            p.iterations >= 3,
+            "the iteration needs rounds to save: {}",
+            p.iterations
+        );
+        assert_eq!(made.0, 5 * (p.iterations as usize - 1), "plain calls");
+        assert_eq!(made.1, 5, "affine calls, {} iterations", a.iterations);
+        // The same friction to rounding (the force moved along the slope instead of made anew).
+        let scale = p.normals.iter().fold(1.0_f64, |m, n| m.max(*n));
+        for (x, y) in p
+            .normals
+            .iter()
+            .zip(a.normals.iter())
+            .chain(p.totals.iter().zip(a.totals.iter()))
+        {
+            assert!(
+                (x - y).abs() <= 1e-12 * scale,
+                "{x} vs {y} at {theta} rad, {rpm} rpm"
+            );
+        }
+        assert!((p.alpha - a.alpha).abs() <= 1e-12 * p.alpha.abs().max(1.0));
+        assert_eq!(p.iterations, a.iterations);
+    }
+}

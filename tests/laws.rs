@@ -984,14 +984,17 @@ fn a_law_falsely_marked_affine_in_the_load_fails_load_derivative() {
     assert_eq!(r.failed(), vec![Check::LoadDerivative], "{r}");
     let d = detail(&r, Check::LoadDerivative);
     assert!(d.contains("marked affine in the load"), "{d}");
-    // The bundled laws that mark it pass (the poly-line damper, its slope 0).
+    // The bundled laws that mark it pass: Coulomb on the reactions, the poly-line damper
+    // (its slope 0).
     ensure_plugins_built();
     let registry = tribo::plugin_api::loader::load_paths(&[profile_dir()]).expect("plugins load");
-    let lib = registry.get("polyline-damper").expect("bundled");
-    let r = conformance::check_law(lib, &toml::Table::new());
-    assert!(r.passed(), "{r}");
-    let d = detail(&r, Check::LoadDerivative);
-    assert!(!d.contains("no dF/dN"), "the damper marks its slope: {d}");
+    for name in ["fedem-friction", "polyline-damper"] {
+        let lib = registry.get(name).expect("bundled");
+        let r = conformance::check_law(lib, &toml::Table::new());
+        assert!(r.passed(), "{name}: {r}");
+        let d = detail(&r, Check::LoadDerivative);
+        assert!(!d.contains("no dF/dN"), "{name} marks its slope: {d}");
+    }
 }
 
 #[test]

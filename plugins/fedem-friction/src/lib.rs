@@ -96,7 +96,11 @@ impl Law for FedemFriction {
         };
         let (sign, _) = smooth_sign(input.sliding_velocity_m_s, self.p.v_smooth);
         let magnitude = self.p.prestress + self.p.mu * fe * stribeck;
-        LawOutput::force(-magnitude * sign).with_coefficient(self.p.mu * stribeck)
+        // Affine in the load (the prestress its intercept): the host need not call again when
+        // only the load changes.
+        LawOutput::force(-magnitude * sign)
+            .with_coefficient(self.p.mu * stribeck)
+            .affine_in_load(-self.p.mu * arm * stribeck * sign)
     }
 }
 

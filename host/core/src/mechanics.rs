@@ -247,8 +247,10 @@ impl Mechanism {
         let y_piston = r * cos + (l * l - (r * sin).powi(2)).sqrt();
         let small = Vector2::new(0.0, y_piston);
         let u = (small - pin) / l;
-        // Rod angle: local +y maps onto u, so u = (-sin psi, cos psi).
-        let psi = (-u.x).atan2(u.y);
+        // Rod angle: local +y maps onto u, so u = (-sin psi, cos psi), with cos psi > 0 (the rod
+        // is longer than the crank throw): one division and an arctangent, cheaper than the
+        // general two-argument form, to within an ulp of it.
+        let psi = (-u.x / u.y).atan();
         let rod_com = pin + u * self.geo.rod_com_from_big_end_m;
         let rotations = Rotations {
             crank: (cos, sin),

@@ -112,12 +112,22 @@ impl LimitCrossing {
             return Landing::Take { on_crossing: false };
         }
         self.tries += 1;
-        if self.tries > MAX_TRIES {
+        // The crossing is bracketed more tightly than the step may run on the wrong side's law
+        // (typically a graze, where a middle stage's low-order margin and the end's disagree
+        // by more than the landing test allows on a bracket of picoseconds): no further try
+        // can place it better.
+        let bracketed = self
+            .outside
+            .is_some_and(|(h_out, _)| (h_out - self.inside.0).abs() <= tol_t);
+        if bracketed || self.tries > MAX_TRIES {
             return Landing::Take {
                 on_crossing: crossed,
             };
         }
-        let next = match grazed {
+        // Past the limit at the end and already at a middle stage: the crossing is before the
+        // stage, the nearer far end of the bracket.
+        let early = stage_past.filter(|_| crossed);
+        let next = match grazed.or(early) {
             Some((h_stage, m_stage)) => self.narrow(h_stage, m_stage, true),
             None => self.narrow(h, m1, crossed),
         };

@@ -638,6 +638,35 @@ fn mu_spec() -> Vec<ParamSpec> {
     )]
 }
 
+/// A stateless fixture law with the one parameter `mu` (its doc, type, name, summary and
+/// output in terms of `mu` and the input): the laws the checks below must catch, each wrong in
+/// one way.
+macro_rules! mu_fixture {
+    (
+        $(#[$doc:meta])* $ty:ident, $name:literal, $summary:literal,
+        |$mu:ident, $input:ident| $body:block
+    ) => {
+        $(#[$doc])*
+        struct $ty(f64);
+        impl Law for $ty {
+            type Params = MuParams;
+            const NAME: &'static str = $name;
+            const VERSION: &'static str = "0.1.0";
+            const SUMMARY: &'static str = $summary;
+            fn parameters() -> Vec<ParamSpec> {
+                mu_spec()
+            }
+            fn new(p: MuParams) -> Result<Self, ParamError> {
+                Ok(Self(p.mu))
+            }
+            fn evaluate(&self, $input: &LawInput, _: &[f64]) -> LawOutput {
+                let $mu = self.0;
+                $body
+            }
+        }
+    };
+}
+
 fn arm(input: &LawInput) -> f64 {
     if input.kind() == Some(JointKind::Revolute) {
         input.contact_radius_m
@@ -646,60 +675,30 @@ fn arm(input: &LawInput) -> f64 {
     }
 }
 
-/// Pushes along the motion: feeds energy in.
-struct Pushing(f64);
-impl Law for Pushing {
-    type Params = MuParams;
-    const NAME: &'static str = "fixture-pushing";
-    const VERSION: &'static str = "0.1.0";
-    const SUMMARY: &'static str = "friction with the wrong sign";
-    fn parameters() -> Vec<ParamSpec> {
-        mu_spec()
-    }
-    fn new(p: MuParams) -> Result<Self, ParamError> {
-        Ok(Self(p.mu))
-    }
-    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+mu_fixture! {
+    /// Pushes along the motion: feeds energy in.
+    Pushing, "fixture-pushing", "friction with the wrong sign",
+    |mu, input| {
         let (s, _) = tribo::plugin_api::smooth_sign(input.sliding_velocity_m_s, 1e-3);
-        LawOutput::force(self.0 * input.normal_load_n * arm(input) * s)
+        LawOutput::force(mu * input.normal_load_n * arm(input) * s)
     }
 }
 
-/// A viscous damper whose reported dF/dv is twice the true one.
-struct WrongDerivative(f64);
-impl Law for WrongDerivative {
-    type Params = MuParams;
-    const NAME: &'static str = "fixture-wrong-derivative";
-    const VERSION: &'static str = "0.1.0";
-    const SUMMARY: &'static str = "viscous damper with a wrong dF/dv";
-    fn parameters() -> Vec<ParamSpec> {
-        mu_spec()
-    }
-    fn new(p: MuParams) -> Result<Self, ParamError> {
-        Ok(Self(p.mu))
-    }
-    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
-        let c = self.0 * (1.0 + input.normal_load_n);
+mu_fixture! {
+    /// A viscous damper whose reported dF/dv is twice the true one.
+    WrongDerivative, "fixture-wrong-derivative", "viscous damper with a wrong dF/dv",
+    |mu, input| {
+        let c = mu * (1.0 + input.normal_load_n);
         LawOutput::force(-c * input.relative_velocity).with_derivative(-2.0 * c)
     }
 }
 
-/// Coulomb friction with a hard sign written as v/|v|: NaN at zero velocity.
-struct NanAtRest(f64);
-impl Law for NanAtRest {
-    type Params = MuParams;
-    const NAME: &'static str = "fixture-nan-at-rest";
-    const VERSION: &'static str = "0.1.0";
-    const SUMMARY: &'static str = "Coulomb friction as v/|v|";
-    fn parameters() -> Vec<ParamSpec> {
-        mu_spec()
-    }
-    fn new(p: MuParams) -> Result<Self, ParamError> {
-        Ok(Self(p.mu))
-    }
-    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+mu_fixture! {
+    /// Coulomb friction with a hard sign written as v/|v|: NaN at zero velocity.
+    NanAtRest, "fixture-nan-at-rest", "Coulomb friction as v/|v|",
+    |mu, input| {
         let v = input.sliding_velocity_m_s;
-        LawOutput::force(-self.0 * input.normal_load_n * arm(input) * v / v.abs())
+        LawOutput::force(-mu * input.normal_load_n * arm(input) * v / v.abs())
     }
 }
 
@@ -734,22 +733,12 @@ impl Law for BadDefault {
     }
 }
 
-/// Panics above 20 kN.
-struct PanicsUnderLoad(f64);
-impl Law for PanicsUnderLoad {
-    type Params = MuParams;
-    const NAME: &'static str = "fixture-panics-under-load";
-    const VERSION: &'static str = "0.1.0";
-    const SUMMARY: &'static str = "panics above 20 kN";
-    fn parameters() -> Vec<ParamSpec> {
-        mu_spec()
-    }
-    fn new(p: MuParams) -> Result<Self, ParamError> {
-        Ok(Self(p.mu))
-    }
-    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+mu_fixture! {
+    /// Panics above 20 kN.
+    PanicsUnderLoad, "fixture-panics-under-load", "panics above 20 kN",
+    |mu, input| {
         assert!(input.normal_load_n <= 20e3, "load table ends at 20 kN");
-        LawOutput::force(-self.0 * input.relative_velocity)
+        LawOutput::force(-mu * input.relative_velocity)
     }
 }
 
@@ -780,65 +769,35 @@ impl Law for Diverging {
     }
 }
 
-/// Coulomb friction reporting a film that goes negative above 2 kN (an unclamped film
-/// formula): physically impossible.
-struct NegativeFilm(f64);
-impl Law for NegativeFilm {
-    type Params = MuParams;
-    const NAME: &'static str = "fixture-negative-film";
-    const VERSION: &'static str = "0.1.0";
-    const SUMMARY: &'static str = "a film thickness below zero";
-    fn parameters() -> Vec<ParamSpec> {
-        mu_spec()
-    }
-    fn new(p: MuParams) -> Result<Self, ParamError> {
-        Ok(Self(p.mu))
-    }
-    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+mu_fixture! {
+    /// Coulomb friction reporting a film that goes negative above 2 kN (an unclamped film
+    /// formula): physically impossible.
+    NegativeFilm, "fixture-negative-film", "a film thickness below zero",
+    |mu, input| {
         let (s, _) = tribo::plugin_api::smooth_sign(input.sliding_velocity_m_s, 1e-3);
-        LawOutput::force(-self.0 * input.normal_load_n * arm(input) * s)
+        LawOutput::force(-mu * input.normal_load_n * arm(input) * s)
             .with_min_film(2e-6 - 1e-9 * input.normal_load_n)
     }
 }
 
-/// Coulomb friction whose reported dF/dN is twice the true one.
-struct WrongLoadDerivative(f64);
-impl Law for WrongLoadDerivative {
-    type Params = MuParams;
-    const NAME: &'static str = "fixture-wrong-load-derivative";
-    const VERSION: &'static str = "0.1.0";
-    const SUMMARY: &'static str = "Coulomb friction with a wrong dF/dN";
-    fn parameters() -> Vec<ParamSpec> {
-        mu_spec()
-    }
-    fn new(p: MuParams) -> Result<Self, ParamError> {
-        Ok(Self(p.mu))
-    }
-    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+mu_fixture! {
+    /// Coulomb friction whose reported dF/dN is twice the true one.
+    WrongLoadDerivative, "fixture-wrong-load-derivative", "Coulomb friction with a wrong dF/dN",
+    |mu, input| {
         let (s, _) = tribo::plugin_api::smooth_sign(input.sliding_velocity_m_s, 1e-3);
-        let per_newton = -self.0 * arm(input) * s;
+        let per_newton = -mu * arm(input) * s;
         LawOutput::force(per_newton * input.normal_load_n).with_load_derivative(2.0 * per_newton)
     }
 }
 
-/// Friction whose coefficient grows with the load (`mu (1 + N / 10 kN)`), its true local dF/dN
-/// reported, but its output marked affine in the load: a promise the host would act on.
-struct FalselyAffine(f64);
-impl Law for FalselyAffine {
-    type Params = MuParams;
-    const NAME: &'static str = "fixture-falsely-affine";
-    const VERSION: &'static str = "0.1.0";
-    const SUMMARY: &'static str = "load-dependent friction marked affine in the load";
-    fn parameters() -> Vec<ParamSpec> {
-        mu_spec()
-    }
-    fn new(p: MuParams) -> Result<Self, ParamError> {
-        Ok(Self(p.mu))
-    }
-    fn evaluate(&self, input: &LawInput, _: &[f64]) -> LawOutput {
+mu_fixture! {
+    /// Friction whose coefficient grows with the load (`mu (1 + N / 10 kN)`), its true local dF/dN
+    /// reported, but its output marked affine in the load: a promise the host would act on.
+    FalselyAffine, "fixture-falsely-affine", "load-dependent friction marked affine in the load",
+    |mu, input| {
         let (s, _) = tribo::plugin_api::smooth_sign(input.sliding_velocity_m_s, 1e-3);
         let n = input.normal_load_n;
-        let per_newton = -self.0 * arm(input) * s;
+        let per_newton = -mu * arm(input) * s;
         LawOutput::force(per_newton * n * (1.0 + n / 1e4))
             .affine_in_load(per_newton * (1.0 + 2.0 * n / 1e4))
     }

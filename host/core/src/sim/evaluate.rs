@@ -130,7 +130,7 @@ pub(super) struct Work {
     pub(super) rel: Vec<f64>,
     pub(super) prev: Vec<f64>,
     pub(super) states: LawStates,
-    /// The current evaluation's outputs that do not depend on the load.
+    /// The current evaluation's outputs that their laws marked affine in the load.
     pub(super) reuse: Reuse,
     /// Largest friction iteration count seen.
     pub(super) max_it: u32,

@@ -1112,7 +1112,7 @@ fn affine_claim(
     dfdn: &mut DerivativeFindings,
     errors: &mut Findings,
 ) {
-    dfdn.reported += 1;
+    dfdn.affine += 1;
     dfdn.findings.tried();
     let Some(slope) = out.load_slope() else {
         dfdn.findings.found(|| {
@@ -1181,6 +1181,8 @@ struct DerivativeFindings {
     unresolved: usize,
     /// Reported at zero load, where the load derivative is one-sided (not judged).
     at_zero_load: usize,
+    /// Outputs marked affine in the load, whose promise was checked (`affine_claim`).
+    affine: usize,
 }
 
 impl DerivativeFindings {
@@ -1217,7 +1219,7 @@ impl DerivativeFindings {
     }
 
     fn result(self, check: Check, what: &str, variable: &str) -> CheckResult {
-        let reported = self.reported + self.at_zero_load;
+        let reported = self.reported + self.at_zero_load + self.affine;
         if reported == 0 {
             return skip(check, format!("the law reports no {what}"));
         }
@@ -1230,6 +1232,13 @@ impl DerivativeFindings {
             let _ = write!(detail, "; {} at zero load, not judged", self.at_zero_load);
         }
         detail.push(')');
+        if self.affine > 0 {
+            let _ = write!(
+                detail,
+                "; marked affine in the load at {} inputs, and so at other loads",
+                self.affine
+            );
+        }
         self.findings.result(check, detail)
     }
 }

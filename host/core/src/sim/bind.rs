@@ -284,7 +284,7 @@ pub(super) struct LawMemory<'a> {
 /// (`LawOutput::load_slope`), with the load each was made at, by run-wide law index: the
 /// evaluation's later rounds change only the loads, so the output at a new load is computed
 /// from these instead of calling the law again. Forgotten at the start of every evaluation.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub(super) struct Reuse {
     outputs: Vec<Option<(LawOutput, f64)>>,
     any: bool,

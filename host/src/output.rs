@@ -26,6 +26,11 @@ use tribo_config::files::file_kind as kind;
 /// The file that marks a directory as a tribo result set and lists its files (TOML).
 pub const MARKER: &str = ".tribo-results";
 
+/// The marker while it is being written, renamed over [`MARKER`] once whole: a run killed
+/// while writing its marker never leaves a partial one (which would make its leftover
+/// unrecognisable, and so never removed).
+const MARKER_PART: &str = ".tribo-results.part";
+
 /// Test hook: milliseconds to sleep after each file rendered into a result directory's
 /// temporary directory, once more before the swap and once after it (before the old set is
 /// removed), so a test can kill a run at any point of its write phase
@@ -529,10 +534,34 @@ fn remove_stale_temps(parent: &Path, name: &str) {
         if read_manifest(&path).is_some() {
             let _ = remove_set(&path);
         } else {
-            // Succeeds only if empty (killed before the marker was written).
-            let _ = std::fs::remove_dir(&path);
+            // Killed before its first marker was whole: removed only if nothing but tribo's
+            // own marker files is in it.
+            remove_unmarked(&path);
         }
     }
+}
+
+/// Remove the temporary directory `dir` that holds no readable marker if it is empty or holds
+/// only regular files under the marker's two names (a run killed while writing its first
+/// marker); anything else in it and it is left alone.
+fn remove_unmarked(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut ours = Vec::new();
+    for entry in entries {
+        let Ok(entry) = entry else { return };
+        let name = entry.file_name();
+        let is_file = entry.file_type().is_ok_and(|t| t.is_file());
+        if !is_file || (name != MARKER && name != MARKER_PART) {
+            return;
+        }
+        ours.push(entry.path());
+    }
+    for file in ours {
+        let _ = std::fs::remove_file(file);
+    }
+    let _ = std::fs::remove_dir(dir);
 }
 
 /// Remove the result set `dir` (a real directory holding a marker) so that an interruption at
@@ -741,19 +770,23 @@ impl ResultDir {
         &self.manifest.files
     }
 
-    /// Write the marker (the manifest so far) into the temporary directory, replacing any.
+    /// Write the marker (the manifest so far) into the temporary directory, replacing any:
+    /// written whole under [`MARKER_PART`], then renamed over it, so a kill at any instant
+    /// leaves the previous marker or the new one, never a partial one.
     fn write_marker(&self) -> Result<(), OutputError> {
+        let part = self.temp.path().join(MARKER_PART);
         let path = self.temp.path().join(MARKER);
         let body = toml::to_string(&self.manifest).map_err(|e| OutputError::Render {
             what: MARKER.into(),
             error: std::io::Error::other(e),
         })?;
         // The temporary directory is this run's own, so the file is simply (re)written.
-        let mut f = File::create(&path).map_err(io_err("creating", &path))?;
+        let mut f = File::create(&part).map_err(io_err("creating", &part))?;
         f.write_all(MARKER_HEADER.as_bytes())
             .and_then(|()| f.write_all(body.as_bytes()))
             .and_then(|()| f.sync_all())
-            .map_err(io_err("writing", &path))
+            .map_err(io_err("writing", &part))?;
+        std::fs::rename(&part, &path).map_err(io_err("renaming the marker into", &path))
     }
 
     /// Add the file `name` (a plain name: no `/`, not hidden) with `bytes` to the set. Written
@@ -1298,6 +1331,19 @@ mod tests {
         std::fs::write(marked.join("a.csv"), "half").expect("write");
         let empty = p.join(".res.ZZ99zz.tribo-tmp");
         std::fs::create_dir(&empty).expect("mkdir");
+        // Killed while writing its first marker: a partial one under the writing name, or an
+        // empty one under the marker's own name (as an older tribo could leave).
+        let partial = p.join(".res.Pp00pp.tribo-tmp");
+        std::fs::create_dir(&partial).expect("mkdir");
+        std::fs::write(partial.join(MARKER_PART), "# Written by tri").expect("write");
+        let truncated = p.join(".res.Tt00tt.tribo-tmp");
+        std::fs::create_dir(&truncated).expect("mkdir");
+        std::fs::write(truncated.join(MARKER), "").expect("write");
+        // Not a leftover to remove: an unreadable marker beside a file it does not vouch for.
+        let unvouched = p.join(".res.Uu00uu.tribo-tmp");
+        std::fs::create_dir(&unvouched).expect("mkdir");
+        std::fs::write(unvouched.join(MARKER), "").expect("write");
+        std::fs::write(unvouched.join("keep.txt"), "keep").expect("write");
         // Not leftovers: another result's temporary (`res.b`), an unmarked non-empty directory
         // and a link matching the pattern, pointing at a directory that must survive.
         let other = p.join(".res.b.Ab12Cd.tribo-tmp");
@@ -1315,6 +1361,8 @@ mod tests {
 
         commit_set(&p.join("res"), &[("a.csv", "1")]).expect("a run");
         assert!(!marked.exists() && !empty.exists());
+        assert!(!partial.exists() && !truncated.exists());
+        assert_eq!(names(&unvouched), [MARKER, "keep.txt"]);
         assert!(other.exists() && unmarked.join("keep.txt").exists());
         assert_eq!(names(&victim), [MARKER, "precious.txt"]);
         #[cfg(unix)]

@@ -26,10 +26,15 @@ fn killing_a_compare_midway_leaves_previous_results_intact() {
         .collect();
 
     for signal in ["INT", "KILL"] {
-        // The full transient cycle of three law sets takes seconds: long enough to kill midway.
+        // The full transient cycle of three law sets at a hundredth of the default crank-angle
+        // step (Simpson throughout): over 30 s on the standard machine, so a signal 0.7 s in
+        // lands midway on any machine. At the default step the run itself takes 0.65 s here,
+        // and the signal came after it ended.
         let mut cmd = Command::new(tribo_exe());
         cmd.args(["compare", "--quiet"])
             .args(ALL_LAWSETS)
+            .args(["--set", "solver.step_deg=0.01"])
+            .args(["--set", "solver.quadrature=\"simpson\""])
             .arg("--out")
             .arg(&out)
             .env_remove("TRIBO_PLUGIN_PATH");

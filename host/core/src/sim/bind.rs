@@ -247,19 +247,21 @@ impl BoundJoint {
         round: &mut Round,
     ) -> Result<f64, SimError> {
         let mut total = 0.0;
-        let mut fresh = LawOutput::force(0.0);
         for (i, law) in self.laws.iter().enumerate() {
             let k = self.first_law + i;
-            match laws.reuse.at(k, input.normal_load_n) {
-                Some(out) => fresh = out,
+            let moved = laws.reuse.at(k, input.normal_load_n);
+            let out = match &moved {
+                Some(out) => out,
                 None => {
-                    if let Err(e) = law.call(input, &laws.states.0[k], &mut fresh, round) {
+                    // Written by the law straight into its slot: no copy of an output the
+                    // processor has not finished storing.
+                    let slot = laws.reuse.slot(k);
+                    if let Err(e) = law.call(input, &laws.states.0[k], slot, round) {
                         return Err(law_failed(&self.name, input, e));
                     }
-                    laws.reuse.keep(k, &fresh, input.normal_load_n);
+                    laws.reuse.keep(k, input.normal_load_n)
                 }
-            }
-            let out = &fresh;
+            };
             let power = checked_power(&self.name, self.role.kind(), law, input, out, reaction_n)?;
             total += out.force;
             if let Some(r) = record.as_mut() {
@@ -283,10 +285,13 @@ pub(super) struct LawMemory<'a> {
 /// The outputs of one evaluation that their laws marked affine in the load
 /// (`LawOutput::load_slope`), with the load each was made at, by run-wide law index: the
 /// evaluation's later rounds change only the loads, so the output at a new load is computed
-/// from these instead of calling the law again. Forgotten at the start of every evaluation.
+/// from these instead of calling the law again. Every law call writes its output into its slot
+/// here; only an affine one is kept. Forgotten at the start of every evaluation.
 #[derive(Debug, Clone)]
 pub(super) struct Reuse {
-    outputs: Vec<Option<(LawOutput, f64)>>,
+    outputs: Vec<LawOutput>,
+    /// The load each kept output was made at, N; `None` for one not kept.
+    kept_n: Vec<Option<f64>>,
     any: bool,
 }
 
@@ -294,7 +299,8 @@ impl Reuse {
     /// Room for `n_laws` laws, none kept.
     pub(super) fn new(n_laws: usize) -> Self {
         Self {
-            outputs: vec![None; n_laws],
+            outputs: vec![LawOutput::force(0.0); n_laws],
+            kept_n: vec![None; n_laws],
             any: false,
         }
     }
@@ -303,7 +309,7 @@ impl Reuse {
     #[inline(always)]
     pub(super) fn forget(&mut self) {
         if self.any {
-            self.outputs.fill(None);
+            self.kept_n.fill(None);
             self.any = false;
         }
     }
@@ -315,22 +321,29 @@ impl Reuse {
         if !self.any {
             return None;
         }
-        self.outputs[k].map(|(mut out, kept_n)| {
-            if out.dforce_dload != 0.0 {
-                out.force += out.dforce_dload * (load_n - kept_n);
-            }
-            out
-        })
+        let kept_n = self.kept_n[k]?;
+        let mut out = self.outputs[k];
+        if out.dforce_dload != 0.0 {
+            out.force += out.dforce_dload * (load_n - kept_n);
+        }
+        Some(out)
     }
 
-    /// Keep law `k`'s output `out`, made at the normal load `load_n`, if the law marked it
-    /// affine in the load.
+    /// Where law `k`'s call writes its output.
     #[inline(always)]
-    fn keep(&mut self, k: usize, out: &LawOutput, load_n: f64) {
-        if out.load_slope().is_some() {
-            self.outputs[k] = Some((*out, load_n));
+    fn slot(&mut self, k: usize) -> &mut LawOutput {
+        &mut self.outputs[k]
+    }
+
+    /// Law `k`'s output just written into its slot, made at the normal load `load_n`: kept if
+    /// the law marked it affine in the load.
+    #[inline(always)]
+    fn keep(&mut self, k: usize, load_n: f64) -> &LawOutput {
+        if self.outputs[k].load_slope().is_some() {
+            self.kept_n[k] = Some(load_n);
             self.any = true;
         }
+        &self.outputs[k]
     }
 }
 

@@ -13,6 +13,17 @@ use crate::gas::{cycle_angle, GasModel, GasState, LawGas};
 use crate::mechanics::{JointLoads, Kinematics, Mechanism, Reactions};
 use tribo_plugin_api::contract::STANDARD_ATMOSPHERE_PA;
 
+/// One solve's normal loads at a glance: what the friction/reaction iteration judges them by.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LoadScan {
+    /// The largest load, N (a non-finite one aside).
+    pub(crate) largest_n: f64,
+    /// The largest change of a load from the solve before, N.
+    pub(crate) change_n: f64,
+    /// Whether every load is finite.
+    pub(crate) finite: bool,
+}
+
 /// A crank model with its scratch.
 #[derive(Clone)]
 pub(crate) enum Crank {
@@ -261,6 +272,50 @@ impl Crank {
                 }
             }
         }
+    }
+
+    /// [`Crank::normals`], scanned in the same pass ([`LoadScan`]) against `prev`, the loads of
+    /// the solve before: the iteration's scales are taken from the values as they are made,
+    /// not read back from `out` (wide reads of narrow stores just made stall the processor's
+    /// store forwarding).
+    #[inline]
+    pub(crate) fn normals_against(
+        &self,
+        roles: &[Role],
+        out: &mut [f64],
+        prev: &[f64],
+    ) -> LoadScan {
+        let mut scan = LoadScan {
+            largest_n: 0.0,
+            change_n: 0.0,
+            finite: true,
+        };
+        let mut put = |o: &mut f64, p: f64, n: f64| {
+            *o = n;
+            scan.largest_n = scan.largest_n.max(n);
+            scan.change_n = scan.change_n.max((p - n).abs());
+            scan.finite &= n.is_finite();
+        };
+        match self {
+            Crank::Rig(r) => {
+                let main = r.re.main_n.norm();
+                for ((o, role), p) in out.iter_mut().zip(roles).zip(prev) {
+                    let n = match *role {
+                        Role::Main(i) => main * r.shares[i],
+                        Role::BigEnd(_) => r.re.big_end_n.norm(),
+                        Role::SmallEnd(_) => r.re.small_end_n.norm(),
+                        Role::Piston(_) => r.re.slide_lateral_n.abs(),
+                    };
+                    put(o, *p, n);
+                }
+            }
+            Crank::Train(t) => {
+                for ((o, role), p) in out.iter_mut().zip(roles).zip(prev) {
+                    put(o, *p, t.reaction(*role).0.norm());
+                }
+            }
+        }
+        scan
     }
 
     /// The reaction the laws of joint `role` see in the last solve: its force (components:

@@ -128,7 +128,7 @@ pub(super) struct Work {
     /// Each joint's two bodies and relative velocity in the configuration evaluated.
     pub(super) bodies: Vec<Bodies>,
     pub(super) rel: Vec<f64>,
-    pub(super) prev: Vec<f64>,
+    pub(super) prev: Box<[f64]>,
     pub(super) states: LawStates,
     /// The current evaluation's outputs that their laws marked affine in the load.
     pub(super) reuse: Reuse,
@@ -207,7 +207,7 @@ impl Simulation {
             },
             bodies: vec![Bodies::default(); n],
             rel: vec![0.0; n],
-            prev: vec![0.0; n],
+            prev: vec![0.0; n].into_boxed_slice(),
             states: LawStates::new(&self.joints)?,
             reuse: Reuse::new(self.n_laws),
             max_it: 0,
@@ -239,19 +239,17 @@ impl Simulation {
         let mut trend = Trend::default();
         for it in 1..=self.max_iter {
             let alpha = w.crank.solve(at.control, &self.roles, &e.totals);
-            w.crank.normals(&self.roles, &mut e.normals);
-            check_solve(self, at.t, alpha, w.crank.drive_torque(), &e.normals)?;
-            // The largest load (the laws' output check's scale) and the convergence scale, at
-            // least 1 N: the loads are finite and not negative, so this is the same maximum.
-            let reaction_n = e.normals.iter().fold(0.0, |m: f64, n| m.max(*n));
+            // The largest load (the laws' output check's scale) and the largest change from the
+            // solve before (`w.prev`; meaningless at the first solve).
+            let loads = w
+                .crank
+                .normals_against(&self.roles, &mut e.normals, &w.prev);
+            let torque = w.crank.drive_torque();
+            check_solve(self, at.t, (alpha, torque), &e.normals, loads.finite)?;
+            // The convergence scale, at least 1 N (the loads are finite and not negative).
+            let reaction_n = loads.largest_n;
             let scale = reaction_n.max(1.0);
-            let change = (it > 1).then(|| {
-                w.prev
-                    .iter()
-                    .zip(&e.normals)
-                    .map(|(a, b)| (a - b).abs())
-                    .fold(0.0, f64::max)
-            });
+            let change = (it > 1).then_some(loads.change_n);
             let verdict = trend.judge(
                 change,
                 self.rules.distance,
@@ -271,7 +269,9 @@ impl Simulation {
             if it == self.max_iter {
                 return Err(self.plain_failure(at, w, e, it));
             }
-            w.prev.copy_from_slice(&e.normals);
+            // The loads just made become the solve before; the next solve writes over the
+            // older ones.
+            std::mem::swap(&mut w.prev, &mut e.normals);
         }
         // Not reached (the last iteration returns), but an error is the honest answer.
         Err(self.no_convergence(at.t, self.max_iter, &[], 1.0))
@@ -504,22 +504,32 @@ fn check_inputs(sim: &Simulation, at: &Point, rel: &[f64]) -> Result<(), SimErro
     })
 }
 
-/// A solve's crank acceleration, drive torque and normal loads must be finite (the laws are
-/// given the loads next): a non-finite one is the model's fault, named with its joint.
+/// A solve's crank acceleration and drive torque (`solved`) and normal loads (all finite if
+/// `loads_finite`) must be finite (the laws are given the loads next): a non-finite one is the
+/// model's fault, named with its joint.
 #[inline(always)]
 pub(super) fn check_solve(
     sim: &Simulation,
     t: f64,
-    alpha: f64,
-    drive_torque: f64,
+    solved: (f64, f64),
     normals: &[f64],
+    loads_finite: bool,
 ) -> Result<(), SimError> {
-    let all = alpha.is_finite()
-        & drive_torque.is_finite()
-        & normals.iter().fold(true, |ok, n| ok & n.is_finite());
-    if all {
+    let (alpha, drive_torque) = solved;
+    if alpha.is_finite() & drive_torque.is_finite() & loads_finite {
         return Ok(());
     }
+    solve_error(sim, t, solved, normals)
+}
+
+/// The error of a solve [`check_solve`] found a non-finite value in.
+#[cold]
+fn solve_error(
+    sim: &Simulation,
+    t: f64,
+    (alpha, drive_torque): (f64, f64),
+    normals: &[f64],
+) -> Result<(), SimError> {
     let model = |quantity, joint, value| SimError::Model {
         time_s: t,
         quantity,

@@ -294,7 +294,14 @@ impl Iterate<'_> {
         }
         r.alpha = w.crank.solve(self.at.control, &sim.roles, &r.totals);
         w.crank.normals(&sim.roles, &mut r.normals);
-        check_solve(sim, self.at.t, r.alpha, w.crank.drive_torque(), &r.normals)
+        let finite = r.normals.iter().all(|n| n.is_finite());
+        check_solve(
+            sim,
+            self.at.t,
+            (r.alpha, w.crank.drive_torque()),
+            &r.normals,
+            finite,
+        )
     }
 
     /// The normal loads (into the scratch `normals`) with joint `j`'s laws at the load `load`

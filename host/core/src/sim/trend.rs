@@ -28,6 +28,25 @@ pub(super) fn plain_iteration_stalls(d: f64, d2: f64, tol_n: f64, remaining: u32
     d * rho.powi(limit as i32) * rho > tol_n * (1.0 - rho)
 }
 
+/// Whether the geometric remainder `d (d/d0) / (1 - d/d0)` of the last change `d` after the
+/// one before, `d0` (N, `d < d0 / 2`), is within `tol_n`. Decided by products where they are
+/// clear by a margin a million times their rounding, by the quotient itself (the same
+/// expression as ever, so the same verdict bit for bit) only near the boundary: the two
+/// dependent divisions were the longest latency in the iteration's chain.
+#[inline(always)]
+fn geometric_within(d: f64, d0: f64, tol_n: f64) -> bool {
+    // The remainder is d^2 / (d0 - d).
+    let (lhs, rhs) = (d * d, tol_n * (d0 - d));
+    if lhs < rhs * (1.0 - 1e-9) {
+        true
+    } else if lhs > rhs * (1.0 + 1e-9) {
+        false
+    } else {
+        let r = d / d0;
+        d * r / (1.0 - r) <= tol_n
+    }
+}
+
 /// How phase 1 measures its distance to the fixed point.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Distance {
@@ -65,14 +84,11 @@ impl Trend {
         tol_n: f64,
         remaining: u32,
     ) -> Verdict {
-        let converged = change.is_some_and(|d| {
-            let remainder = match self.last_change {
-                Some(d0) if distance == Distance::Geometric && d < 0.5 * d0 => {
-                    d * (d / d0) / (1.0 - d / d0)
-                }
-                _ => d,
-            };
-            remainder <= tol_n
+        let converged = change.is_some_and(|d| match self.last_change {
+            Some(d0) if distance == Distance::Geometric && d < 0.5 * d0 => {
+                geometric_within(d, d0, tol_n)
+            }
+            _ => d <= tol_n,
         });
         let stalls = match (change, self.older_change) {
             (Some(d), Some(d2)) if !converged => plain_iteration_stalls(d, d2, tol_n, remaining),
@@ -87,5 +103,46 @@ impl Trend {
         } else {
             Verdict::Continue
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::geometric_within;
+
+    /// The products decide as the quotient does, on both sides of the boundary and on it:
+    /// changes spread over twelve decades, contractions from 1e-6 to just under 0.5, and
+    /// tolerances placed at the remainder itself and one ulp either side of it.
+    #[test]
+    fn the_product_test_gives_the_quotients_verdict() {
+        let quotient = |d: f64, d0: f64, tol: f64| d * (d / d0) / (1.0 - d / d0) <= tol;
+        let mut cases = 0;
+        for e in -6..6 {
+            for k in 1..200 {
+                let d0 = 10f64.powi(e) * (1.0 + 0.013 * f64::from(k));
+                for q in [1e-6, 1e-3, 0.01, 0.05, 0.2, 0.37, 0.499_999] {
+                    let d = q * d0;
+                    let remainder = d * (d / d0) / (1.0 - d / d0);
+                    for tol in [
+                        remainder,
+                        remainder.next_up(),
+                        remainder.next_down(),
+                        remainder * 1.5,
+                        remainder * 0.5,
+                        1e-7,
+                    ] {
+                        assert_eq!(
+                            geometric_within(d, d0, tol),
+                            quotient(d, d0, tol),
+                            "d {d:e} d0 {d0:e} tol {tol:e}"
+                        );
+                        cases += 1;
+                    }
+                }
+            }
+        }
+        assert!(cases > 90_000);
+        assert!(geometric_within(0.0, 1.0, 1e-7));
+        assert!(!geometric_within(f64::NAN, 1.0, 1e-7));
     }
 }

@@ -251,16 +251,11 @@ impl Crank {
         }
     }
 
-    /// Each joint's normal load from the last solve, `out[j]` for `roles[j]`, N.
-    #[inline]
-    pub(crate) fn normals(&self, roles: &[Role], out: &mut [f64]) {
-        self.write_normals(roles, out, |_, _| {});
-    }
-
-    /// [`Crank::normals`], scanned in the same pass ([`LoadScan`]) against `prev`, the loads of
-    /// the solve before: the iteration's scales are taken from the values as they are made,
-    /// not read back from `out` (wide reads of narrow stores just made stall the processor's
-    /// store forwarding).
+    /// Each joint's normal load from the last solve, `out[j]` for `roles[j]` (N), scanned in
+    /// the same pass ([`LoadScan`]; its change measured against `prev`, the loads of the solve
+    /// before, for a caller that has them): the iteration's scales are taken from the values as
+    /// they are made, not read back from `out` (wide reads of narrow stores just made stall the
+    /// processor's store forwarding).
     #[inline]
     pub(crate) fn normals_against(
         &self,
@@ -273,37 +268,32 @@ impl Crank {
             change_n: 0.0,
             finite: true,
         };
-        self.write_normals(roles, out, |j, n| {
-            scan.largest_n = scan.largest_n.max(n);
-            if let Some(p) = prev.get(j) {
-                scan.change_n = scan.change_n.max((p - n).abs());
-            }
-            scan.finite &= n.is_finite();
-        });
-        scan
-    }
-
-    /// Write each joint's normal load into `out` (as [`Crank::normals`]), handing each to
-    /// `seen` with its index as it is made.
-    #[inline(always)]
-    fn write_normals(&self, roles: &[Role], out: &mut [f64], mut seen: impl FnMut(usize, f64)) {
-        let main = match self {
-            Crank::Rig(r) => r.re.main_n.norm(),
-            Crank::Train(_) => 0.0,
-        };
-        for (j, (o, role)) in out.iter_mut().zip(roles).enumerate() {
-            let n = match self {
-                Crank::Rig(r) => match *role {
-                    Role::Main(i) => main * r.shares[i],
-                    Role::BigEnd(_) => r.re.big_end_n.norm(),
-                    Role::SmallEnd(_) => r.re.small_end_n.norm(),
-                    Role::Piston(_) => r.re.slide_lateral_n.abs(),
-                },
-                Crank::Train(t) => t.reaction(*role).0.norm(),
-            };
+        let mut put = |o: &mut f64, p: f64, n: f64| {
             *o = n;
-            seen(j, n);
+            scan.largest_n = scan.largest_n.max(n);
+            scan.change_n = scan.change_n.max((p - n).abs());
+            scan.finite &= n.is_finite();
+        };
+        match self {
+            Crank::Rig(r) => {
+                let main = r.re.main_n.norm();
+                for ((o, role), p) in out.iter_mut().zip(roles).zip(prev) {
+                    let n = match *role {
+                        Role::Main(i) => main * r.shares[i],
+                        Role::BigEnd(_) => r.re.big_end_n.norm(),
+                        Role::SmallEnd(_) => r.re.small_end_n.norm(),
+                        Role::Piston(_) => r.re.slide_lateral_n.abs(),
+                    };
+                    put(o, *p, n);
+                }
+            }
+            Crank::Train(t) => {
+                for ((o, role), p) in out.iter_mut().zip(roles).zip(prev) {
+                    put(o, *p, t.reaction(*role).0.norm());
+                }
+            }
         }
+        scan
     }
 
     /// The reaction the laws of joint `role` see in the last solve: its force (components:

@@ -398,7 +398,7 @@ impl Simulation {
     fn plain_failure(&self, at: &Point, w: &mut Work, e: &Eval, it: u32) -> SimError {
         let mut next = vec![0.0; self.joints.len()];
         w.crank.solve(at.control, &self.roles, &e.totals);
-        w.crank.normals(&self.roles, &mut next);
+        w.crank.normals_against(&self.roles, &mut next, &w.prev);
         let (before, after): (&[f64], &[f64]) = if it > 1 {
             (&w.prev, &e.normals)
         } else {

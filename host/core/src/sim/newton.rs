@@ -293,14 +293,13 @@ impl Iterate<'_> {
             }
         }
         r.alpha = w.crank.solve(self.at.control, &sim.roles, &r.totals);
-        w.crank.normals(&sim.roles, &mut r.normals);
-        let finite = r.normals.iter().all(|n| n.is_finite());
+        let loads = w.crank.normals_against(&sim.roles, &mut r.normals, &w.prev);
         check_solve(
             sim,
             self.at.t,
             (r.alpha, w.crank.drive_torque()),
             &r.normals,
-            finite,
+            loads.finite,
         )
     }
 
@@ -326,7 +325,8 @@ impl Iterate<'_> {
         self.totals[j] =
             sim.joints[j].force(input, &mut laws, self.reaction_n, None, layout, &mut marks)?;
         w.crank.solve(self.at.control, &sim.roles, &self.totals);
-        w.crank.normals(&sim.roles, &mut self.normals);
+        w.crank
+            .normals_against(&sim.roles, &mut self.normals, &w.prev);
         Ok(())
     }
 }

@@ -62,6 +62,13 @@ pub trait StepObserver {
     /// Called after every accepted step of a transient run.
     fn step(&mut self, sample: &StepSample<'_>) -> Result<(), ObserverError>;
 
+    /// Whether [`StepObserver::step`] reads its samples. An observer that does not is not
+    /// called per step, and the run skips making the samples (the filtered torque's
+    /// exponential, every step). Asked once per call of the run; the default is yes.
+    fn reads_samples(&self) -> bool {
+        true
+    }
+
     /// Progress of the run in permille of the simulated cycle (every few thousand steps).
     fn progress(&mut self, permille: u64) {
         let _ = permille;
@@ -75,5 +82,9 @@ pub struct NoObserver;
 impl StepObserver for NoObserver {
     fn step(&mut self, _sample: &StepSample<'_>) -> Result<(), ObserverError> {
         Ok(())
+    }
+
+    fn reads_samples(&self) -> bool {
+        false
     }
 }

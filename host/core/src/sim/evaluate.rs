@@ -19,6 +19,10 @@ use super::types::{Bodies, Control};
 use super::Simulation;
 use crate::gas::{GasModel, LawGas};
 
+/// A NaN with a payload no arithmetic makes: what debug builds fill an evaluation's rates with
+/// before it writes them, so that one left unwritten is caught.
+const UNWRITTEN: u64 = 0x7ff8_dead_beef_0001;
+
 /// Where and how to evaluate the rig.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Point {
@@ -277,8 +281,8 @@ impl Simulation {
         Err(self.no_convergence(at.t, self.max_iter, &[], 1.0))
     }
 
-    /// Everything of an evaluation at `at` that does not depend on the loads: the rates
-    /// cleared (the gas power set), the friction started from `guess`, the configuration and
+    /// Everything of an evaluation at `at` that does not depend on the loads: the gas power
+    /// set, the friction started from `guess`, the configuration and
     /// the relative velocities (checked finite), and the law inputs but for the loads.
     #[inline(always)]
     fn prepare(
@@ -289,9 +293,12 @@ impl Simulation {
         e: &mut Eval,
     ) -> Result<(), SimError> {
         let layout = self.layout();
-        // The buffers have the run's sizes (`Work::eval`). Every round that records writes
-        // every law's code.
-        e.rates.fill(0.0);
+        // The buffers have the run's sizes (`Work::eval`). Every rate is written by the
+        // evaluation itself: the gas power here, each law's power and load by the last round
+        // of laws (phase 1's or phase 2's; every round records), the motor power by `finish`;
+        // so the rates are not cleared. Debug builds poison them to prove it (`finish`).
+        #[cfg(debug_assertions)]
+        e.rates.fill(f64::from_bits(UNWRITTEN));
         e.normals.fill(0.0);
         w.reuse.forget();
         let given = guess.len().min(e.totals.len());
@@ -307,9 +314,7 @@ impl Simulation {
             (self.gas_speed(at), self.held.cylinder_pa),
             &mut w.law_gas,
         );
-        if !gas.is_empty() {
-            e.rates[layout.gas()] = gas_power;
-        }
+        e.rates[layout.gas()] = if gas.is_empty() { 0.0 } else { gas_power };
         for ((b, r), j) in w.bodies.iter_mut().zip(&mut w.rel).zip(&self.joints) {
             *b = w.crank.bodies(j.role);
             *r = b.relative();
@@ -368,6 +373,10 @@ impl Simulation {
     fn finish(&self, at: &Point, w: &mut Work, e: &mut Eval, alpha: f64, it: u32, newton: bool) {
         let torque = w.crank.drive_torque();
         e.rates[RateLayout::MOTOR] = torque * at.omega;
+        debug_assert!(
+            e.rates.iter().all(|r| r.to_bits() != UNWRITTEN),
+            "an evaluation left a rate unwritten"
+        );
         e.omega = at.omega;
         e.alpha = alpha;
         e.drive_torque = torque;

@@ -177,6 +177,7 @@ impl Simulation {
             replayed: 0,
             booked: Booked {
                 steps: 0,
+                samples: true,
                 filtered: 0.0,
                 plateaus: Plateaus::new(
                     self.cycle.plateaus(),
@@ -200,6 +201,7 @@ impl Simulation {
         max_steps: u64,
         observer: &mut dyn StepObserver,
     ) -> Result<u64, SimError> {
+        r.booked.samples = observer.reads_samples();
         let mut taken = 0;
         loop {
             if r.s.t >= target || taken >= max_steps {
@@ -514,6 +516,10 @@ type Replayed = (f64, CrankState, usize, bool);
 #[derive(Clone)]
 struct Booked {
     steps: u64,
+    /// Whether the observer reads the step samples; without one that does, the filter is not
+    /// run (a run's observer is the same for all its calls of `advance`: a whole run's, or
+    /// none for the stepping API).
+    samples: bool,
     filtered: f64,
     plateaus: Plateaus,
 }
@@ -539,18 +545,20 @@ fn book(
         }
         observer.progress(permille);
     }
-    // Low-pass filter of the motoring torque (first order, exact discretisation).
-    let a = (-TAU * sim.lowpass_hz * h).exp();
-    booked.filtered = a * booked.filtered + (1.0 - a) * end.drive_torque;
-    let sample = StepSample {
-        time_s: t1,
-        crank_angle_rad: y.0,
-        speed_rad_s: y.1,
-        motoring_torque_nm: end.drive_torque,
-        filtered_torque_nm: booked.filtered,
-        normal_loads_n: &end.normals,
-    };
-    observer.step(&sample).map_err(SimError::Observer)?;
+    if booked.samples {
+        // Low-pass filter of the motoring torque (first order, exact discretisation).
+        let a = (-TAU * sim.lowpass_hz * h).exp();
+        booked.filtered = a * booked.filtered + (1.0 - a) * end.drive_torque;
+        let sample = StepSample {
+            time_s: t1,
+            crank_angle_rad: y.0,
+            speed_rad_s: y.1,
+            motoring_torque_nm: end.drive_torque,
+            filtered_torque_nm: booked.filtered,
+            normal_loads_n: &end.normals,
+        };
+        observer.step(&sample).map_err(SimError::Observer)?;
+    }
     booked
         .plateaus
         .record(t1, h, (y.0, y.1), end.saturated(), s);

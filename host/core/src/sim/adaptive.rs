@@ -241,8 +241,12 @@ impl Adaptive {
             }
         }
         let crossing = first_crossing(sim, pair, &evals[..s]);
-        // A middle stage past the torque limit (the margin out and back within the step).
+        // A middle stage past the torque limit (the margin out and back within the step). A
+        // stage at the step's end time is no such sign: it is a lower-order value of the end's
+        // own margin, and where the two disagree in sign at a crossing it sent the landing
+        // search back and forth on one instant.
         let stage_past = (1..s - 1)
+            .filter(|&j| pair.c[j] < 1.0)
             .find(|&j| side.left_by(margin(evals[j])))
             .map(|j| (pair.c[j] * h, margin(evals[j])));
         for e in stages.drain(..) {

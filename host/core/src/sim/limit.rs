@@ -45,6 +45,8 @@ pub(super) struct LimitCrossing {
     outside: Option<(f64, f64)>,
     /// Which end the last try replaced (`true`: inside), for the Illinois halving.
     last_inside: Option<bool>,
+    /// The last try's length and end margin as they were (the bracket's may be halved).
+    last_try: Option<(f64, f64)>,
     tries: u32,
 }
 
@@ -61,6 +63,7 @@ impl LimitCrossing {
             inside: (0.0, m0),
             outside: None,
             last_inside: None,
+            last_try: None,
             tries: 0,
         }
     }
@@ -100,7 +103,16 @@ impl LimitCrossing {
             *self = Self::start(None, self.m0);
             return Landing::Again;
         }
-        let rate = ((m1 - self.m0) / h).abs();
+        // How fast the margin moves at the step's end: its mean rate over the step, or where
+        // it is faster, the secant through the try before and this one. The mean understates
+        // it where the margin dips and comes back within the step (a step started on the
+        // crossing it leaves), which held the test below to a margin no try could reach.
+        let mean = ((m1 - self.m0) / h).abs();
+        let rate = match self.last_try {
+            Some((h_last, m_last)) if h_last != h => mean.max(((m1 - m_last) / (h - h_last)).abs()),
+            _ => mean,
+        };
+        self.last_try = Some((h, m1));
         let near = m1.abs() <= tol_t * rate;
         let crossed = left(m1);
         // Out and back within the step: the first crossing is before the stage.
@@ -189,6 +201,35 @@ mod tests {
                     return;
                 }
                 other => panic!("no grazing here: {other:?}"),
+            }
+        }
+        panic!("not landed within {MAX_TRIES} tries");
+    }
+
+    /// A step that starts just past the crossing the step before landed on (held beyond the
+    /// limit) and whose margin first dips further beyond, then comes back within: the root of
+    /// -1e-6 - 2000 h + 4e7 h^2, near 5e-5 s, with the first try's stage at 0.3 of it past the
+    /// limit. The margin's mean rate from the start is near zero at the crossing, so a test
+    /// held to it asked for a margin no try could reach (the search ran to its limit of
+    /// tries); the local rate lands it.
+    #[test]
+    fn a_crossing_after_a_dip_is_landed_on() {
+        let dip = |h: f64| -1e-6 - 2000.0 * h + 4e7 * h * h;
+        let root = (2000.0 + (2000.0_f64.powi(2) - 4.0 * 4e7 * -1e-6).sqrt()) / (2.0 * 4e7);
+        let tol_t = 1e-6 * 2e-4;
+        let mut search = LimitCrossing::start(Some(Side::Beyond), dip(0.0));
+        let mut h: f64 = 2e-4;
+        for _ in 0..MAX_TRIES {
+            let stage = 0.3 * h;
+            let stage_past = (dip(stage) > 0.0).then_some((stage, dip(stage)));
+            match search.check((h, dip(h)), stage_past, tol_t) {
+                Landing::Retry(next) => h = next,
+                Landing::Take { on_crossing } => {
+                    assert!(on_crossing);
+                    assert!((h - root).abs() <= tol_t, "{h} vs the root {root}");
+                    return;
+                }
+                other => panic!("not a graze: {other:?}"),
             }
         }
         panic!("not landed within {MAX_TRIES} tries");

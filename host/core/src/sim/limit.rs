@@ -189,21 +189,9 @@ mod tests {
     fn a_step_past_the_limit_is_landed_on_it() {
         let root = (-2000.0 + (2000.0_f64.powi(2) + 4.0 * 4e5).sqrt()) / (2.0 * 4e5);
         let tol_t = 1e-6 * 1e-3;
-        let mut search = LimitCrossing::start(None, margin(0.0));
+        let search = LimitCrossing::start(None, margin(0.0));
         assert_eq!(search.side(), Side::Within);
-        let mut h = 1e-3;
-        for _ in 0..MAX_TRIES {
-            match search.check((h, margin(h)), None, tol_t) {
-                Landing::Retry(next) => h = next,
-                Landing::Take { on_crossing } => {
-                    assert!(on_crossing);
-                    assert!((h - root).abs() <= tol_t, "{h} vs the root {root}");
-                    return;
-                }
-                other => panic!("no grazing here: {other:?}"),
-            }
-        }
-        panic!("not landed within {MAX_TRIES} tries");
+        assert_lands(search, margin, None, 1e-3, tol_t, root);
     }
 
     /// A step that starts just past the crossing the step before landed on (held beyond the
@@ -217,19 +205,34 @@ mod tests {
         let dip = |h: f64| -1e-6 - 2000.0 * h + 4e7 * h * h;
         let root = (2000.0 + (2000.0_f64.powi(2) - 4.0 * 4e7 * -1e-6).sqrt()) / (2.0 * 4e7);
         let tol_t = 1e-6 * 2e-4;
-        let mut search = LimitCrossing::start(Some(Side::Beyond), dip(0.0));
-        let mut h: f64 = 2e-4;
+        let search = LimitCrossing::start(Some(Side::Beyond), dip(0.0));
+        assert_lands(search, dip, Some(0.3), 2e-4, tol_t, root);
+    }
+
+    /// Tries from length `h` on the end margin `margin(h)` (with the middle stage at the
+    /// fraction `stage` of each try reported when it is past the limit) until `search` takes
+    /// one, which must end on the crossing, within `tol_t` of `root`.
+    fn assert_lands(
+        mut search: LimitCrossing,
+        margin: impl Fn(f64) -> f64,
+        stage: Option<f64>,
+        mut h: f64,
+        tol_t: f64,
+        root: f64,
+    ) {
         for _ in 0..MAX_TRIES {
-            let stage = 0.3 * h;
-            let stage_past = (dip(stage) > 0.0).then_some((stage, dip(stage)));
-            match search.check((h, dip(h)), stage_past, tol_t) {
+            let stage_past = stage
+                .map(|c| c * h)
+                .filter(|s| search.side().left_by(margin(*s)))
+                .map(|s| (s, margin(s)));
+            match search.check((h, margin(h)), stage_past, tol_t) {
                 Landing::Retry(next) => h = next,
                 Landing::Take { on_crossing } => {
                     assert!(on_crossing);
                     assert!((h - root).abs() <= tol_t, "{h} vs the root {root}");
                     return;
                 }
-                other => panic!("not a graze: {other:?}"),
+                other => panic!("no grazing here: {other:?}"),
             }
         }
         panic!("not landed within {MAX_TRIES} tries");

@@ -1627,12 +1627,13 @@ pub fn sweep(
                     .iter()
                     .map(|name| JointTorque {
                         joint: name.clone(),
+                        // Folded from +0: a joint without a law has no friction, 0, where
+                        // an empty float `sum` gives -0 (written "-0" in the CSV).
                         friction_torque_nm: p
                             .joints
                             .iter()
                             .filter(|j| j.joint == *name)
-                            .map(|j| j.friction_torque_nm)
-                            .sum(),
+                            .fold(0.0, |sum, j| sum + j.friction_torque_nm),
                     })
                     .collect();
                 points.push(SweepPoint {

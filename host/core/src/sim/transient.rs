@@ -177,7 +177,6 @@ impl Simulation {
             replayed: 0,
             booked: Booked {
                 steps: 0,
-                samples: true,
                 filtered: 0.0,
                 plateaus: Plateaus::new(
                     self.cycle.plateaus(),
@@ -201,7 +200,6 @@ impl Simulation {
         max_steps: u64,
         observer: &mut dyn StepObserver,
     ) -> Result<u64, SimError> {
-        r.booked.samples = observer.reads_samples();
         let mut taken = 0;
         loop {
             if r.s.t >= target || taken >= max_steps {
@@ -516,10 +514,6 @@ type Replayed = (f64, CrankState, usize, bool);
 #[derive(Clone)]
 struct Booked {
     steps: u64,
-    /// Whether the observer reads the step samples; without one that does, the filter is not
-    /// run (a run's observer is the same for all its calls of `advance`: a whole run's, or
-    /// none for the stepping API).
-    samples: bool,
     filtered: f64,
     plateaus: Plateaus,
 }
@@ -545,7 +539,9 @@ fn book(
         }
         observer.progress(permille);
     }
-    if booked.samples {
+    // Without an observer that reads the samples the filter is not run: a run's observer is
+    // the same for all its steps (a whole run's, or none for the stepping API).
+    if observer.reads_samples() {
         // Low-pass filter of the motoring torque (first order, exact discretisation).
         let a = (-TAU * sim.lowpass_hz * h).exp();
         booked.filtered = a * booked.filtered + (1.0 - a) * end.drive_torque;

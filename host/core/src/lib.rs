@@ -12,6 +12,7 @@
 
 pub mod correlation;
 pub mod cycle;
+pub mod drivetrain;
 pub mod engine;
 pub mod erk;
 pub mod gas;

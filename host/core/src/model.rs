@@ -51,6 +51,10 @@ pub struct RigFile {
     /// A multi-cylinder engine (`docs/engines.md`); absent: the single-cylinder rig.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub engine: Option<EngineSpec>,
+    /// The torsional chain from the drive motor to the crank, with its torque transducer
+    /// (`crate::drivetrain`); absent: the drive acts on a rigid crank.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drivetrain: Option<crate::drivetrain::DrivetrainSpec>,
 }
 
 /// A multi-cylinder crank train: throws, main bearings, cylinders, rods and firing order

@@ -1443,6 +1443,7 @@ mod tests {
                 fmep: Default::default(),
                 groups: Vec::new(),
                 correlation: None,
+                instrument: None,
             }],
             fmep: Default::default(),
             energy_residual_j: 0.0,

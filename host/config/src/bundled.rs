@@ -28,6 +28,10 @@ const RIGS: &[(&str, &str)] = &[
         include_str!("../../../rigs/crf250r-vented.toml"),
     ),
     (
+        "crf250r-testbed.toml",
+        include_str!("../../../rigs/crf250r-testbed.toml"),
+    ),
+    (
         "inline4-4b11.toml",
         include_str!("../../../rigs/inline4-4b11.toml"),
     ),

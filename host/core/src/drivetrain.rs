@@ -344,7 +344,13 @@ impl DrivetrainSpec {
                     raws.push(raw);
                     expect_compliant = false;
                 }
-                (None, ElementSpec::Inertia { name, inertia_kg_m2 }) if !expect_compliant => {
+                (
+                    None,
+                    ElementSpec::Inertia {
+                        name,
+                        inertia_kg_m2,
+                    },
+                ) if !expect_compliant => {
                     names.push(name.clone());
                     inertias.push(*inertia_kg_m2);
                     expect_compliant = true;
@@ -538,7 +544,12 @@ impl Chain {
     /// amplitude `force`, N m, at crank speed) at circular frequency `omega` (rad/s): each
     /// node's complex angle amplitude, rad (the motor's 0 when prescribed). At `omega = 0` the
     /// static twist under a constant torque (a free chain has no static solution: `None`).
-    pub fn harmonic(&self, hold: MotorHold, force: Complex<f64>, omega: f64) -> Option<Vec<Complex<f64>>> {
+    pub fn harmonic(
+        &self,
+        hold: MotorHold,
+        force: Complex<f64>,
+        omega: f64,
+    ) -> Option<Vec<Complex<f64>>> {
         let free = self.free(hold);
         let m = free.len();
         let (k, c) = (self.stiffness(hold), self.damping(hold));
@@ -555,6 +566,26 @@ impl Chain {
             out[node] = x[i];
         }
         Some(out)
+    }
+
+    /// The linear chain's state transition over `period` seconds (the free nodes' angles, then
+    /// their speeds, about a common rotation), `exp(A T)` with `A = [0 I; -M^-1 K -M^-1 C]`:
+    /// how a deviation from the periodic state returns after one cycle.
+    pub fn monodromy(&self, hold: MotorHold, period: f64) -> DMatrix<f64> {
+        let free = self.free(hold);
+        let m = free.len();
+        let (k, c) = (self.stiffness(hold), self.damping(hold));
+        let mut a = DMatrix::zeros(2 * m, 2 * m);
+        for i in 0..m {
+            a[(i, m + i)] = 1.0;
+            let inv = 1.0 / self.inertias[free.start + i];
+            for j in 0..m {
+                let (p, q) = (free.start + i, free.start + j);
+                a[(m + i, j)] = -k[(p, q)] * inv;
+                a[(m + i, m + j)] = -c[(p, q)] * inv;
+            }
+        }
+        (a * period).exp()
     }
 
     /// The torque spring `i` carries (at crank speed, from node `i` towards node `i + 1`) at

@@ -55,9 +55,17 @@ fn two_inertias_free_free_and_clamped() {
     let chain = spec(j1, vec![transducer(k, 0.0)]).chain(j2).unwrap();
     let modes = chain.modes(FREE);
     assert_eq!(modes.len(), 2);
-    assert!(modes[0].frequency_hz.abs() < 1e-6, "rigid mode {}", modes[0].frequency_hz);
+    assert!(
+        modes[0].frequency_hz.abs() < 1e-6,
+        "rigid mode {}",
+        modes[0].frequency_hz
+    );
     let exact = (k * (1.0 / j1 + 1.0 / j2)).sqrt() / TAU;
-    assert!(close(modes[1].frequency_hz, exact, 1e-9), "{} vs {exact}", modes[1].frequency_hz);
+    assert!(
+        close(modes[1].frequency_hz, exact, 1e-9),
+        "{} vs {exact}",
+        modes[1].frequency_hz
+    );
     // Node amplitudes of the elastic mode are in the inverse ratio of the inertias.
     let s = &modes[1].shape;
     assert!(close(-s[0] / s[1], j2 / j1, 1e-9));
@@ -91,8 +99,16 @@ fn three_inertias_free_free_match_the_characteristic_equation() {
     let hi = ((b + disc) / 2.0).sqrt() / TAU;
     let modes = chain.modes(FREE);
     assert!(modes[0].frequency_hz.abs() < 1e-6);
-    assert!(close(modes[1].frequency_hz, lo, 1e-9), "{} vs {lo}", modes[1].frequency_hz);
-    assert!(close(modes[2].frequency_hz, hi, 1e-9), "{} vs {hi}", modes[2].frequency_hz);
+    assert!(
+        close(modes[1].frequency_hz, lo, 1e-9),
+        "{} vs {lo}",
+        modes[1].frequency_hz
+    );
+    assert!(
+        close(modes[2].frequency_hz, hi, 1e-9),
+        "{} vs {hi}",
+        modes[2].frequency_hz
+    );
     for m in &modes[1..] {
         let share: f64 = m.strain_energy_share.iter().sum();
         assert!(close(share, 1.0, 1e-12));
@@ -136,7 +152,11 @@ fn a_belt_reflects_the_motor_by_its_ratio_squared() {
     assert!(close(chain.ratios[0], 0.5, 1e-15));
     let exact = (k * (4.0 / jm + 1.0 / (jc + 1e-12))).sqrt() / TAU;
     let modes = chain.modes(FREE);
-    assert!(close(modes[1].frequency_hz, exact, 1e-6), "{} vs {exact}", modes[1].frequency_hz);
+    assert!(
+        close(modes[1].frequency_hz, exact, 1e-6),
+        "{} vs {exact}",
+        modes[1].frequency_hz
+    );
 }
 
 #[test]
@@ -148,7 +168,11 @@ fn harmonic_response_of_one_clamped_inertia_is_the_receptance() {
         let x = chain.harmonic(MotorHold::Prescribed, f, omega).unwrap();
         let exact = f / Complex::new(k - omega * omega * jc, omega * c);
         assert_eq!(x[0], Complex::new(0.0, 0.0));
-        assert!((x[1] - exact).norm() <= 1e-12 * exact.norm(), "{omega}: {} vs {exact}", x[1]);
+        assert!(
+            (x[1] - exact).norm() <= 1e-12 * exact.norm(),
+            "{omega}: {} vs {exact}",
+            x[1]
+        );
     }
 }
 
@@ -190,6 +214,14 @@ fn backlash_leaves_a_dead_band() {
     let chain = s.chain(0.004).unwrap();
     let w = [0.0; 3];
     assert_eq!(chain.spring_torque(0, &[0.009, 0.0, 0.0], &w), 0.0);
-    assert!(close(chain.spring_torque(0, &[0.03, 0.0, 0.0], &w), 100.0 * 0.02, 1e-12));
-    assert!(close(chain.spring_torque(0, &[-0.03, 0.0, 0.0], &w), -100.0 * 0.02, 1e-12));
+    assert!(close(
+        chain.spring_torque(0, &[0.03, 0.0, 0.0], &w),
+        100.0 * 0.02,
+        1e-12
+    ));
+    assert!(close(
+        chain.spring_torque(0, &[-0.03, 0.0, 0.0], &w),
+        -100.0 * 0.02,
+        1e-12
+    ));
 }

@@ -336,6 +336,21 @@ impl Crank {
 
     /// Kinetic plus potential energy of the moving parts at crank angle `theta` and speed
     /// `omega`, J: what the motor's work changes over a transient run.
+    /// The crank train's inertia about the crank axis averaged over a revolution, kg m^2
+    /// (the reciprocating masses at their cycle mean): `2 (E(theta, w) - E(theta, 0)) / w^2`
+    /// over 360 angles.
+    pub(crate) fn mean_inertia_kg_m2(&self) -> f64 {
+        let n = 360;
+        let w = 1.0;
+        (0..n)
+            .map(|k| {
+                let theta = std::f64::consts::TAU * k as f64 / n as f64;
+                2.0 * (self.mechanical_energy(theta, w) - self.mechanical_energy(theta, 0.0))
+            })
+            .sum::<f64>()
+            / n as f64
+    }
+
     pub(crate) fn mechanical_energy(&self, theta: f64, omega: f64) -> f64 {
         match self {
             Crank::Rig(r) => {

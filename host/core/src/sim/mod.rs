@@ -49,6 +49,7 @@ mod stepper;
 mod stepping;
 #[cfg(test)]
 mod tests;
+mod torsional;
 mod transient;
 mod trend;
 mod types;
@@ -71,8 +72,8 @@ pub const NO_LAWS_WARNING: &str = "no law on any joint: every joint is frictionl
 pub use crank_angle::{AngleSample, CrankAngleTrace, CylinderSample, LawSample};
 pub use error::{readable, Fault, SimError, Unsettled, MAX_FORCE_PER_REACTION, REACTION_FLOOR_N};
 pub use results::{
-    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, LawResult, LawTime,
-    PlateauFmep, PlateauResult, RegimeShare, RunResult,
+    ComponentFmep, DriveKind, EnergyBalance, Fmep, FmepBasis, GroupTotal, Instrument, LawResult,
+    LawTime, PlateauFmep, PlateauResult, RegimeShare, RunResult,
 };
 pub use settings::RUN_DEPENDENT_SETTINGS;
 pub use stepping::{Inputs, JointOutput, Outputs, Run, Snapshot};
@@ -194,6 +195,8 @@ pub struct Simulation {
     ambient_gas: Vec<GasModel>,
     /// The oil's viscosity model and density (kg/m^3), for an oil temperature set from outside.
     oil: (crate::oil::ViscosityModel, f64),
+    /// The drivetrain from the motor to the crank (`[drivetrain]`), reflected to crank speed.
+    drivetrain: Option<torsional::Torsion>,
 }
 
 /// The single-cylinder rig's mechanism: its bodies reduced to the rig's geometry (the crank's
@@ -282,6 +285,37 @@ fn crank_and_gas(f: &RigFile) -> Result<(Crank, [Vec<GasModel>; 2]), SimError> {
     Ok((Crank::train(train, phases), [gas, ambient]))
 }
 
+/// The rig's drivetrain reflected to crank speed, its crank node the crank's cycle-mean
+/// inertia (the reciprocating masses averaged over a revolution), the motor held by the drive.
+fn torsion(f: &RigFile, crank: &Crank) -> Result<Option<torsional::Torsion>, SimError> {
+    let Some(spec) = &f.drivetrain else {
+        return Ok(None);
+    };
+    let chain = spec
+        .chain(crank.mean_inertia_kg_m2())
+        .map_err(|e| SimError::Setup {
+            at: None,
+            field: format!("drivetrain.{}", e.field),
+            law: None,
+            param: None,
+            message: e.message,
+        })?;
+    let (hold, limit_nm) = match f.drive {
+        Drive::Prescribed {} => (crate::drivetrain::MotorHold::Prescribed, f64::INFINITY),
+        Drive::Pi {
+            kp,
+            ki,
+            torque_limit_nm,
+            ..
+        } => (crate::drivetrain::MotorHold::Pi { kp, ki }, torque_limit_nm),
+    };
+    Ok(Some(torsional::Torsion {
+        chain,
+        hold,
+        limit_nm,
+    }))
+}
+
 /// Which of an evaluation's switching functions matter (see `Simulation::switch_mask`).
 /// A vented crankcase's breather reversal is watched by the prescribed crank's error-controlled
 /// quadrature only: the PI drive reads the crankcase at the cycle's reference speed and was not
@@ -354,7 +388,9 @@ impl Simulation {
         let cycle = Cycle::new(&f.cycle.segments());
         let (temps, viscosities) = oil_schedule(f, &cycle);
         let engine = f.engine.is_some();
+        let drivetrain = torsion(f, &crank)?;
         Ok(Self {
+            drivetrain,
             rig_name: f.name.clone(),
             engine,
             switch_mask: switch_mask(&joints, cylinders, &f.drive, &gas),

@@ -439,6 +439,7 @@ fn plateau_values<'a>(
         joints,
         groups: Vec::new(),
         correlation: None,
+        instrument: None,
     }
 }
 

@@ -106,6 +106,73 @@ pub struct PlateauResult {
     /// (`tribo_core::correlation`), term by term beside the laws' FMEP.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub correlation: Option<crate::correlation::Correlation>,
+    /// With a drivetrain: the transducer's torque as it was in its shaft and as the data
+    /// acquisition recorded it, against its rating, and the crank's speed fluctuation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instrument: Option<Instrument>,
+}
+
+/// The measuring chain at one plateau: what the transducer carried over one periodic cycle,
+/// what its acquisition recorded, and its rating (`crate::drivetrain`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct Instrument {
+    /// The transducer's name.
+    pub transducer: String,
+    /// Mean shaft torque in the transducer over the cycle, N m.
+    pub mean_torque_nm: f64,
+    /// Smallest shaft torque, N m.
+    pub min_torque_nm: f64,
+    /// Largest shaft torque, N m.
+    pub max_torque_nm: f64,
+    /// Largest minus smallest, N m.
+    pub peak_to_peak_nm: f64,
+    /// The mean of the acquired record (filtered, sampled, clipped to the input range), N m:
+    /// what the rig's data report as the measured torque.
+    pub acquired_mean_torque_nm: f64,
+    /// Peak-to-peak of the acquired record, N m.
+    pub acquired_peak_to_peak_nm: f64,
+    /// Share of the record's samples clipped at the input range.
+    pub clipped_share: f64,
+    /// The crank's speed fluctuation over the cycle, (max - min) / mean.
+    pub crank_speed_fluctuation: f64,
+    /// Rated torque, N m.
+    pub rated_torque_nm: f64,
+    /// Limit torque, N m.
+    pub limit_torque_nm: f64,
+    /// Permitted oscillation width (peak to peak), N m.
+    pub oscillation_width_nm: f64,
+    /// Power dissipated in the chain's dampers, W.
+    pub chain_dissipation_w: f64,
+    /// Cycles integrated until the cycle repeated.
+    pub settling_cycles: u32,
+}
+
+impl Instrument {
+    /// Whether the transducer stayed within its rating: its oscillation within the permitted
+    /// width and its torque within the limit torque.
+    pub fn within_rating(&self) -> bool {
+        self.peak_to_peak_nm <= self.oscillation_width_nm
+            && self.max_torque_nm.abs().max(self.min_torque_nm.abs()) <= self.limit_torque_nm
+    }
+
+    /// The warning of a plateau at `speed_rpm` whose measurement came from outside the
+    /// transducer's rating, naming the figures; `None` within it.
+    pub fn rating_warning(&self, speed_rpm: f64) -> Option<String> {
+        if self.within_rating() {
+            return None;
+        }
+        let peak = self.max_torque_nm.abs().max(self.min_torque_nm.abs());
+        Some(format!(
+            "{speed_rpm:.0} rpm: the transducer `{}` is outside its rating: it oscillates {:.2} N m peak to peak (permitted {:.2} N m) and reaches {:.2} N m (limit {:.2} N m, rated {:.2} N m); a measurement at this speed came from outside the instrument's rating",
+            self.transducer,
+            self.peak_to_peak_nm,
+            self.oscillation_width_nm,
+            peak,
+            self.limit_torque_nm,
+            self.rated_torque_nm
+        ))
+    }
 }
 
 /// The friction of a group of an engine's joints: a component over every cylinder

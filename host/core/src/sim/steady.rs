@@ -24,6 +24,11 @@ impl Simulation {
     /// at zero deflection under the full sliding speed), the crank is first spun up from rest
     /// (`Simulation::spin_up`) and the cycles measured from there.
     pub fn run_steady(&mut self) -> Result<RunResult, SimError> {
+        if let Some(tor) = self.drivetrain.take() {
+            let result = self.run_steady_drivetrain(&tor);
+            self.drivetrain = Some(tor);
+            return result;
+        }
         let n_plateaus = self.cycle.plateaus().len();
         let mut results = Vec::with_capacity(n_plateaus);
         let (mut motor, mut dissipated, mut gas) = (0.0, 0.0, 0.0);

@@ -152,6 +152,15 @@ impl Simulation {
     /// A transient run at its start: every law's state at zero, the crank at rest, the start
     /// evaluated.
     pub(super) fn start_transient(&self) -> Result<Transient, SimError> {
+        if self.drivetrain.is_some() {
+            return Err(SimError::Setup {
+                at: None,
+                field: "drivetrain".into(),
+                law: None,
+                param: None,
+                message: "a rig with a [drivetrain] runs in the steady state (`--steady`): the transient test cycle does not integrate the chain's degrees of freedom yet".into(),
+            });
+        }
         let mut w = self.work()?;
         let n = self.layout().len();
         let mut s = Integration::new(n, self.regime_times());

@@ -60,7 +60,8 @@ pub(super) fn validate(rig: &Rig) -> Result<(), RigError> {
     check.measurement()?;
     check.solver()?;
     check.gas()?;
-    check.engine()
+    check.engine()?;
+    check.drivetrain()
 }
 
 /// The rig's validators, one per part of the file, run in the order of [`validate`] so the
@@ -487,6 +488,34 @@ impl Check<'_> {
                 MAX_INERTIA_KG_M2,
                 "kg m^2",
             )?;
+        }
+        Ok(())
+    }
+
+    /// The drivetrain's chain (alternating compliant elements and inertias, one transducer,
+    /// every value in range); with one, the motor's inertia and the belt belong to it, not to
+    /// `[drive]`.
+    fn drivetrain(&self) -> Result<(), RigError> {
+        let Some(spec) = &self.rig.file.drivetrain else {
+            return Ok(());
+        };
+        // Any positive crank inertia checks the chain's own values; the run uses the crank's.
+        spec.chain(1.0).map_err(|e| {
+            self.rig
+                .error(&format!("drivetrain.{}", e.field), e.message)
+        })?;
+        if let Drive::Pi {
+            belt_ratio,
+            motor_inertia_kg_m2,
+            ..
+        } = self.rig.file.drive
+        {
+            if belt_ratio != 1.0 || motor_inertia_kg_m2 != 0.0 {
+                return Err(self.rig.error(
+                    "drive",
+                    "with a [drivetrain] the motor's inertia and the belt are elements of the chain: leave drive.belt_ratio and drive.motor_inertia_kg_m2 out",
+                ));
+            }
         }
         Ok(())
     }

@@ -28,6 +28,7 @@ pub mod beside;
 pub mod check;
 pub mod isolate;
 pub mod laws;
+pub mod modes;
 pub mod output;
 pub mod plots;
 pub mod progress;
@@ -37,7 +38,9 @@ pub mod timeseries;
 
 // The layers below the CLI, under the names the binary, tests and benches use.
 pub use tribo_config::{bundled, lawset, rig};
-pub use tribo_core::{correlation, cycle, engine, erk, gas, mechanics, model, observe, oil, sim};
+pub use tribo_core::{
+    correlation, cycle, drivetrain, engine, erk, gas, mechanics, model, observe, oil, sim,
+};
 pub use tribo_studies::{fit, score, study, uncertainty};
 
 pub use tribo_plugin_api as plugin_api;

@@ -42,6 +42,9 @@ enum Command {
     /// How the motoring torque and each joint's friction change when a body is made lighter or
     /// heavier (the thesis's lighter-rod study), per law set.
     MassResponse(MassResponseArgs),
+    /// The drivetrain's natural frequencies and mode shapes (linearised, at crank speed) and
+    /// its Campbell diagram (`--svg`), for a rig with a `[drivetrain]`.
+    Modes(ModesArgs),
     /// Calibrate a law set's free parameters to measured torque (least squares, steady state).
     Fit(FitArgs),
     /// Motoring torque over oil temperature and engine speed for each law set (steady state):
@@ -542,6 +545,52 @@ fn with_oil_file(oil: Option<&std::path::Path>, sets: Vec<String>) -> anyhow::Re
     Ok(all)
 }
 
+/// The arguments of `tribo modes`.
+#[derive(Args)]
+struct ModesArgs {
+    /// Rig file (TOML) or bundled rig name; it must have a `[drivetrain]`.
+    rig: PathBuf,
+    /// Override any rig value by its dotted path, e.g. drivetrain.elements[4].stiffness_nm_per_rad=400.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Print JSON (`inertias`, `springs`, `modes`) instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Also write the Campbell diagram (engine orders 0.5-12, the modes, the plateaus) here.
+    #[arg(long, value_name = "FILE.svg")]
+    svg: Option<PathBuf>,
+}
+
+/// `tribo modes`: the drivetrain's modes as a table or JSON, and the Campbell diagram.
+fn cmd_modes(a: ModesArgs) -> anyhow::Result<()> {
+    let rig = tribo::rig::load_rig(&a.rig, &a.sets)?;
+    let model = rig.model();
+    let (chain, hold) = tribo::sim::drivetrain_chain(model)
+        .map_err(|e| anyhow::anyhow!("{e}"))?
+        .with_context(|| {
+            format!(
+                "rig `{}` has no [drivetrain]: `tribo modes` analyses the chain from the motor to the crank (e.g. the bundled crf250r-testbed)",
+                model.name
+            )
+        })?;
+    let plateaus: Vec<f64> = tribo::cycle::Cycle::new(&model.cycle.segments())
+        .plateaus()
+        .iter()
+        .map(|p| p.speed_rpm)
+        .collect();
+    let report = chain.report(&model.name, hold, &plateaus);
+    if let Some(path) = &a.svg {
+        tribo::modes::write_campbell(&report, path)
+            .with_context(|| format!("writing the Campbell diagram {}", path.display()))?;
+    }
+    let text = if a.json {
+        format!("{}\n", serde_json::to_string_pretty(&report)?)
+    } else {
+        tribo::modes::text(&report)
+    };
+    emit(&text)
+}
+
 /// The options every command shares.
 struct Globals {
     /// Extra plugin libraries or directories (`--plugin`).
@@ -573,6 +622,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Compare(a) => cmd_compare(&g, a),
         Command::MassResponse(a) => cmd_mass_response(&g, a),
         Command::Fit(a) => cmd_fit(&g, a),
+        Command::Modes(a) => cmd_modes(a),
         Command::Sweep(a) => cmd_sweep(&g, a),
         Command::NewLaw(a) => cmd_new_law(a),
         Command::CheckLaw(a) => cmd_check_law(&g, a),
@@ -812,6 +862,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
             )
         )?;
         write!(out_text, "{}", tribo::report::to_text(&result))?;
+        write!(out_text, "{}", tribo::modes::instrument_text(&result))?;
         write!(out_text, "{}", tribo::beside::run_text(&result))?;
     }
     emit(&out_text)

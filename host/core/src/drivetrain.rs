@@ -520,7 +520,7 @@ impl Chain {
             _ => 1.0,
         };
         if big > 0.0 {
-            shape.iter_mut().for_each(|v| *v *= sign / big);
+            shape.iter_mut().for_each(|v| *v = *v * sign / big + 0.0);
         }
         let energies: Vec<f64> = self
             .springs
@@ -625,6 +625,144 @@ impl Chain {
     #[inline]
     pub fn transducer_torque(&self, reflected_nm: f64) -> f64 {
         reflected_nm / self.springs[self.rating.spring].ratio
+    }
+}
+
+/// A node of the chain in a modal report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct NodeReport {
+    /// The node's name (`motor`, an inertia element's name, `crank`).
+    pub name: String,
+    /// Inertia at crank speed, kg m^2.
+    pub inertia_kg_m2: f64,
+}
+
+/// A spring of the chain in a modal report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct SpringReport {
+    /// The element's name.
+    pub name: String,
+    /// The two nodes it joins.
+    pub between: [String; 2],
+    /// Stiffness at crank speed, N m/rad.
+    pub stiffness_nm_per_rad: f64,
+}
+
+/// Where an engine order crosses a mode: the crank speed at which `order` times the
+/// rotational frequency equals the mode's frequency.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct Crossing {
+    /// Engine order (excitations per crank revolution).
+    pub order: f64,
+    /// Crank speed, rpm.
+    pub speed_rpm: f64,
+}
+
+/// A mode in a modal report: its frequency, shape, the spring that stores most of its strain
+/// energy, and the orders that cross it inside the rig's plateau speeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct ModeReport {
+    /// Natural frequency, Hz.
+    pub frequency_hz: f64,
+    /// Node amplitudes (largest 1), in node order.
+    pub shape: Vec<f64>,
+    /// Each spring's share of the strain energy.
+    pub strain_energy_share: Vec<f64>,
+    /// The spring with the largest share.
+    pub dominant_spring: String,
+    /// Orders 0.5-12 (every half order) crossing it between the lowest and highest plateau.
+    pub crossings: Vec<Crossing>,
+}
+
+/// The linearised chain and its modes, all at crank speed: what `tribo modes --json` prints.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct ModalReport {
+    /// The rig's name.
+    pub rig: String,
+    /// How the motor is held: `prescribed` (a fixed node) or `pi` (its controller's spring).
+    pub motor_hold: String,
+    /// Nodes, motor first, crank last (its cycle-mean inertia).
+    pub inertias: Vec<NodeReport>,
+    /// Springs between neighbouring nodes.
+    pub springs: Vec<SpringReport>,
+    /// Elastic modes, lowest first (a free chain's rigid-body mode left out).
+    pub modes: Vec<ModeReport>,
+    /// The rig's plateau speeds, rpm.
+    pub plateaus_rpm: Vec<f64>,
+}
+
+/// The engine orders a Campbell diagram shows: 0.5 to 12 in half orders.
+pub fn campbell_orders() -> Vec<f64> {
+    (1..=24).map(|k| 0.5 * k as f64).collect()
+}
+
+impl Chain {
+    /// The modal report of the chain held by `hold` on rig `rig` with plateaus `plateaus_rpm`.
+    pub fn report(&self, rig: &str, hold: MotorHold, plateaus_rpm: &[f64]) -> ModalReport {
+        let (lo, hi) = plateaus_rpm
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        let modes = self
+            .modes(hold)
+            .into_iter()
+            .filter(|m| m.frequency_hz > 1e-6)
+            .map(|m| {
+                let dominant = (0..self.springs.len())
+                    .max_by(|a, b| m.strain_energy_share[*a].total_cmp(&m.strain_energy_share[*b]))
+                    .map(|i| self.springs[i].name.clone())
+                    .unwrap_or_default();
+                let crossings = campbell_orders()
+                    .into_iter()
+                    .map(|order| Crossing {
+                        order,
+                        speed_rpm: 60.0 * m.frequency_hz / order,
+                    })
+                    .filter(|c| c.speed_rpm >= lo && c.speed_rpm <= hi)
+                    .collect();
+                ModeReport {
+                    frequency_hz: m.frequency_hz,
+                    shape: m.shape,
+                    strain_energy_share: m.strain_energy_share,
+                    dominant_spring: dominant,
+                    crossings,
+                }
+            })
+            .collect();
+        ModalReport {
+            rig: rig.to_string(),
+            motor_hold: match hold {
+                MotorHold::Prescribed => "prescribed".into(),
+                MotorHold::Pi { .. } => "pi".into(),
+            },
+            inertias: self
+                .names
+                .iter()
+                .zip(&self.inertias)
+                .map(|(n, j)| NodeReport {
+                    name: n.clone(),
+                    inertia_kg_m2: *j,
+                })
+                .collect(),
+            springs: self
+                .springs
+                .iter()
+                .enumerate()
+                .map(|(i, s)| SpringReport {
+                    name: s.name.clone(),
+                    between: [self.names[i].clone(), self.names[i + 1].clone()],
+                    stiffness_nm_per_rad: s.k,
+                })
+                .collect(),
+            modes,
+            plateaus_rpm: plateaus_rpm.to_vec(),
+        }
     }
 }
 

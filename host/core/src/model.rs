@@ -55,6 +55,11 @@ pub struct RigFile {
     /// (`crate::drivetrain`); absent: the drive acts on a rigid crank.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub drivetrain: Option<crate::drivetrain::DrivetrainSpec>,
+    /// Another rig name whose measurements (`# rig:` in a data file) apply to this rig too: a
+    /// rig modelling the same engine on the same bench in more detail (the thesis's test bed
+    /// with its drivetrain measures what `crf250r-motored` idealises).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured_as: Option<String>,
 }
 
 /// A multi-cylinder crank train: throws, main bearings, cylinders, rods and firing order

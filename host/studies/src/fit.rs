@@ -275,7 +275,7 @@ impl<'a> TorqueModel<'a> {
                 .map_err(|e| e.to_string())
                 .and_then(|r| run_rig(&r, self.registry, true).map_err(|e| e.to_string()));
             match r {
-                Ok(r) => out.extend(r.plateaus.iter().map(|p| p.motoring_torque_nm)),
+                Ok(r) => out.extend(r.plateaus.iter().map(|p| p.measured_torque_nm())),
                 Err(e) => {
                     self.failures.fetch_add(1, Ordering::Relaxed);
                     if let Ok(mut slot) = self.first_failure.lock() {

@@ -308,7 +308,11 @@ pub fn validate(
         lawset: lawset.name().into(),
         error: Box::new(source),
     })?;
-    let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
+    let model: Vec<f64> = run
+        .plateaus
+        .iter()
+        .map(|p| p.measured_torque_nm())
+        .collect();
     let measured: Vec<f64> = data.rows.iter().map(|d| d.torque_nm).collect();
     let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
     Ok(Validation {

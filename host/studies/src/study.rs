@@ -256,7 +256,9 @@ pub fn bundled_data_for(rig_name: &str) -> Option<&'static str> {
 /// made on that rig ([`bundled_data_for`]). A rig without any is an error asking for data: no
 /// bundled data are used on a rig they were not measured on.
 pub fn default_data(rig: &Rig) -> Result<&'static str, StudyError> {
-    bundled_data_for(&rig.file.name).ok_or_else(|| {
+    bundled_data_for(&rig.file.name)
+        .or_else(|| rig.file.measured_as.as_deref().and_then(bundled_data_for))
+        .ok_or_else(|| {
         let measured: Vec<String> = tribo_config::bundled::data_names()
             .into_iter()
             .filter_map(|n| {
@@ -285,7 +287,9 @@ pub fn check_data_rig(rig: &Rig, data: &DataRun, any_rig: bool) -> Result<(), St
         message,
     };
     if let Some(measured_on) = &data.meta.rig {
-        if !any_rig && *measured_on != rig.file.name {
+        let same = *measured_on == rig.file.name
+            || rig.file.measured_as.as_deref() == Some(measured_on.as_str());
+        if !any_rig && !same {
             return Err(err(format!(
                 "these data were measured on rig `{measured_on}` (its `# rig:` line), and this study runs rig `{}`: scoring one engine against another's measurements says nothing about either; give data measured on `{}` with --data, or pass --data-for-any-rig if they do apply",
                 rig.file.name, rig.file.name
@@ -500,6 +504,11 @@ pub fn run_rig(rig: &Rig, registry: &LawRegistry, steady: bool) -> Result<RunRes
 pub struct SetResult {
     /// Law-set name.
     pub lawset: String,
+    /// On a rig with a drivetrain, per data point: whether the transducer stayed within its
+    /// rating there (its oscillation width and limit torque); a point outside it was measured
+    /// outside the instrument's rating.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instrument_ok: Option<Vec<bool>>,
     /// Its file.
     pub file: String,
     /// The run.
@@ -745,8 +754,13 @@ fn score_set(
         lawset: ls.name().into(),
         error: Box::new(e),
     })?;
-    let model: Vec<f64> = run.plateaus.iter().map(|p| p.motoring_torque_nm).collect();
+    let model: Vec<f64> = run
+        .plateaus
+        .iter()
+        .map(|p| p.measured_torque_nm())
+        .collect();
     let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
+    let instrument_ok = instrument_ok(&run);
     let (mut scores, mut unc, calibration) = match &fitted {
         Some((f, _)) => (
             f.scores.clone(),
@@ -866,7 +880,17 @@ fn score_set(
         band_note,
         temperature_response,
         validation,
+        instrument_ok,
     })
+}
+
+/// Per plateau of `run`, whether the transducer stayed within its rating (`None` on a rig
+/// without a drivetrain, whose measurement is not modelled).
+fn instrument_ok(run: &RunResult) -> Option<Vec<bool>> {
+    run.plateaus
+        .iter()
+        .map(|p| p.instrument.as_ref().map(|i| i.within_rating()))
+        .collect()
 }
 
 /// A fitted set's parameters as a comparison reports them (`free`: as the file gives them).

@@ -316,6 +316,15 @@ fn torsion(f: &RigFile, crank: &Crank) -> Result<Option<torsional::Torsion>, Sim
     }))
 }
 
+/// The rig's drivetrain reflected to crank speed with the crank's cycle-mean inertia, and how
+/// the drive holds its motor (`None` without a `[drivetrain]`): what `tribo modes` analyses.
+pub fn drivetrain_chain(
+    f: &RigFile,
+) -> Result<Option<(crate::drivetrain::Chain, crate::drivetrain::MotorHold)>, SimError> {
+    let (crank, _) = crank_and_gas(f)?;
+    Ok(torsion(f, &crank)?.map(|t| (t.chain, t.hold)))
+}
+
 /// Which of an evaluation's switching functions matter (see `Simulation::switch_mask`).
 /// A vented crankcase's breather reversal is watched by the prescribed crank's error-controlled
 /// quadrature only: the PI drive reads the crankcase at the cycle's reference speed and was not

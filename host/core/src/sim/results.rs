@@ -148,6 +148,16 @@ pub struct Instrument {
     pub settling_cycles: u32,
 }
 
+impl PlateauResult {
+    /// The torque a measurement of this plateau reports: the transducer's acquired mean with
+    /// a drivetrain, the crank's mean motoring torque without one.
+    pub fn measured_torque_nm(&self) -> f64 {
+        self.instrument
+            .as_ref()
+            .map_or(self.motoring_torque_nm, |i| i.acquired_mean_torque_nm)
+    }
+}
+
 impl Instrument {
     /// Whether the transducer stayed within its rating: its oscillation within the permitted
     /// width and its torque within the limit torque.

@@ -1,0 +1,272 @@
+//! The rig's drivetrain: the modes `tribo modes` reports checked against the chain it prints
+//! (independently: the determinant and the residual of `K - w^2 M`), the steady state's forced
+//! response against the closed-form receptance of one inertia on one spring, the energy balance
+//! with the chain's dampers, and the transducer's rating warnings.
+
+mod common;
+
+use std::f64::consts::TAU;
+
+use common::*;
+
+fn num(v: &serde_json::Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+/// `K - w^2 M` of the chain `tribo modes --json` printed (motor node fixed when prescribed).
+fn dynamic_matrix(report: &serde_json::Value, omega: f64) -> Vec<Vec<f64>> {
+    let j: Vec<f64> = report["inertias"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| num(&n["inertia_kg_m2"]))
+        .collect();
+    let k: Vec<f64> = report["springs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| num(&s["stiffness_nm_per_rad"]))
+        .collect();
+    let n = j.len();
+    let mut a = vec![vec![0.0; n]; n];
+    for (i, ki) in k.iter().enumerate() {
+        a[i][i] += ki;
+        a[i + 1][i + 1] += ki;
+        a[i][i + 1] -= ki;
+        a[i + 1][i] -= ki;
+    }
+    for (i, ji) in j.iter().enumerate() {
+        a[i][i] -= omega * omega * ji;
+    }
+    // The prescribed motor is a fixed node: drop its row and column.
+    a.remove(0);
+    for row in &mut a {
+        row.remove(0);
+    }
+    a
+}
+
+#[test]
+fn modes_solve_the_printed_chain() {
+    let report = json_in(&["modes", "crf250r-testbed", "--json"], &workspace());
+    assert_eq!(report["motor_hold"], "prescribed");
+    let springs = report["springs"].as_array().unwrap();
+    for s in springs {
+        assert_eq!(s["between"].as_array().unwrap().len(), 2);
+    }
+    let modes = report["modes"].as_array().unwrap();
+    // A prescribed motor holds every node but itself: one mode per free node.
+    assert_eq!(
+        modes.len(),
+        report["inertias"].as_array().unwrap().len() - 1
+    );
+    for m in modes {
+        let omega = TAU * num(&m["frequency_hz"]);
+        let a = dynamic_matrix(&report, omega);
+        let shape: Vec<f64> = m["shape"].as_array().unwrap()[1..]
+            .iter()
+            .map(num)
+            .collect();
+        // (K - w^2 M) v = 0 for the mode's shape, relative to the terms' size.
+        for row in &a {
+            let r: f64 = row.iter().zip(&shape).map(|(x, v)| x * v).sum();
+            let scale: f64 = row.iter().zip(&shape).map(|(x, v)| (x * v).abs()).sum();
+            assert!(
+                r.abs() <= 1e-8 * scale,
+                "residual {r} of {scale} at {omega} rad/s"
+            );
+        }
+    }
+}
+
+#[test]
+fn modes_of_a_rig_without_drivetrain_is_a_clear_error() {
+    let out = tribo_in(&["modes", "crf250r-motored"], &workspace());
+    let (_, err) = text(&out);
+    assert!(!out.status.success());
+    assert_mentions(&err, &["no [drivetrain]", "crf250r-testbed"]);
+}
+
+/// A rig whose crank is one inertia with an unbalance (gravity: a pure first-order torque
+/// `m g r cos(theta)`), with negligible reciprocating masses and no laws, on one transducer
+/// from a prescribed motor.
+fn one_spring_rig(dir: &std::path::Path, k: f64, c: f64) -> std::path::PathBuf {
+    let text = format!(
+        r#"extends = "{base}"
+name = "one-spring"
+[bodies.crank]
+inertia_kg_m2 = 0.004
+mass_kg = 1.0
+unbalance_mass_kg = 0.1
+unbalance_radius_m = 0.02
+[bodies.rod]
+mass_kg = 1e-7
+inertia_kg_m2 = 1e-12
+length_m = 0.105
+com_from_big_end_m = 0.035
+[bodies.piston]
+mass_kg = 1e-7
+[joints.main_a]
+radius_m = 0.02
+length_m = 0.015
+load_share = 0.5
+[joints.main_b]
+radius_m = 0.02
+length_m = 0.015
+load_share = 0.5
+[joints.big_end]
+radius_m = 0.017
+length_m = 0.015
+[joints.small_end]
+radius_m = 0.008
+length_m = 0.015
+[joints.piston]
+radius_m = 0.0384
+length_m = 0.03
+[drivetrain.motor]
+inertia_kg_m2 = 0.01
+[[drivetrain.elements]]
+kind = "transducer"
+name = "t"
+stiffness_nm_per_rad = {k}
+damping_nm_s_per_rad = {c}
+rated_torque_nm = 5.0
+limit_torque_nm = 7.5
+oscillation_width_nm = 4.0
+cutoff_hz = 1000.0
+[drivetrain.daq]
+sample_rate_hz = 1200.0
+lowpass_hz = 200.0
+range_nm = 10.0
+record_s = 1.0
+"#,
+        base = workspace().join("rigs/crf250r-motored.toml").display()
+    );
+    let path = dir.join("one-spring.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn forced_response_matches_the_receptance_of_one_inertia_on_one_spring() {
+    let dir = tempfile::tempdir().unwrap();
+    let (k, c) = (290.0, 0.02);
+    let rig = one_spring_rig(dir.path(), k, c);
+    let run = json_in(
+        &["run", rig.to_str().unwrap(), "--steady", "--json"],
+        dir.path(),
+    );
+    // The crank's inertia about its axis with the unbalance, and the unbalance's gravity
+    // torque amplitude.
+    let (mu, ru) = (0.1, 0.02);
+    let j = 0.004 + mu * ru * ru;
+    let force = mu * 9.806_65 * ru;
+    for p in run["plateaus"].as_array().unwrap() {
+        let w = num(&p["set_speed_rpm"]) * TAU / 60.0;
+        // Receptance of the crank on the spring, the spring's torque amplitude from it.
+        let (re, im) = (k - w * w * j, w * c);
+        let x = force / (re * re + im * im).sqrt();
+        let torque = x * (k * k + (w * c).powi(2)).sqrt();
+        let inst = &p["instrument"];
+        let pp = num(&inst["peak_to_peak_nm"]);
+        assert!(
+            (pp - 2.0 * torque).abs() <= 1e-4 * 2.0 * torque,
+            "{w} rad/s: peak-to-peak {pp} against {}",
+            2.0 * torque
+        );
+        let fl = num(&inst["crank_speed_fluctuation"]);
+        let expect = 2.0 * x * w / w;
+        assert!(
+            (fl - expect).abs() <= 1e-4 * expect,
+            "speed fluctuation {fl} against {expect}"
+        );
+        // Frictionless: no mean torque on a periodic cycle (to the RK4 and settling tolerance).
+        assert!(
+            num(&inst["mean_torque_nm"]).abs() <= 1e-5 * torque,
+            "{inst}"
+        );
+    }
+}
+
+#[test]
+fn the_energy_balance_books_the_chains_dampers() {
+    let run = json_in(
+        &[
+            "run",
+            "crf250r-testbed",
+            "--lawset",
+            "fedem-baseline",
+            "--steady",
+            "--json",
+        ],
+        &workspace(),
+    );
+    let e = &run["energy"];
+    assert!(num(&e["relative_residual"]) < 1e-7, "{e}");
+    // The chain's dampers take their share: the motor does more work than the laws dissipate.
+    let laws: f64 = run["plateaus"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let cycle = 2.0 * std::f64::consts::PI;
+            let w = num(&p["mean_speed_rpm"]) * TAU / 60.0;
+            num(&p["instrument"]["chain_dissipation_w"]) * cycle / w
+        })
+        .sum();
+    assert!(laws > 0.0);
+    let gap = num(&e["motor_work_j"]) - (num(&e["dissipated_j"]) - laws);
+    assert!(
+        (gap - laws).abs() <= 1e-6 * num(&e["motor_work_j"]),
+        "chain {laws} J, gap {gap} J"
+    );
+}
+
+#[test]
+fn a_transducer_outside_its_rating_is_warned_about_at_exactly_those_speeds() {
+    let run = json_in(
+        &[
+            "run",
+            "crf250r-testbed",
+            "--lawset",
+            "fedem-baseline",
+            "--steady",
+            "--json",
+        ],
+        &workspace(),
+    );
+    let warnings: Vec<String> = run["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap_or_default().to_string())
+        .collect();
+    let mut outside = 0;
+    for p in run["plateaus"].as_array().unwrap() {
+        let i = &p["instrument"];
+        let over = num(&i["peak_to_peak_nm"]) > num(&i["oscillation_width_nm"])
+            || num(&i["max_torque_nm"])
+                .abs()
+                .max(num(&i["min_torque_nm"]).abs())
+                > num(&i["limit_torque_nm"]);
+        let tag = format!("{:.0} rpm: the transducer", num(&p["set_speed_rpm"]));
+        let warned = warnings.iter().any(|w| w.starts_with(&tag));
+        assert_eq!(over, warned, "{tag}: outside {over}, warned {warned}");
+        outside += usize::from(over);
+    }
+    assert!(
+        outside > 0,
+        "the bundled test bed leaves the rating somewhere: {warnings:?}"
+    );
+}
+
+#[test]
+fn the_transient_cycle_with_a_drivetrain_is_refused_plainly() {
+    let out = tribo_in(
+        &["run", "crf250r-testbed", "--lawset", "fedem-baseline"],
+        &workspace(),
+    );
+    let (_, err) = text(&out);
+    assert!(!out.status.success());
+    assert_mentions(&err, &["drivetrain", "--steady"]);
+}

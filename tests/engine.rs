@@ -1420,17 +1420,22 @@ fn run_4b11_fmep(set: &str, extra: &[&str]) -> (Vec<(f64, f64)>, Vec<(f64, Strin
             )
         })
         .collect();
-    let mut rows = Vec::new();
-    let mut r = csv::Reader::from_path(fmep.join("fmep.csv")).expect("fmep.csv");
-    for row in r.records() {
-        let row = row.expect("row");
-        rows.push((
-            row[0].parse().expect("rpm"),
-            row[1].to_string(),
-            row[2].parse().expect("kPa"),
-        ));
-    }
-    (plateaus, rows)
+    (plateaus, fmep_rows(&fmep))
+}
+
+/// (rpm, component, kPa) of `dir`/fmep.csv.
+fn fmep_rows(dir: &Path) -> Vec<(f64, String, f64)> {
+    let mut r = csv::Reader::from_path(dir.join("fmep.csv")).expect("fmep.csv");
+    r.records()
+        .map(|row| {
+            let row = row.expect("row");
+            (
+                row[0].parse().expect("rpm"),
+                row[1].to_string(),
+                row[2].parse().expect("kPa"),
+            )
+        })
+        .collect()
 }
 
 /// Tribo's groups at `rpm` from fmep.csv rows: (crankshaft: every main, reciprocating: every
@@ -1514,16 +1519,7 @@ fn the_guard_band_printed_beside_the_4b11_is_its_groups_against_the_correlation(
         ],
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("run JSON");
-    let mut rows = Vec::new();
-    let mut r = csv::Reader::from_path(fmep.join("fmep.csv")).expect("fmep.csv");
-    for row in r.records() {
-        let row = row.expect("row");
-        rows.push((
-            row[0].parse().expect("rpm"),
-            row[1].to_string(),
-            row[2].parse().expect("kPa"),
-        ));
-    }
+    let rows = fmep_rows(&fmep);
     let json: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(fmep.join("fmep_correlation.json")).expect("json"),
     )

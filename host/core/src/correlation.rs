@@ -299,18 +299,24 @@ fn term(term: &str, group: Group, joints: &str, kpa: Option<f64>, note: &str) ->
 mod tests {
     use super::*;
 
-    /// The terms written out by hand for a 4-cylinder 86 x 86 mm engine with five 50 x 20 mm
-    /// mains and 48 x 20 mm rod bearings at 3000 rpm, reference oil.
-    #[test]
-    fn terms_by_hand_for_an_inline_four() {
-        let d = EngineData {
+    /// A 4-cylinder 86 x 86 mm engine with five 50 x 20 mm mains and 48 x 20 mm rod bearings,
+    /// head-less (the 4B11's rig).
+    fn inline_four() -> EngineData {
+        EngineData {
             bore_mm: 86.0,
             stroke_mm: 86.0,
             cylinders: 4,
             mains: vec![(50.0, 20.0); 5],
             rods: vec![(48.0, 20.0); 4],
             head: None,
-        };
+        }
+    }
+
+    /// The terms written out by hand for a 4-cylinder 86 x 86 mm engine with five 50 x 20 mm
+    /// mains and 48 x 20 mm rod bearings at 3000 rpm, reference oil.
+    #[test]
+    fn terms_by_hand_for_an_inline_four() {
+        let d = inline_four();
         let c = d.at(3000.0, reference_viscosity_pa_s());
         let get = |name: &str| {
             c.terms
@@ -343,14 +349,7 @@ mod tests {
     /// band judges the three groups by their ratios, written out here by hand.
     #[test]
     fn the_guard_band_judges_the_groups() {
-        let d = EngineData {
-            bore_mm: 86.0,
-            stroke_mm: 86.0,
-            cylinders: 4,
-            mains: vec![(50.0, 20.0); 5],
-            rods: vec![(48.0, 20.0); 4],
-            head: None,
-        };
+        let d = inline_four();
         let c = d.at(3000.0, reference_viscosity_pa_s());
         // seals 2.3978 + mains 4.4658 + turbulent 3.7969 = 10.6605 kPa (terms by hand above).
         let crank = 1.22e5 * 50.0 / 2_544_224.0 + 4.4658 + 3.796875;

@@ -1369,3 +1369,309 @@ fn an_engines_pi_drive_runs_the_adaptive_integrator_with_the_rigs_settings() {
         );
     }
 }
+
+// ---- The 4B11 against the correlation's groups (issue 48) ----
+
+/// The correlation's groups on the 4B11 at `rpm` with oil of viscosity `mu`, written out from
+/// the published terms (PNH, SAE 890836, with Sandoval and Heywood's `(mu/mu0)^0.5`): the rig's
+/// 86 x 86 mm bore and stroke, four cylinders, five 50 x 20 mm mains and four 48 x 20 mm rod
+/// bearings, head-less. Returns (crankshaft, reciprocating) in kPa; their sum is the rubbing
+/// total.
+fn correlation_groups_4b11(rpm: f64, mu: f64) -> (f64, f64) {
+    let root = (mu / tribo::correlation::reference_viscosity_pa_s()).sqrt();
+    let (b, s, nc) = (86.0_f64, 86.0_f64, 4.0_f64);
+    let den = b * b * s * nc;
+    let seals = 1.22e5 * 50.0 / den;
+    let mains = 5.0 * 3.03e-4 * root * rpm * 50f64.powi(3) * 20.0 / den;
+    let turbulent = 1.35e-10 * 50f64.powi(2) * rpm * rpm * 5.0 / nc;
+    let sp = 2.0 * s * 1e-3 * rpm / 60.0;
+    let skirt = 2.94e2 * root * sp / b;
+    let rings = 4.06e4 * (1.0 + 1000.0 / rpm) / (b * b);
+    let rods = 4.0 * 3.03e-4 * root * rpm * 48f64.powi(3) * 20.0 / den;
+    (seals + mains + turbulent, skirt + rings + rods)
+}
+
+/// One row of fmep.csv: (rpm, component, kPa).
+type FmepRow = (f64, String, f64);
+
+/// `tribo run inline4-4b11 --lawset SET --steady --fmep DIR --json`: (rpm, viscosity) per
+/// plateau from the JSON and the rows of DIR/fmep.csv.
+fn run_4b11_fmep(set: &str) -> (Vec<(f64, f64)>, Vec<FmepRow>) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fmep = dir.path().join("fmep");
+    let args = [
+        "run",
+        "inline4-4b11",
+        "--lawset",
+        set,
+        "--steady",
+        "--json",
+        "--fmep",
+        fmep.to_str().expect("utf-8"),
+    ];
+    let out = tribo_ok(dir.path(), &args);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("run JSON");
+    let plateaus = v["plateaus"]
+        .as_array()
+        .expect("plateaus")
+        .iter()
+        .map(|p| {
+            (
+                p["set_speed_rpm"].as_f64().expect("rpm"),
+                p["viscosity_pa_s"].as_f64().expect("viscosity"),
+            )
+        })
+        .collect();
+    (plateaus, fmep_rows(&fmep))
+}
+
+/// (rpm, component, kPa) of `dir`/fmep.csv.
+fn fmep_rows(dir: &Path) -> Vec<FmepRow> {
+    let mut r = csv::Reader::from_path(dir.join("fmep.csv")).expect("fmep.csv");
+    r.records()
+        .map(|row| {
+            let row = row.expect("row");
+            (
+                row[0].parse().expect("rpm"),
+                row[1].to_string(),
+                row[2].parse().expect("kPa"),
+            )
+        })
+        .collect()
+}
+
+/// Tribo's groups at `rpm` from fmep.csv rows: (crankshaft: every main, reciprocating: every
+/// big end, small end and piston, rubbing total).
+fn tribo_groups(rows: &[FmepRow], rpm: f64) -> (f64, f64, f64) {
+    let sum = |pick: &dyn Fn(&str) -> bool| -> f64 {
+        rows.iter()
+            .filter(|(r, c, _)| *r == rpm && pick(c))
+            .map(|x| x.2)
+            .sum()
+    };
+    let crank = sum(&|c| c.starts_with("main_"));
+    let recip = sum(&|c| {
+        c.starts_with("big_end_") || c.starts_with("small_end_") || c.starts_with("piston_")
+    });
+    let total = sum(&|c| c == "total");
+    (crank, recip, total)
+}
+
+/// Issue 48's acceptance: the unfitted `4b11-physical` (the manual's middle clearances, seals
+/// and windage on the crank) at 90 C, 1000-6000 rpm, read from `fmep.csv`: the rubbing total
+/// within +-30% of the correlation's head-less rubbing total, the crankshaft group (every main)
+/// and the reciprocating group (big ends, small ends, pistons) each within a factor 1.5 of the
+/// correlation's groups, which are written out here from the published terms.
+///
+/// Not met at 6000 rpm: the crankshaft group is 0.65 of the correlation's there (docs/engines.md,
+/// "Against the correlation's groups"), where the correlation's turbulent-dissipation term
+/// (15 kPa) is thirty times what the physical windage and oil-pumping law gives. Run it with
+/// `cargo test --release --test engine -- --ignored the_4b11_stands`.
+#[test]
+#[ignore = "acceptance not met at 6000 rpm: crankshaft group 0.65 of the correlation's (a finding, docs/engines.md)"]
+fn the_4b11_stands_in_the_correlation_s_guard_band_at_90_c() {
+    let (plateaus, rows) = run_4b11_fmep("4b11-physical");
+    let mut failures = Vec::new();
+    for &(rpm, mu) in plateaus.iter().filter(|p| p.0 <= 6000.0) {
+        let (c_crank, c_recip) = correlation_groups_4b11(rpm, mu);
+        let (crank, recip, total) = tribo_groups(&rows, rpm);
+        assert!(
+            (total - crank - recip).abs() <= 1e-9 * total,
+            "{rpm}: the groups make the total"
+        );
+        for (what, ratio, lo, hi) in [
+            ("total", total / (c_crank + c_recip), 0.7, 1.3),
+            ("crankshaft", crank / c_crank, 1.0 / 1.5, 1.5),
+            ("reciprocating", recip / c_recip, 1.0 / 1.5, 1.5),
+        ] {
+            if !(lo..=hi).contains(&ratio) {
+                failures.push(format!(
+                    "{rpm} rpm {what}: {ratio:.3} outside {lo:.3}-{hi:.3}"
+                ));
+            }
+        }
+    }
+    assert_eq!(plateaus.iter().filter(|p| p.0 <= 6000.0).count(), 6);
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The guard band `run --fmep` writes beside every plateau (fmep_correlation.json) is the
+/// groups' ratios computed here from fmep.csv and the published terms, each judged against
+/// its band: the printed verdict is the physics', whichever way it goes.
+#[test]
+fn the_guard_band_printed_beside_the_4b11_is_its_groups_against_the_correlation() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let fmep = dir.path().join("fmep");
+    let cycle = "cycle.segments=[{kind=\"ramp\", to_rpm=1000.0, duration_s=0.2}, \
+        {kind=\"hold\", duration_s=0.2}, {kind=\"ramp\", to_rpm=6000.0, duration_s=0.2}, \
+        {kind=\"hold\", duration_s=0.2}]";
+    let out = tribo_ok(
+        dir.path(),
+        &[
+            "run",
+            "inline4-4b11",
+            "--lawset",
+            "4b11-physical",
+            "--steady",
+            "--set",
+            cycle,
+            "--json",
+            "--fmep",
+            fmep.to_str().expect("utf-8"),
+        ],
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("run JSON");
+    let rows = fmep_rows(&fmep);
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(fmep.join("fmep_correlation.json")).expect("json"),
+    )
+    .expect("correlation JSON");
+    let mut checked = 0;
+    for p in v["plateaus"].as_array().expect("plateaus") {
+        let rpm = p["set_speed_rpm"].as_f64().expect("rpm");
+        let mu = p["viscosity_pa_s"].as_f64().expect("mu");
+        let (c_crank, c_recip) = correlation_groups_4b11(rpm, mu);
+        let (crank, recip, total) = tribo_groups(&rows, rpm);
+        let plateau = json["plateaus"]
+            .as_array()
+            .expect("plateaus")
+            .iter()
+            .find(|x| x["set_speed_rpm"].as_f64() == Some(rpm))
+            .expect("plateau");
+        let band = plateau["guard_band"].as_array().expect("guard band");
+        for (group, ratio, lo, hi) in [
+            ("total", total / (c_crank + c_recip), 0.7, 1.3),
+            ("crankshaft", crank / c_crank, 1.0 / 1.5, 1.5),
+            ("reciprocating", recip / c_recip, 1.0 / 1.5, 1.5),
+        ] {
+            let g = band
+                .iter()
+                .find(|g| g["group"] == group)
+                .unwrap_or_else(|| panic!("{rpm}: no {group} in {band:?}"));
+            let printed = g["ratio"].as_f64().expect("ratio");
+            assert!(
+                (printed - ratio).abs() <= 1e-9 * ratio,
+                "{rpm} {group}: printed {printed} vs {ratio}"
+            );
+            assert_eq!(g["inside"].as_bool(), Some((lo..=hi).contains(&ratio)));
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 6);
+}
+
+/// The clearance band: the same set at the manual's minimum, middle and maximum oil clearance
+/// runs in one `sweep`, and at 1000 rpm, where the films are thick and cool, the tighter
+/// bearings shear harder (Petroff: the film's torque falls with the clearance), mains and big
+/// ends alike; everything but the two plain-journal entries is the same in the three sets.
+#[test]
+fn the_clearance_band_runs_the_manual_s_three_clearances_in_one_sweep() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = tribo_ok(
+        dir.path(),
+        &[
+            "sweep",
+            "inline4-4b11",
+            "--lawset",
+            "4b11-physical-tight",
+            "--lawset",
+            "4b11-physical",
+            "--lawset",
+            "4b11-physical-loose",
+            "--temps",
+            "90",
+            "--speeds",
+            "1000",
+            "--out",
+            "band",
+            "--quiet",
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for set in [
+        "4b11-physical-tight",
+        "4b11-physical",
+        "4b11-physical-loose",
+    ] {
+        assert!(stdout.contains(&format!("law set {set}:")), "{stdout}");
+    }
+    // Clearances as the three files give them: 6, 10.5 and 15 um on the mains, 9, 15.75 and
+    // 22.5 um on the big ends: the manual's 0.012-0.030 and 0.018-0.045 mm diametral.
+    let read = |name: &str| -> toml::Value {
+        let p = common::workspace().join(format!("rigs/lawsets/{name}.toml"));
+        toml::from_str(&std::fs::read_to_string(&p).expect("set")).expect("toml")
+    };
+    let clearance = |set: &toml::Value, joint: &str| -> f64 {
+        set["laws"]
+            .as_array()
+            .expect("laws")
+            .iter()
+            .find(|l| {
+                l["joint"].as_str() == Some(joint) && l["law"].as_str() == Some("plain-journal")
+            })
+            .and_then(|l| l["params"]["clearance_m"].as_float())
+            .expect("clearance")
+    };
+    let sets: Vec<toml::Value> = [
+        "4b11-physical-tight",
+        "4b11-physical",
+        "4b11-physical-loose",
+    ]
+    .iter()
+    .map(|n| read(n))
+    .collect();
+    for (k, (main, rod)) in [
+        (0.012e-3, 0.018e-3),
+        (0.021e-3, 0.0315e-3),
+        (0.030e-3, 0.045e-3),
+    ]
+    .iter()
+    .enumerate()
+    {
+        assert!((clearance(&sets[k], "main_*") - main / 2.0).abs() < 1e-12);
+        assert!((clearance(&sets[k], "big_end") - rod / 2.0).abs() < 1e-12);
+    }
+    // Apart from the clearances the sets are the same.
+    let strip = |set: &toml::Value| -> Vec<toml::Value> {
+        let mut laws = set["laws"].as_array().expect("laws").clone();
+        for l in &mut laws {
+            if let Some(p) = l.get_mut("params").and_then(|p| p.as_table_mut()) {
+                p.remove("clearance_m");
+            }
+        }
+        laws
+    };
+    assert_eq!(strip(&sets[0]), strip(&sets[1]));
+    assert_eq!(strip(&sets[2]), strip(&sets[1]));
+    // The sweep's own numbers: per set, each joint's torque at 1000 rpm.
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("band/sweep.json")).expect("sweep.json"),
+    )
+    .expect("json");
+    let torque = |set: &str, prefix: &str| -> f64 {
+        let s = json["sets"]
+            .as_array()
+            .expect("sets")
+            .iter()
+            .find(|s| s["lawset"] == set)
+            .expect("set");
+        s["points"][0]["joints"]
+            .as_array()
+            .expect("joints")
+            .iter()
+            .filter(|j| j["joint"].as_str().unwrap_or("").starts_with(prefix))
+            .map(|j| j["friction_torque_nm"].as_f64().expect("torque"))
+            .sum()
+    };
+    for prefix in ["main_", "big_end_"] {
+        let t: Vec<f64> = [
+            "4b11-physical-tight",
+            "4b11-physical",
+            "4b11-physical-loose",
+        ]
+        .iter()
+        .map(|s| torque(s, prefix))
+        .collect();
+        assert!(t[0] > t[1] && t[1] > t[2], "{prefix}: {t:?}");
+    }
+}

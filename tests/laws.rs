@@ -16,7 +16,7 @@ use tribo::plugin_api::{JointKind, Law, LawInput, LawOutput, ParamError, ParamSp
 const SHORT_CYCLE: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.5}, {kind=\"hold\", duration_s=0.8}]";
 
 /// (law, joint, parameter TOML)
-const CASES: [(&str, &str, &str); 12] = [
+const CASES: [(&str, &str, &str); 14] = [
     ("coulomb", "piston", "mu = 0.08"),
     ("c-coulomb", "piston", "mu = 0.08"),
     ("fedem-friction", "big_end", "mu = 0.0025"),
@@ -52,6 +52,9 @@ const CASES: [(&str, &str, &str); 12] = [
     // The defaults are the CRF 250 R's pack (docs/laws/ring-pack.md); the boundary coefficient
     // written out so the file is not empty.
     ("ring-pack", "piston", "boundary_mu = 0.1"),
+    // The 4B11's rear crankshaft seal (rigs/lawsets/4b11-physical.toml) on a main bearing.
+    ("lip-seal", "main_a", "shaft_diameter_m = 0.085"),
+    ("crank-windage", "main_a", "discs = 2.0"),
 ];
 
 #[test]
@@ -476,7 +479,8 @@ fn crank_angle_rows(path: &std::path::Path) -> Vec<std::collections::HashMap<Str
 /// Joint of the bundled rig each law is plotted on (its natural place in the engine).
 fn plot_joint(law: &str) -> &'static str {
     match law {
-        "petroff-journal" | "rolling-bearing" | "polyline-damper" | "crank-churning" => "main_a",
+        "petroff-journal" | "rolling-bearing" | "polyline-damper" | "crank-churning"
+        | "lip-seal" | "crank-windage" => "main_a",
         "fedem-friction" => "big_end",
         _ => "piston",
     }

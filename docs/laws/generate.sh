@@ -21,4 +21,6 @@ plain-journal main_a
 crank-churning main_a
 piston-skirt piston
 ring-pack piston
+lip-seal main_a
+crank-windage main_a
 LAWS

@@ -7,7 +7,7 @@ use plotters::prelude::*;
 
 use crate::output::{OutputError, ResultDir};
 use crate::sim::{Fmep, PlateauResult, RunResult};
-use tribo_core::correlation::{beside, Beside, Correlation};
+use tribo_core::correlation::{beside, guard_band, Beside, Correlation};
 
 /// The components of one plateau side by side (`None` if the plateau has no correlation):
 /// each law's FMEP by the run's basis `fmep`, so a piston carrying ring and skirt laws is
@@ -103,8 +103,35 @@ pub fn run_text(r: &RunResult) -> String {
                 ));
             }
         }
+        let band = guard_text(&rows);
+        if !band.is_empty() {
+            out.push_str(&crate::report::wrap(
+                &format!("{:>8}  guard band: {band}", ""),
+                crate::report::MAX_COLUMNS,
+                &" ".repeat(22),
+            ));
+        }
     }
     out
+}
+
+/// The groups against their guard bands, one clause each (`total 0.79 in 0.70-1.30`, `... OUT
+/// of ...`): the correlation judges the engine by its groups, never by a component.
+fn guard_text(rows: &[Beside]) -> String {
+    guard_band(rows)
+        .iter()
+        .map(|g| {
+            format!(
+                "{} {:.2} {} {:.2}-{:.2}",
+                g.group,
+                g.ratio,
+                if g.inside { "in" } else { "OUT of" },
+                g.band[0],
+                g.band[1]
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// `fmep_correlation.csv` of `run --fmep`: one row per plateau and component.
@@ -134,6 +161,7 @@ pub fn run_json(r: &RunResult) -> std::io::Result<String> {
         .iter()
         .filter_map(|p| {
             let rows = plateau_rows(p, &r.fmep)?;
+            let guard = guard_band(&rows);
             let ratios: Vec<Option<f64>> = rows.iter().map(Beside::ratio).collect();
             let mut v = serde_json::to_value(PlateauRows {
                 set_speed_rpm: p.set_speed_rpm,
@@ -146,6 +174,7 @@ pub fn run_json(r: &RunResult) -> std::io::Result<String> {
                     row["ratio"] = ratio.map_or(serde_json::Value::Null, serde_json::Value::from);
                 }
             }
+            v["guard_band"] = serde_json::to_value(guard).ok()?;
             Some(v)
         })
         .collect();
@@ -332,7 +361,8 @@ pub fn sweep_text(s: &crate::study::Sweep) -> String {
         return out;
     };
     let _ = writeln!(out, "{}", heading(s.fmep.basis.formula(), first));
-    const COMPONENTS: [&str; 4] = ["main bearings", "rod bearings", "pistons", "total"];
+    // The groups the correlation is judged by (its components are in sweep_correlation.csv).
+    const COMPONENTS: [&str; 3] = ["crankshaft", "reciprocating", "total"];
     for set in &s.sets {
         let points: Vec<(&crate::study::SweepPoint, Vec<Beside>)> = set
             .points

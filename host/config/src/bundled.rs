@@ -73,6 +73,14 @@ const LAWSETS: &[(&str, &str)] = &[
         include_str!("../../../rigs/lawsets/4b11-physical.toml"),
     ),
     (
+        "4b11-physical-tight.toml",
+        include_str!("../../../rigs/lawsets/4b11-physical-tight.toml"),
+    ),
+    (
+        "4b11-physical-loose.toml",
+        include_str!("../../../rigs/lawsets/4b11-physical-loose.toml"),
+    ),
+    (
         "crf250r-physical.toml",
         include_str!("../../../rigs/lawsets/crf250r-physical.toml"),
     ),

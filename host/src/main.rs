@@ -293,9 +293,14 @@ struct CompareArgs {
     /// Output directory for comparison.csv, comparison.json, the plots and the fitted law sets.
     #[arg(long, default_value = "tribo-compare")]
     out: PathBuf,
-    /// Steady state at each speed instead of the full test cycle.
+    /// Steady state at each speed instead of the full test cycle (always, on a rig with a
+    /// drivetrain).
     #[arg(long)]
     steady: bool,
+    /// On a rig with a drivetrain: fit and score each set only on the points its transducer
+    /// measured within its rating (the others are still run, marked `instrument_ok: false`).
+    #[arg(long)]
+    trusted_points_only: bool,
     /// Data never used in fitting (CSV as for --data), scored separately; repeatable.
     #[arg(long = "validate", value_name = "FILE")]
     validate: Vec<String>,
@@ -1074,6 +1079,7 @@ fn compare_study(
         starts: a.starts as usize,
         validate: read_data_runs(&a.validate)?,
         data_for_any_rig: a.data_for_any_rig,
+        trusted_points_only: a.trusted_points_only,
     };
     Ok(tribo::study::compare(
         &rig,

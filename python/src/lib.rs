@@ -583,6 +583,10 @@ struct CompareJob {
     starts: usize,
     #[serde(default)]
     data_for_any_rig: bool,
+    /// On a rig with a drivetrain, fit and score on the points measured within the
+    /// transducer's rating only.
+    #[serde(default)]
+    trusted_points_only: bool,
     #[serde(default)]
     plugin_paths: Vec<PathBuf>,
 }
@@ -631,6 +635,7 @@ fn compare_local(job: &str) -> Result<Box<study::Comparison>, Failure> {
         starts: job.starts,
         validate: data_runs(&job.validate)?,
         data_for_any_rig: job.data_for_any_rig,
+        trusted_points_only: job.trusted_points_only,
     };
     let registry = registry(&job.plugin_paths)?;
     Ok(Box::new(study::compare(

@@ -693,6 +693,10 @@ pub struct CompareOptions {
     pub validate: Vec<DataRun>,
     /// Accept data whose `# rig:` names another rig (`--data-for-any-rig`).
     pub data_for_any_rig: bool,
+    /// On a rig with a drivetrain, fit and score each set on the points its transducer
+    /// measured within its rating only (`--trusted-points-only`); the others are still run
+    /// and reported, marked by `instrument_ok`.
+    pub trusted_points_only: bool,
 }
 
 impl Default for CompareOptions {
@@ -704,8 +708,53 @@ impl Default for CompareOptions {
             starts: crate::fit::DEFAULT_STARTS,
             validate: Vec::new(),
             data_for_any_rig: false,
+            trusted_points_only: false,
         }
     }
+}
+
+/// The points of `data` the transducer measured within its rating with law set `ls` at the
+/// file's values (a steady pre-run at the data's points); all of them on a rig without a
+/// drivetrain or unless `options.trusted_points_only`.
+fn trusted_rows(
+    rig: &Rig,
+    ls: &LawSet,
+    data: &DataRun,
+    registry: &LawRegistry,
+    options: &CompareOptions,
+) -> Result<DataRun, StudyError> {
+    if !options.trusted_points_only || rig.file.drivetrain.is_none() {
+        return Ok(data.clone());
+    }
+    let r = prepare(rig, ls, Some(&data.rows))?;
+    let run = run_rig(&r, registry, true).map_err(|e| StudyError::Run {
+        lawset: ls.name().into(),
+        error: Box::new(e),
+    })?;
+    let ok = instrument_ok(&run).unwrap_or_default();
+    let rows: Vec<DataRow> = data
+        .rows
+        .iter()
+        .zip(&ok)
+        .filter(|(_, ok)| **ok)
+        .map(|(row, _)| row.clone())
+        .collect();
+    if rows.len() < 2 {
+        return Err(StudyError::Data {
+            file: data.file.clone(),
+            line: None,
+            message: format!(
+                "--trusted-points-only: law set `{}` leaves {} of {} points within the transducer's rating, too few to fit or score",
+                ls.name(),
+                rows.len(),
+                data.rows.len()
+            ),
+        });
+    }
+    Ok(DataRun {
+        rows,
+        ..data.clone()
+    })
 }
 
 /// RMSE and largest absolute error of `model` against `measured`.
@@ -728,7 +777,10 @@ fn score_set(
     options: &CompareOptions,
     spread: f64,
 ) -> Result<SetResult, StudyError> {
-    let measured: Vec<f64> = data.rows.iter().map(|r| r.torque_nm).collect();
+    let all = data;
+    let trusted = trusted_rows(rig, ls, data, registry, options)?;
+    let data = &trusted;
+    let measured: Vec<f64> = all.rows.iter().map(|r| r.torque_nm).collect();
     let fitted = if free.is_empty() || options.no_fit {
         None
     } else {
@@ -749,7 +801,7 @@ fn score_set(
         )?)
     };
     let used = fitted.as_ref().map_or(ls, |(_, l)| l);
-    let r = prepare(rig, used, Some(&data.rows))?;
+    let r = prepare(rig, used, Some(&all.rows))?;
     let run = run_rig(&r, registry, options.steady).map_err(|e| StudyError::Run {
         lawset: ls.name().into(),
         error: Box::new(e),
@@ -759,8 +811,23 @@ fn score_set(
         .iter()
         .map(|p| p.measured_torque_nm())
         .collect();
-    let (errors_nm, rmse_nm, max_abs_error_nm) = errors(&model, &measured);
+    let (errors_nm, mut rmse_nm, max_abs_error_nm) = errors(&model, &measured);
     let instrument_ok = instrument_ok(&run);
+    // The points scored: the trusted ones under `--trusted-points-only`, else all.
+    let subset = data.rows.len() < all.rows.len();
+    let kept: Vec<f64> = if subset {
+        errors_nm
+            .iter()
+            .zip(instrument_ok.iter().flatten())
+            .filter(|(_, ok)| **ok)
+            .map(|(e, _)| *e)
+            .collect()
+    } else {
+        errors_nm.clone()
+    };
+    if subset {
+        rmse_nm = (kept.iter().map(|x| x * x).sum::<f64>() / kept.len().max(1) as f64).sqrt();
+    }
     let (mut scores, mut unc, calibration) = match &fitted {
         Some((f, _)) => (
             f.scores.clone(),
@@ -770,7 +837,7 @@ fn score_set(
         None => {
             // Nothing fitted: scored as it is, like a set without free parameters.
             let tm = TorqueModel::new(rig, used, &[], vec![data.clone()], registry);
-            let mut scores = score::scores_for_fit(&tm, &[], &errors_nm, !options.no_cv);
+            let mut scores = score::scores_for_fit(&tm, &[], &kept, !options.no_cv);
             let status = if free.is_empty() {
                 CalibrationStatus::NoFreeParameters
             } else {
@@ -804,8 +871,12 @@ fn score_set(
     scores.rmse_nm = rmse_nm;
     let prior = ls.prior_fit_on(&data.file);
     if let Some(prior) = prior {
-        score::apply_prior_fit(&mut scores, &errors_nm, prior);
+        score::apply_prior_fit(&mut scores, &kept, prior);
         // Tuned elsewhere: no covariance of those numbers exists here.
+        unc.band_half_width_nm = None;
+    }
+    if subset {
+        // The fit's band covers the trusted points only, not every point the run reports.
         unc.band_half_width_nm = None;
     }
     let band = unc
@@ -1003,6 +1074,12 @@ pub fn compare(
     registry: &LawRegistry,
     options: &CompareOptions,
 ) -> Result<Comparison, StudyError> {
+    // A drivetrain's chain is integrated in the steady state only (`sim::torsional`).
+    let effective = CompareOptions {
+        steady: options.steady || rig.file.drivetrain.is_some(),
+        ..options.clone()
+    };
+    let options = &effective;
     // Every input checked before anything runs.
     check_lawsets(rig, lawsets, registry)?;
     for d in std::iter::once(data).chain(&options.validate) {
@@ -1050,6 +1127,41 @@ impl Comparison {
     pub fn rank(&mut self, no_cv: bool) {
         rank_sets(&mut self.sets, no_cv);
         self.verdict = crate::verdict::judge(self);
+        if let Some(note) = self.instrument_note() {
+            self.verdict.sentence.push_str(&note);
+        }
+    }
+
+    /// The verdict's note on a rig with a drivetrain: the data points measured outside the
+    /// transducer's rating by any set's run (`instrument_ok`), which no law can be judged on.
+    fn instrument_note(&self) -> Option<String> {
+        let outside: Vec<String> = self
+            .data
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| {
+                self.sets.iter().any(|s| {
+                    s.instrument_ok
+                        .as_ref()
+                        .is_some_and(|ok| ok.get(*i) == Some(&false))
+                })
+            })
+            .map(|(_, row)| format!("{:.0}", row.speed_rpm))
+            .collect();
+        if outside.is_empty() {
+            return None;
+        }
+        Some(format!(
+            "; the transducer worked outside its rating at {} of {} points ({} rpm: instrument_ok false), so those measurements are not trusted{}",
+            outside.len(),
+            self.data.len(),
+            outside.join(", "),
+            if self.sets.iter().all(|s| s.instrument_ok.is_none()) {
+                ""
+            } else {
+                " (--trusted-points-only scores the rest)"
+            }
+        ))
     }
 }
 

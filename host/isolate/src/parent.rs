@@ -31,6 +31,10 @@ const KILL_GRACE: Duration = Duration::from_secs(3);
 const DRAIN: Duration = Duration::from_millis(150);
 /// Keep at most this much of a worker's standard error (its tail) for the failure message.
 const STDERR_TAIL_BYTES: usize = 4096;
+/// Read at most this much from one pipe before looking at the clock and the limits again.
+const READ_BUDGET: usize = 1 << 20;
+/// Forward at most this much of a worker's standard error per request; the rest is counted.
+const STDERR_FORWARD_BYTES: usize = 1 << 20;
 
 /// What happens while a request runs, for the caller to act on.
 pub enum Event<'a> {
@@ -149,6 +153,10 @@ pub struct Worker {
     marker_buf: Vec<u8>,
     stderr_buf: Vec<u8>,
     stderr_tail: Vec<u8>,
+    /// Bytes of standard error forwarded during the current request.
+    stderr_forwarded: usize,
+    /// Bytes of standard error dropped past [`STDERR_FORWARD_BYTES`], not yet reported.
+    stderr_dropped: u64,
     /// Registered names of plugin code, by id (told by the worker).
     names: BTreeMap<usize, String>,
     /// Marker reports: (kind, text).
@@ -222,6 +230,8 @@ impl Worker {
             marker_buf: Vec::new(),
             stderr_buf: Vec::new(),
             stderr_tail: Vec::new(),
+            stderr_forwarded: 0,
+            stderr_dropped: 0,
             names: BTreeMap::new(),
             reports: Vec::new(),
             seen: vec![(0, Instant::now()); inflight::SLOTS],
@@ -263,7 +273,10 @@ impl Worker {
         self.started = Instant::now();
         self.outbuf
             .extend_from_slice(&frame::encode(&self.token, Kind::Job, &job));
-        match self.wait_reply(events) {
+        self.stderr_forwarded = 0;
+        let reply = self.wait_reply(events);
+        self.report_dropped(events);
+        match reply {
             Ok(payload) => match rmp_serde::from_slice::<Reply<A>>(&payload) {
                 Ok(Reply::Ok(a)) => Ok(a),
                 Ok(Reply::Err(message)) => Err(WorkerFailure::Study(message)),
@@ -393,11 +406,20 @@ impl Worker {
         events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
     ) -> Result<Option<Vec<u8>>, WorkerFailure> {
         let mut buf = [0u8; 65536];
+        // Each pipe is read for at most READ_BUDGET bytes a turn, then the caller checks the
+        // limits: a writer that never pauses (a law's thread, or a process it detached with
+        // `setsid`, flooding standard error) cannot hold the parent in here.
         // Markers first: a law's name registered before a reply or a death is then known.
+        let mut budget = READ_BUDGET;
         while let Ok(n @ 1..) = sys::read(self.markers.as_raw_fd(), &mut buf) {
             self.marker_buf.extend_from_slice(&buf[..n]);
             self.parse_markers(events)?;
+            budget = budget.saturating_sub(n);
+            if budget == 0 {
+                break;
+            }
         }
+        let mut budget = READ_BUDGET;
         while let Ok(n @ 1..) = sys::read(self.stderr.as_raw_fd(), &mut buf) {
             for &b in &buf[..n] {
                 if b == b'\n' {
@@ -406,9 +428,18 @@ impl Worker {
                     self.stderr_buf.push(b);
                 }
             }
+            budget = budget.saturating_sub(n);
+            if budget == 0 {
+                break;
+            }
         }
+        let mut budget = READ_BUDGET;
         while let Ok(n @ 1..) = sys::read(self.chan.as_raw_fd(), &mut buf) {
             self.inbuf.extend_from_slice(&buf[..n]);
+            budget = budget.saturating_sub(n);
+            if budget == 0 {
+                break;
+            }
         }
         loop {
             match frame::parse(&self.inbuf, &self.token) {
@@ -449,7 +480,27 @@ impl Worker {
             self.stderr_tail
                 .drain(..self.stderr_tail.len() - STDERR_TAIL_BYTES);
         }
-        let _ = events(Event::Stderr(&line));
+        // Past the cap, lines are counted, not forwarded: a flood of output costs the user's
+        // terminal nothing, and the count is said once the request ends.
+        if self.stderr_forwarded < STDERR_FORWARD_BYTES {
+            self.stderr_forwarded += line.len() + 1;
+            let _ = events(Event::Stderr(&line));
+        } else {
+            self.stderr_dropped += line.len() as u64 + 1;
+        }
+    }
+
+    /// Say, once, how much of the worker's standard error was dropped past the cap.
+    fn report_dropped(&mut self, events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>) {
+        if self.stderr_dropped > 0 {
+            let line = format!(
+                "note: the worker's standard error (what its laws printed) was cut after {} KiB; {} more bytes were dropped",
+                STDERR_FORWARD_BYTES >> 10,
+                self.stderr_dropped
+            );
+            self.stderr_dropped = 0;
+            let _ = events(Event::Stderr(&line));
+        }
     }
 
     /// Parse whole marker lines; lines without the job's token (a law writing to the pipe)

@@ -1945,22 +1945,25 @@ fn main() -> ExitCode {
     }
     let result = run(cli);
     guard::allow_exit();
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) if e.downcast_ref::<QuietFailure>().is_some() => ExitCode::FAILURE,
+    let code = match result {
+        Ok(()) => 0,
+        Err(e) if e.downcast_ref::<QuietFailure>().is_some() => 1,
         // The reader of our output went away (`tribo laws | head -1`): nothing to tell it, and
         // the results were not delivered, so exit 1 without a message (docs/reliability.md).
         Err(e)
             if e.downcast_ref::<StdoutError>()
                 .is_some_and(|s| s.0.kind() == std::io::ErrorKind::BrokenPipe) =>
         {
-            ExitCode::FAILURE
+            1
         }
         Err(e) => {
             use std::io::Write as _;
             // Ignored: if standard error is gone too there is nowhere left to report to.
             let _ = writeln!(std::io::stderr(), "error: {e:#}");
-            ExitCode::FAILURE
+            1
         }
-    }
+    };
+    // No destructor or atexit handler of a law loaded in process runs after this: one that
+    // calls _exit(0) would turn a failure into a success.
+    guard::end(code)
 }

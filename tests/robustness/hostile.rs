@@ -19,7 +19,7 @@ use super::common::*;
 
 /// The command a case runs.
 #[derive(Clone, Copy, Debug)]
-enum Cmd {
+pub(crate) enum Cmd {
     /// `run` on a short cycle of the frictionless rig, the law on the piston, `--json`.
     Run,
     /// `check-law` on the library.
@@ -181,7 +181,7 @@ fn build(dir: &Path, case: u32, name: &str) -> PathBuf {
 }
 
 /// The arguments of `cmd` for law `law` in library `lib` (`in_process` adds `--in-process`).
-fn args(cmd: Cmd, lib: &Path, law: &str, dir: &Path, in_process: bool) -> Vec<String> {
+pub(crate) fn args(cmd: Cmd, lib: &Path, law: &str, dir: &Path, in_process: bool) -> Vec<String> {
     let lib = lib.to_string_lossy().into_owned();
     let mut a: Vec<String> = match cmd {
         Cmd::Run => vec![
@@ -231,18 +231,18 @@ fn args(cmd: Cmd, lib: &Path, law: &str, dir: &Path, in_process: bool) -> Vec<St
 
 /// What one command did: tribo's exit code (None: killed by a signal), its output, whether its
 /// caller (the shell) survived to report it, and how long it took.
-struct Ran {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-    caller_survived: bool,
-    elapsed: Duration,
+pub(crate) struct Ran {
+    pub(crate) code: Option<i32>,
+    pub(crate) stdout: String,
+    pub(crate) stderr: String,
+    pub(crate) caller_survived: bool,
+    pub(crate) elapsed: Duration,
 }
 
 /// Run tribo with `args` in `dir` under `sh` (the caller), the two in a new process group so a
 /// law that signals its group could only ever hit them, never the test. The shell reports
 /// tribo's exit status on a line of its own; a run past `limit` is killed.
-fn run_as_callee(args: &[String], dir: &Path, env: &[(&str, String)], limit: Duration) -> Ran {
+pub(crate) fn run_as_callee(args: &[String], dir: &Path, env: &[(&str, String)], limit: Duration) -> Ran {
     let start = Instant::now();
     let mut cmd = Command::new("sh");
     cmd.arg("-c")
@@ -359,7 +359,7 @@ fn problems(c: &Case, lib: &Path, dir: &Path, ran: &Ran) -> Vec<String> {
 
 /// A compare whose hostile set failed: fedem-baseline's results are written and printed, the
 /// hostile set listed as failed.
-fn other_sets_written(dir: &Path, stdout: &str) -> Vec<String> {
+pub(crate) fn other_sets_written(dir: &Path, stdout: &str) -> Vec<String> {
     let mut p = Vec::new();
     let written = std::fs::read_to_string(dir.join("out/comparison.json"))
         .ok()

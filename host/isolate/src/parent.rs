@@ -271,10 +271,15 @@ impl Worker {
             .map_err(|e| WorkerFailure::Io(format!("encoding the job: {e}")))?;
         // The time limit is per request (a long-lived worker serves many).
         self.started = Instant::now();
+        let nonce = sys::random_token()
+            .map_err(|e| WorkerFailure::Io(format!("drawing the request's nonce: {e}")))?;
+        let mut payload = Vec::with_capacity(frame::NONCE + job.len());
+        payload.extend_from_slice(&nonce);
+        payload.extend_from_slice(&job);
         self.outbuf
-            .extend_from_slice(&frame::encode(&self.token, Kind::Job, &job));
+            .extend_from_slice(&frame::encode(&self.token, Kind::Job, &payload));
         self.stderr_forwarded = 0;
-        let reply = self.wait_reply(events);
+        let reply = self.confirmed_reply(&nonce, events);
         self.report_dropped(events);
         match reply {
             Ok(payload) => match rmp_serde::from_slice::<Reply<A>>(&payload) {
@@ -341,9 +346,38 @@ impl Worker {
         Ok(())
     }
 
-    /// Pump the channel until the reply to the current request arrives or the worker fails.
-    fn wait_reply(
+    /// The reply to the request of `nonce`, once the worker, still alive, has echoed a fresh
+    /// nonce sent after it: a reply with another nonce, or one the worker does not stand behind
+    /// (a law forged it and died), is not accepted.
+    fn confirmed_reply(
         &mut self,
+        nonce: &[u8; 16],
+        events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+    ) -> Result<Vec<u8>, WorkerFailure> {
+        let reply = self.wait_frame(Kind::Reply, events)?;
+        if reply.get(..frame::NONCE) != Some(&nonce[..]) {
+            return Err(WorkerFailure::Forged {
+                running: self.running_now(),
+            });
+        }
+        let check = sys::random_token()
+            .map_err(|e| WorkerFailure::Io(format!("drawing the confirmation nonce: {e}")))?;
+        self.outbuf
+            .extend_from_slice(&frame::encode(&self.token, Kind::Confirm, &check));
+        let echo = self.wait_frame(Kind::Ack, events)?;
+        if echo != check {
+            return Err(WorkerFailure::Forged {
+                running: self.running_now(),
+            });
+        }
+        Ok(reply[frame::NONCE..].to_vec())
+    }
+
+    /// Pump the channel until a frame of `kind` (a reply, an acknowledgement) arrives or the
+    /// worker fails; any other frame but streamed data is forged.
+    fn wait_frame(
+        &mut self,
+        kind: Kind,
         events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
     ) -> Result<Vec<u8>, WorkerFailure> {
         loop {
@@ -354,8 +388,13 @@ impl Worker {
                 pollfd(&self.stderr, false),
             ];
             sys::poll(&mut fds, TICK);
-            if let Some(reply) = self.read_all(events)? {
-                return Ok(reply);
+            if let Some((got, payload)) = self.read_all(events)? {
+                if got != kind {
+                    return Err(WorkerFailure::Forged {
+                        running: self.running_now(),
+                    });
+                }
+                return Ok(payload);
             }
             if let Some(state) = sys::peek(self.pid) {
                 return Err(self.ended_with(state, events));
@@ -400,11 +439,12 @@ impl Worker {
         self.interpret(state, running)
     }
 
-    /// Read everything available on the three pipes; the reply's payload once it is whole.
+    /// Read what is available on the three pipes (a bounded amount of each); a reply or an
+    /// acknowledgement, with its payload, once it is whole.
     fn read_all(
         &mut self,
         events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
-    ) -> Result<Option<Vec<u8>>, WorkerFailure> {
+    ) -> Result<Option<(Kind, Vec<u8>)>, WorkerFailure> {
         let mut buf = [0u8; 65536];
         // Each pipe is read for at most READ_BUDGET bytes a turn, then the caller checks the
         // limits: a writer that never pauses (a law's thread, or a process it detached with
@@ -452,7 +492,7 @@ impl Worker {
                     let payload: Vec<u8> = self.inbuf[frame::HEADER..frame::HEADER + len].to_vec();
                     self.inbuf.drain(..frame::HEADER + len);
                     match kind {
-                        Kind::Reply => return Ok(Some(payload)),
+                        Kind::Reply | Kind::Ack => return Ok(Some((kind, payload))),
                         Kind::Data => events(Event::Data(&payload))?,
                         _ => {
                             let running = self.running_now();

@@ -31,6 +31,8 @@ const KILL_GRACE: Duration = Duration::from_secs(3);
 const DRAIN: Duration = Duration::from_millis(150);
 /// Keep at most this much of a worker's standard error (its tail) for the failure message.
 const STDERR_TAIL_BYTES: usize = 4096;
+/// How often the parent adds up the memory of a worker's process group.
+const MEMORY_TICK: Duration = Duration::from_millis(250);
 /// Read at most this much from one pipe before looking at the clock and the limits again.
 const READ_BUDGET: usize = 1 << 20;
 /// Forward at most this much of a worker's standard error per request; the rest is counted.
@@ -164,6 +166,8 @@ pub struct Worker {
     /// The shared-page marks the parent has seen: per slot, the mark and since when.
     seen: Vec<(u64, Instant)>,
     progress: u64,
+    /// When the group's memory was last added up.
+    memory_checked: Instant,
     ended: bool,
 }
 
@@ -236,6 +240,7 @@ impl Worker {
             reports: Vec::new(),
             seen: vec![(0, Instant::now()); inflight::SLOTS],
             progress: 0,
+            memory_checked: Instant::now(),
             ended: false,
         })
     }
@@ -625,6 +630,31 @@ impl Worker {
         out
     }
 
+    /// The plugin code running now; when none is, the laws the worker has loaded, said as
+    /// such (a child a law started, or a law's thread, may be what failed).
+    fn running_or_loaded(&self) -> Vec<String> {
+        let running = self.running_now();
+        if !running.is_empty() {
+            return running;
+        }
+        let mut laws: Vec<&str> = self
+            .names
+            .values()
+            .map(String::as_str)
+            .filter(|n| n.starts_with("law `"))
+            .collect();
+        laws.sort_unstable();
+        laws.dedup();
+        if laws.is_empty() {
+            return Vec::new();
+        }
+        vec![format!(
+            "{}{}",
+            crate::NO_CALL_PREFIX,
+            laws.join(", ")
+        )]
+    }
+
     /// The limits the worker enforces itself, enforced again from outside a little later: a
     /// stopped, deadlocked or signal-blocking worker cannot report.
     fn backstops(&mut self) -> Result<(), WorkerFailure> {
@@ -635,6 +665,21 @@ impl Worker {
                 self.kill();
                 return Err(WorkerFailure::TimeLimit {
                     limit_s: self.limits.time_s,
+                    running,
+                });
+            }
+        }
+        // The worker's group as a whole (the children its laws started, the memory files they
+        // hold): counted from outside, where no law can hide it.
+        if self.limits.memory_mb > 0 && now >= self.memory_checked + MEMORY_TICK {
+            self.memory_checked = now;
+            let bytes = sys::group_memory_bytes(self.pid);
+            if bytes > self.limits.memory_mb.saturating_mul(1 << 20) {
+                let running = self.running_or_loaded();
+                self.kill();
+                return Err(WorkerFailure::MemoryLimit {
+                    limit_mb: self.limits.memory_mb,
+                    resident_mb: bytes >> 20,
                     running,
                 });
             }
@@ -678,6 +723,9 @@ impl Worker {
             if kind == "running" && !running.contains(body) {
                 running.push(body.clone());
             }
+        }
+        if running.is_empty() {
+            running = self.running_or_loaded();
         }
         let report = |k: &str| self.reports.iter().find(|(kind, _)| kind == k);
         let last_words = String::from_utf8_lossy(&self.stderr_tail)

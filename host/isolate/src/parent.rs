@@ -718,12 +718,20 @@ impl Worker {
 
     /// Why the worker, ended or stopped as `state`, gave no reply.
     fn interpret(&self, state: State, running: Vec<String>) -> WorkerFailure {
-        let mut running = running;
+        // What the worker itself said was running (from its private marks) is believed over
+        // the shared page, which a law can write; the page is for when the worker could not
+        // speak (`_exit`, SIGKILL, SIGSTOP).
+        let mut reported: Vec<String> = Vec::new();
         for (kind, body) in &self.reports {
-            if kind == "running" && !running.contains(body) {
-                running.push(body.clone());
+            if kind == "running" && !reported.contains(body) {
+                reported.push(body.clone());
             }
         }
+        let mut running = if reported.is_empty() {
+            running
+        } else {
+            reported
+        };
         if running.is_empty() {
             running = self.running_or_loaded();
         }

@@ -242,7 +242,12 @@ pub(crate) struct Ran {
 /// Run tribo with `args` in `dir` under `sh` (the caller), the two in a new process group so a
 /// law that signals its group could only ever hit them, never the test. The shell reports
 /// tribo's exit status on a line of its own; a run past `limit` is killed.
-pub(crate) fn run_as_callee(args: &[String], dir: &Path, env: &[(&str, String)], limit: Duration) -> Ran {
+pub(crate) fn run_as_callee(
+    args: &[String],
+    dir: &Path,
+    env: &[(&str, String)],
+    limit: Duration,
+) -> Ran {
     let start = Instant::now();
     let mut cmd = Command::new("sh");
     cmd.arg("-c")
@@ -252,29 +257,41 @@ pub(crate) fn run_as_callee(args: &[String], dir: &Path, env: &[(&str, String)],
         .args(args)
         .current_dir(dir)
         .env_remove("TRIBO_PLUGIN_PATH")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
         .process_group(0);
+    // Files, not pipes: the output is read once the command is done, and a command that writes
+    // more than a pipe holds must not block on a reader that is not reading yet.
+    let out_file = tempfile::tempfile().expect("stdout file");
+    let err_file = tempfile::tempfile().expect("stderr file");
+    cmd.stdout(Stdio::from(out_file.try_clone().expect("clone")))
+        .stderr(Stdio::from(err_file.try_clone().expect("clone")));
     for (k, v) in env {
         cmd.env(k, v);
     }
     let mut child = cmd.spawn().expect("sh starts");
     let pid = child.id() as i32;
-    let out = loop {
+    loop {
         if child.try_wait().expect("wait").is_some() {
-            break child.wait_with_output().expect("output");
+            break;
         }
         if start.elapsed() > limit {
             // SAFETY: killing the process group this test created.
             unsafe {
                 libc::killpg(pid, libc::SIGKILL);
             }
-            break child.wait_with_output().expect("output");
+            child.wait().expect("wait");
+            break;
         }
         std::thread::sleep(Duration::from_millis(10));
-    };
+    }
     let elapsed = start.elapsed();
-    let (stdout, stderr) = text(&out);
+    let read = |mut f: std::fs::File| {
+        use std::io::{Read, Seek};
+        let mut bytes = Vec::new();
+        f.rewind().expect("rewind");
+        f.read_to_end(&mut bytes).expect("read the output");
+        String::from_utf8_lossy(&bytes).into_owned()
+    };
+    let (stdout, stderr) = (read(out_file), read(err_file));
     let report = stderr
         .lines()
         .rev()

@@ -94,7 +94,10 @@ fn report(what: &str, p: &[String], ran: &Ran) {
 fn a_flood_of_standard_error_from_a_thread_or_a_setsid_daemon_is_bounded_by_the_limits() {
     ensure_plugins_built();
     let root = tempfile::tempdir().expect("temp dir");
-    let cases = [(1, "flood-thread", Cmd::Run), (2, "flood-daemon", Cmd::Compare)];
+    let cases = [
+        (1, "flood-thread", Cmd::Run),
+        (2, "flood-daemon", Cmd::Compare),
+    ];
     std::thread::scope(|s| {
         for (case, name, cmd) in cases {
             let dir = root.path().join(name);
@@ -188,7 +191,12 @@ fn a_truncated_library_or_an_exiting_initialiser_is_a_warning_in_the_listing() {
     report("laws", &p, &ran);
 
     let json = run_as_callee(
-        &["laws".into(), "--json".into(), "--plugin".into(), dir_arg.clone()],
+        &[
+            "laws".into(),
+            "--json".into(),
+            "--plugin".into(),
+            dir_arg.clone(),
+        ],
         d,
         &[],
         Duration::from_secs(60),
@@ -265,7 +273,11 @@ fn fmu_export_with_an_initialiser_calling_exit_fails_naming_the_library() {
     );
     let p = failed_naming(
         &ran,
-        &["libtribo_law_mischief_ctor_exit.so", "while loading it", "status 0"],
+        &[
+            "libtribo_law_mischief_ctor_exit.so",
+            "while loading it",
+            "status 0",
+        ],
         Duration::from_secs(20),
     );
     report("fmu export", &p, &ran);
@@ -281,7 +293,11 @@ fn a_reply_forged_with_the_token_and_nonce_by_a_law_that_died_is_not_accepted() 
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
     let lib = build(d, 5, "forge-ok");
-    let lib_name = lib.file_name().expect("name").to_string_lossy().into_owned();
+    let lib_name = lib
+        .file_name()
+        .expect("name")
+        .to_string_lossy()
+        .into_owned();
     for cmd in [Cmd::CheckLaw, Cmd::Run] {
         let a = args(cmd, &lib, "mischief-forge-ok", d, false);
         let ran = run_as_callee(&a, d, &[], Duration::from_secs(60));
@@ -295,4 +311,178 @@ fn a_reply_forged_with_the_token_and_nonce_by_a_law_that_died_is_not_accepted() 
         }
         report(&format!("{cmd:?}"), &p, &ran);
     }
+}
+
+/// A law whose forked child (same process group) touches 2 GiB, or which writes 2 GiB into an
+/// unmapped memory file, under `compare --memory-limit-mb 512` beside an innocent set: its set
+/// fails at the memory limit naming the law, within the 10 s call limit (the law waits 5 s in
+/// its call, so only the memory limit can stop it first), and the innocent set is written.
+#[test]
+fn the_memory_limit_counts_a_laws_children_and_memory_files() {
+    ensure_plugins_built();
+    let root = tempfile::tempdir().expect("temp dir");
+    std::thread::scope(|s| {
+        for (case, name) in [(9, "fork-hog"), (10, "memfd-hog")] {
+            let dir = root.path().join(name);
+            s.spawn(move || {
+                std::fs::create_dir_all(&dir).expect("case dir");
+                let lib = build(&dir, case, name);
+                let law = format!("mischief-{name}");
+                let pid_file = dir.join("child.pid");
+                let mut a = args(Cmd::Compare, &lib, &law, &dir, false);
+                a.extend(["--memory-limit-mb".into(), "512".into()]);
+                let env = [(
+                    "TRIBO_TEST_PID_FILE",
+                    pid_file.to_string_lossy().into_owned(),
+                )];
+                let ran = run_as_callee(&a, &dir, &env, Duration::from_secs(90));
+                end_daemon(&pid_file);
+                let lib_name = lib.file_name().expect("name").to_string_lossy();
+                let mut p = failed_naming(
+                    &ran,
+                    &[
+                        &format!("law `{law}`"),
+                        &lib_name,
+                        "over the limit of 512 MiB",
+                    ],
+                    Duration::from_secs(15),
+                );
+                p.extend(other_sets_written(&dir, &ran.stdout));
+                report(name, &p, &ran);
+            });
+        }
+    });
+}
+
+/// A law that zeroes the worker's shared in-flight page (so the page says nothing runs) and
+/// never returns: stopped by `--call-limit-s 2` naming the law, not by the 30 s time limit.
+#[test]
+fn a_law_clearing_its_mark_on_the_shared_page_is_still_stopped_at_the_call_limit() {
+    ensure_plugins_built();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let lib = build(d, 7, "clear-mark");
+    let mut a = args(Cmd::Run, &lib, "mischief-clear-mark", d, false);
+    a.extend([
+        "--call-limit-s".into(),
+        "2".into(),
+        "--time-limit-s".into(),
+        "30".into(),
+    ]);
+    let ran = run_as_callee(&a, d, &[], Duration::from_secs(60));
+    let lib_name = lib.file_name().expect("name").to_string_lossy();
+    let p = failed_naming(
+        &ran,
+        &[
+            "law `mischief-clear-mark`",
+            &lib_name,
+            "did not return from one call in 2",
+        ],
+        Duration::from_secs(2 + 3 + 5),
+    );
+    report("clear-mark", &p, &ran);
+}
+
+/// In process, a run that fails (a parameter out of range, found after the library is loaded)
+/// of a law whose library destructor calls `_exit(0)`: exit 1, not 0.
+#[test]
+fn a_destructor_calling_exit_in_process_does_not_turn_a_failure_into_success() {
+    ensure_plugins_built();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let lib = build(d, 6, "dtor-exit");
+    std::fs::write(d.join("bad.toml"), "c = 5.0\n").expect("params");
+    let mut a = args(Cmd::Run, &lib, "mischief-dtor-exit:bad.toml", d, true);
+    a.extend(["--time-limit-s".into(), "20".into()]);
+    let ran = run_as_callee(&a, d, &[], Duration::from_secs(60));
+    let p = failed_naming(
+        &ran,
+        &["law `mischief-dtor-exit`", "out of range"],
+        Duration::from_secs(25),
+    );
+    report("dtor-exit", &p, &ran);
+}
+
+/// A rig named with 15 MiB of text (under the 16 MiB input cap): its report, which wraps the
+/// name, is printed within the run's limits (wrapping was quadratic: 487 s).
+#[test]
+fn a_rig_with_a_15_mib_name_is_reported_within_its_limits() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let rig =
+        std::fs::read_to_string(workspace().join("rigs/reference-frictionless.toml")).expect("rig");
+    let name = "x".repeat(15 << 20);
+    let rig = rig.replacen(
+        "name = \"reference-frictionless\"",
+        &format!("name = \"{name}\""),
+        1,
+    );
+    assert!(rig.contains(&name), "the rig's name line moved");
+    std::fs::write(d.join("big.toml"), rig).expect("rig file");
+    let a: Vec<String> = [
+        "run",
+        "big.toml",
+        "--set",
+        "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.3}, {kind=\"hold\", duration_s=0.3}]",
+        "--quiet",
+        "--time-limit-s",
+        "20",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let ran = run_as_callee(&a, d, &[], Duration::from_secs(120));
+    assert!(ran.caller_survived && ran.code == Some(0), "{}", ran.stderr);
+    assert!(
+        ran.elapsed < Duration::from_secs(25),
+        "took {:?}",
+        ran.elapsed
+    );
+    // Every character of the name is printed, cut into lines.
+    let printed = ran.stdout.bytes().filter(|&b| b == b'x').count();
+    assert!(printed >= name.len(), "{printed} of {} printed", name.len());
+}
+
+/// A law that plants a file in the `--out` folder of a compare while it runs: the folder's
+/// results are still written (the innocent set's and the law's own), the planted file is
+/// removed, and a warning names it. (Which law planted it is not known: the sets run in
+/// parallel; docs/reliability.md says so.)
+#[test]
+fn a_file_planted_in_the_result_folder_is_removed_and_the_results_are_written() {
+    ensure_plugins_built();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let lib = build(d, 8, "plant");
+    let out = d.join("out");
+    std::fs::create_dir(&out).expect("an empty --out");
+    let a = args(Cmd::Compare, &lib, "mischief-plant", d, false);
+    let env = [("TRIBO_TEST_PLANT_DIR", out.to_string_lossy().into_owned())];
+    let ran = run_as_callee(&a, d, &env, Duration::from_secs(60));
+    assert!(ran.caller_survived, "{}", ran.stderr);
+    assert!(
+        !out.join("planted.txt").exists(),
+        "the planted file is still there"
+    );
+    assert!(
+        ran.stderr.contains("planted.txt")
+            && ran.stderr.contains("appeared there while the laws ran"),
+        "{}",
+        ran.stderr
+    );
+    let written: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("comparison.json")).expect("comparison.json written"),
+    )
+    .expect("JSON");
+    let sets: Vec<&str> = written["sets"]
+        .as_array()
+        .expect("sets")
+        .iter()
+        .filter_map(|s| s["lawset"].as_str())
+        .collect();
+    assert!(sets.contains(&"fedem-baseline"), "{sets:?}");
+    assert!(
+        ran.elapsed < Duration::from_secs(30),
+        "took {:?}",
+        ran.elapsed
+    );
 }

@@ -648,11 +648,7 @@ impl Worker {
         if laws.is_empty() {
             return Vec::new();
         }
-        vec![format!(
-            "{}{}",
-            crate::NO_CALL_PREFIX,
-            laws.join(", ")
-        )]
+        vec![format!("{}{}", crate::NO_CALL_PREFIX, laws.join(", "))]
     }
 
     /// The limits the worker enforces itself, enforced again from outside a little later: a

@@ -54,7 +54,8 @@ pub(crate) fn check(path: &Path) -> Result<(), String> {
             f.u16(&head[0x30..]),
         )
     };
-    let table_end = |off: u64, size: u16, n: u16| off.saturating_add(u64::from(size) * u64::from(n));
+    let table_end =
+        |off: u64, size: u16, n: u16| off.saturating_add(u64::from(size) * u64::from(n));
     let ph_end = table_end(phoff, phentsize, phnum);
     if ph_end > len {
         return Err(truncated(len, ph_end, "its program headers"));
@@ -157,7 +158,10 @@ mod tests {
             let p = dir.join(format!("cut-{cut}"));
             std::fs::write(&p, &bytes[..cut]).expect("write");
             let e = check(&p).expect_err("truncated");
-            assert!(e.contains("truncated") && e.contains(&format!("holds {cut} bytes")), "{cut}: {e}");
+            assert!(
+                e.contains("truncated") && e.contains(&format!("holds {cut} bytes")),
+                "{cut}: {e}"
+            );
         }
         let text = dir.join("text");
         std::fs::write(&text, "not a library").expect("write");

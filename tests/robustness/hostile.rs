@@ -157,8 +157,20 @@ const SHORT: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.3
 
 /// Build case `case` of the fixture into `dir` as the library of law `hostile-NAME`.
 fn build(dir: &Path, case: u32, name: &str) -> PathBuf {
+    build_case(dir, "foreign_law.c", "hostile", case, name)
+}
+
+/// Build case `case` of the C fixture `fixture` (`-DCASE=N`) into `dir` as the library of law
+/// `PREFIX-NAME`, named as discovery expects.
+pub(crate) fn build_case(
+    dir: &Path,
+    fixture: &str,
+    prefix: &str,
+    case: u32,
+    name: &str,
+) -> PathBuf {
     let lib = dir.join(format!(
-        "libtribo_law_hostile_{}.so",
+        "libtribo_law_{prefix}_{}.so",
         name.replace('-', "_")
     ));
     let out = Command::new(c_compiler())
@@ -166,7 +178,7 @@ fn build(dir: &Path, case: u32, name: &str) -> PathBuf {
         .arg(format!("-DCASE={case}"))
         .arg("-I")
         .arg(workspace().join("plugin-api/include"))
-        .arg(c_fixture("foreign_law.c"))
+        .arg(c_fixture(fixture))
         .arg("-o")
         .arg(&lib)
         .arg("-lpthread")

@@ -7,36 +7,54 @@
 //! (+5 s).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Duration;
 
 use super::common::*;
-use super::hostile::{args, other_sets_written, run_as_callee, Cmd, Ran};
+use super::hostile::{args, build_case, other_sets_written, run_as_callee, Cmd, Ran};
 
 /// Build case `case` of the mischief fixture into `dir` as the library of law
-/// `mischief-NAME`, named as discovery expects.
+/// `mischief-NAME`.
 fn build(dir: &Path, case: u32, name: &str) -> PathBuf {
-    let lib = dir.join(format!(
-        "libtribo_law_mischief_{}.so",
-        name.replace('-', "_")
-    ));
-    let out = Command::new(c_compiler())
-        .args(["-shared", "-fPIC", "-O2", "-std=c99", "-Wall", "-Wextra"])
-        .arg(format!("-DCASE={case}"))
-        .arg("-I")
-        .arg(workspace().join("plugin-api/include"))
-        .arg(c_fixture("mischief.c"))
-        .arg("-o")
-        .arg(&lib)
-        .arg("-lpthread")
-        .output()
-        .expect("the C compiler runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    lib
+    build_case(dir, "mischief.c", "mischief", case, name)
+}
+
+/// Build case `case` into `dir`, run `cmd` on it with `extra` options (a daemon or child it
+/// leaves is ended afterwards), and list what is wrong: the failure must name the law, its
+/// library and `words` within `limit`, and a compare must write the innocent set.
+fn failing_case(
+    dir: &Path,
+    case: u32,
+    name: &str,
+    cmd: Cmd,
+    extra: &[&str],
+    words: &[&str],
+    limit: Duration,
+) -> (Ran, Vec<String>) {
+    std::fs::create_dir_all(dir).expect("case dir");
+    let lib = build(dir, case, name);
+    let law = format!("mischief-{name}");
+    let pid_file = dir.join("child.pid");
+    let mut a = args(cmd, &lib, &law, dir, false);
+    a.extend(extra.iter().map(|s| s.to_string()));
+    let env = [(
+        "TRIBO_TEST_PID_FILE",
+        pid_file.to_string_lossy().into_owned(),
+    )];
+    let ran = run_as_callee(&a, dir, &env, Duration::from_secs(90));
+    end_daemon(&pid_file);
+    let lib_name = lib
+        .file_name()
+        .expect("name")
+        .to_string_lossy()
+        .into_owned();
+    let law_named = format!("law `{law}`");
+    let mut all = vec![law_named.as_str(), lib_name.as_str()];
+    all.extend_from_slice(words);
+    let mut p = failed_naming(&ran, &all, limit);
+    if matches!(cmd, Cmd::Compare) {
+        p.extend(other_sets_written(dir, &ran.stdout));
+    }
+    (ran, p)
 }
 
 /// End the process whose id a fixture wrote into `pid_file` (a daemon that left the worker's
@@ -102,35 +120,18 @@ fn a_flood_of_standard_error_from_a_thread_or_a_setsid_daemon_is_bounded_by_the_
         for (case, name, cmd) in cases {
             let dir = root.path().join(name);
             s.spawn(move || {
-                std::fs::create_dir_all(&dir).expect("case dir");
-                let lib = build(&dir, case, name);
-                let law = format!("mischief-{name}");
-                let pid_file = dir.join("daemon.pid");
-                let mut a = args(cmd, &lib, &law, &dir, false);
-                a.extend(["--time-limit-s".into(), "20".into()]);
-                let env = [(
-                    "TRIBO_TEST_PID_FILE",
-                    pid_file.to_string_lossy().into_owned(),
-                )];
-                let ran = run_as_callee(&a, &dir, &env, Duration::from_secs(90));
-                end_daemon(&pid_file);
-                let lib_name = lib.file_name().expect("name").to_string_lossy();
-                let mut p = failed_naming(
-                    &ran,
-                    &[
-                        &format!("law `{law}`"),
-                        &lib_name,
-                        "did not return from one call",
-                        "more bytes were dropped",
-                    ],
+                let (ran, mut p) = failing_case(
+                    &dir,
+                    case,
+                    name,
+                    cmd,
+                    &["--time-limit-s", "20"],
+                    &["did not return from one call", "more bytes were dropped"],
                     Duration::from_secs(25),
                 );
                 // What reaches the caller is bounded: 1 MiB of the flood and tribo's words.
                 if ran.stderr.len() > 2 << 20 {
                     p.push(format!("{} bytes on standard error", ran.stderr.len()));
-                }
-                if matches!(cmd, Cmd::Compare) {
-                    p.extend(other_sets_written(&dir, &ran.stdout));
                 }
                 report(name, &p, &ran);
             });
@@ -216,25 +217,7 @@ fn a_truncated_library_or_an_exiting_initialiser_is_a_warning_in_the_listing() {
         "{broken:?}"
     );
 
-    let fmu = run_as_callee(
-        &[
-            "--plugin".into(),
-            dir_arg,
-            "fmu".into(),
-            "export".into(),
-            workspace()
-                .join("rigs/reference-frictionless.toml")
-                .to_string_lossy()
-                .into_owned(),
-            "--law".into(),
-            "piston=no-such-law".into(),
-            "--out".into(),
-            "x.fmu".into(),
-        ],
-        d,
-        &[],
-        Duration::from_secs(60),
-    );
+    let fmu = fmu_export(d, &dir_arg, "no-such-law");
     let p = failed_naming(
         &fmu,
         &["libtribo_law_mischief_ctor_exit.so"],
@@ -242,6 +225,27 @@ fn a_truncated_library_or_an_exiting_initialiser_is_a_warning_in_the_listing() {
     );
     report("fmu export, unknown law", &p, &fmu);
     assert!(!d.join("x.fmu").exists(), "an FMU was written");
+}
+
+/// `tribo --plugin PLUGIN fmu export` of the frictionless rig with `law` on the piston, into
+/// `x.fmu` in `dir`.
+fn fmu_export(dir: &Path, plugin: &str, law: &str) -> Ran {
+    let rig = workspace().join("rigs/reference-frictionless.toml");
+    let a: Vec<String> = [
+        "--plugin",
+        plugin,
+        "fmu",
+        "export",
+        &rig.to_string_lossy(),
+        "--law",
+        &format!("piston={law}"),
+        "--out",
+        "x.fmu",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    run_as_callee(&a, dir, &[], Duration::from_secs(60))
 }
 
 /// `fmu export` of a rig whose law's library calls `_exit(0)` when loaded: exit 1 naming the
@@ -252,25 +256,7 @@ fn fmu_export_with_an_initialiser_calling_exit_fails_naming_the_library() {
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
     let lib = build(d, 3, "ctor-exit");
-    let ran = run_as_callee(
-        &[
-            "--plugin".into(),
-            lib.to_string_lossy().into_owned(),
-            "fmu".into(),
-            "export".into(),
-            workspace()
-                .join("rigs/reference-frictionless.toml")
-                .to_string_lossy()
-                .into_owned(),
-            "--law".into(),
-            "piston=mischief-ctor-exit".into(),
-            "--out".into(),
-            "x.fmu".into(),
-        ],
-        d,
-        &[],
-        Duration::from_secs(60),
-    );
+    let ran = fmu_export(d, &lib.to_string_lossy(), "mischief-ctor-exit");
     let p = failed_naming(
         &ran,
         &[
@@ -325,29 +311,15 @@ fn the_memory_limit_counts_a_laws_children_and_memory_files() {
         for (case, name) in [(9, "fork-hog"), (10, "memfd-hog")] {
             let dir = root.path().join(name);
             s.spawn(move || {
-                std::fs::create_dir_all(&dir).expect("case dir");
-                let lib = build(&dir, case, name);
-                let law = format!("mischief-{name}");
-                let pid_file = dir.join("child.pid");
-                let mut a = args(Cmd::Compare, &lib, &law, &dir, false);
-                a.extend(["--memory-limit-mb".into(), "512".into()]);
-                let env = [(
-                    "TRIBO_TEST_PID_FILE",
-                    pid_file.to_string_lossy().into_owned(),
-                )];
-                let ran = run_as_callee(&a, &dir, &env, Duration::from_secs(90));
-                end_daemon(&pid_file);
-                let lib_name = lib.file_name().expect("name").to_string_lossy();
-                let mut p = failed_naming(
-                    &ran,
-                    &[
-                        &format!("law `{law}`"),
-                        &lib_name,
-                        "over the limit of 512 MiB",
-                    ],
+                let (ran, p) = failing_case(
+                    &dir,
+                    case,
+                    name,
+                    Cmd::Compare,
+                    &["--memory-limit-mb", "512"],
+                    &["over the limit of 512 MiB"],
                     Duration::from_secs(15),
                 );
-                p.extend(other_sets_written(&dir, &ran.stdout));
                 report(name, &p, &ran);
             });
         }

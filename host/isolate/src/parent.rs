@@ -645,6 +645,9 @@ impl Worker {
             .collect();
         laws.sort_unstable();
         laws.dedup();
+        // "law `x` (file)" is said by "law `x` (file) at joint `j`" already.
+        let all = laws.clone();
+        laws.retain(|l| !all.iter().any(|o| o != l && o.starts_with(l)));
         if laws.is_empty() {
             return Vec::new();
         }

@@ -26,6 +26,38 @@ pub fn broken_warnings(listing: &LawListing<'_>) -> Vec<String> {
         .collect()
 }
 
+/// What a worker is asked for `tribo laws`: the listing as JSON or text, with the plugin
+/// files to leave unopened (a file whose loading ended or hung an earlier worker) and why.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+pub struct LawsJob {
+    /// JSON instead of the table.
+    pub json: bool,
+    /// Files not to open, with the reason.
+    pub skip: Vec<(std::path::PathBuf, String)>,
+}
+
+/// The listing `tribo laws` prints, made where the plugins are opened (a worker process): every
+/// library opened but those `job` skips, the warnings printed on standard error.
+pub fn render(registry: &LawRegistry, job: &LawsJob) -> anyhow::Result<String> {
+    for (path, reason) in &job.skip {
+        registry.skip(path, reason.clone());
+    }
+    // Every library is opened here; one that cannot be is a warning, not a failure.
+    let listing = registry.open_all()?;
+    print_warnings(&broken_warnings(&listing));
+    Ok(if job.json {
+        format!(
+            "{}\n",
+            serde_json::to_string_pretty(&to_json(registry, &listing))?
+        )
+    } else {
+        to_text(&listing)
+    })
+}
+
+/// The most plugin files `tribo laws` skips before it gives up (each costs a worker process).
+pub const MAX_SKIPPED: usize = 256;
+
 /// Print each of `lines` on standard error as `warning: LINE`. A standard error that cannot be
 /// written is ignored: the warnings are advice, the results still go to standard output.
 pub fn print_warnings<T: Display>(lines: &[T]) {

@@ -638,23 +638,65 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-/// `tribo laws`: the laws found, as a table or JSON.
+/// `tribo laws`: the laws found, as a table or JSON. Listing opens every plugin library, so it
+/// runs in a worker process; a library whose loading ends, crashes or hangs that worker is
+/// skipped with a warning naming it, and the listing is made again without it.
 fn cmd_laws(g: &Globals, a: LawsArgs) -> anyhow::Result<()> {
-    let mut out_text = String::new();
-    let registry = g.registry()?;
-    // Every library is opened here; one that cannot be is a warning, not a failure.
-    let listing = registry.open_all().context("loading law plugins")?;
-    laws::print_warnings(&laws::broken_warnings(&listing));
-    if a.json {
-        writeln!(
-            out_text,
-            "{}",
-            serde_json::to_string_pretty(&laws::to_json(&registry, &listing))?
-        )?;
-    } else {
-        write!(out_text, "{}", laws::to_text(&listing))?;
+    let mut job = laws::LawsJob {
+        json: a.json,
+        skip: Vec::new(),
+    };
+    loop {
+        let plugins: Vec<PathBuf> = g
+            .plugins
+            .iter()
+            .filter(|p| !job.skip.iter().any(|(s, _)| s == *p))
+            .cloned()
+            .collect();
+        let mut worker = isolate::Worker::start(
+            isolate::worker_command(&plugins),
+            isolate::Limits::default(),
+        )
+        .map_err(|e| anyhow::anyhow!("listing the laws: {e}"))?;
+        let reply = worker.call::<_, WorkerOutput>(&WorkerJob::Laws(job.clone()), &mut |e| {
+            isolate::show_event("", &e);
+            Ok(())
+        });
+        worker.finish();
+        match reply {
+            Ok(WorkerOutput::Laws(text)) => {
+                // A skipped `--plugin` file is not in the worker's listing: warn here.
+                let given: Vec<String> = job
+                    .skip
+                    .iter()
+                    .filter(|(p, _)| g.plugins.contains(p))
+                    .map(|(p, why)| {
+                        format!(
+                            "skipped a plugin file that cannot be used: `{}` was not opened: {why}",
+                            p.display()
+                        )
+                    })
+                    .collect();
+                laws::print_warnings(&given);
+                return emit(&text);
+            }
+            Ok(_) => anyhow::bail!("a worker answered another job's question"),
+            Err(WorkerFailure::Study(message)) => anyhow::bail!("{message}"),
+            Err(e) => {
+                let text = e.to_string();
+                match tribo_plugin_api::loader::loading_library(&text) {
+                    Some(path)
+                        if !job.skip.iter().any(|(p, _)| *p == path)
+                            && job.skip.len() < laws::MAX_SKIPPED =>
+                    {
+                        let why = format!("loading it in a worker process failed: {text}");
+                        job.skip.push((path, why));
+                    }
+                    _ => anyhow::bail!("listing the laws: {text}"),
+                }
+            }
+        }
     }
-    emit(&out_text)
 }
 
 /// A `tribo run` as a worker (or this process) runs it: the rig and its laws as the user gave
@@ -916,6 +958,10 @@ enum WorkerJob {
     CheckLaw(CheckJob),
     /// `plot-law`: the law's curves.
     PlotLaw(PlotJob),
+    /// `laws`: the listing.
+    Laws(laws::LawsJob),
+    /// `fmu export`'s check: the rig's laws bound, nothing run.
+    Bind(RunJob),
 }
 
 /// What a worker process hands back.
@@ -937,6 +983,8 @@ enum WorkerOutput {
     CheckLaw(CheckOutput),
     /// A law's force-velocity curves.
     PlotLaw(Box<tribo::check::LawCurves>),
+    /// The `laws` listing, as printed.
+    Laws(String),
 }
 
 /// Where one law set of a study comes from, for the check job.
@@ -1590,6 +1638,11 @@ fn work(g: &Globals, job: WorkerJob, session: &isolate::Session) -> anyhow::Resu
         }
         WorkerJob::CheckLaw(job) => WorkerOutput::CheckLaw(job.check(&registry)?),
         WorkerJob::PlotLaw(job) => WorkerOutput::PlotLaw(Box::new(job.sample(&registry)?)),
+        WorkerJob::Laws(job) => WorkerOutput::Laws(laws::render(&registry, &job)?),
+        WorkerJob::Bind(job) => {
+            tribo::rig::simulation(&job.rig()?, &registry)?;
+            WorkerOutput::Checked
+        }
     })
 }
 
@@ -1628,6 +1681,29 @@ fn test_panic_hook(place: &str) {
 /// `tribo fmu export`: the rig with its laws (checked by binding them) written as an FMU.
 fn cmd_fmu_export(g: &Globals, a: FmuExportArgs) -> anyhow::Result<()> {
     let rig = a.rig.load()?;
+    // The laws are bound in a worker first: a library whose loading or binding ends, crashes
+    // or hangs the process fails the export naming it, before this process opens it.
+    let job = RunJob {
+        rig: a.rig.rig.clone(),
+        sets: with_oil_file(a.rig.oil.as_deref(), a.rig.sets.clone())?,
+        lawset: a.rig.lawset.clone(),
+        laws: a.rig.laws.clone(),
+        steady: false,
+        timeseries: false,
+        crank_angle_deg: None,
+        require_laws: false,
+    };
+    g.in_worker(
+        isolate::Limits::default(),
+        &WorkerJob::Bind(job),
+        "checking the rig's laws in a worker process",
+        // This process prints the registry's warnings itself, below.
+        &mut |e| match e {
+            Event::Stderr(line) if line.starts_with("warning:") => {}
+            other => isolate::show_event("", &other),
+        },
+        |o| matches!(o, WorkerOutput::Checked).then_some(()),
+    )?;
     let registry = g.registry()?;
     // Every law bound once here, so a bad law or parameter is reported where it was written.
     tribo::rig::simulation(&rig, &registry)?;
@@ -1926,22 +2002,25 @@ fn main() -> ExitCode {
     }
     let result = run(cli);
     guard::allow_exit();
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) if e.downcast_ref::<QuietFailure>().is_some() => ExitCode::FAILURE,
+    let code = match result {
+        Ok(()) => 0,
+        Err(e) if e.downcast_ref::<QuietFailure>().is_some() => 1,
         // The reader of our output went away (`tribo laws | head -1`): nothing to tell it, and
         // the results were not delivered, so exit 1 without a message (docs/reliability.md).
         Err(e)
             if e.downcast_ref::<StdoutError>()
                 .is_some_and(|s| s.0.kind() == std::io::ErrorKind::BrokenPipe) =>
         {
-            ExitCode::FAILURE
+            1
         }
         Err(e) => {
             use std::io::Write as _;
             // Ignored: if standard error is gone too there is nowhere left to report to.
             let _ = writeln!(std::io::stderr(), "error: {e:#}");
-            ExitCode::FAILURE
+            1
         }
-    }
+    };
+    // No destructor or atexit handler of a law loaded in process runs after this: one that
+    // calls _exit(0) would turn a failure into a success.
+    guard::end(code)
 }

@@ -244,7 +244,52 @@ pub fn check_result_dir(out: &Path, flag: &str) -> Result<(), OutputError> {
     let Some(name) = out.file_name().map(|n| n.to_string_lossy().into_owned()) else {
         return Err(OutputError::NoName { target });
     };
-    inspect_settled(out, &target, &name).map(|_| ())
+    let checked = std::time::SystemTime::now();
+    inspect_settled(out, &target, &name)?;
+    CHECKED
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .push((out.to_path_buf(), checked));
+    Ok(())
+}
+
+/// When each result directory of this command was found fit to be replaced
+/// ([`check_result_dir`], before any law ran): what appears in it after that, while the laws
+/// run, was put there by one of them, not by the user.
+static CHECKED: std::sync::Mutex<Vec<(PathBuf, std::time::SystemTime)>> =
+    std::sync::Mutex::new(Vec::new());
+
+/// Whether the entry `path` of result directory `dir` appeared (its inode changed) after `dir`
+/// was checked before the laws ran.
+fn appeared_since_check(dir: &Path, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let Some(since) = CHECKED
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .iter()
+            .find(|(d, _)| d == dir)
+            .map(|(_, t)| *t)
+        else {
+            return false;
+        };
+        let Ok(since) = since.duration_since(std::time::UNIX_EPOCH) else {
+            return false;
+        };
+        std::fs::symlink_metadata(path).is_ok_and(|m| {
+            let ctime = std::time::Duration::new(
+                u64::try_from(m.ctime()).unwrap_or(0),
+                u32::try_from(m.ctime_nsec()).unwrap_or(0),
+            );
+            ctime >= since
+        })
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (dir, path);
+        false
+    }
 }
 
 /// [`inspect`] without taking the lock, so a refusal creates nothing; but strangers seen while
@@ -429,6 +474,25 @@ fn check_replaceable(dir: &Path, target: &str) -> Result<(), OutputError> {
         return Ok(());
     }
     names.sort();
+    // Entries that appeared while the laws ran were planted by a law (a user's files were
+    // refused before the run): removed, never followed, and reported, so one law's mischief
+    // does not cost the other sets their results.
+    let (planted, names): (Vec<String>, Vec<String>) = names
+        .into_iter()
+        .partition(|n| n != MARKER && appeared_since_check(dir, &dir.join(n)));
+    for n in &planted {
+        let path = dir.join(n);
+        let removed = std::fs::remove_dir_all(&path).or_else(|_| std::fs::remove_file(&path));
+        let _ = writeln!(
+            std::io::stderr(),
+            "warning: {target}: `{n}` appeared there while the laws ran (a law wrote it); {}",
+            if removed.is_ok() {
+                "it was removed and the results written"
+            } else {
+                "it could not be removed"
+            }
+        );
+    }
     // A file is tribo's only if the marker lists it with a checksum its content still has.
     let manifest = read_manifest(dir);
     let strangers: Vec<String> = match &manifest {

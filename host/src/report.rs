@@ -576,7 +576,10 @@ pub fn wrap(text: &str, width: usize, indent: &str) -> String {
         let mut line_w = line.len();
         let mut fresh = true;
         for word in body.split(' ').filter(|w| !w.is_empty()) {
-            let mut word: Vec<char> = word.chars().collect();
+            let chars: Vec<char> = word.chars().collect();
+            // The part of the word not yet placed: cutting a long word moves this start, never
+            // the characters (a 15 MiB word is cut in time linear in its length).
+            let mut word: &[char] = &chars;
             if !fresh && line_w + 1 + word.len() > width {
                 out.push_str(&line);
                 out.push('\n');
@@ -594,12 +597,12 @@ pub fn wrap(text: &str, width: usize, indent: &str) -> String {
                 line.extend(&word[..take]);
                 out.push_str(&line);
                 out.push('\n');
-                word.drain(..take);
+                word = &word[take..];
                 line = indent.to_string();
                 line_w = indent.chars().count();
             }
             line_w += word.len();
-            line.extend(word);
+            line.extend(word.iter());
             fresh = false;
         }
         out.push_str(&line);

@@ -19,7 +19,7 @@ use super::common::*;
 
 /// The command a case runs.
 #[derive(Clone, Copy, Debug)]
-enum Cmd {
+pub(crate) enum Cmd {
     /// `run` on a short cycle of the frictionless rig, the law on the piston, `--json`.
     Run,
     /// `check-law` on the library.
@@ -157,8 +157,20 @@ const SHORT: &str = "cycle.segments=[{kind=\"ramp\", to_rpm=3000, duration_s=0.3
 
 /// Build case `case` of the fixture into `dir` as the library of law `hostile-NAME`.
 fn build(dir: &Path, case: u32, name: &str) -> PathBuf {
+    build_case(dir, "foreign_law.c", "hostile", case, name)
+}
+
+/// Build case `case` of the C fixture `fixture` (`-DCASE=N`) into `dir` as the library of law
+/// `PREFIX-NAME`, named as discovery expects.
+pub(crate) fn build_case(
+    dir: &Path,
+    fixture: &str,
+    prefix: &str,
+    case: u32,
+    name: &str,
+) -> PathBuf {
     let lib = dir.join(format!(
-        "libtribo_law_hostile_{}.so",
+        "libtribo_law_{prefix}_{}.so",
         name.replace('-', "_")
     ));
     let out = Command::new(c_compiler())
@@ -166,7 +178,7 @@ fn build(dir: &Path, case: u32, name: &str) -> PathBuf {
         .arg(format!("-DCASE={case}"))
         .arg("-I")
         .arg(workspace().join("plugin-api/include"))
-        .arg(c_fixture("foreign_law.c"))
+        .arg(c_fixture(fixture))
         .arg("-o")
         .arg(&lib)
         .arg("-lpthread")
@@ -181,7 +193,7 @@ fn build(dir: &Path, case: u32, name: &str) -> PathBuf {
 }
 
 /// The arguments of `cmd` for law `law` in library `lib` (`in_process` adds `--in-process`).
-fn args(cmd: Cmd, lib: &Path, law: &str, dir: &Path, in_process: bool) -> Vec<String> {
+pub(crate) fn args(cmd: Cmd, lib: &Path, law: &str, dir: &Path, in_process: bool) -> Vec<String> {
     let lib = lib.to_string_lossy().into_owned();
     let mut a: Vec<String> = match cmd {
         Cmd::Run => vec![
@@ -231,18 +243,23 @@ fn args(cmd: Cmd, lib: &Path, law: &str, dir: &Path, in_process: bool) -> Vec<St
 
 /// What one command did: tribo's exit code (None: killed by a signal), its output, whether its
 /// caller (the shell) survived to report it, and how long it took.
-struct Ran {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-    caller_survived: bool,
-    elapsed: Duration,
+pub(crate) struct Ran {
+    pub(crate) code: Option<i32>,
+    pub(crate) stdout: String,
+    pub(crate) stderr: String,
+    pub(crate) caller_survived: bool,
+    pub(crate) elapsed: Duration,
 }
 
 /// Run tribo with `args` in `dir` under `sh` (the caller), the two in a new process group so a
 /// law that signals its group could only ever hit them, never the test. The shell reports
 /// tribo's exit status on a line of its own; a run past `limit` is killed.
-fn run_as_callee(args: &[String], dir: &Path, env: &[(&str, String)], limit: Duration) -> Ran {
+pub(crate) fn run_as_callee(
+    args: &[String],
+    dir: &Path,
+    env: &[(&str, String)],
+    limit: Duration,
+) -> Ran {
     let start = Instant::now();
     let mut cmd = Command::new("sh");
     cmd.arg("-c")
@@ -252,29 +269,41 @@ fn run_as_callee(args: &[String], dir: &Path, env: &[(&str, String)], limit: Dur
         .args(args)
         .current_dir(dir)
         .env_remove("TRIBO_PLUGIN_PATH")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
         .process_group(0);
+    // Files, not pipes: the output is read once the command is done, and a command that writes
+    // more than a pipe holds must not block on a reader that is not reading yet.
+    let out_file = tempfile::tempfile().expect("stdout file");
+    let err_file = tempfile::tempfile().expect("stderr file");
+    cmd.stdout(Stdio::from(out_file.try_clone().expect("clone")))
+        .stderr(Stdio::from(err_file.try_clone().expect("clone")));
     for (k, v) in env {
         cmd.env(k, v);
     }
     let mut child = cmd.spawn().expect("sh starts");
     let pid = child.id() as i32;
-    let out = loop {
+    loop {
         if child.try_wait().expect("wait").is_some() {
-            break child.wait_with_output().expect("output");
+            break;
         }
         if start.elapsed() > limit {
             // SAFETY: killing the process group this test created.
             unsafe {
                 libc::killpg(pid, libc::SIGKILL);
             }
-            break child.wait_with_output().expect("output");
+            child.wait().expect("wait");
+            break;
         }
         std::thread::sleep(Duration::from_millis(10));
-    };
+    }
     let elapsed = start.elapsed();
-    let (stdout, stderr) = text(&out);
+    let read = |mut f: std::fs::File| {
+        use std::io::{Read, Seek};
+        let mut bytes = Vec::new();
+        f.rewind().expect("rewind");
+        f.read_to_end(&mut bytes).expect("read the output");
+        String::from_utf8_lossy(&bytes).into_owned()
+    };
+    let (stdout, stderr) = (read(out_file), read(err_file));
     let report = stderr
         .lines()
         .rev()
@@ -359,7 +388,7 @@ fn problems(c: &Case, lib: &Path, dir: &Path, ran: &Ran) -> Vec<String> {
 
 /// A compare whose hostile set failed: fedem-baseline's results are written and printed, the
 /// hostile set listed as failed.
-fn other_sets_written(dir: &Path, stdout: &str) -> Vec<String> {
+pub(crate) fn other_sets_written(dir: &Path, stdout: &str) -> Vec<String> {
     let mut p = Vec::new();
     let written = std::fs::read_to_string(dir.join("out/comparison.json"))
         .ok()

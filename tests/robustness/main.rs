@@ -10,6 +10,7 @@ mod fuzz;
 mod hostile;
 mod interrupt;
 mod limits;
+mod mischief;
 
 use std::path::Path;
 use std::process::Command;

@@ -98,11 +98,19 @@ where
         progress,
     };
     while let Some((_, (kind, payload))) = read_frame(&mut reader, Some(&token)) {
-        if kind != Kind::Job {
-            break;
+        match kind {
+            Kind::Confirm => {
+                if session.send(Kind::Ack, &payload).is_err() {
+                    break;
+                }
+                continue;
+            }
+            Kind::Job if payload.len() >= frame::NONCE => {}
+            _ => break,
         }
+        let (nonce, payload) = payload.split_at(frame::NONCE);
         guard::job_started();
-        let reply = match rmp_serde::from_slice::<Q>(&payload) {
+        let reply = match rmp_serde::from_slice::<Q>(payload) {
             Err(e) => Reply::Internal(format!("reading the job: {e}")),
             Ok(q) => match std::panic::catch_unwind(AssertUnwindSafe(|| handler(q, &session))) {
                 Ok(Ok(a)) => Reply::Ok(a),
@@ -122,7 +130,10 @@ where
                 Err(_) => guard::stop(1),
             },
         };
-        if session.send(Kind::Reply, &bytes).is_err() {
+        let mut answer = Vec::with_capacity(frame::NONCE + bytes.len());
+        answer.extend_from_slice(nonce);
+        answer.extend_from_slice(&bytes);
+        if session.send(Kind::Reply, &answer).is_err() {
             break;
         }
     }

@@ -7,6 +7,11 @@
 //! and the payload (MessagePack). Markers, the short reports a worker's guards write from
 //! signal handlers and hooks, travel on their own pipe as text lines, each one `write(2)` of at
 //! most `MARKER_MAX` bytes (atomic on a pipe), starting with the token in hex.
+//!
+//! Each request carries a fresh random nonce (`NONCE` bytes before its payload) that its reply
+//! must repeat, and a reply is believed only once the worker has echoed a second nonce sent
+//! after it (`Confirm`, `Ack`): a reply written by a law (which runs in the worker and can
+//! read its memory) does not count unless the worker is alive and answering afterwards.
 
 /// First bytes of every frame.
 pub(crate) const MAGIC: [u8; 4] = *b"TRBw";
@@ -14,6 +19,8 @@ pub(crate) const MAGIC: [u8; 4] = *b"TRBw";
 pub(crate) const HEADER: usize = 4 + 16 + 1 + 4;
 /// Largest payload accepted (a study's reply is megabytes at most).
 pub(crate) const MAX_PAYLOAD: usize = 1 << 30;
+/// Bytes of a request's nonce (before the payload of a `Job`, a `Reply` and a `Confirm`).
+pub(crate) const NONCE: usize = 16;
 /// Longest marker line, bytes (below PIPE_BUF, so one write is never interleaved).
 pub(crate) const MARKER_MAX: usize = 4000;
 
@@ -27,10 +34,15 @@ pub(crate) enum Kind {
     Job = 2,
     /// Parent to worker: no more requests; end.
     Bye = 3,
+    /// Parent to worker, after a reply: a fresh nonce the worker must echo (`Ack`) before the
+    /// reply is believed, so a reply forged by a law that then died is never accepted.
+    Confirm = 4,
     /// Worker to parent: the answer to the last request.
     Reply = 10,
     /// Worker to parent: a chunk of streamed output (a time series) before the reply.
     Data = 11,
+    /// Worker to parent: the echo of a `Confirm`.
+    Ack = 12,
 }
 
 impl Kind {
@@ -39,8 +51,10 @@ impl Kind {
             1 => Self::Hello,
             2 => Self::Job,
             3 => Self::Bye,
+            4 => Self::Confirm,
             10 => Self::Reply,
             11 => Self::Data,
+            12 => Self::Ack,
             _ => return None,
         })
     }

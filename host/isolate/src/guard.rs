@@ -77,6 +77,23 @@ pub fn forbid_exit() {
     MAY_EXIT.store(false, Ordering::SeqCst);
 }
 
+/// End this process with `code` once its output is flushed, without running `atexit`
+/// handlers or library destructors: a law's destructor (in process) that calls `_exit(0)`
+/// cannot turn a failed command into a success.
+pub fn end(code: i32) -> ! {
+    use std::io::Write as _;
+    let _ = std::io::stdout().flush();
+    let _ = std::io::stderr().flush();
+    #[cfg(unix)]
+    // SAFETY: _exit has no preconditions; everything tribo writes is flushed or synced above
+    // or by its owners before this point.
+    unsafe {
+        libc::_exit(code)
+    }
+    #[cfg(not(unix))]
+    std::process::exit(code)
+}
+
 /// Whether tribo itself panicked (a bug), and the worker's panic text if any.
 pub fn take_panic() -> Option<String> {
     PANIC_TEXT.lock().unwrap_or_else(|p| p.into_inner()).take()

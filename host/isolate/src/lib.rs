@@ -235,11 +235,20 @@ pub enum WorkerFailure {
     Io(String),
 }
 
+/// How a failure's `running` list says that no law call was under way, followed by the laws
+/// the worker had loaded (one of them, through a thread or a child it started, may be the
+/// culprit).
+pub(crate) const NO_CALL_PREFIX: &str = "\u{0}no call; loaded: ";
+
 fn running_text(running: &[String]) -> String {
-    if running.is_empty() {
-        " while no law was running (in tribo itself, or between law calls)".into()
-    } else {
-        format!(" while running {}", running.join(" and "))
+    match running.first().and_then(|r| r.strip_prefix(NO_CALL_PREFIX)) {
+        Some(laws) => format!(
+            " while no law call was under way; the laws loaded in it were {laws} (a thread or a process one of them started may have done it)"
+        ),
+        None if running.is_empty() => {
+            " while no law was running (in tribo itself, or between law calls)".into()
+        }
+        None => format!(" while running {}", running.join(" and ")),
     }
 }
 

@@ -31,6 +31,12 @@ const KILL_GRACE: Duration = Duration::from_secs(3);
 const DRAIN: Duration = Duration::from_millis(150);
 /// Keep at most this much of a worker's standard error (its tail) for the failure message.
 const STDERR_TAIL_BYTES: usize = 4096;
+/// How often the parent adds up the memory of a worker's process group.
+const MEMORY_TICK: Duration = Duration::from_millis(250);
+/// Read at most this much from one pipe before looking at the clock and the limits again.
+const READ_BUDGET: usize = 1 << 20;
+/// Forward at most this much of a worker's standard error per request; the rest is counted.
+const STDERR_FORWARD_BYTES: usize = 1 << 20;
 
 /// What happens while a request runs, for the caller to act on.
 pub enum Event<'a> {
@@ -149,6 +155,10 @@ pub struct Worker {
     marker_buf: Vec<u8>,
     stderr_buf: Vec<u8>,
     stderr_tail: Vec<u8>,
+    /// Bytes of standard error forwarded during the current request.
+    stderr_forwarded: usize,
+    /// Bytes of standard error dropped past [`STDERR_FORWARD_BYTES`], not yet reported.
+    stderr_dropped: u64,
     /// Registered names of plugin code, by id (told by the worker).
     names: BTreeMap<usize, String>,
     /// Marker reports: (kind, text).
@@ -156,6 +166,8 @@ pub struct Worker {
     /// The shared-page marks the parent has seen: per slot, the mark and since when.
     seen: Vec<(u64, Instant)>,
     progress: u64,
+    /// When the group's memory was last added up.
+    memory_checked: Instant,
     ended: bool,
 }
 
@@ -222,10 +234,13 @@ impl Worker {
             marker_buf: Vec::new(),
             stderr_buf: Vec::new(),
             stderr_tail: Vec::new(),
+            stderr_forwarded: 0,
+            stderr_dropped: 0,
             names: BTreeMap::new(),
             reports: Vec::new(),
             seen: vec![(0, Instant::now()); inflight::SLOTS],
             progress: 0,
+            memory_checked: Instant::now(),
             ended: false,
         })
     }
@@ -261,9 +276,17 @@ impl Worker {
             .map_err(|e| WorkerFailure::Io(format!("encoding the job: {e}")))?;
         // The time limit is per request (a long-lived worker serves many).
         self.started = Instant::now();
+        let nonce = sys::random_token()
+            .map_err(|e| WorkerFailure::Io(format!("drawing the request's nonce: {e}")))?;
+        let mut payload = Vec::with_capacity(frame::NONCE + job.len());
+        payload.extend_from_slice(&nonce);
+        payload.extend_from_slice(&job);
         self.outbuf
-            .extend_from_slice(&frame::encode(&self.token, Kind::Job, &job));
-        match self.wait_reply(events) {
+            .extend_from_slice(&frame::encode(&self.token, Kind::Job, &payload));
+        self.stderr_forwarded = 0;
+        let reply = self.confirmed_reply(&nonce, events);
+        self.report_dropped(events);
+        match reply {
             Ok(payload) => match rmp_serde::from_slice::<Reply<A>>(&payload) {
                 Ok(Reply::Ok(a)) => Ok(a),
                 Ok(Reply::Err(message)) => Err(WorkerFailure::Study(message)),
@@ -328,9 +351,38 @@ impl Worker {
         Ok(())
     }
 
-    /// Pump the channel until the reply to the current request arrives or the worker fails.
-    fn wait_reply(
+    /// The reply to the request of `nonce`, once the worker, still alive, has echoed a fresh
+    /// nonce sent after it: a reply with another nonce, or one the worker does not stand behind
+    /// (a law forged it and died), is not accepted.
+    fn confirmed_reply(
         &mut self,
+        nonce: &[u8; 16],
+        events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
+    ) -> Result<Vec<u8>, WorkerFailure> {
+        let reply = self.wait_frame(Kind::Reply, events)?;
+        if reply.get(..frame::NONCE) != Some(&nonce[..]) {
+            return Err(WorkerFailure::Forged {
+                running: self.running_now(),
+            });
+        }
+        let check = sys::random_token()
+            .map_err(|e| WorkerFailure::Io(format!("drawing the confirmation nonce: {e}")))?;
+        self.outbuf
+            .extend_from_slice(&frame::encode(&self.token, Kind::Confirm, &check));
+        let echo = self.wait_frame(Kind::Ack, events)?;
+        if echo != check {
+            return Err(WorkerFailure::Forged {
+                running: self.running_now(),
+            });
+        }
+        Ok(reply[frame::NONCE..].to_vec())
+    }
+
+    /// Pump the channel until a frame of `kind` (a reply, an acknowledgement) arrives or the
+    /// worker fails; any other frame but streamed data is forged.
+    fn wait_frame(
+        &mut self,
+        kind: Kind,
         events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
     ) -> Result<Vec<u8>, WorkerFailure> {
         loop {
@@ -341,8 +393,13 @@ impl Worker {
                 pollfd(&self.stderr, false),
             ];
             sys::poll(&mut fds, TICK);
-            if let Some(reply) = self.read_all(events)? {
-                return Ok(reply);
+            if let Some((got, payload)) = self.read_all(events)? {
+                if got != kind {
+                    return Err(WorkerFailure::Forged {
+                        running: self.running_now(),
+                    });
+                }
+                return Ok(payload);
             }
             if let Some(state) = sys::peek(self.pid) {
                 return Err(self.ended_with(state, events));
@@ -387,17 +444,27 @@ impl Worker {
         self.interpret(state, running)
     }
 
-    /// Read everything available on the three pipes; the reply's payload once it is whole.
+    /// Read what is available on the three pipes (a bounded amount of each); a reply or an
+    /// acknowledgement, with its payload, once it is whole.
     fn read_all(
         &mut self,
         events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
-    ) -> Result<Option<Vec<u8>>, WorkerFailure> {
+    ) -> Result<Option<(Kind, Vec<u8>)>, WorkerFailure> {
         let mut buf = [0u8; 65536];
+        // Each pipe is read for at most READ_BUDGET bytes a turn, then the caller checks the
+        // limits: a writer that never pauses (a law's thread, or a process it detached with
+        // `setsid`, flooding standard error) cannot hold the parent in here.
         // Markers first: a law's name registered before a reply or a death is then known.
+        let mut budget = READ_BUDGET;
         while let Ok(n @ 1..) = sys::read(self.markers.as_raw_fd(), &mut buf) {
             self.marker_buf.extend_from_slice(&buf[..n]);
             self.parse_markers(events)?;
+            budget = budget.saturating_sub(n);
+            if budget == 0 {
+                break;
+            }
         }
+        let mut budget = READ_BUDGET;
         while let Ok(n @ 1..) = sys::read(self.stderr.as_raw_fd(), &mut buf) {
             for &b in &buf[..n] {
                 if b == b'\n' {
@@ -406,9 +473,18 @@ impl Worker {
                     self.stderr_buf.push(b);
                 }
             }
+            budget = budget.saturating_sub(n);
+            if budget == 0 {
+                break;
+            }
         }
+        let mut budget = READ_BUDGET;
         while let Ok(n @ 1..) = sys::read(self.chan.as_raw_fd(), &mut buf) {
             self.inbuf.extend_from_slice(&buf[..n]);
+            budget = budget.saturating_sub(n);
+            if budget == 0 {
+                break;
+            }
         }
         loop {
             match frame::parse(&self.inbuf, &self.token) {
@@ -421,7 +497,7 @@ impl Worker {
                     let payload: Vec<u8> = self.inbuf[frame::HEADER..frame::HEADER + len].to_vec();
                     self.inbuf.drain(..frame::HEADER + len);
                     match kind {
-                        Kind::Reply => return Ok(Some(payload)),
+                        Kind::Reply | Kind::Ack => return Ok(Some((kind, payload))),
                         Kind::Data => events(Event::Data(&payload))?,
                         _ => {
                             let running = self.running_now();
@@ -449,7 +525,27 @@ impl Worker {
             self.stderr_tail
                 .drain(..self.stderr_tail.len() - STDERR_TAIL_BYTES);
         }
-        let _ = events(Event::Stderr(&line));
+        // Past the cap, lines are counted, not forwarded: a flood of output costs the user's
+        // terminal nothing, and the count is said once the request ends.
+        if self.stderr_forwarded < STDERR_FORWARD_BYTES {
+            self.stderr_forwarded += line.len() + 1;
+            let _ = events(Event::Stderr(&line));
+        } else {
+            self.stderr_dropped += line.len() as u64 + 1;
+        }
+    }
+
+    /// Say, once, how much of the worker's standard error was dropped past the cap.
+    fn report_dropped(&mut self, events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>) {
+        if self.stderr_dropped > 0 {
+            let line = format!(
+                "note: the worker's standard error (what its laws printed) was cut after {} KiB; {} more bytes were dropped",
+                STDERR_FORWARD_BYTES >> 10,
+                self.stderr_dropped
+            );
+            self.stderr_dropped = 0;
+            let _ = events(Event::Stderr(&line));
+        }
     }
 
     /// Parse whole marker lines; lines without the job's token (a law writing to the pipe)
@@ -534,6 +630,30 @@ impl Worker {
         out
     }
 
+    /// The plugin code running now; when none is, the laws the worker has loaded, said as
+    /// such (a child a law started, or a law's thread, may be what failed).
+    fn running_or_loaded(&self) -> Vec<String> {
+        let running = self.running_now();
+        if !running.is_empty() {
+            return running;
+        }
+        let mut laws: Vec<&str> = self
+            .names
+            .values()
+            .map(String::as_str)
+            .filter(|n| n.starts_with("law `"))
+            .collect();
+        laws.sort_unstable();
+        laws.dedup();
+        // "law `x` (file)" is said by "law `x` (file) at joint `j`" already.
+        let all = laws.clone();
+        laws.retain(|l| !all.iter().any(|o| o != l && o.starts_with(l)));
+        if laws.is_empty() {
+            return Vec::new();
+        }
+        vec![format!("{}{}", crate::NO_CALL_PREFIX, laws.join(", "))]
+    }
+
     /// The limits the worker enforces itself, enforced again from outside a little later: a
     /// stopped, deadlocked or signal-blocking worker cannot report.
     fn backstops(&mut self) -> Result<(), WorkerFailure> {
@@ -544,6 +664,21 @@ impl Worker {
                 self.kill();
                 return Err(WorkerFailure::TimeLimit {
                     limit_s: self.limits.time_s,
+                    running,
+                });
+            }
+        }
+        // The worker's group as a whole (the children its laws started, the memory files they
+        // hold): counted from outside, where no law can hide it.
+        if self.limits.memory_mb > 0 && now >= self.memory_checked + MEMORY_TICK {
+            self.memory_checked = now;
+            let bytes = sys::group_memory_bytes(self.pid);
+            if bytes > self.limits.memory_mb.saturating_mul(1 << 20) {
+                let running = self.running_or_loaded();
+                self.kill();
+                return Err(WorkerFailure::MemoryLimit {
+                    limit_mb: self.limits.memory_mb,
+                    resident_mb: bytes >> 20,
                     running,
                 });
             }
@@ -582,11 +717,22 @@ impl Worker {
 
     /// Why the worker, ended or stopped as `state`, gave no reply.
     fn interpret(&self, state: State, running: Vec<String>) -> WorkerFailure {
-        let mut running = running;
+        // What the worker itself said was running (from its private marks) is believed over
+        // the shared page, which a law can write; the page is for when the worker could not
+        // speak (`_exit`, SIGKILL, SIGSTOP).
+        let mut reported: Vec<String> = Vec::new();
         for (kind, body) in &self.reports {
-            if kind == "running" && !running.contains(body) {
-                running.push(body.clone());
+            if kind == "running" && !reported.contains(body) {
+                reported.push(body.clone());
             }
+        }
+        let mut running = if reported.is_empty() {
+            running
+        } else {
+            reported
+        };
+        if running.is_empty() {
+            running = self.running_or_loaded();
         }
         let report = |k: &str| self.reports.iter().find(|(kind, _)| kind == k);
         let last_words = String::from_utf8_lossy(&self.stderr_tail)

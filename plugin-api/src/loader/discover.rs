@@ -254,6 +254,18 @@ impl LawRegistry {
         })
     }
 
+    /// Never open the file `path` found in a plugin directory: it counts as a file that could
+    /// not be opened, for `reason` (loading it ended or hung a worker process, say). A file
+    /// already opened, or not found, is left as it is.
+    pub fn skip(&self, path: &Path, reason: String) {
+        for c in self.candidates.iter().filter(|c| c.path == path) {
+            let _ = c.opened.set(Err(LawError::Skipped {
+                path: path.to_path_buf(),
+                reason: reason.clone(),
+            }));
+        }
+    }
+
     /// Open every library found (running each one's initialisers) and list them: the laws by
     /// name and the files that could not be opened. Two libraries providing one law name are
     /// [`LawError::DuplicateName`], naming both files.

@@ -51,8 +51,11 @@ impl Default for Table {
     }
 }
 
+/// The marks as this process keeps them for itself (its watchdog, its signal handlers): always
+/// written, and the only table read in this process.
 static LOCAL: Table = Table::new();
-/// The table in use: [`LOCAL`], or the shared one a worker installed at start-up.
+/// The table written besides [`LOCAL`]: [`LOCAL`] itself, or the shared one a worker installed
+/// at start-up for its parent.
 static TABLE: AtomicPtr<Table> = AtomicPtr::new(std::ptr::addr_of!(LOCAL) as *mut Table);
 /// The input of each slot's current law call (null outside evaluate and commit).
 static ARG: [AtomicPtr<LawInput>; SLOTS] = [const { AtomicPtr::new(std::ptr::null_mut()) }; SLOTS];
@@ -194,13 +197,16 @@ fn start(id: CodeId) -> Running {
     occupy(table(), slot, value)
 }
 
-/// Put `value` in `slot` of `table` until the returned guard drops.
+/// Put `value` in `slot` of `table` (and of the private [`LOCAL`] copy) until the returned
+/// guard drops.
 #[inline]
 fn occupy(table: &'static Table, slot: usize, value: u64) -> Running {
     // Only this thread writes its slot (threads beyond SLOTS share one, which only blurs the
     // diagnosis), so a plain load and store do; an atomic swap would cost a locked instruction
-    // on every law call.
-    let previous = table.slots[slot].load(Ordering::Relaxed);
+    // on every law call. The previous mark comes from the private copy, which no law can
+    // find by a name in the process's memory map, as it can the shared page.
+    let previous = LOCAL.slots[slot].load(Ordering::Relaxed);
+    LOCAL.slots[slot].store(value, Ordering::Release);
     table.slots[slot].store(value, Ordering::Release);
     Running {
         slot,
@@ -212,6 +218,7 @@ fn occupy(table: &'static Table, slot: usize, value: u64) -> Running {
 impl Drop for Running {
     #[inline]
     fn drop(&mut self) {
+        LOCAL.slots[self.slot].store(self.previous, Ordering::Release);
         self.table.slots[self.slot].store(self.previous, Ordering::Release);
     }
 }
@@ -266,9 +273,11 @@ pub fn id_of(mark: u64) -> usize {
     (mark & ID_MASK) as usize
 }
 
-/// The mark of slot `slot` now (0: nothing running there; also for a slot out of range).
+/// The mark of slot `slot` now (0: nothing running there; also for a slot out of range). Read
+/// from the process's private copy: the shared page a worker's parent reads can be written by
+/// a law (to clear its own mark or name another), this one only by finding it first.
 pub fn mark(slot: usize) -> u64 {
-    table()
+    LOCAL
         .slots
         .get(slot)
         .map_or(0, |m| m.load(Ordering::Acquire))
@@ -276,7 +285,7 @@ pub fn mark(slot: usize) -> u64 {
 
 /// Call `f(slot, mark)` for every slot whose thread runs plugin code now. Allocation-free.
 pub fn for_each_mark(mut f: impl FnMut(usize, u64)) {
-    for (slot, m) in table().slots.iter().enumerate() {
+    for (slot, m) in LOCAL.slots.iter().enumerate() {
         let mark = m.load(Ordering::Acquire);
         if id_of(mark) != 0 {
             f(slot, mark);
@@ -298,7 +307,7 @@ pub fn input_of(slot: usize, mark: u64) -> Option<LawInput> {
     // the check below throws the copy away if the call ended. LawInput is plain data (every
     // bit pattern is a value), read volatile so the compiler does not assume it unchanged.
     let copy = unsafe { std::ptr::read_volatile(p) };
-    (table().slots[slot].load(Ordering::Acquire) == mark).then_some(copy)
+    (LOCAL.slots[slot].load(Ordering::Acquire) == mark).then_some(copy)
 }
 
 /// Call `f` with the text of every piece of plugin code some thread is running now, each once.

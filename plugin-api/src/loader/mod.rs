@@ -3,6 +3,8 @@
 
 mod c_abi;
 mod discover;
+#[cfg(unix)]
+mod elf;
 pub mod inflight;
 mod rust;
 
@@ -190,6 +192,15 @@ pub enum LawError {
         /// The lengths given and what they must be.
         detail: String,
     },
+    /// The file was left unopened: opening it elsewhere (a worker process) ended, crashed or
+    /// hung that process.
+    #[error("`{path}` was not opened: {reason}")]
+    Skipped {
+        /// File.
+        path: PathBuf,
+        /// What happened when it was opened elsewhere.
+        reason: String,
+    },
     /// A directory of the plugin path could not be read.
     #[error("cannot read plugin directory `{path}`: {error}")]
     Io {
@@ -252,8 +263,7 @@ impl LawLibrary {
     /// Load the library at `path`, through whichever ABI it exports. The contract version
     /// symbol is checked before any other symbol is touched.
     pub fn load(path: &Path) -> Result<Self, LawError> {
-        let loading =
-            inflight::register(format!("library `{}` (while loading it)", path.display()));
+        let loading = inflight::register(loading_text(path));
         let _running = inflight::enter(loading);
         // SAFETY: loading a shared library runs its initialisers; a Tribo plugin is trusted
         // native code by design (the user chose to put it on the plugin path).
@@ -264,6 +274,12 @@ impl LawLibrary {
         } else {
             path.to_path_buf()
         };
+        // A file cut short would be mapped and then kill this process with SIGBUS.
+        #[cfg(unix)]
+        elf::check(&open_path).map_err(|reason| LawError::NotALibrary {
+            path: path.to_path_buf(),
+            reason,
+        })?;
         // Never closed, even when refused below: a library's constructors may have started
         // threads that run its code (c_abi::CLib).
         let lib = std::mem::ManuallyDrop::new(
@@ -452,6 +468,21 @@ fn given_values(
 }
 
 /// The crash-report name of law `name` from `path`.
+/// How the code running while `path` is loaded is named in failure messages.
+fn loading_text(path: &Path) -> String {
+    format!("library `{}` (while loading it)", path.display())
+}
+
+/// The library a failure message says was being loaded when it happened, if any: the path
+/// in the first "library `PATH` (while loading it)" of `message`.
+pub fn loading_library(message: &str) -> Option<PathBuf> {
+    const HEAD: &str = "library `";
+    const TAIL: &str = "` (while loading it)";
+    let end = message.find(TAIL)?;
+    let start = message[..end].rfind(HEAD)? + HEAD.len();
+    Some(PathBuf::from(&message[start..end]))
+}
+
 fn law_code(name: &str, path: &Path) -> inflight::CodeId {
     inflight::register(format!("law `{name}` ({})", path.display()))
 }

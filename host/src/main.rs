@@ -555,7 +555,7 @@ fn with_oil_file(oil: Option<&std::path::Path>, sets: Vec<String>) -> anyhow::Re
 struct ModesArgs {
     /// Rig file (TOML) or bundled rig name; it must have a `[drivetrain]`.
     rig: PathBuf,
-    /// Override any rig value by its dotted path, e.g. drivetrain.elements[4].stiffness_nm_per_rad=400.
+    /// Override any rig value by its dotted path, e.g. drivetrain.motor.inertia_kg_m2=0.003.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
     /// Print JSON (`inertias`, `springs`, `modes`) instead of a table.

@@ -77,8 +77,8 @@ pub fn instrument_text(r: &crate::sim::RunResult) -> String {
     );
     let _ = writeln!(
         s,
-        "  {:>6}  {:>10}  {:>10}  {:>9}  {:>9}  {:>9}  {:>10}  {}",
-        "rpm", "mean N m", "acq. N m", "min N m", "max N m", "p-p N m", "speed fl.", "rating"
+        "  {:>6}  {:>10}  {:>10}  {:>9}  {:>9}  {:>9}  {:>10}  rating",
+        "rpm", "mean N m", "acq. N m", "min N m", "max N m", "p-p N m", "speed fl."
     );
     for (rpm, i) in rows {
         let _ = writeln!(

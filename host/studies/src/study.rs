@@ -737,7 +737,7 @@ fn trusted_rows(
         .iter()
         .zip(&ok)
         .filter(|(_, ok)| **ok)
-        .map(|(row, _)| row.clone())
+        .map(|(row, _)| *row)
         .collect();
     if rows.len() < 2 {
         return Err(StudyError::Data {

@@ -234,8 +234,8 @@ impl Simulation {
         let len = y.len();
         let mut ys = vec![0.0; len];
         for (stage, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {
-            for i in 0..len {
-                ys[i] = y[i] + c * h * st.k[stage - 1][i];
+            for (i, v) in ys.iter_mut().enumerate() {
+                *v = y[i] + c * h * st.k[stage - 1][i];
             }
             let guess = st.evals[stage - 1].totals.clone();
             self.torsion_rate(
@@ -248,8 +248,8 @@ impl Simulation {
                 &mut st.k[stage],
             )?;
         }
-        for i in 0..len {
-            y[i] += h / 6.0 * (st.k[0][i] + 2.0 * st.k[1][i] + 2.0 * st.k[2][i] + st.k[3][i]);
+        for (i, v) in y.iter_mut().enumerate() {
+            *v += h / 6.0 * (st.k[0][i] + 2.0 * st.k[1][i] + 2.0 * st.k[2][i] + st.k[3][i]);
         }
         for (k, a) in rec.delta.iter_mut().enumerate() {
             let r = |s: usize| st.evals[s].rates[k];

@@ -399,6 +399,36 @@ fn load_rig<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
 
 /// `load_lawset(spec_json)`: the law set loaded; returns `{"path", "file"}`: its file and its
 /// content.
+/// `modes(spec)`: the drivetrain's modal report, as `tribo modes --json` (`inertias`,
+/// `springs`, `modes`, all at crank speed). Raises `tribo.InputError` for a rig without one.
+#[pyfunction]
+fn modes<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
+    detached_value(py, || {
+        let spec: RigSpec = serde_json::from_str(spec)?;
+        let rig = spec.load()?;
+        let model = rig.model();
+        let (chain, hold) = tribo_core::sim::drivetrain_chain(model)?.ok_or_else(|| {
+            Failure::new(
+                Kind::Input,
+                format!(
+                    "rig `{}` has no [drivetrain]: modes() analyses the chain from the motor to the crank (e.g. the bundled crf250r-testbed)",
+                    model.name
+                ),
+            )
+        })?;
+        let plateaus: Vec<f64> = tribo_core::cycle::Cycle::new(&model.cycle.segments())
+            .plateaus()
+            .iter()
+            .map(|p| p.speed_rpm)
+            .collect();
+        Ok(serde_json::to_value(chain.report(
+            &model.name,
+            hold,
+            &plateaus,
+        ))?)
+    })
+}
+
 #[pyfunction]
 fn load_lawset<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
     detached_value(py, || {
@@ -880,6 +910,7 @@ fn bundled_names() -> (Vec<&'static str>, Vec<&'static str>, Vec<&'static str>) 
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_rig, m)?)?;
     m.add_function(wrap_pyfunction!(load_lawset, m)?)?;
+    m.add_function(wrap_pyfunction!(modes, m)?)?;
     m.add_function(wrap_pyfunction!(free_params, m)?)?;
     m.add_function(wrap_pyfunction!(check_lawset, m)?)?;
     m.add_function(wrap_pyfunction!(laws, m)?)?;

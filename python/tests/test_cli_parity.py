@@ -234,3 +234,14 @@ def test_an_engine_runs_from_python_like_the_cli(cli, tmp_path):
         assert math.isclose(
             sum(l["friction_torque_nm"] for l in q["joints"]), q["motoring_torque_nm"], rel_tol=1e-6
         )
+
+
+def test_modes_and_the_transducer_match_cli(cli):
+    want = cli("modes", "crf250r-testbed", "--json")
+    same(tribo.modes("crf250r-testbed"), want)
+    run = cli("run", "crf250r-testbed", "--lawset", "fedem-baseline", "--steady", "--json")
+    got = tribo.run("crf250r-testbed", lawset="fedem-baseline", steady=True)
+    same(got.raw, run)
+    assert all("instrument" in p for p in got.raw["plateaus"])
+    with pytest.raises(tribo.InputError, match="no \\[drivetrain\\]"):
+        tribo.modes("crf250r-motored")

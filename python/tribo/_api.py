@@ -460,6 +460,20 @@ class RunResult:
         return f"RunResult(rig={self.raw['rig']!r}, drive={self.raw['drive']!r}, plateaus={len(self.raw['plateaus'])})"
 
 
+def modes(
+    rig: RigLike = "crf250r-testbed",
+    *,
+    set: Optional[Union[Mapping[str, Any], Sequence[str]]] = None,
+    oil: Optional[PathLike] = None,
+) -> Dict[str, Any]:
+    """``tribo modes RIG --json``: the drivetrain of a rig with a ``[drivetrain]`` linearised at
+    crank speed: ``inertias`` (``name``, ``inertia_kg_m2``), ``springs`` (``name``, ``between``,
+    ``stiffness_nm_per_rad``) and ``modes`` (``frequency_hz``, ``shape``, the dominant spring
+    and the engine orders crossing it at the plateau speeds). The transducer's figures of a run
+    are in each plateau's ``instrument`` of :func:`run` with ``steady=True``."""
+    return _native.modes(json.dumps(_rig_spec(rig, set, oil)))
+
+
 def run(
     rig: RigLike = None,
     *,

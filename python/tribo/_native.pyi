@@ -13,6 +13,9 @@ CHECKOUT_PLUGINS: str
 def load_rig(spec: str) -> Dict[str, Any]:
     """Load and validate a rig; ``{"path", "model"}``. Raises ``tribo.InputError``."""
 
+def modes(spec: str) -> Dict[str, Any]:
+    """The drivetrain's modal report of a rig, as ``tribo modes --json``. Raises ``tribo.InputError``."""
+
 def load_lawset(spec: str) -> Dict[str, Any]:
     """Load a law set; ``{"path", "file"}``. Raises ``tribo.InputError``."""
 

@@ -1071,3 +1071,100 @@ fn reports_fit_100_columns_and_say_their_units_files_and_defaults() {
     }
     assert!(colours.len() >= 5, "{colours:?}");
 }
+
+/// Plateau motoring torques of every set of a comparison's JSON, by set name.
+fn set_torques(cmp: &serde_json::Value) -> Vec<(String, Vec<f64>)> {
+    cmp["sets"]
+        .as_array()
+        .expect("sets")
+        .iter()
+        .map(|s| {
+            let torques = s["run"]["plateaus"]
+                .as_array()
+                .expect("plateaus")
+                .iter()
+                .map(|p| p["motoring_torque_nm"].as_f64().expect("torque"))
+                .collect();
+            (s["lawset"].as_str().expect("name").to_string(), torques)
+        })
+        .collect()
+}
+
+#[test]
+fn compare_law_adds_one_set_on_its_base_and_leaves_the_bundled_sets_untouched() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec!["compare", "--steady", "--no-cv", "--out", out, "--json"];
+        args.extend_from_slice(extra);
+        set_torques(&json_in(&args, dir.path()))
+    };
+    let without = run(&[], "without");
+    let with = run(&["--law", "piston=coulomb"], "with");
+    assert_eq!(with.len(), without.len() + 1, "one more set");
+    for ((name, before), (name_with, after)) in without.iter().zip(&with) {
+        assert_eq!(name, name_with);
+        for (b, a) in before.iter().zip(after) {
+            assert!((a - b).abs() <= 1e-9, "{name}: {b} became {a} with --law");
+        }
+    }
+    // The new set is the first set (fedem-baseline) with Coulomb on the piston instead of its
+    // own piston law: the same set written out by hand gives the same torques.
+    let baseline = std::fs::read_to_string(workspace().join("rigs/lawsets/fedem-baseline.toml"))
+        .expect("read");
+    let piston = baseline.rfind("[[laws]]").expect("a last law entry");
+    assert!(
+        baseline[piston..].contains("joint = \"piston\""),
+        "the last entry is the piston's"
+    );
+    let by_hand = format!(
+        "{}[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\n",
+        baseline[..piston]
+            .replace("name = \"fedem-baseline\"", "name = \"by-hand\"")
+            .lines()
+            .filter(|l| !l.starts_with("prior_fit"))
+            .collect::<Vec<_>>()
+            .join("\n")
+            + "\n"
+    );
+    std::fs::write(dir.path().join("by-hand.toml"), by_hand).expect("write");
+    let hand = run(&["--lawset", "by-hand.toml"], "hand");
+    let (name, added) = with.last().expect("the new set");
+    assert_eq!(name, "coulomb", "named after the law");
+    for (h, a) in hand[0].1.iter().zip(added) {
+        assert!((h - a).abs() <= 1e-9, "by hand {h}, --law {a}");
+    }
+    // And it is a different model from its base: the piston's law changed.
+    assert!(added
+        .iter()
+        .zip(&without[0].1)
+        .any(|(a, b)| (a - b).abs() > 1e-3));
+    // --base and --name choose the base and the name.
+    let named = run(
+        &[
+            "--law",
+            "piston=coulomb",
+            "--base",
+            "stribeck-duty",
+            "--name",
+            "sd-coulomb",
+        ],
+        "named",
+    );
+    assert_eq!(named.last().expect("set").0, "sd-coulomb");
+    assert_eq!(named.len(), without.len() + 1);
+    // A name taken by another set is refused, saying how to rename.
+    let clash = tribo_in(
+        &[
+            "compare",
+            "--steady",
+            "--no-cv",
+            "--law",
+            "piston=coulomb",
+            "--name",
+            "mixed-film",
+        ],
+        dir.path(),
+    );
+    assert!(!clash.status.success());
+    assert!(text(&clash).1.contains("--name"), "{}", text(&clash).1);
+}

@@ -81,6 +81,81 @@ pub fn check_unique_names(lawsets: &[LawSet]) -> Result<(), StudyError> {
     Ok(())
 }
 
+/// Whether law-set entry joint `entry` is among the joints `--law` names with `given`: the same
+/// name, or, when `given` names a kind of joint (`piston`, `piston_*`), every joint of that kind.
+fn law_arg_covers(given: &str, entry: &str) -> bool {
+    /// The kind of a joint name: `piston` for `piston`, `piston_3` and `piston_*`.
+    fn kind(j: &str) -> &str {
+        match j.rsplit_once('_') {
+            Some((k, n)) if n == "*" || n.parse::<usize>().is_ok() => k,
+            _ => j,
+        }
+    }
+    given == entry || (kind(given) == given.trim_end_matches("_*") && kind(entry) == kind(given))
+}
+
+/// The set `compare --law` adds: `base` with each `--law JOINT=LAW[:PARAMS]`'s law in place of
+/// the base's laws on that joint (so the new law is compared, not added on top of another), named
+/// `name` or, by default, after the laws (joined by `_`). The base's record of a tuning to
+/// measured data (`prior_fit`) is dropped: those numbers were tuned with other laws.
+pub fn set_with_laws(
+    base: &LawSet,
+    laws: &[String],
+    name: Option<&str>,
+) -> Result<LawSet, StudyError> {
+    let mut parsed = Vec::with_capacity(laws.len());
+    for arg in laws {
+        parsed.push(tribo_config::rig::parse_law_arg(arg).map_err(Box::new)?);
+    }
+    let default_name = parsed
+        .iter()
+        .map(|p| p.law.law.as_str())
+        .collect::<Vec<_>>()
+        .join("_");
+    let name = name.unwrap_or(&default_name).to_string();
+    if let Err(why) = tribo_config::lawset::check_name(&name) {
+        return Err(StudyError::Rig(Box::new(RigError {
+            file: PathBuf::from("--name"),
+            line: None,
+            column: None,
+            field: name.clone(),
+            message: format!(
+                "the new law set's name {why}; it names result rows and plot files, so it must be 1 to {} characters of ASCII letters, digits, `-`, `_` and `.` (give one with --name)",
+                tribo_config::lawset::MAX_NAME_LEN
+            ),
+        })));
+    }
+    let mut file = base.file.clone();
+    file.laws
+        .retain(|e| !parsed.iter().any(|p| law_arg_covers(&p.joint, &e.joint)));
+    let replaced: Vec<&str> = parsed.iter().map(|p| p.joint.as_str()).collect();
+    file.description = format!(
+        "{} with {} on {} in place of its laws there",
+        base.name(),
+        parsed
+            .iter()
+            .map(|p| p.law.law.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        replaced.join(", ")
+    );
+    file.name = name;
+    file.prior_fit = None;
+    let text = toml::to_string(&file).map_err(|e| {
+        StudyError::Rig(Box::new(RigError {
+            file: base.path.clone(),
+            line: None,
+            column: None,
+            field: "(law set)".into(),
+            message: format!("cannot write the law set with --law: {e}"),
+        }))
+    })?;
+    let path = PathBuf::from(format!("<--law on {}>", base.path.display()));
+    let mut set = LawSet::from_text(&path, &text).map_err(Box::new)?;
+    set.add_law_args(laws).map_err(Box::new)?;
+    Ok(set)
+}
+
 /// Check every law set of a study against the rig and the loaded laws before anything runs:
 /// distinct names ([`check_unique_names`]), and every law of every set bound on `rig` (its law
 /// found in `registry`, its parameters checked against the law's declaration and by the law

@@ -50,6 +50,21 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
             line.chars().count()
         );
     }
+    // A page a person reads: at most 100 lines, and no number printed as a negative zero.
+    let lines = stdout.lines().count();
+    assert!(
+        lines <= 100,
+        "the main job printed {lines} lines:\n{stdout}"
+    );
+    for word in stdout.split(|c: char| c.is_whitespace() || c == '(' || c == ',') {
+        let digits = word.trim_end_matches(['%', 'x', ')', ';', ',']);
+        if let Some(rest) = digits.strip_prefix('-') {
+            assert!(
+                rest.is_empty() || !rest.chars().all(|c| c == '0' || c == '.'),
+                "negative zero `{word}` in:\n{stdout}"
+            );
+        }
+    }
     let results = dir.path().join("results");
     for f in [
         "comparison.csv",
@@ -97,6 +112,32 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
         .map(|d| d["torque_nm"].as_f64().unwrap_or(f64::NAN))
         .collect();
     assert_eq!(measured, TABLE_10_4);
+    // Two sets whose leave-one-out errors are within 1e-3 N m cannot be told apart by these
+    // data: they share a place and the text says they are indistinguishable.
+    let sets = json["sets"].as_array().expect("sets");
+    for (i, a) in sets.iter().enumerate() {
+        for b in &sets[i + 1..] {
+            let (Some(ea), Some(eb)) = (
+                a["scores"]["cv_rmse_nm"].as_f64(),
+                b["scores"]["cv_rmse_nm"].as_f64(),
+            ) else {
+                continue;
+            };
+            if (ea - eb).abs() <= 1e-3 {
+                let (na, nb) = (a["lawset"].as_str(), b["lawset"].as_str());
+                assert_eq!(a["rank"], b["rank"], "{na:?} and {nb:?} tied");
+                let tied_line = stdout.lines().find(|l| {
+                    l.contains("indistinguishable")
+                        && l.contains(na.unwrap_or("?"))
+                        && l.contains(nb.unwrap_or("?"))
+                });
+                assert!(
+                    tied_line.is_some(),
+                    "{na:?}, {nb:?} not called indistinguishable:\n{stdout}"
+                );
+            }
+        }
+    }
 }
 
 /// A regression test of the calibration, not a validation: table 10.5 equals table 10.4, the

@@ -316,6 +316,11 @@ struct CompareArgs {
     /// Print JSON instead of the table.
     #[arg(long)]
     json: bool,
+    /// Print the correlation's table component by component for every set and speed (else a
+    /// line per set; the whole table is in correlation.csv either way).
+    #[arg(long)]
+    #[serde(default)]
+    correlation: bool,
     /// Worker processes and their limits.
     #[command(flatten)]
     isolation: IsolationArgs,
@@ -1113,7 +1118,11 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&cmp)?)?;
     } else {
         write!(out_text, "{}", tribo::report::comparison_text(&cmp))?;
-        write!(out_text, "{}", tribo::beside::comparison_text(&cmp))?;
+        if a.correlation {
+            write!(out_text, "{}", tribo::beside::comparison_text(&cmp))?;
+        } else {
+            write!(out_text, "{}", tribo::beside::comparison_summary(&cmp))?;
+        }
         let mut files = vec![
             "comparison.csv".to_string(),
             "scores.csv".into(),

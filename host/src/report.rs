@@ -611,7 +611,31 @@ pub fn wrap(text: &str, width: usize, indent: &str) -> String {
 /// A number with `prec` decimals, or `-` where there is none.
 fn opt(x: Option<f64>, prec: usize) -> String {
     x.filter(|v| v.is_finite())
-        .map_or("-".to_string(), |v| format!("{v:.prec$}"))
+        .map_or("-".to_string(), |v| fixed(v, prec))
+}
+
+/// `x` with `prec` decimals, never `-0.0`: a value that rounds to zero prints as zero (a
+/// reader takes `-0.0` for a small negative number, which it need not be).
+pub fn fixed(x: f64, prec: usize) -> String {
+    unsigned_zero(format!("{x:.prec$}"))
+}
+
+/// `x` with `prec` decimals and its sign (`+1.000`, `-0.500`); a value that rounds to zero
+/// prints as `+0.000`, never `-0.000`.
+pub fn signed(x: f64, prec: usize) -> String {
+    let s = format!("{x:+.prec$}");
+    match s.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => format!("+{rest}"),
+        _ => s,
+    }
+}
+
+/// A formatted number with a minus sign before nothing but zeros loses the sign.
+fn unsigned_zero(s: String) -> String {
+    match s.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_string(),
+        _ => s,
+    }
 }
 
 /// The widest line any text report prints, in columns: tables are split into blocks of sets
@@ -712,6 +736,52 @@ impl Blocks<'_> {
 }
 
 /// A law set's name with its calibration status where it is not the plain case.
+/// A set's place in the ranking: `2`, or `2=` when tied with another.
+fn rank_label(s: &crate::study::SetResult) -> String {
+    if s.tie.is_some() {
+        format!("{}=", s.rank)
+    } else {
+        s.rank.to_string()
+    }
+}
+
+/// One line per group of tied sets (`ranked` in ranking order): which sets the data cannot
+/// tell apart, and why.
+fn ties_text(ranked: &[&crate::study::SetResult]) -> String {
+    let mut out = String::new();
+    let mut seen: Vec<&str> = Vec::new();
+    for s in ranked {
+        let Some(tie) = &s.tie else { continue };
+        if seen.contains(&s.lawset.as_str()) {
+            continue;
+        }
+        seen.push(&s.lawset);
+        seen.extend(tie.with.iter().map(String::as_str));
+        let mut names = vec![s.lawset.clone()];
+        names.extend(tie.with.iter().cloned());
+        let why = if tie.same_torques {
+            format!(
+                "the same torque within {} N m at every point",
+                crate::study::SAME_TORQUE_NM
+            )
+        } else {
+            "different torques, but scores within the noise".to_string()
+        };
+        out.push_str(&wrap(
+            &format!(
+                "  {}= {}: indistinguishable on these data: {why} (ranking errors {:.1e} N m apart, less than the data's noise of {} N m)",
+                s.rank,
+                names.join(", "),
+                tie.error_spread_nm,
+                fixed(tie.noise_nm, 3)
+            ),
+            MAX_COLUMNS,
+            "      ",
+        ));
+    }
+    out
+}
+
 fn set_title(s: &crate::study::SetResult) -> String {
     match s.calibration.status {
         crate::study::CalibrationStatus::NotFitted => format!("{} (not fitted)", s.lawset),
@@ -753,7 +823,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
                     })
                     .collect();
                 let error: Vec<String> = (0..n)
-                    .map(|i| format!("{:+.3}", s.errors_nm.get(i).copied().unwrap_or(f64::NAN)))
+                    .map(|i| signed(s.errors_nm.get(i).copied().unwrap_or(f64::NAN), 3))
                     .collect();
                 let band: Vec<String> = (0..n)
                     .map(|i| match (&s.band_lower_nm, &s.band_upper_nm) {
@@ -828,11 +898,11 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             let _ = writeln!(out, "{:>4}  {title}", s.rank);
             (String::new(), String::new())
         } else {
-            (s.rank.to_string(), title)
+            (rank_label(s), title)
         };
         let _ = writeln!(
             out,
-            "{:>4}  {:<name_w$} {:>6} {:>6} {:>8.3} {:>8} {:>11.3} {:>7} {:>7} {:>+8.1}%{}",
+            "{:>4}  {:<name_w$} {:>6} {:>6} {:>8.3} {:>8} {:>11.3} {:>7} {:>7} {:>8}%{}",
             rank,
             title,
             if s.scores.prior_fitted_params > 0 {
@@ -846,7 +916,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             s.max_abs_error_nm,
             opt(s.scores.aicc, 1),
             opt(s.scores.bic, 1),
-            s.temperature_response.max_rise_percent_per_10c,
+            signed(s.temperature_response.max_rise_percent_per_10c, 1),
             if s.temperature_response.max_rise_percent_per_10c
                 > crate::score::TEMPERATURE_RISE_FLAG_PERCENT
             {
@@ -858,8 +928,9 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     }
     let _ = writeln!(
         out,
-        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; params: free parameters, fitted\n   to these data before scoring unless marked not fitted, + numbers tuned to these data\n   elsewhere; AICc and BIC count those and the noise variance, lower is better; +10C max:\n   largest torque change per 10 C of oil warming, ! above 10%)"
+        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; params: free parameters, fitted\n   to these data before scoring unless marked not fitted, + numbers tuned to these data\n   elsewhere; AICc and BIC count those and the noise variance, lower is better; +10C max:\n   largest torque change per 10 C of oil warming, ! above 10%; 1=: tied, see below)"
     );
+    out.push_str(&ties_text(&ranked));
     for s in &ranked {
         if s.calibration.params.is_empty() {
             continue;
@@ -875,7 +946,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             .map(|p| {
                 let short = p.id.rsplit('.').next().unwrap_or(&p.id);
                 let state = match (&p.at_bound, p.std_dev) {
-                    (Some(side), _) => format!(" (on its {side} bound)"),
+                    (Some(side), _) => format!(" (on its {side} bound, held there)"),
                     (None, Some(sd)) => format!(" +- {sd:.2e}"),
                     (None, None) => String::new(),
                 };
@@ -894,7 +965,14 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             notes.push("its 95% band is wider than the spread of the measured torques: these data do not determine its prediction".into());
         }
         notes.extend(s.scores.notes.iter().cloned());
-        notes.extend(s.uncertainty.statements.iter().cloned());
+        // A parameter on its bound is already marked so in the fitted values above.
+        notes.extend(
+            s.uncertainty
+                .statements
+                .iter()
+                .filter(|n| !(n.contains("on their bound") || n.contains("is on its bound")))
+                .cloned(),
+        );
         for v in &s.validation {
             notes.push(format!(
                 "validation data {}: RMSE {:.3} N m, max |error| {:.3} N m over {} points",

@@ -1209,3 +1209,72 @@ fn compare_law_adds_one_set_on_its_base_and_leaves_the_bundled_sets_untouched() 
     assert!(!clash.status.success());
     assert!(text(&clash).1.contains("--name"), "{}", text(&clash).1);
 }
+
+#[test]
+fn mass_response_sweep_prints_a_speed_by_scale_table_of_percent_change_and_a_csv() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = tribo_in(
+        &[
+            "mass-response",
+            "--steady",
+            "--scales",
+            "0.6,0.8,1.0",
+            "--lawset",
+            "fedem-baseline",
+            "--out",
+            "m",
+        ],
+        dir.path(),
+    );
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stdout.lines().count() <= 20,
+        "a table, not a listing:\n{stdout}"
+    );
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("m/mass_response.json")).expect("json"),
+    )
+    .expect("parses");
+    let changes = json[0]["changes"].as_array().expect("changes");
+    // Each table row: rpm, the torque at scale 1, then the change in % per scale factor,
+    // which must be 100 (scaled - original) / original of the JSON's torques.
+    for rpm in [3000.0, 6000.0, 9000.0] {
+        let row = stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(&format!("{rpm:.0}")))
+            .unwrap_or_else(|| panic!("no row for {rpm} rpm:\n{stdout}"));
+        let cells: Vec<f64> = row
+            .split_whitespace()
+            .skip(2)
+            .map(|c| c.parse().expect("a number"))
+            .collect();
+        for (cell, scale) in cells.iter().zip([0.6, 0.8, 1.0]) {
+            let c = changes
+                .iter()
+                .find(|c| {
+                    c["speed_rpm"].as_f64() == Some(rpm) && c["scale"].as_f64() == Some(scale)
+                })
+                .expect("change");
+            let (o, s) = (
+                c["original_nm"].as_f64().expect("o"),
+                c["scaled_nm"].as_f64().expect("s"),
+            );
+            let percent = 100.0 * (s - o) / o;
+            assert!(
+                (cell - percent).abs() <= 0.006,
+                "{rpm} rpm x{scale}: {cell} vs {percent}"
+            );
+        }
+        // A lighter rod loads the joints less: the torque falls (the thesis's table 10.6).
+        assert!(cells[0] < cells[1] && cells[1] < 1e-9, "{row}");
+    }
+    let csv = std::fs::read_to_string(dir.path().join("m/mass_response.csv")).expect("csv");
+    assert!(csv
+        .starts_with("lawset,body,scale,speed_rpm,original_nm,scaled_nm,change_nm,change_percent"));
+    assert_eq!(
+        csv.lines().count(),
+        1 + 3 * changes.len() / 3,
+        "a row per scale and speed"
+    );
+}

@@ -403,6 +403,15 @@ pub fn write_mass_response(
         serde_json::to_string_pretty(r).map_err(io),
     )?;
     out.write("mass_response.json", json.as_bytes())?;
+    for (name, text) in [
+        ("mass_response.csv", crate::report::mass_csv(r)),
+        (
+            "mass_response_joints.csv",
+            crate::report::mass_joints_csv(r),
+        ),
+    ] {
+        out.write(name, rendered(name, text)?.as_bytes())?;
+    }
     if sweep_plot {
         let name = "mass_sweep.svg";
         out.write(name, rendered(name, mass_sweep_svg(r))?.as_bytes())?;

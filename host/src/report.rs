@@ -1345,6 +1345,18 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
 /// The mass-response tables. The FEDEM thesis's change (table 10.6 minus 10.5) is a column
 /// only beside the thesis's own law set, labelled as the thesis's; other law sets have none.
 pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
+    let scales = |set: &crate::study::MassResponse| {
+        let mut v: Vec<f64> = Vec::new();
+        for c in &set.changes {
+            if !v.contains(&c.scale) {
+                v.push(c.scale);
+            }
+        }
+        v
+    };
+    if r.iter().any(|set| scales(set).len() > 1) {
+        return mass_sweep_text(r);
+    }
     let mut out = String::new();
     for set in r {
         let thesis = set.changes.iter().any(|c| c.fedem_change_nm.is_some());
@@ -1383,8 +1395,11 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
             for j in &c.joints {
                 let _ = writeln!(
                     out,
-                    "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N",
-                    j.joint, j.law, j.change_nm, j.normal_load_change_n
+                    "        {:<10} {:<16} change {:>9} N m   mean normal load change {:>9} N",
+                    j.joint,
+                    j.law,
+                    signed(j.change_nm, 5),
+                    signed(j.normal_load_change_n, 2)
                 );
             }
         }
@@ -1399,6 +1414,143 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
         out.push('\n');
     }
     fit_width(&out)
+}
+
+/// A sweep of scale factors: per law set one table of the motoring torque's change in percent,
+/// speeds as rows and scale factors as columns; the per-joint changes are in the CSV and JSON.
+fn mass_sweep_text(r: &[crate::study::MassResponse]) -> String {
+    let mut out = String::new();
+    for set in r {
+        let mut scales: Vec<f64> = Vec::new();
+        let mut speeds: Vec<f64> = Vec::new();
+        for c in &set.changes {
+            if !scales.contains(&c.scale) {
+                scales.push(c.scale);
+            }
+            if !speeds.contains(&c.speed_rpm) {
+                speeds.push(c.speed_rpm);
+            }
+        }
+        let body = match set.body {
+            crate::study::ScaledBody::Rod => "rod mass and inertia",
+            crate::study::ScaledBody::Piston => "piston assembly mass",
+            crate::study::ScaledBody::Crank => "crankshaft mass and inertia",
+        };
+        out.push_str(&wrap(
+            &format!(
+                "law set {}: {body} scaled; change of the motoring torque from scale 1, % (columns: scale factor)",
+                set.lawset
+            ),
+            MAX_COLUMNS,
+            "  ",
+        ));
+        let _ = write!(out, "{:>7} {:>9}", "rpm", "at 1, N m");
+        for sc in &scales {
+            let _ = write!(out, " {:>7}", format!("x{sc}"));
+        }
+        out.push('\n');
+        for rpm in &speeds {
+            let at = |sc: f64| {
+                set.changes
+                    .iter()
+                    .find(|c| c.speed_rpm == *rpm && c.scale == sc)
+            };
+            let original = scales
+                .iter()
+                .find_map(|sc| at(*sc))
+                .map_or(f64::NAN, |c| c.original_nm);
+            let _ = write!(out, "{rpm:>7.0} {:>9}", fixed(original, 4));
+            for sc in &scales {
+                let cell = at(*sc).map_or("-".to_string(), |c| {
+                    signed(100.0 * c.change_nm / c.original_nm, 2)
+                });
+                let _ = write!(out, " {cell:>7}");
+            }
+            out.push('\n');
+        }
+        out.push('\n');
+    }
+    out.push_str(&wrap(
+        "per speed, scale and joint (the change of each law's friction torque and of the joint's mean normal load): mass_response.csv, mass_response_joints.csv, mass_response.json",
+        MAX_COLUMNS,
+        "  ",
+    ));
+    fit_width(&out)
+}
+
+/// `mass_response.csv`: one row per law set, scale factor and speed, the motoring torque at
+/// scale 1 and scaled, its change in N m and %, and the thesis's FEDEM change where it has one.
+pub fn mass_csv(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
+    let rows = r
+        .iter()
+        .flat_map(|set| {
+            set.changes.iter().map(move |c| {
+                vec![
+                    set.lawset.clone(),
+                    format!("{:?}", set.body).to_lowercase(),
+                    c.scale.to_string(),
+                    c.speed_rpm.to_string(),
+                    c.original_nm.to_string(),
+                    c.scaled_nm.to_string(),
+                    c.change_nm.to_string(),
+                    (100.0 * c.change_nm / c.original_nm).to_string(),
+                    c.fedem_change_nm.map_or(String::new(), |f| f.to_string()),
+                ]
+            })
+        })
+        .collect();
+    csv_text(
+        &[
+            "lawset",
+            "body",
+            "scale",
+            "speed_rpm",
+            "original_nm",
+            "scaled_nm",
+            "change_nm",
+            "change_percent",
+            "fedem_thesis_change_nm",
+        ],
+        rows,
+    )
+}
+
+/// `mass_response_joints.csv`: one row per law set, scale factor, speed, joint and law.
+pub fn mass_joints_csv(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
+    let rows = r
+        .iter()
+        .flat_map(|set| {
+            set.changes.iter().flat_map(move |c| {
+                c.joints.iter().map(move |j| {
+                    vec![
+                        set.lawset.clone(),
+                        c.scale.to_string(),
+                        c.speed_rpm.to_string(),
+                        j.joint.clone(),
+                        j.law.clone(),
+                        j.original_nm.to_string(),
+                        j.scaled_nm.to_string(),
+                        j.change_nm.to_string(),
+                        j.normal_load_change_n.to_string(),
+                    ]
+                })
+            })
+        })
+        .collect();
+    csv_text(
+        &[
+            "lawset",
+            "scale",
+            "speed_rpm",
+            "joint",
+            "law",
+            "original_nm",
+            "scaled_nm",
+            "change_nm",
+            "normal_load_change_n",
+        ],
+        rows,
+    )
 }
 
 /// The sweep's tables for people: the oil and its viscosity at each temperature, then per law

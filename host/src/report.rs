@@ -25,8 +25,11 @@ pub fn to_text(r: &RunResult) -> String {
     for p in &r.plateaus {
         let _ = writeln!(
             out,
-            "{:>10.0} {:>12.2} {:>14.5} {:>8.1}",
-            p.set_speed_rpm, p.mean_speed_rpm, p.motoring_torque_nm, p.oil_temp_c
+            "{:>10.0} {:>12.2} {:>14} {:>8.1}",
+            p.set_speed_rpm,
+            p.mean_speed_rpm,
+            fixed(p.motoring_torque_nm, 5),
+            p.oil_temp_c
         );
     }
     out.push_str(&crankcase_text(r));
@@ -71,14 +74,14 @@ pub fn to_text(r: &RunResult) -> String {
     if e.gas_work_j != 0.0 {
         let _ = writeln!(
             out,
-            "\nenergy: motor work {:.4} J = energy change {:.4} J + dissipated {:.4} J + gas work {:.4} J + residual {:.3e} J (relative {:.2e})",
-            e.motor_work_j, e.mechanical_energy_change_j, e.dissipated_j, e.gas_work_j, e.residual_j, e.relative_residual
+            "\nenergy: motor work {} J = energy change {} J + dissipated {} J + gas work {} J + residual {:.3e} J (relative {:.2e})",
+            fixed(e.motor_work_j, 4), fixed(e.mechanical_energy_change_j, 4), fixed(e.dissipated_j, 4), fixed(e.gas_work_j, 4), e.residual_j, e.relative_residual
         );
     } else {
         let _ = writeln!(
             out,
-            "\nenergy: motor work {:.4} J = energy change {:.4} J + dissipated {:.4} J + residual {:.3e} J (relative {:.2e})",
-            e.motor_work_j, e.mechanical_energy_change_j, e.dissipated_j, e.residual_j, e.relative_residual
+            "\nenergy: motor work {} J = energy change {} J + dissipated {} J + residual {:.3e} J (relative {:.2e})",
+            fixed(e.motor_work_j, 4), fixed(e.mechanical_energy_change_j, 4), fixed(e.dissipated_j, 4), e.residual_j, e.relative_residual
         );
     }
     if !r.law_time.is_empty() {

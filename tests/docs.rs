@@ -37,15 +37,13 @@ fn documents() -> Vec<PathBuf> {
         ws.join("docs/writing-a-law.md"),
         ws.join("docs/fmu.md"),
     ];
-    for dir in ["docs/laws"] {
-        let mut found: Vec<PathBuf> = std::fs::read_dir(ws.join(dir))
-            .expect("docs dir")
-            .map(|e| e.expect("entry").path())
-            .filter(|p| p.extension().is_some_and(|e| e == "md"))
-            .collect();
-        found.sort();
-        docs.extend(found);
-    }
+    let mut found: Vec<PathBuf> = std::fs::read_dir(ws.join("docs/laws"))
+        .expect("docs/laws")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .collect();
+    found.sort();
+    docs.extend(found);
     docs
 }
 

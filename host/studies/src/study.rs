@@ -1179,7 +1179,11 @@ pub fn rank_sets(sets: &mut [SetResult], no_cv: bool, noise_nm: f64) {
         let mut end = start + 1;
         while end < order.len() {
             let k = key(&sets[order[end]]);
-            if k.0 != lead.0 || !(k.1 - lead.1 <= noise_nm) {
+            // A NaN error ties with nothing.
+            let within = (k.1 - lead.1)
+                .partial_cmp(&noise_nm)
+                .is_some_and(|o| o.is_le());
+            if k.0 != lead.0 || !within {
                 break;
             }
             end += 1;

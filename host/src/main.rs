@@ -219,7 +219,7 @@ struct RunArgs {
     /// main bearing's load).
     #[arg(long = "crank-angle", value_name = "DIR")]
     crank_angle: Option<PathBuf>,
-    /// Also write the FMEP breakdown (fmep.csv, stacked bars fmep.svg) into this directory.
+    /// Also write the FMEP breakdown (fmep.csv; fmep.svg, one line per component and the total) into this directory.
     #[arg(long, value_name = "DIR")]
     fmep: Option<PathBuf>,
     /// Angular resolution of --crank-angle, degrees, from 0.01 to 10 (at most 72 000 samples

@@ -78,6 +78,23 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
     ] {
         assert!(results.join(f).is_file(), "{f} not written");
     }
+    // Read back: no tick or label of any plot reads as a negative zero.
+    for entry in std::fs::read_dir(&results).expect("results") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_some_and(|e| e == "svg") {
+            let svg = std::fs::read_to_string(&path).expect("svg");
+            for text in svg.split('>').filter_map(|t| t.split('<').next()) {
+                let t = text.trim();
+                assert!(
+                    !(t.starts_with('-')
+                        && t.len() > 1
+                        && t[1..].chars().all(|c| c == '0' || c == '.')),
+                    "{}: `{t}`",
+                    path.display()
+                );
+            }
+        }
+    }
     let svg = std::fs::read_to_string(results.join("torque_vs_speed.svg")).expect("svg");
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
     for label in [

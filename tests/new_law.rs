@@ -103,6 +103,23 @@ fn new_law_builds_is_listed_and_evaluates_its_formula() {
     assert!(!again.status.success());
     assert!(text(&again).1.contains("already exists"));
 
+    // The README's test command stays green with the new crate in the workspace: formatted
+    // as generated, and clippy-clean with warnings denied.
+    cargo(&ws, &target, &["fmt", "--all", "--check"]);
+    cargo(
+        &ws,
+        &target,
+        &[
+            "clippy",
+            "-p",
+            "tribo-law-my-law",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ],
+    );
+
     // The generated unit tests of the law's math pass as generated.
     let test_log = cargo(&ws, &target, &["test", "-p", "tribo-law-my-law"]);
     assert!(test_log.contains("4 passed"), "{test_log}");
@@ -581,4 +598,36 @@ fn an_unknown_language_is_refused_with_the_choices() {
     let stderr = text(&out).1;
     assert!(stderr.contains("rust, c, cpp or fortran"), "{stderr}");
     assert!(!tmp.path().join("py-law").exists());
+}
+
+/// `cargo fmt --check` accepts the generated Rust law whatever the length of its name (the
+/// names end up in lines rustfmt would otherwise rewrap).
+#[test]
+fn generated_rust_law_is_formatted_for_short_and_long_names() {
+    let tmp = tempfile::tempdir().expect("temp dir");
+    let rustfmt = std::path::PathBuf::from(env!("CARGO")).with_file_name("rustfmt");
+    for name in [
+        "a",
+        "probe-law",
+        "abcdefghij-abcdefghij-abcdefghij-abcdefghij-abcd",
+    ] {
+        let out = Command::new(tribo_exe())
+            .args(["new-law", name, "--dir"])
+            .arg(tmp.path())
+            .current_dir(workspace())
+            .output()
+            .expect("tribo runs");
+        assert!(out.status.success(), "{}", text(&out).1);
+        let lib = tmp.path().join(name).join("src/lib.rs");
+        let check = Command::new(&rustfmt)
+            .args(["--edition", "2021", "--check"])
+            .arg(&lib)
+            .output()
+            .expect("rustfmt runs");
+        assert!(
+            check.status.success(),
+            "{name}: rustfmt --check:\n{}",
+            text(&check).0
+        );
+    }
 }

@@ -50,6 +50,21 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
             line.chars().count()
         );
     }
+    // A page a person reads: at most 100 lines, and no number printed as a negative zero.
+    let lines = stdout.lines().count();
+    assert!(
+        lines <= 100,
+        "the main job printed {lines} lines:\n{stdout}"
+    );
+    for word in stdout.split(|c: char| c.is_whitespace() || c == '(' || c == ',') {
+        let digits = word.trim_end_matches(['%', 'x', ')', ';', ',']);
+        if let Some(rest) = digits.strip_prefix('-') {
+            assert!(
+                rest.is_empty() || !rest.chars().all(|c| c == '0' || c == '.'),
+                "negative zero `{word}` in:\n{stdout}"
+            );
+        }
+    }
     let results = dir.path().join("results");
     for f in [
         "comparison.csv",
@@ -62,6 +77,23 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
         "piston_regimes.svg",
     ] {
         assert!(results.join(f).is_file(), "{f} not written");
+    }
+    // Read back: no tick or label of any plot reads as a negative zero.
+    for entry in std::fs::read_dir(&results).expect("results") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_some_and(|e| e == "svg") {
+            let svg = std::fs::read_to_string(&path).expect("svg");
+            for text in svg.split('>').filter_map(|t| t.split('<').next()) {
+                let t = text.trim();
+                assert!(
+                    !(t.starts_with('-')
+                        && t.len() > 1
+                        && t[1..].chars().all(|c| c == '0' || c == '.')),
+                    "{}: `{t}`",
+                    path.display()
+                );
+            }
+        }
     }
     let svg = std::fs::read_to_string(results.join("torque_vs_speed.svg")).expect("svg");
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
@@ -97,6 +129,32 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
         .map(|d| d["torque_nm"].as_f64().unwrap_or(f64::NAN))
         .collect();
     assert_eq!(measured, TABLE_10_4);
+    // Two sets whose leave-one-out errors are within 1e-3 N m cannot be told apart by these
+    // data: they share a place and the text says they are indistinguishable.
+    let sets = json["sets"].as_array().expect("sets");
+    for (i, a) in sets.iter().enumerate() {
+        for b in &sets[i + 1..] {
+            let (Some(ea), Some(eb)) = (
+                a["scores"]["cv_rmse_nm"].as_f64(),
+                b["scores"]["cv_rmse_nm"].as_f64(),
+            ) else {
+                continue;
+            };
+            if (ea - eb).abs() <= 1e-3 {
+                let (na, nb) = (a["lawset"].as_str(), b["lawset"].as_str());
+                assert_eq!(a["rank"], b["rank"], "{na:?} and {nb:?} tied");
+                let tied_line = stdout.lines().find(|l| {
+                    l.contains("indistinguishable")
+                        && l.contains(na.unwrap_or("?"))
+                        && l.contains(nb.unwrap_or("?"))
+                });
+                assert!(
+                    tied_line.is_some(),
+                    "{na:?}, {nb:?} not called indistinguishable:\n{stdout}"
+                );
+            }
+        }
+    }
 }
 
 /// A regression test of the calibration, not a validation: table 10.5 equals table 10.4, the
@@ -1070,4 +1128,170 @@ fn reports_fit_100_columns_and_say_their_units_files_and_defaults() {
         assert!(svg.contains(joint), "{joint} missing from the FMEP plot");
     }
     assert!(colours.len() >= 5, "{colours:?}");
+}
+
+/// Plateau motoring torques of every set of a comparison's JSON, by set name.
+fn set_torques(cmp: &serde_json::Value) -> Vec<(String, Vec<f64>)> {
+    cmp["sets"]
+        .as_array()
+        .expect("sets")
+        .iter()
+        .map(|s| {
+            let torques = s["run"]["plateaus"]
+                .as_array()
+                .expect("plateaus")
+                .iter()
+                .map(|p| p["motoring_torque_nm"].as_f64().expect("torque"))
+                .collect();
+            (s["lawset"].as_str().expect("name").to_string(), torques)
+        })
+        .collect()
+}
+
+#[test]
+fn compare_law_adds_one_set_on_its_base_and_leaves_the_bundled_sets_untouched() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec!["compare", "--steady", "--no-cv", "--out", out, "--json"];
+        args.extend_from_slice(extra);
+        set_torques(&json_in(&args, dir.path()))
+    };
+    let without = run(&[], "without");
+    let with = run(&["--law", "piston=coulomb"], "with");
+    assert_eq!(with.len(), without.len() + 1, "one more set");
+    for ((name, before), (name_with, after)) in without.iter().zip(&with) {
+        assert_eq!(name, name_with);
+        for (b, a) in before.iter().zip(after) {
+            assert!((a - b).abs() <= 1e-9, "{name}: {b} became {a} with --law");
+        }
+    }
+    // The new set is the first set (fedem-baseline) with Coulomb on the piston instead of its
+    // own piston law: the same set written out by hand gives the same torques.
+    let baseline = std::fs::read_to_string(workspace().join("rigs/lawsets/fedem-baseline.toml"))
+        .expect("read");
+    let piston = baseline.rfind("[[laws]]").expect("a last law entry");
+    assert!(
+        baseline[piston..].contains("joint = \"piston\""),
+        "the last entry is the piston's"
+    );
+    let by_hand = format!(
+        "{}[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\n",
+        baseline[..piston]
+            .replace("name = \"fedem-baseline\"", "name = \"by-hand\"")
+            .lines()
+            .filter(|l| !l.starts_with("prior_fit"))
+            .collect::<Vec<_>>()
+            .join("\n")
+            + "\n"
+    );
+    std::fs::write(dir.path().join("by-hand.toml"), by_hand).expect("write");
+    let hand = run(&["--lawset", "by-hand.toml"], "hand");
+    let (name, added) = with.last().expect("the new set");
+    assert_eq!(name, "coulomb", "named after the law");
+    for (h, a) in hand[0].1.iter().zip(added) {
+        assert!((h - a).abs() <= 1e-9, "by hand {h}, --law {a}");
+    }
+    // And it is a different model from its base: the piston's law changed.
+    assert!(added
+        .iter()
+        .zip(&without[0].1)
+        .any(|(a, b)| (a - b).abs() > 1e-3));
+    // --base and --name choose the base and the name.
+    let named = run(
+        &[
+            "--law",
+            "piston=coulomb",
+            "--base",
+            "stribeck-duty",
+            "--name",
+            "sd-coulomb",
+        ],
+        "named",
+    );
+    assert_eq!(named.last().expect("set").0, "sd-coulomb");
+    assert_eq!(named.len(), without.len() + 1);
+    // A name taken by another set is refused, saying how to rename.
+    let clash = tribo_in(
+        &[
+            "compare",
+            "--steady",
+            "--no-cv",
+            "--law",
+            "piston=coulomb",
+            "--name",
+            "mixed-film",
+        ],
+        dir.path(),
+    );
+    assert!(!clash.status.success());
+    assert!(text(&clash).1.contains("--name"), "{}", text(&clash).1);
+}
+
+#[test]
+fn mass_response_sweep_prints_a_speed_by_scale_table_of_percent_change_and_a_csv() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = tribo_in(
+        &[
+            "mass-response",
+            "--steady",
+            "--scales",
+            "0.6,0.8,1.0",
+            "--lawset",
+            "fedem-baseline",
+            "--out",
+            "m",
+        ],
+        dir.path(),
+    );
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stdout.lines().count() <= 20,
+        "a table, not a listing:\n{stdout}"
+    );
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("m/mass_response.json")).expect("json"),
+    )
+    .expect("parses");
+    let changes = json[0]["changes"].as_array().expect("changes");
+    // Each table row: rpm, the torque at scale 1, then the change in % per scale factor,
+    // which must be 100 (scaled - original) / original of the JSON's torques.
+    for rpm in [3000.0, 6000.0, 9000.0] {
+        let row = stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(&format!("{rpm:.0}")))
+            .unwrap_or_else(|| panic!("no row for {rpm} rpm:\n{stdout}"));
+        let cells: Vec<f64> = row
+            .split_whitespace()
+            .skip(2)
+            .map(|c| c.parse().expect("a number"))
+            .collect();
+        for (cell, scale) in cells.iter().zip([0.6, 0.8, 1.0]) {
+            let c = changes
+                .iter()
+                .find(|c| {
+                    c["speed_rpm"].as_f64() == Some(rpm) && c["scale"].as_f64() == Some(scale)
+                })
+                .expect("change");
+            let (o, s) = (
+                c["original_nm"].as_f64().expect("o"),
+                c["scaled_nm"].as_f64().expect("s"),
+            );
+            let percent = 100.0 * (s - o) / o;
+            assert!(
+                (cell - percent).abs() <= 0.006,
+                "{rpm} rpm x{scale}: {cell} vs {percent}"
+            );
+        }
+        // A lighter rod loads the joints less: the torque falls (the thesis's table 10.6).
+        assert!(cells[0] < cells[1] && cells[1] < 1e-9, "{row}");
+    }
+    let csv = std::fs::read_to_string(dir.path().join("m/mass_response.csv")).expect("csv");
+    assert!(csv
+        .starts_with("lawset,body,scale,speed_rpm,original_nm,scaled_nm,change_nm,change_percent"));
+    assert_eq!(
+        csv.lines().count(),
+        1 + 3 * changes.len() / 3,
+        "a row per scale and speed"
+    );
 }

@@ -321,6 +321,92 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     out
 }
 
+/// `compare` without `--correlation`: the correlation in a few lines, one per law set: the
+/// range of Tribo's total over the correlation's, and at the speed where Tribo falls furthest
+/// below it, the component that carries most of the missing friction (one the rig does not
+/// model counts in full). The whole table is in `correlation.csv` and under `--correlation`.
+pub fn comparison_summary(c: &crate::study::Comparison) -> String {
+    let mut out = String::new();
+    let Some(first) = c
+        .sets
+        .iter()
+        .flat_map(|s| s.run.plateaus.iter())
+        .find_map(|p| p.correlation.as_ref())
+    else {
+        return out;
+    };
+    let basis = c.sets[0].run.fmep.basis.formula();
+    let _ = writeln!(out, "{}", heading(basis, first));
+    for s in &c.sets {
+        let rows: Vec<(f64, Vec<Beside>)> = s
+            .run
+            .plateaus
+            .iter()
+            .filter_map(|p| Some((p.set_speed_rpm, plateau_rows(p, &s.run.fmep)?)))
+            .collect();
+        let totals: Vec<(f64, f64, f64)> = rows
+            .iter()
+            .filter_map(|(rpm, r)| {
+                let t = r.iter().find(|b| b.component == "total")?;
+                Some((*rpm, t.tribo_kpa?, t.correlation_kpa?))
+            })
+            .collect();
+        let ratios: Vec<f64> = totals
+            .iter()
+            .filter(|t| t.2 > 0.0)
+            .map(|t| t.1 / t.2)
+            .collect();
+        if ratios.is_empty() {
+            continue;
+        }
+        let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mut line = format!("  {}: total {lo:.2}-{hi:.2}x the correlation's", s.lawset);
+        let worst = totals
+            .iter()
+            .zip(&rows)
+            .filter(|(t, _)| t.2 > t.1)
+            .max_by(|a, b| (a.0 .2 - a.0 .1).total_cmp(&(b.0 .2 - b.0 .1)));
+        match worst {
+            Some(((rpm, tribo, corr), (_, parts))) => {
+                let short = parts
+                    .iter()
+                    .filter(|b| {
+                        !matches!(b.component.as_str(), "total" | "reciprocating")
+                            && !b.component.contains("ring")
+                            && !b.component.contains("skirt")
+                    })
+                    .filter_map(|b| {
+                        let corr = b.correlation_kpa?;
+                        Some((b, corr - b.tribo_kpa.unwrap_or(0.0)))
+                    })
+                    .max_by(|a, b| a.1.total_cmp(&b.1));
+                let _ = write!(line, "; at {rpm:.0} rpm {:.1} kPa below it", corr - tribo);
+                if let Some((b, gap)) = short.filter(|x| x.1 > 0.0) {
+                    let _ = write!(
+                        line,
+                        ", most of that in {} ({gap:.1} kPa{})",
+                        b.component,
+                        if b.tribo_kpa.is_none() {
+                            ", not modelled"
+                        } else {
+                            ""
+                        }
+                    );
+                }
+            }
+            None => line.push_str(", never below it"),
+        }
+        out.push_str(&crate::report::wrap(
+            &line,
+            crate::report::MAX_COLUMNS,
+            "      ",
+        ));
+    }
+    out.push_str("  (every component and speed: correlation.csv, or --correlation)\n");
+    out
+}
+
 /// `correlation.csv` of `compare --out`: law set, plateau, component.
 pub fn comparison_csv(c: &crate::study::Comparison) -> std::io::Result<String> {
     let mut rows = Vec::new();

@@ -222,7 +222,7 @@ struct RunArgs {
     /// main bearing's load).
     #[arg(long = "crank-angle", value_name = "DIR")]
     crank_angle: Option<PathBuf>,
-    /// Also write the FMEP breakdown (fmep.csv, stacked bars fmep.svg) into this directory.
+    /// Also write the FMEP breakdown (fmep.csv; fmep.svg, one line per component and the total) into this directory.
     #[arg(long, value_name = "DIR")]
     fmep: Option<PathBuf>,
     /// Angular resolution of --crank-angle, degrees, from 0.01 to 10 (at most 72 000 samples
@@ -266,9 +266,22 @@ struct CompareArgs {
     /// stribeck-duty and mixed-film).
     #[arg(long = "lawset")]
     lawsets: Vec<String>,
-    /// Attach a law to every law set: JOINT=LAW[:PARAMS.toml] (added to the set's laws there).
+    /// Compare one more law set: the --base set with LAW on JOINT in place of the base's laws
+    /// there (JOINT=LAW[:PARAMS.toml]; repeat for several joints). The other sets are untouched.
     #[arg(long = "law", value_name = "JOINT=LAW[:PARAMS_TOML_FILE]")]
     laws: Vec<String>,
+    /// The law set --law builds on (bundled name or file; default: the first set compared).
+    #[arg(long, value_name = "LAWSET", requires = "laws")]
+    #[serde(default)]
+    base: Option<String>,
+    /// Name of the set --law adds (default: the law's name; several laws joined by `_`).
+    #[arg(long, value_name = "NAME", requires = "laws")]
+    #[serde(default)]
+    name: Option<String>,
+    /// In a worker: compare only the set --law adds (the others run in their own workers).
+    #[arg(skip)]
+    #[serde(default)]
+    only_added: bool,
     /// Measured data, CSV speed_rpm,torque_nm,oil_temp_c (default: the bundled measurements of
     /// the rig, the thesis's table 10.4 on crf250r-motored; a rig without any needs --data).
     #[arg(long)]
@@ -311,6 +324,11 @@ struct CompareArgs {
     /// Print JSON instead of the table.
     #[arg(long)]
     json: bool,
+    /// Print the correlation's table component by component for every set and speed (else a
+    /// line per set; the whole table is in correlation.csv either way).
+    #[arg(long)]
+    #[serde(default)]
+    correlation: bool,
     /// Worker processes and their limits.
     #[command(flatten)]
     isolation: IsolationArgs,
@@ -998,6 +1016,27 @@ struct SetSource {
     lawset: String,
     /// `--law` attachments added to it.
     laws: Vec<String>,
+    /// `compare --law`: the new set's name; `lawset` is its base and `laws` replace the
+    /// base's laws on their joints.
+    #[serde(default)]
+    added_as: Option<String>,
+}
+
+impl SetSource {
+    /// The law set this source names, with its `--law`s added (or, for `compare --law`'s new
+    /// set, in place of the base's laws there).
+    fn load(&self) -> anyhow::Result<tribo::lawset::LawSet> {
+        let mut set = tribo::lawset::LawSet::load(&self.lawset)?;
+        if self.added_as.is_some() {
+            return Ok(tribo::study::set_with_laws(
+                &set,
+                &self.laws,
+                self.added_as.as_deref(),
+            )?);
+        }
+        set.add_law_args(&self.laws)?;
+        Ok(set)
+    }
 }
 
 /// Check every law set against the plugins before any run: each law exists, its parameters
@@ -1006,11 +1045,12 @@ struct SetSource {
 /// set later, not the whole study.
 fn check_sources(sources: &[SetSource], registry: &LawRegistry) -> anyhow::Result<()> {
     for s in sources {
-        let (rig, mut sets_loaded) = study_inputs(s.rig.clone(), &s.sets, vec![s.lawset.clone()])?;
-        for ls in &mut sets_loaded {
-            ls.add_law_args(&s.laws)?;
-        }
-        tribo::study::check_lawsets_described(&rig, &sets_loaded, registry)?;
+        let rig_path = s
+            .rig
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
+        let rig = tribo::rig::load_rig(&rig_path, &s.sets)?;
+        tribo::study::check_lawsets_described(&rig, &[s.load()?], registry)?;
     }
     Ok(())
 }
@@ -1115,10 +1155,7 @@ fn compare_study(
     a: &CompareArgs,
     registry: &LawRegistry,
 ) -> anyhow::Result<tribo::study::Comparison> {
-    let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &a.sets, a.lawsets.clone())?;
-    for ls in &mut sets_loaded {
-        ls.add_law_args(&a.laws)?;
-    }
+    let (rig, sets_loaded) = compare_inputs(a)?;
     let data = tribo::study::DataRun::read(&data_arg(a.data.as_deref(), &rig)?)?;
     let options = tribo::study::CompareOptions {
         steady: a.steady,
@@ -1143,12 +1180,8 @@ fn compare_study(
 fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     let mut out_text = String::new();
     // Every input is read and checked before anything runs.
-    let specs = lawset_specs(&a.lawsets);
-    let (rig, mut sets_loaded) = study_inputs(a.rig.clone(), &a.sets, specs.clone())?;
-    for ls in &mut sets_loaded {
-        ls.add_law_args(&a.laws)?;
-    }
-    tribo::study::check_unique_names(&sets_loaded)?;
+    let (rig, sets_loaded) = compare_inputs(&a)?;
+    let sources = a.sources();
     let data = tribo::study::DataRun::read(&data_arg(a.data.as_deref(), &rig)?)?;
     let validate = read_data_runs(&a.validate)?;
     // Once, here, before any worker: data measured on another rig, or whose cycle the rig
@@ -1159,24 +1192,27 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     }
     tribo::output::check_result_dir(&a.out, "--out")?;
     let progress = Progress::start("comparing law sets", None, g.quiet);
-    let sources: Vec<SetSource> = specs.iter().map(|l| a.source(l)).collect();
     let cmp = if a.isolation.in_process {
         guard::watch(a.isolation.limits()?);
         let registry = g.registry()?;
         check_sources(&sources, &registry)?;
         compare_study(&a, &registry)?
     } else {
-        let jobs = specs
+        let jobs = sources
             .iter()
-            .map(|l| {
+            .map(|s| {
                 WorkerJob::Compare(CompareArgs {
-                    lawsets: vec![l.clone()],
+                    lawsets: vec![s.lawset.clone()],
+                    laws: s.laws.clone(),
+                    base: s.added_as.is_some().then(|| s.lawset.clone()),
+                    name: s.added_as.clone(),
+                    only_added: s.added_as.is_some(),
                     ..a.clone()
                 })
             })
             .collect();
         let labels: Vec<String> = sets_loaded.iter().map(|l| set_label(l.name())).collect();
-        let results = g.run_isolated(sources, jobs, &labels, a.isolation.limits()?)?;
+        let results = g.run_isolated(sources.clone(), jobs, &labels, a.isolation.limits()?)?;
         merge_comparisons(&sets_loaded, results, a.no_cv)?
     };
     drop(progress);
@@ -1187,7 +1223,11 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&cmp)?)?;
     } else {
         write!(out_text, "{}", tribo::report::comparison_text(&cmp))?;
-        write!(out_text, "{}", tribo::beside::comparison_text(&cmp))?;
+        if a.correlation {
+            write!(out_text, "{}", tribo::beside::comparison_text(&cmp))?;
+        } else {
+            write!(out_text, "{}", tribo::beside::comparison_summary(&cmp))?;
+        }
         let mut files = vec![
             "comparison.csv".to_string(),
             "scores.csv".into(),
@@ -1203,19 +1243,73 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
         write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
-    failures_error(&cmp.failed, specs.len(), Some(out))
+    failures_error(&cmp.failed, sources.len(), Some(out))
 }
 
 impl CompareArgs {
-    /// Where law set `lawset` of this comparison comes from.
-    fn source(&self, lawset: &str) -> SetSource {
-        SetSource {
+    /// Where each law set of this comparison comes from: the sets named (or the bundled
+    /// defaults) as they are, then, with `--law`, the new set built on `--base` (default: the
+    /// first set). A worker given `only_added` runs the new set alone.
+    fn sources(&self) -> Vec<SetSource> {
+        let specs = lawset_specs(&self.lawsets);
+        let source = |lawset: &str, laws: Vec<String>, added_as: Option<String>| SetSource {
             rig: self.rig.clone(),
             sets: self.sets.clone(),
             lawset: lawset.to_string(),
-            laws: self.laws.clone(),
+            laws,
+            added_as,
+        };
+        let mut out: Vec<SetSource> = if self.only_added {
+            Vec::new()
+        } else {
+            specs.iter().map(|l| source(l, Vec::new(), None)).collect()
+        };
+        if !self.laws.is_empty() {
+            let base = self.base.clone().unwrap_or_else(|| specs[0].clone());
+            // The default name is the laws' names; `set_with_laws` derives it when `None`.
+            let name = self.name.clone().unwrap_or_else(|| added_name(&self.laws));
+            out.push(source(&base, self.laws.clone(), Some(name)));
+        }
+        out
+    }
+}
+
+/// The default name of `compare --law`'s new set: the laws' names joined by `_` (the
+/// arguments' syntax is checked when the set is built).
+fn added_name(laws: &[String]) -> String {
+    laws.iter()
+        .filter_map(|a| a.split_once('=').map(|(_, l)| l))
+        .map(|l| l.split_once(':').map_or(l, |(law, _)| law))
+        .collect::<Vec<_>>()
+        .join("_")
+}
+
+/// The rig and the law sets of a comparison ([`CompareArgs::sources`]), their names checked
+/// distinct.
+fn compare_inputs(
+    a: &CompareArgs,
+) -> anyhow::Result<(tribo::rig::Rig, Vec<tribo::lawset::LawSet>)> {
+    let rig_path = a
+        .rig
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(tribo::bundled::DEFAULT_RIG));
+    let rig = tribo::rig::load_rig(&rig_path, &a.sets)?;
+    let sets = a
+        .sources()
+        .iter()
+        .map(SetSource::load)
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    if let (false, Some((added, others))) = (a.laws.is_empty(), sets.split_last()) {
+        if let Some(same) = others.iter().find(|s| s.name() == added.name()) {
+            anyhow::bail!(
+                "--law: the new law set would be named `{}`, like the law set {}; give it another name with --name",
+                added.name(),
+                same.path.display()
+            );
         }
     }
+    tribo::study::check_unique_names(&sets)?;
+    Ok((rig, sets))
 }
 
 /// One comparison from the one-set comparisons of the workers: the sets in the order given,
@@ -1304,6 +1398,7 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
             sets: a.sets.clone(),
             lawset: l.clone(),
             laws: Vec::new(),
+            added_as: None,
         })
         .collect();
     let (result, failed) = if a.isolation.in_process {
@@ -1519,6 +1614,7 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
             sets: sets.clone(),
             lawset: l.clone(),
             laws: a.laws.clone(),
+            added_as: None,
         })
         .collect();
     let result = if a.isolation.in_process {

@@ -105,6 +105,8 @@ fn frame<'a, 'b>(
     y_desc: &str,
 ) -> Result<Chart<'a, 'b>, Box<dyn std::error::Error>> {
     root.fill(&WHITE)?;
+    // Tick labels with one decimal more than a tenth of the axis needs, never `-0`.
+    let y_decimals = decimals_for(y.end - y.start);
     let mut chart = ChartBuilder::on(root)
         .caption(caption, ("sans-serif", 22))
         .margin(15)
@@ -114,15 +116,35 @@ fn frame<'a, 'b>(
     chart
         .configure_mesh()
         .x_desc(x_desc)
-        .x_label_formatter(&|x| {
-            format!("{x:.2}")
-                .trim_end_matches('0')
-                .trim_end_matches('.')
-                .to_string()
-        })
+        .x_label_formatter(&|x| tick_label(*x, 2))
+        .y_label_formatter(&|y| tick_label(*y, y_decimals))
         .y_desc(y_desc)
         .draw()?;
     Ok(chart)
+}
+
+/// Decimals a tick label needs on an axis spanning `span`: one more than a tenth of the span.
+fn decimals_for(span: f64) -> usize {
+    if !(span.is_finite() && span > 0.0) {
+        return 2;
+    }
+    (1.0 - (span / 10.0).log10().floor()).clamp(0.0, 12.0) as usize
+}
+
+/// A tick label: `v` with `decimals`, trailing zeros dropped, and never `-0` (a tick at zero
+/// computed as -1e-17 is zero).
+fn tick_label(v: f64, decimals: usize) -> String {
+    let s = format!("{v:.decimals$}");
+    let s = if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    };
+    if s == "-0" {
+        "0".into()
+    } else {
+        s
+    }
 }
 
 /// The legend, boxed, at `pos`.
@@ -403,6 +425,15 @@ pub fn write_mass_response(
         serde_json::to_string_pretty(r).map_err(io),
     )?;
     out.write("mass_response.json", json.as_bytes())?;
+    for (name, text) in [
+        ("mass_response.csv", crate::report::mass_csv(r)),
+        (
+            "mass_response_joints.csv",
+            crate::report::mass_joints_csv(r),
+        ),
+    ] {
+        out.write(name, rendered(name, text)?.as_bytes())?;
+    }
     if sweep_plot {
         let name = "mass_sweep.svg";
         out.write(name, rendered(name, mass_sweep_svg(r))?.as_bytes())?;
@@ -836,7 +867,7 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
     Ok(())
 }
 
-/// The FMEP breakdown of a run as stacked bars: one bar per plateau, one band per component
+/// The FMEP breakdown of a run as lines: one line per component
 /// (joint), in kPa, the basis in the caption (`run --fmep`: `fmep.svg`).
 pub fn fmep_svg(r: &crate::sim::RunResult) -> std::io::Result<String> {
     svg(|s| fmep_plot(r, s))

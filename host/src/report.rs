@@ -25,8 +25,11 @@ pub fn to_text(r: &RunResult) -> String {
     for p in &r.plateaus {
         let _ = writeln!(
             out,
-            "{:>10.0} {:>12.2} {:>14.5} {:>8.1}",
-            p.set_speed_rpm, p.mean_speed_rpm, p.motoring_torque_nm, p.oil_temp_c
+            "{:>10.0} {:>12.2} {:>14} {:>8.1}",
+            p.set_speed_rpm,
+            p.mean_speed_rpm,
+            fixed(p.motoring_torque_nm, 5),
+            p.oil_temp_c
         );
     }
     out.push_str(&crankcase_text(r));
@@ -71,14 +74,14 @@ pub fn to_text(r: &RunResult) -> String {
     if e.gas_work_j != 0.0 {
         let _ = writeln!(
             out,
-            "\nenergy: motor work {:.4} J = energy change {:.4} J + dissipated {:.4} J + gas work {:.4} J + residual {:.3e} J (relative {:.2e})",
-            e.motor_work_j, e.mechanical_energy_change_j, e.dissipated_j, e.gas_work_j, e.residual_j, e.relative_residual
+            "\nenergy: motor work {} J = energy change {} J + dissipated {} J + gas work {} J + residual {:.3e} J (relative {:.2e})",
+            fixed(e.motor_work_j, 4), fixed(e.mechanical_energy_change_j, 4), fixed(e.dissipated_j, 4), fixed(e.gas_work_j, 4), e.residual_j, e.relative_residual
         );
     } else {
         let _ = writeln!(
             out,
-            "\nenergy: motor work {:.4} J = energy change {:.4} J + dissipated {:.4} J + residual {:.3e} J (relative {:.2e})",
-            e.motor_work_j, e.mechanical_energy_change_j, e.dissipated_j, e.residual_j, e.relative_residual
+            "\nenergy: motor work {} J = energy change {} J + dissipated {} J + residual {:.3e} J (relative {:.2e})",
+            fixed(e.motor_work_j, 4), fixed(e.mechanical_energy_change_j, 4), fixed(e.dissipated_j, 4), e.residual_j, e.relative_residual
         );
     }
     if !r.law_time.is_empty() {
@@ -614,7 +617,31 @@ pub fn wrap(text: &str, width: usize, indent: &str) -> String {
 /// A number with `prec` decimals, or `-` where there is none.
 fn opt(x: Option<f64>, prec: usize) -> String {
     x.filter(|v| v.is_finite())
-        .map_or("-".to_string(), |v| format!("{v:.prec$}"))
+        .map_or("-".to_string(), |v| fixed(v, prec))
+}
+
+/// `x` with `prec` decimals, never `-0.0`: a value that rounds to zero prints as zero (a
+/// reader takes `-0.0` for a small negative number, which it need not be).
+pub fn fixed(x: f64, prec: usize) -> String {
+    unsigned_zero(format!("{x:.prec$}"))
+}
+
+/// `x` with `prec` decimals and its sign (`+1.000`, `-0.500`); a value that rounds to zero
+/// prints as `+0.000`, never `-0.000`.
+pub fn signed(x: f64, prec: usize) -> String {
+    let s = format!("{x:+.prec$}");
+    match s.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => format!("+{rest}"),
+        _ => s,
+    }
+}
+
+/// A formatted number with a minus sign before nothing but zeros loses the sign.
+fn unsigned_zero(s: String) -> String {
+    match s.strip_prefix('-') {
+        Some(rest) if rest.chars().all(|c| c == '0' || c == '.') => rest.to_string(),
+        _ => s,
+    }
 }
 
 /// The widest line any text report prints, in columns: tables are split into blocks of sets
@@ -715,6 +742,52 @@ impl Blocks<'_> {
 }
 
 /// A law set's name with its calibration status where it is not the plain case.
+/// A set's place in the ranking: `2`, or `2=` when tied with another.
+fn rank_label(s: &crate::study::SetResult) -> String {
+    if s.tie.is_some() {
+        format!("{}=", s.rank)
+    } else {
+        s.rank.to_string()
+    }
+}
+
+/// One line per group of tied sets (`ranked` in ranking order): which sets the data cannot
+/// tell apart, and why.
+fn ties_text(ranked: &[&crate::study::SetResult]) -> String {
+    let mut out = String::new();
+    let mut seen: Vec<&str> = Vec::new();
+    for s in ranked {
+        let Some(tie) = &s.tie else { continue };
+        if seen.contains(&s.lawset.as_str()) {
+            continue;
+        }
+        seen.push(&s.lawset);
+        seen.extend(tie.with.iter().map(String::as_str));
+        let mut names = vec![s.lawset.clone()];
+        names.extend(tie.with.iter().cloned());
+        let why = if tie.same_torques {
+            format!(
+                "the same torque within {} N m at every point",
+                crate::study::SAME_TORQUE_NM
+            )
+        } else {
+            "different torques, but scores within the noise".to_string()
+        };
+        out.push_str(&wrap(
+            &format!(
+                "  {}= {}: indistinguishable on these data: {why} (ranking errors {:.1e} N m apart, less than the data's noise of {} N m)",
+                s.rank,
+                names.join(", "),
+                tie.error_spread_nm,
+                fixed(tie.noise_nm, 3)
+            ),
+            MAX_COLUMNS,
+            "      ",
+        ));
+    }
+    out
+}
+
 fn set_title(s: &crate::study::SetResult) -> String {
     match s.calibration.status {
         crate::study::CalibrationStatus::NotFitted => format!("{} (not fitted)", s.lawset),
@@ -756,7 +829,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
                     })
                     .collect();
                 let error: Vec<String> = (0..n)
-                    .map(|i| format!("{:+.3}", s.errors_nm.get(i).copied().unwrap_or(f64::NAN)))
+                    .map(|i| signed(s.errors_nm.get(i).copied().unwrap_or(f64::NAN), 3))
                     .collect();
                 let band: Vec<String> = (0..n)
                     .map(|i| match (&s.band_lower_nm, &s.band_upper_nm) {
@@ -831,11 +904,11 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             let _ = writeln!(out, "{:>4}  {title}", s.rank);
             (String::new(), String::new())
         } else {
-            (s.rank.to_string(), title)
+            (rank_label(s), title)
         };
         let _ = writeln!(
             out,
-            "{:>4}  {:<name_w$} {:>6} {:>6} {:>8.3} {:>8} {:>11.3} {:>7} {:>7} {:>+8.1}%{}",
+            "{:>4}  {:<name_w$} {:>6} {:>6} {:>8.3} {:>8} {:>11.3} {:>7} {:>7} {:>8}%{}",
             rank,
             title,
             if s.scores.prior_fitted_params > 0 {
@@ -849,7 +922,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             s.max_abs_error_nm,
             opt(s.scores.aicc, 1),
             opt(s.scores.bic, 1),
-            s.temperature_response.max_rise_percent_per_10c,
+            signed(s.temperature_response.max_rise_percent_per_10c, 1),
             if s.temperature_response.max_rise_percent_per_10c
                 > crate::score::TEMPERATURE_RISE_FLAG_PERCENT
             {
@@ -861,8 +934,9 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
     }
     let _ = writeln!(
         out,
-        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; params: free parameters, fitted\n   to these data before scoring unless marked not fitted, + numbers tuned to these data\n   elsewhere; AICc and BIC count those and the noise variance, lower is better; +10C max:\n   largest torque change per 10 C of oil warming, ! above 10%)"
+        "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; params: free parameters, fitted\n   to these data before scoring unless marked not fitted, + numbers tuned to these data\n   elsewhere; AICc and BIC count those and the noise variance, lower is better; +10C max:\n   largest torque change per 10 C of oil warming, ! above 10%; 1=: tied, see below)"
     );
+    out.push_str(&ties_text(&ranked));
     for s in &ranked {
         if s.calibration.params.is_empty() {
             continue;
@@ -878,7 +952,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             .map(|p| {
                 let short = p.id.rsplit('.').next().unwrap_or(&p.id);
                 let state = match (&p.at_bound, p.std_dev) {
-                    (Some(side), _) => format!(" (on its {side} bound)"),
+                    (Some(side), _) => format!(" (on its {side} bound, held there)"),
                     (None, Some(sd)) => format!(" +- {sd:.2e}"),
                     (None, None) => String::new(),
                 };
@@ -897,7 +971,14 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
             notes.push("its 95% band is wider than the spread of the measured torques: these data do not determine its prediction".into());
         }
         notes.extend(s.scores.notes.iter().cloned());
-        notes.extend(s.uncertainty.statements.iter().cloned());
+        // A parameter on its bound is already marked so in the fitted values above.
+        notes.extend(
+            s.uncertainty
+                .statements
+                .iter()
+                .filter(|n| !(n.contains("on their bound") || n.contains("is on its bound")))
+                .cloned(),
+        );
         for v in &s.validation {
             notes.push(format!(
                 "validation data {}: RMSE {:.3} N m, max |error| {:.3} N m over {} points",
@@ -1270,6 +1351,18 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
 /// The mass-response tables. The FEDEM thesis's change (table 10.6 minus 10.5) is a column
 /// only beside the thesis's own law set, labelled as the thesis's; other law sets have none.
 pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
+    let scales = |set: &crate::study::MassResponse| {
+        let mut v: Vec<f64> = Vec::new();
+        for c in &set.changes {
+            if !v.contains(&c.scale) {
+                v.push(c.scale);
+            }
+        }
+        v
+    };
+    if r.iter().any(|set| scales(set).len() > 1) {
+        return mass_sweep_text(r);
+    }
     let mut out = String::new();
     for set in r {
         let thesis = set.changes.iter().any(|c| c.fedem_change_nm.is_some());
@@ -1308,8 +1401,11 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
             for j in &c.joints {
                 let _ = writeln!(
                     out,
-                    "        {:<10} {:<16} change {:>+9.5} N m   mean normal load change {:>+9.2} N",
-                    j.joint, j.law, j.change_nm, j.normal_load_change_n
+                    "        {:<10} {:<16} change {:>9} N m   mean normal load change {:>9} N",
+                    j.joint,
+                    j.law,
+                    signed(j.change_nm, 5),
+                    signed(j.normal_load_change_n, 2)
                 );
             }
         }
@@ -1324,6 +1420,143 @@ pub fn mass_text(r: &[crate::study::MassResponse]) -> String {
         out.push('\n');
     }
     fit_width(&out)
+}
+
+/// A sweep of scale factors: per law set one table of the motoring torque's change in percent,
+/// speeds as rows and scale factors as columns; the per-joint changes are in the CSV and JSON.
+fn mass_sweep_text(r: &[crate::study::MassResponse]) -> String {
+    let mut out = String::new();
+    for set in r {
+        let mut scales: Vec<f64> = Vec::new();
+        let mut speeds: Vec<f64> = Vec::new();
+        for c in &set.changes {
+            if !scales.contains(&c.scale) {
+                scales.push(c.scale);
+            }
+            if !speeds.contains(&c.speed_rpm) {
+                speeds.push(c.speed_rpm);
+            }
+        }
+        let body = match set.body {
+            crate::study::ScaledBody::Rod => "rod mass and inertia",
+            crate::study::ScaledBody::Piston => "piston assembly mass",
+            crate::study::ScaledBody::Crank => "crankshaft mass and inertia",
+        };
+        out.push_str(&wrap(
+            &format!(
+                "law set {}: {body} scaled; change of the motoring torque from scale 1, % (columns: scale factor)",
+                set.lawset
+            ),
+            MAX_COLUMNS,
+            "  ",
+        ));
+        let _ = write!(out, "{:>7} {:>9}", "rpm", "at 1, N m");
+        for sc in &scales {
+            let _ = write!(out, " {:>7}", format!("x{sc}"));
+        }
+        out.push('\n');
+        for rpm in &speeds {
+            let at = |sc: f64| {
+                set.changes
+                    .iter()
+                    .find(|c| c.speed_rpm == *rpm && c.scale == sc)
+            };
+            let original = scales
+                .iter()
+                .find_map(|sc| at(*sc))
+                .map_or(f64::NAN, |c| c.original_nm);
+            let _ = write!(out, "{rpm:>7.0} {:>9}", fixed(original, 4));
+            for sc in &scales {
+                let cell = at(*sc).map_or("-".to_string(), |c| {
+                    signed(100.0 * c.change_nm / c.original_nm, 2)
+                });
+                let _ = write!(out, " {cell:>7}");
+            }
+            out.push('\n');
+        }
+        out.push('\n');
+    }
+    out.push_str(&wrap(
+        "per speed, scale and joint (the change of each law's friction torque and of the joint's mean normal load): mass_response.csv, mass_response_joints.csv, mass_response.json",
+        MAX_COLUMNS,
+        "  ",
+    ));
+    fit_width(&out)
+}
+
+/// `mass_response.csv`: one row per law set, scale factor and speed, the motoring torque at
+/// scale 1 and scaled, its change in N m and %, and the thesis's FEDEM change where it has one.
+pub fn mass_csv(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
+    let rows = r
+        .iter()
+        .flat_map(|set| {
+            set.changes.iter().map(move |c| {
+                vec![
+                    set.lawset.clone(),
+                    format!("{:?}", set.body).to_lowercase(),
+                    c.scale.to_string(),
+                    c.speed_rpm.to_string(),
+                    c.original_nm.to_string(),
+                    c.scaled_nm.to_string(),
+                    c.change_nm.to_string(),
+                    (100.0 * c.change_nm / c.original_nm).to_string(),
+                    c.fedem_change_nm.map_or(String::new(), |f| f.to_string()),
+                ]
+            })
+        })
+        .collect();
+    csv_text(
+        &[
+            "lawset",
+            "body",
+            "scale",
+            "speed_rpm",
+            "original_nm",
+            "scaled_nm",
+            "change_nm",
+            "change_percent",
+            "fedem_thesis_change_nm",
+        ],
+        rows,
+    )
+}
+
+/// `mass_response_joints.csv`: one row per law set, scale factor, speed, joint and law.
+pub fn mass_joints_csv(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
+    let rows = r
+        .iter()
+        .flat_map(|set| {
+            set.changes.iter().flat_map(move |c| {
+                c.joints.iter().map(move |j| {
+                    vec![
+                        set.lawset.clone(),
+                        c.scale.to_string(),
+                        c.speed_rpm.to_string(),
+                        j.joint.clone(),
+                        j.law.clone(),
+                        j.original_nm.to_string(),
+                        j.scaled_nm.to_string(),
+                        j.change_nm.to_string(),
+                        j.normal_load_change_n.to_string(),
+                    ]
+                })
+            })
+        })
+        .collect();
+    csv_text(
+        &[
+            "lawset",
+            "scale",
+            "speed_rpm",
+            "joint",
+            "law",
+            "original_nm",
+            "scaled_nm",
+            "change_nm",
+            "normal_load_change_n",
+        ],
+        rows,
+    )
 }
 
 /// The sweep's tables for people: the oil and its viscosity at each temperature, then per law

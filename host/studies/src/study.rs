@@ -81,6 +81,81 @@ pub fn check_unique_names(lawsets: &[LawSet]) -> Result<(), StudyError> {
     Ok(())
 }
 
+/// Whether law-set entry joint `entry` is among the joints `--law` names with `given`: the same
+/// name, or, when `given` names a kind of joint (`piston`, `piston_*`), every joint of that kind.
+fn law_arg_covers(given: &str, entry: &str) -> bool {
+    /// The kind of a joint name: `piston` for `piston`, `piston_3` and `piston_*`.
+    fn kind(j: &str) -> &str {
+        match j.rsplit_once('_') {
+            Some((k, n)) if n == "*" || n.parse::<usize>().is_ok() => k,
+            _ => j,
+        }
+    }
+    given == entry || (kind(given) == given.trim_end_matches("_*") && kind(entry) == kind(given))
+}
+
+/// The set `compare --law` adds: `base` with each `--law JOINT=LAW[:PARAMS]`'s law in place of
+/// the base's laws on that joint (so the new law is compared, not added on top of another), named
+/// `name` or, by default, after the laws (joined by `_`). The base's record of a tuning to
+/// measured data (`prior_fit`) is dropped: those numbers were tuned with other laws.
+pub fn set_with_laws(
+    base: &LawSet,
+    laws: &[String],
+    name: Option<&str>,
+) -> Result<LawSet, StudyError> {
+    let mut parsed = Vec::with_capacity(laws.len());
+    for arg in laws {
+        parsed.push(tribo_config::rig::parse_law_arg(arg).map_err(Box::new)?);
+    }
+    let default_name = parsed
+        .iter()
+        .map(|p| p.law.law.as_str())
+        .collect::<Vec<_>>()
+        .join("_");
+    let name = name.unwrap_or(&default_name).to_string();
+    if let Err(why) = tribo_config::lawset::check_name(&name) {
+        return Err(StudyError::Rig(Box::new(RigError {
+            file: PathBuf::from("--name"),
+            line: None,
+            column: None,
+            field: name.clone(),
+            message: format!(
+                "the new law set's name {why}; it names result rows and plot files, so it must be 1 to {} characters of ASCII letters, digits, `-`, `_` and `.` (give one with --name)",
+                tribo_config::lawset::MAX_NAME_LEN
+            ),
+        })));
+    }
+    let mut file = base.file.clone();
+    file.laws
+        .retain(|e| !parsed.iter().any(|p| law_arg_covers(&p.joint, &e.joint)));
+    let replaced: Vec<&str> = parsed.iter().map(|p| p.joint.as_str()).collect();
+    file.description = format!(
+        "{} with {} on {} in place of its laws there",
+        base.name(),
+        parsed
+            .iter()
+            .map(|p| p.law.law.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        replaced.join(", ")
+    );
+    file.name = name;
+    file.prior_fit = None;
+    let text = toml::to_string(&file).map_err(|e| {
+        StudyError::Rig(Box::new(RigError {
+            file: base.path.clone(),
+            line: None,
+            column: None,
+            field: "(law set)".into(),
+            message: format!("cannot write the law set with --law: {e}"),
+        }))
+    })?;
+    let path = PathBuf::from(format!("<--law on {}>", base.path.display()));
+    let mut set = LawSet::from_text(&path, &text).map_err(Box::new)?;
+    set.add_law_args(laws).map_err(Box::new)?;
+    Ok(set)
+}
+
 /// Check every law set of a study against the rig and the loaded laws before anything runs:
 /// distinct names ([`check_unique_names`]), and every law of every set bound on `rig` (its law
 /// found in `registry`, its parameters checked against the law's declaration and by the law
@@ -519,8 +594,12 @@ pub struct SetResult {
     pub rmse_nm: f64,
     /// Largest absolute error, N m.
     pub max_abs_error_nm: f64,
-    /// Place in the ranking by cross-validated RMSE (1 = best).
+    /// Place in the ranking by cross-validated RMSE (1 = best); sets tied with each other
+    /// ([`SetResult::tie`]) share the place of the first of them.
     pub rank: usize,
+    /// The sets this one cannot be told apart from on these data, and why (`None`: none).
+    #[serde(default)]
+    pub tie: Option<Tie>,
     /// Out-of-sample scores: leave-one-out RMSE, free parameters, AICc, BIC.
     pub scores: Scores,
     /// The linearised uncertainty of the free parameters and the 95% band of the torque.
@@ -547,6 +626,26 @@ pub struct SetResult {
     /// Scores on data never used in fitting (`--validate`).
     pub validation: Vec<Validation>,
 }
+
+/// Sets a comparison cannot tell apart: their ranking errors differ by less than the data's
+/// noise ([`rank_sets`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Tie {
+    /// The other sets of the tie, in ranking order.
+    pub with: Vec<String>,
+    /// Whether every set of the tie gives the same torque at every data point (within
+    /// [`SAME_TORQUE_NM`]): then they are one model as far as these data go.
+    pub same_torques: bool,
+    /// The largest difference between the tied sets' ranking errors, N m.
+    pub error_spread_nm: f64,
+    /// The tolerance the tie used: the data's noise, N m.
+    pub noise_nm: f64,
+}
+
+/// Two sets whose torques differ by at most this at every data point give "the same torques",
+/// N m: a fiftieth of the bundled data's declared noise, far below anything a torque
+/// transducer resolves.
+pub const SAME_TORQUE_NM: f64 = 1e-3;
 
 /// How a set's free parameters entered a comparison.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -941,6 +1040,7 @@ fn score_set(
         rmse_nm,
         max_abs_error_nm,
         rank: 0,
+        tie: None,
         scores,
         uncertainty: unc,
         calibration,
@@ -1125,7 +1225,13 @@ impl Comparison {
     /// Rank the sets ([`rank_sets`]) and judge the result ([`crate::verdict::judge`]); again
     /// after sets run in separate processes are merged.
     pub fn rank(&mut self, no_cv: bool) {
-        rank_sets(&mut self.sets, no_cv);
+        let noise = self.noise_nm.unwrap_or_else(|| {
+            let n = self.data.len().max(1) as f64;
+            crate::verdict::ASSUMED_NOISE_SHARE
+                * self.data.iter().map(|d| d.torque_nm.abs()).sum::<f64>()
+                / n
+        });
+        rank_sets(&mut self.sets, no_cv, noise);
         self.verdict = crate::verdict::judge(self);
         if let Some(note) = self.instrument_note() {
             self.verdict.sentence.push_str(&note);
@@ -1177,7 +1283,12 @@ pub fn ranked_by(no_cv: bool) -> &'static str {
 /// Give each set its `rank`: cross-validated sets first, by their out-of-sample error; sets
 /// without one (tuned elsewhere, or a fold failed) after them, by their in-sample error. With
 /// `no_cv`, all by in-sample error. Used again when sets run in separate processes are merged.
-pub fn rank_sets(sets: &mut [SetResult], no_cv: bool) {
+///
+/// Sets of one class whose errors lie within `noise_nm` (the data's one-sigma noise) of the
+/// first set of their group are **tied**: these data cannot tell them apart, so they share a
+/// place and each records the others ([`SetResult::tie`]). A difference smaller than the noise
+/// of a single measurement is no evidence for one law over another.
+pub fn rank_sets(sets: &mut [SetResult], no_cv: bool, noise_nm: f64) {
     let key = |s: &SetResult| {
         if no_cv {
             (0, s.rmse_nm)
@@ -1193,8 +1304,52 @@ pub fn rank_sets(sets: &mut [SetResult], no_cv: bool) {
         let (ka, kb) = (key(&sets[*a]), key(&sets[*b]));
         ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
     });
-    for (place, i) in order.into_iter().enumerate() {
+    for (place, &i) in order.iter().enumerate() {
         sets[i].rank = place + 1;
+        sets[i].tie = None;
+    }
+    // Groups of tied sets, each led by its best set.
+    let mut start = 0;
+    while start < order.len() {
+        let lead = key(&sets[order[start]]);
+        let mut end = start + 1;
+        while end < order.len() {
+            let k = key(&sets[order[end]]);
+            // A NaN error ties with nothing.
+            let within = (k.1 - lead.1)
+                .partial_cmp(&noise_nm)
+                .is_some_and(|o| o.is_le());
+            if k.0 != lead.0 || !within {
+                break;
+            }
+            end += 1;
+        }
+        let group = &order[start..end];
+        if group.len() > 1 {
+            let same_torques = group.iter().all(|&i| {
+                sets[i]
+                    .errors_nm
+                    .iter()
+                    .zip(&sets[group[0]].errors_nm)
+                    .all(|(a, b)| (a - b).abs() <= SAME_TORQUE_NM)
+            });
+            let spread = key(&sets[group[group.len() - 1]]).1 - lead.1;
+            let place = sets[group[0]].rank;
+            for &i in group {
+                sets[i].rank = place;
+                sets[i].tie = Some(Tie {
+                    with: group
+                        .iter()
+                        .filter(|&&j| j != i)
+                        .map(|&j| sets[j].lawset.clone())
+                        .collect(),
+                    same_torques,
+                    error_spread_nm: spread,
+                    noise_nm,
+                });
+            }
+        }
+        start = end;
     }
 }
 

@@ -21,6 +21,10 @@
 //!      `e` as a share of the mean measured torque, the point the best set misses most (as a
 //!      share of the measured value there), and the state of its parameters.
 //!
+//! Sets tied with the best one in the ranking (their out-of-sample errors within the noise
+//! `s` of the best's, [`crate::study::rank_sets`]) are named with it as **indistinguishable**,
+//! saying why: the same torque at every point, or errors apart by less than the noise.
+//!
 //! Whatever the rule under 3, a best set whose torque rises by more than
 //! [`crate::score::TEMPERATURE_RISE_FLAG_PERCENT`] per 10 C of oil warming gets that said too,
 //! and fitted sets left without an out-of-sample error (`--no-cv`) are named as not judged.
@@ -108,6 +112,10 @@ pub struct SetSummary {
     pub prior_fitted: usize,
     /// Largest torque rise per 10 C of oil warming, percent.
     pub max_rise_percent_per_10c: f64,
+    /// The sets it is tied with in the ranking (indistinguishable on these data).
+    pub tied_with: Vec<String>,
+    /// Whether those give the same torques at every point (else: errors within the noise).
+    pub same_torques: bool,
 }
 
 impl SetSummary {
@@ -123,6 +131,8 @@ impl SetSummary {
             undetermined: s.calibration.undetermined(),
             prior_fitted: s.scores.prior_fitted_params,
             max_rise_percent_per_10c: s.temperature_response.max_rise_percent_per_10c,
+            tied_with: s.tie.as_ref().map(|t| t.with.clone()).unwrap_or_default(),
+            same_torques: s.tie.as_ref().is_some_and(|t| t.same_torques),
         }
     }
 }
@@ -179,6 +189,37 @@ pub fn verdict(
         };
     };
     let e = best.out_of_sample_nm.unwrap_or(f64::NAN);
+    // Tied sets are one answer: the sentence names them together and says why.
+    let tied: Vec<&SetSummary> = sets
+        .iter()
+        .filter(|s| best.tied_with.contains(&s.name))
+        .collect();
+    let best_names = if tied.is_empty() {
+        best.name.clone()
+    } else {
+        let mut names: Vec<&str> = vec![best.name.as_str()];
+        names.extend(tied.iter().map(|s| s.name.as_str()));
+        let spread = tied
+            .iter()
+            .filter_map(|s| s.out_of_sample_nm)
+            .map(|x| (x - e).abs())
+            .fold(0.0, f64::max);
+        format!(
+            "{}, indistinguishable here: {}",
+            join_and(&names),
+            if best.same_torques {
+                format!(
+                    "the same torque within {} N m at every point",
+                    crate::study::SAME_TORQUE_NM
+                )
+            } else {
+                format!(
+                    "out-of-sample errors {} N m apart, within the noise",
+                    nm(spread)
+                )
+            }
+        )
+    };
     let share = 100.0 * e / mean.max(1e-300);
     let noise_words = format!(
         "{} N m{}",
@@ -230,8 +271,7 @@ pub fn verdict(
         (
             VerdictRule::Predicts,
             format!(
-                "{} predicts unseen points within {} N m ({share:.0}% of the mean torque, inside the noise of {noise_words}) {params_words}",
-                best.name,
+                "{best_names} predicts unseen points within {} N m ({share:.0}% of the mean torque, inside the noise of {noise_words}) {params_words}",
                 nm(e)
             ),
         )
@@ -239,8 +279,7 @@ pub fn verdict(
         (
             VerdictRule::PredictsUndetermined,
             format!(
-                "{} predicts unseen points within the noise ({} N m against {noise_words}), {params_words}: trust its curve, not its parameter values",
-                best.name,
+                "{best_names} predicts unseen points within the noise ({} N m against {noise_words}), {params_words}: trust its curve, not its parameter values",
                 nm(e)
             ),
         )
@@ -255,14 +294,20 @@ pub fn verdict(
             })
             .max_by(|a, b| a.0.total_cmp(&b.0));
         let miss = worst.map_or(String::new(), |(pct, rpm)| {
-            format!(", which misses {rpm:.0} rpm by {pct:.0}%")
+            format!(
+                "{}misses {rpm:.0} rpm by {pct:.0}%",
+                if tied.is_empty() {
+                    ", which ".to_string()
+                } else {
+                    format!("; {} ", best.name)
+                }
+            )
         });
         (
             VerdictRule::Misses,
             format!(
-                "no set reproduces the data within their noise ({noise_words}): the best out-of-sample error is {} N m ({share:.0}% of the mean torque; {}{miss}), {params_words}",
+                "no set reproduces the data within their noise ({noise_words}): the best out-of-sample error is {} N m ({share:.0}% of the mean torque; {best_names}{miss}), {params_words}",
                 nm(e),
-                best.name
             ),
         )
     };
@@ -295,6 +340,15 @@ pub fn verdict(
     }
 }
 
+/// `a`, `a and b`, `a, b and c`.
+fn join_and(names: &[&str]) -> String {
+    match names {
+        [] => String::new(),
+        [one] => one.to_string(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -313,7 +367,32 @@ mod tests {
             undetermined: 0,
             prior_fitted: 0,
             max_rise_percent_per_10c: -5.0,
+            tied_with: Vec::new(),
+            same_torques: false,
         }
+    }
+
+    #[test]
+    fn tied_sets_are_named_together_as_indistinguishable_and_why() {
+        let mut a = set("alpha", Some(0.3), CalibrationStatus::Fitted, 1);
+        let mut b = set("beta", Some(0.3 + 2e-6), CalibrationStatus::Fitted, 2);
+        a.tied_with = vec!["beta".into()];
+        b.tied_with = vec!["alpha".into()];
+        a.same_torques = true;
+        b.same_torques = true;
+        let v = verdict(&[b.clone(), a.clone()], &MEASURED, &SPEEDS, Some(0.05));
+        assert_eq!(v.rule, VerdictRule::Misses);
+        assert!(
+            v.sentence
+                .contains("alpha and beta, indistinguishable here: the same torque"),
+            "{}",
+            v.sentence
+        );
+        // Different torques, errors apart by less than the noise: said so instead.
+        a.same_torques = false;
+        b.same_torques = false;
+        let v = verdict(&[a, b], &MEASURED, &SPEEDS, Some(0.05));
+        assert!(v.sentence.contains("within the noise"), "{}", v.sentence);
     }
 
     #[test]

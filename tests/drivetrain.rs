@@ -189,9 +189,9 @@ fn forced_response_matches_the_receptance_of_one_inertia_on_one_spring() {
     }
 }
 
-#[test]
-fn the_energy_balance_books_the_chains_dampers() {
-    let run = json_in(
+/// The bundled test bed's steady run with the FEDEM set (stateless laws: quick).
+fn testbed_run() -> serde_json::Value {
+    json_in(
         &[
             "run",
             "crf250r-testbed",
@@ -201,11 +201,16 @@ fn the_energy_balance_books_the_chains_dampers() {
             "--json",
         ],
         &workspace(),
-    );
+    )
+}
+
+#[test]
+fn the_energy_balance_books_the_chains_dampers() {
+    let run = testbed_run();
     let e = &run["energy"];
     assert!(num(&e["relative_residual"]) < 1e-7, "{e}");
-    // The chain's dampers take their share: the motor does more work than the laws dissipate.
-    let laws: f64 = run["plateaus"]
+    // The chain's dampers take their share of the motor's work, beside the laws'.
+    let chain: f64 = run["plateaus"]
         .as_array()
         .unwrap()
         .iter()
@@ -215,27 +220,18 @@ fn the_energy_balance_books_the_chains_dampers() {
             num(&p["instrument"]["chain_dissipation_w"]) * cycle / w
         })
         .sum();
-    assert!(laws > 0.0);
-    let gap = num(&e["motor_work_j"]) - (num(&e["dissipated_j"]) - laws);
+    assert!(chain > 0.0);
+    // Motor work less the laws' dissipation is the chain's, over periodic cycles.
+    let gap = num(&e["motor_work_j"]) - (num(&e["dissipated_j"]) - chain);
     assert!(
-        (gap - laws).abs() <= 1e-6 * num(&e["motor_work_j"]),
-        "chain {laws} J, gap {gap} J"
+        (gap - chain).abs() <= 1e-6 * num(&e["motor_work_j"]),
+        "chain {chain} J, gap {gap} J"
     );
 }
 
 #[test]
 fn a_transducer_outside_its_rating_is_warned_about_at_exactly_those_speeds() {
-    let run = json_in(
-        &[
-            "run",
-            "crf250r-testbed",
-            "--lawset",
-            "fedem-baseline",
-            "--steady",
-            "--json",
-        ],
-        &workspace(),
-    );
+    let run = testbed_run();
     let warnings: Vec<String> = run["warnings"]
         .as_array()
         .unwrap()

@@ -516,7 +516,9 @@ fn every_language_template_builds_loads_and_gives_the_same_torques() {
         assert_close(&format!("{lang} piston torques"), &run.1, &runs[0].1);
     }
 
-    // `tribo compare` with the law on every law set's piston.
+    // `tribo compare --law`: the law as one new set of its own, named after it (on the first
+    // set's other joints), no bundled set carrying it; the same torques from every language.
+    let mut added: Vec<Vec<f64>> = Vec::new();
     for (lang, name, lib) in &built {
         let out = Command::new(tribo_exe())
             .args(["compare", "--steady", "--no-cv", "--json", "--law"])
@@ -532,19 +534,34 @@ fn every_language_template_builds_loads_and_gives_the_same_torques() {
         assert!(out.status.success(), "compare with {name}: {stderr}");
         let cmp: serde_json::Value = serde_json::from_str(&stdout).expect("json");
         let sets = cmp["sets"].as_array().expect("sets");
-        assert!(!sets.is_empty());
+        let mut own = None;
         for set in sets {
-            let joints = set["run"]["plateaus"][0]["joints"]
+            let plateaus = set["run"]["plateaus"].as_array().expect("plateaus");
+            let carries = plateaus[0]["joints"]
                 .as_array()
-                .expect("joints");
-            assert!(
-                joints
-                    .iter()
-                    .any(|j| j["joint"] == "piston" && j["law"] == name.as_str()),
-                "{lang}: {name} not on the piston of {}",
+                .expect("joints")
+                .iter()
+                .any(|j| j["joint"] == "piston" && j["law"] == name.as_str());
+            let is_new = set["lawset"] == name.as_str();
+            assert_eq!(
+                carries, is_new,
+                "{lang}: {name} on the piston of {}",
                 set["lawset"]
             );
+            if is_new {
+                assert!(own.is_none(), "{lang}: two sets named {name}");
+                own = Some(
+                    plateaus
+                        .iter()
+                        .map(|p| p["motoring_torque_nm"].as_f64().unwrap_or(f64::NAN))
+                        .collect::<Vec<f64>>(),
+                );
+            }
         }
+        added.push(own.unwrap_or_else(|| panic!("{lang}: no set named {name}")));
+    }
+    for ((lang, _, _), torques) in built.iter().zip(&added).skip(1) {
+        assert_close(&format!("{lang} compare torques"), torques, &added[0]);
     }
 }
 

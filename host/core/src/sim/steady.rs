@@ -88,20 +88,32 @@ impl Simulation {
             .sum();
         let energy =
             EnergyBalance::from_terms_with_gas(motor, 0.0, dissipated, gas).relative_to(inertial);
-        Ok(RunResult {
+        Ok(self.steady_result(results, energy, (steps, w.max_it), unsettled))
+    }
+
+    /// A steady run's result from its plateaus, energy balance, step count and largest
+    /// friction iteration count, and the run's own warnings.
+    pub(super) fn steady_result(
+        &self,
+        plateaus: Vec<super::results::PlateauResult>,
+        energy: EnergyBalance,
+        (steps, max_it): (u64, u32),
+        warnings: Vec<String>,
+    ) -> RunResult {
+        RunResult {
             rig: self.rig_name.clone(),
             drive: DriveKind::Steady,
-            plateaus: results,
+            plateaus,
             fmep: self.fmep(),
             energy_residual_j: energy.residual_j,
             energy,
             steps,
             rejected_steps: 0,
             replayed_steps: 0,
-            max_friction_iterations: w.max_it,
-            warnings: self.result_warnings([self.steady_settings_warnings(), unsettled].concat()),
+            max_friction_iterations: max_it,
+            warnings: self.result_warnings([self.steady_settings_warnings(), warnings].concat()),
             law_time: super::bind::law_time(&self.joints),
-        })
+        }
     }
 
     /// Plateau `pi` at speed `omega` from time `start.0` and crank angle `start.1`: its last

@@ -549,19 +549,6 @@ impl Simulation {
         let energy =
             super::results::EnergyBalance::from_terms_with_gas(motor, change, dissipated, gas)
                 .relative_to(0.0);
-        Ok(super::results::RunResult {
-            rig: self.rig_name.clone(),
-            drive: super::results::DriveKind::Steady,
-            plateaus: results,
-            fmep: self.fmep(),
-            energy_residual_j: energy.residual_j,
-            energy,
-            steps,
-            rejected_steps: 0,
-            replayed_steps: 0,
-            max_friction_iterations: w.max_it,
-            warnings: self.result_warnings([self.steady_settings_warnings(), warnings].concat()),
-            law_time: super::bind::law_time(&self.joints),
-        })
+        Ok(self.steady_result(results, energy, (steps, w.max_it), warnings))
     }
 }

@@ -403,7 +403,7 @@ fn load_rig<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
 /// `springs`, `modes`, all at crank speed). Raises `tribo.InputError` for a rig without one.
 #[pyfunction]
 fn modes<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
-    detached_value(py, || {
+    let report = detached(py, || {
         let spec: RigSpec = serde_json::from_str(spec)?;
         let rig = spec.load()?;
         let model = rig.model();
@@ -421,12 +421,9 @@ fn modes<'py>(py: Python<'py>, spec: &str) -> PyResult<Bound<'py, PyAny>> {
             .iter()
             .map(|p| p.speed_rpm)
             .collect();
-        Ok(serde_json::to_value(chain.report(
-            &model.name,
-            hold,
-            &plateaus,
-        ))?)
-    })
+        Ok(chain.report(&model.name, hold, &plateaus))
+    })?;
+    to_python(py, &report)
 }
 
 #[pyfunction]

@@ -211,19 +211,24 @@ fn csv_row(lead: &[String], row: &Beside) -> Vec<String> {
     v
 }
 
-/// `compare`: per law set and plateau, the components both sides give a number for.
-pub fn comparison_text(c: &crate::study::Comparison) -> String {
-    let mut out = String::new();
-    let Some(first) = c
+/// The heading of a comparison's correlation text, from the first plateau that has the
+/// correlation (none without one).
+fn comparison_heading(c: &crate::study::Comparison) -> Option<String> {
+    let first = c
         .sets
         .iter()
         .flat_map(|s| s.run.plateaus.iter())
-        .find_map(|p| p.correlation.as_ref())
-    else {
+        .find_map(|p| p.correlation.as_ref())?;
+    Some(heading(c.sets[0].run.fmep.basis.formula(), first))
+}
+
+/// `compare`: per law set and plateau, the components both sides give a number for.
+pub fn comparison_text(c: &crate::study::Comparison) -> String {
+    let mut out = String::new();
+    let Some(head) = comparison_heading(c) else {
         return out;
     };
-    let basis = c.sets[0].run.fmep.basis.formula();
-    let _ = writeln!(out, "{}", heading(basis, first));
+    let _ = writeln!(out, "{head}");
     let speeds: Vec<f64> = c.sets[0]
         .run
         .plateaus
@@ -327,16 +332,10 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
 /// model counts in full). The whole table is in `correlation.csv` and under `--correlation`.
 pub fn comparison_summary(c: &crate::study::Comparison) -> String {
     let mut out = String::new();
-    let Some(first) = c
-        .sets
-        .iter()
-        .flat_map(|s| s.run.plateaus.iter())
-        .find_map(|p| p.correlation.as_ref())
-    else {
+    let Some(head) = comparison_heading(c) else {
         return out;
     };
-    let basis = c.sets[0].run.fmep.basis.formula();
-    let _ = writeln!(out, "{}", heading(basis, first));
+    let _ = writeln!(out, "{head}");
     for s in &c.sets {
         let rows: Vec<(f64, Vec<Beside>)> = s
             .run

@@ -35,6 +35,8 @@ pub(super) struct Torsion {
 struct Nodes {
     phi: Vec<f64>,
     w: Vec<f64>,
+    /// Each spring's torque at crank speed.
+    torques: Vec<f64>,
 }
 
 impl Torsion {
@@ -57,13 +59,28 @@ impl Torsion {
 
     /// Every node's angle and speed at `t` (the motor's reference turning at `omega`).
     fn nodes(&self, t: f64, omega: f64, y: &[f64]) -> Nodes {
+        let n = self.n();
+        let mut s = Nodes {
+            phi: vec![0.0; n],
+            w: vec![0.0; n],
+            torques: vec![0.0; n - 1],
+        };
+        self.fill(t, omega, y, &mut s);
+        s
+    }
+
+    /// [`Torsion::nodes`] into `s`, with each spring's torque there: no allocation per
+    /// evaluation.
+    fn fill(&self, t: f64, omega: f64, y: &[f64], s: &mut Nodes) {
         let (n, f) = (self.n(), self.first());
         let m = n - f;
-        let mut phi = vec![omega * t; n];
-        let mut w = vec![omega; n];
-        phi[f..].copy_from_slice(&y[..m]);
-        w[f..].copy_from_slice(&y[m..2 * m]);
-        Nodes { phi, w }
+        s.phi[..f].fill(omega * t);
+        s.w[..f].fill(omega);
+        s.phi[f..].copy_from_slice(&y[..m]);
+        s.w[f..].copy_from_slice(&y[m..2 * m]);
+        for i in 0..n - 1 {
+            s.torques[i] = self.chain.spring_torque(i, &s.phi, &s.w);
+        }
     }
 
     /// The motor's torque at crank speed: the first spring's reaction for a prescribed motor,
@@ -89,16 +106,14 @@ impl Simulation {
         (t, h, omega, oil): (f64, f64, f64, (f64, f64)),
         y: &[f64],
         guess: &[f64],
-        w: &mut Work,
+        (w, s): (&mut Work, &mut Nodes),
         e: &mut Eval,
         dy: &mut [f64],
     ) -> Result<(), SimError> {
-        let s = tor.nodes(t, omega, y);
+        tor.fill(t, omega, y, s);
         let (n, f) = (tor.n(), tor.first());
-        let torques: Vec<f64> = (0..n - 1)
-            .map(|i| tor.chain.spring_torque(i, &s.phi, &s.w))
-            .collect();
-        let motor = tor.motor_torque(t, omega, &s, torques[0]);
+        let torques = &s.torques;
+        let motor = tor.motor_torque(t, omega, s, torques[0]);
         let at = Point {
             t,
             dt: h,
@@ -206,6 +221,10 @@ fn dft(x: &[f64], k: usize) -> Complex<f64> {
 struct Stages {
     evals: [Eval; 4],
     k: [Vec<f64>; 4],
+    /// The stage state.
+    ys: Vec<f64>,
+    /// The chain at the last stage evaluated.
+    nodes: Nodes,
 }
 
 /// One cycle's record: the transducer torque (N m, in the transducer) and the crank speed at
@@ -231,20 +250,18 @@ impl Simulation {
         w: &mut Work,
         rec: &mut CycleRecord,
     ) -> Result<(), SimError> {
-        let len = y.len();
-        let mut ys = vec![0.0; len];
         for (stage, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {
-            for (i, v) in ys.iter_mut().enumerate() {
+            for (i, v) in st.ys.iter_mut().enumerate() {
                 *v = y[i] + c * h * st.k[stage - 1][i];
             }
-            let guess = st.evals[stage - 1].totals.clone();
+            let (done, rest) = st.evals.split_at_mut(stage);
             self.torsion_rate(
                 tor,
                 (t + c * h, h, omega, oil),
-                &ys,
-                &guess,
-                w,
-                &mut st.evals[stage],
+                &st.ys,
+                &done[stage - 1].totals,
+                (w, &mut st.nodes),
+                &mut rest[0],
                 &mut st.k[stage],
             )?;
         }
@@ -276,14 +293,22 @@ impl Simulation {
         w: &mut Work,
         rec: &mut CycleRecord,
     ) -> Result<(), SimError> {
-        let guess = st.evals[3].totals.clone();
-        self.torsion_rate(tor, at, y, &guess, w, &mut st.evals[0], &mut st.k[0])?;
+        let (first, last) = st.evals.split_at_mut(3);
+        self.torsion_rate(
+            tor,
+            at,
+            y,
+            &last[0].totals,
+            (w, &mut st.nodes),
+            &mut first[0],
+            &mut st.k[0],
+        )?;
         self.commit(w, &st.evals[0])?;
-        let s = tor.nodes(at.0, at.2, y);
-        let i = tor.chain.rating.spring;
+        // The scratch now holds the chain at the step's start.
+        let s = &st.nodes;
         rec.torque.push(
             tor.chain
-                .transducer_torque(tor.chain.spring_torque(i, &s.phi, &s.w)),
+                .transducer_torque(s.torques[tor.chain.rating.spring]),
         );
         rec.speed.push(s.w[tor.n() - 1]);
         Ok(())
@@ -320,6 +345,8 @@ impl Simulation {
         let mut st = Stages {
             evals: [w.eval(), w.eval(), w.eval(), w.eval()],
             k: std::array::from_fn(|_| vec![0.0; y.len()]),
+            ys: vec![0.0; y.len()],
+            nodes: tor.nodes(0.0, omega, &y),
         };
         st.evals[3].totals.fill(0.0);
         let shoot = Shooting::new(tor, self.cycle_angle() / omega);

@@ -163,6 +163,19 @@ fn draw(r: &ModalReport, out: &mut String) -> DrawResult {
             [(0.0, 0.0), (top_rpm, order * top_rpm / 60.0)],
             style,
         ))?;
+        if whole {
+            // Each whole order named where its line leaves the plot (right or top edge).
+            let at = if order * top_rpm / 60.0 <= top_hz {
+                (top_rpm * 0.985, order * top_rpm / 60.0)
+            } else {
+                (60.0 * top_hz / order, top_hz * 0.985)
+            };
+            chart.draw_series(std::iter::once(Text::new(
+                format!("{order:.0}"),
+                at,
+                ("sans-serif", 12).into_font().color(&RGBColor(60, 60, 60)),
+            )))?;
+        }
     }
     for p in &r.plateaus_rpm {
         chart.draw_series(DashedLineSeries::new(
@@ -202,7 +215,8 @@ fn legend(
         Ok(())
     };
     line("red: modes".into(), RGBColor(200, 30, 30))?;
-    line("grey: orders 0.5-12".into(), RGBColor(90, 90, 90))?;
+    line("grey: orders 0.5-12 (whole".into(), RGBColor(90, 90, 90))?;
+    line("  orders numbered)".into(), RGBColor(90, 90, 90))?;
     line("green dashed: plateaus".into(), RGBColor(0, 110, 0))?;
     line("dots: crossings".into(), RGBColor(200, 30, 30))?;
     line(String::new(), RGBColor(0, 0, 0))?;

@@ -50,6 +50,7 @@ mod stepping;
 #[cfg(test)]
 mod tests;
 mod torsional;
+mod torsional_cycle;
 mod transient;
 mod trend;
 mod types;
@@ -612,6 +613,11 @@ impl Simulation {
         let names = self.joint_names();
         let refs: Vec<&str> = names.iter().map(String::as_str).collect();
         observer.start(&refs).map_err(SimError::Observer)?;
+        if let Some(tor) = self.drivetrain.take() {
+            let result = self.run_transient_drivetrain(&tor, observer);
+            self.drivetrain = Some(tor);
+            return result;
+        }
         let mut run = self.start_transient()?;
         self.advance(&mut run, f64::INFINITY, u64::MAX, observer)?;
         self.finish_transient(&run)

@@ -31,8 +31,15 @@ pub(super) struct Torsion {
     pub(super) limit_nm: f64,
 }
 
+/// The motor's reference at crank speed: angle (rad) and speed (rad/s).
+pub(super) type Motor = (f64, f64);
+
+/// One evaluation's instant: time and step length (s), the motor's reference, the oil (C,
+/// Pa s).
+pub(super) type Stage = (f64, f64, Motor, (f64, f64));
+
 /// The chain's state at an instant: node angles and speeds at crank speed (motor first).
-struct Nodes {
+pub(super) struct Nodes {
     phi: Vec<f64>,
     w: Vec<f64>,
     /// Each spring's torque at crank speed.
@@ -40,6 +47,16 @@ struct Nodes {
 }
 
 impl Torsion {
+    /// Index of the crank's angle in the integrated state.
+    pub(super) fn crank_angle(&self) -> usize {
+        self.n() - self.first() - 1
+    }
+
+    /// Index of the crank's speed in the integrated state.
+    pub(super) fn crank_speed(&self) -> usize {
+        2 * (self.n() - self.first()) - 1
+    }
+
     /// Index of the first integrated node (the motor's angle is imposed when prescribed).
     fn first(&self) -> usize {
         match self.hold {
@@ -53,28 +70,28 @@ impl Torsion {
     }
 
     /// Length of the integrated state: free angles, free speeds, motor work, chain dissipation.
-    fn len(&self) -> usize {
+    pub(super) fn len(&self) -> usize {
         2 * (self.n() - self.first()) + 2
     }
 
-    /// Every node's angle and speed at `t` (the motor's reference turning at `omega`).
-    fn nodes(&self, t: f64, omega: f64, y: &[f64]) -> Nodes {
+    /// Every node's angle and speed with the motor's reference at `motor` (angle, speed).
+    pub(super) fn nodes(&self, motor: Motor, y: &[f64]) -> Nodes {
         let n = self.n();
         let mut s = Nodes {
             phi: vec![0.0; n],
             w: vec![0.0; n],
             torques: vec![0.0; n - 1],
         };
-        self.fill(t, omega, y, &mut s);
+        self.fill(motor, y, &mut s);
         s
     }
 
     /// [`Torsion::nodes`] into `s`, with each spring's torque there: no allocation per
     /// evaluation.
-    fn fill(&self, t: f64, omega: f64, y: &[f64], s: &mut Nodes) {
+    fn fill(&self, (theta, omega): Motor, y: &[f64], s: &mut Nodes) {
         let (n, f) = (self.n(), self.first());
         let m = n - f;
-        s.phi[..f].fill(omega * t);
+        s.phi[..f].fill(theta);
         s.w[..f].fill(omega);
         s.phi[f..].copy_from_slice(&y[..m]);
         s.w[f..].copy_from_slice(&y[m..2 * m]);
@@ -85,35 +102,38 @@ impl Torsion {
 
     /// The motor's torque at crank speed: the first spring's reaction for a prescribed motor,
     /// the PI controller's (limited at the motor) otherwise.
-    fn motor_torque(&self, t: f64, omega: f64, s: &Nodes, spring0: f64) -> f64 {
+    /// The second value says whether the controller sat at its limit.
+    fn motor_torque(&self, (theta, omega): Motor, s: &Nodes, spring0: f64) -> (f64, bool) {
         match self.hold {
-            MotorHold::Prescribed => spring0,
+            MotorHold::Prescribed => (spring0, false),
             MotorHold::Pi { kp, ki } => {
                 let r = self.chain.ratios[0];
-                let raw = r * (kp * (omega - s.w[0]) + ki * (omega * t - s.phi[0]));
-                raw.clamp(-self.limit_nm, self.limit_nm) * r
+                let raw = r * (kp * (omega - s.w[0]) + ki * (theta - s.phi[0]));
+                let held = raw.clamp(-self.limit_nm, self.limit_nm);
+                (held * r, held != raw)
             }
         }
     }
 }
 
 impl Simulation {
-    /// The state derivative at `t` (the crank's acceleration from one evaluation into `e`).
+    /// The state derivative at `t` (the crank's acceleration from one evaluation into `e`);
+    /// whether the motor's controller sat at its limit there.
     #[allow(clippy::too_many_arguments)]
     fn torsion_rate(
         &self,
         tor: &Torsion,
-        (t, h, omega, oil): (f64, f64, f64, (f64, f64)),
+        (t, h, reference, oil): Stage,
         y: &[f64],
         guess: &[f64],
         (w, s): (&mut Work, &mut Nodes),
         e: &mut Eval,
         dy: &mut [f64],
-    ) -> Result<(), SimError> {
-        tor.fill(t, omega, y, s);
+    ) -> Result<bool, SimError> {
+        tor.fill(reference, y, s);
         let (n, f) = (tor.n(), tor.first());
         let torques = &s.torques;
-        let motor = tor.motor_torque(t, omega, s, torques[0]);
+        let (motor, saturated) = tor.motor_torque(reference, s, torques[0]);
         let at = Point {
             t,
             dt: h,
@@ -139,7 +159,7 @@ impl Simulation {
         dy[2 * m + 1] = (0..n - 1)
             .map(|i| tor.chain.springs[i].c * (s.w[i] - s.w[i + 1]).powi(2))
             .sum();
-        Ok(())
+        Ok(saturated)
     }
 
     /// The state at the plateau's start: the chain's linear harmonic response to the rigid
@@ -218,13 +238,38 @@ fn dft(x: &[f64], k: usize) -> Complex<f64> {
 }
 
 /// What one RK4 step leaves: the new state, and the rates and regimes integrated over it.
-struct Stages {
+pub(super) struct Stages {
     evals: [Eval; 4],
     k: [Vec<f64>; 4],
     /// The stage state.
     ys: Vec<f64>,
     /// The chain at the last stage evaluated.
     nodes: Nodes,
+}
+
+impl Stages {
+    /// Scratch for RK4 steps of the state `y` (its chain with the motor at `motor`).
+    pub(super) fn new(tor: &Torsion, w: &mut Work, motor: Motor, y: &[f64]) -> Self {
+        let mut st = Stages {
+            evals: [w.eval(), w.eval(), w.eval(), w.eval()],
+            k: std::array::from_fn(|_| vec![0.0; y.len()]),
+            ys: vec![0.0; y.len()],
+            nodes: tor.nodes(motor, y),
+        };
+        // The first evaluation's friction iteration starts from no friction.
+        st.evals[3].totals.fill(0.0);
+        st
+    }
+
+    /// The evaluation at the start of the step under way.
+    pub(super) fn first(&self) -> &Eval {
+        &self.evals[0]
+    }
+
+    /// The evaluations, to hand back to the work's pool.
+    pub(super) fn into_evals(self) -> [Eval; 4] {
+        self.evals
+    }
 }
 
 /// One cycle's record: the transducer torque (N m, in the transducer) and the crank speed at
@@ -241,14 +286,15 @@ impl Simulation {
     /// One classical RK4 step of `h` from `(t, y)` (`st.k[0]` already holds the rate at the
     /// start, `st.evals[0]` its evaluation); the rates accumulated into `rec`.
     #[allow(clippy::too_many_arguments)]
-    fn torsion_step(
+    pub(super) fn torsion_step(
         &self,
         tor: &Torsion,
-        (t, h, omega, oil): (f64, f64, f64, (f64, f64)),
+        (t, h, oil): (f64, f64, (f64, f64)),
+        reference: &dyn Fn(f64) -> Motor,
         y: &mut [f64],
         st: &mut Stages,
         w: &mut Work,
-        rec: &mut CycleRecord,
+        (delta, regime_time): (&mut [f64], &mut [f64]),
     ) -> Result<(), SimError> {
         for (stage, c) in [(1, 0.5), (2, 0.5), (3, 1.0)] {
             for (i, v) in st.ys.iter_mut().enumerate() {
@@ -257,7 +303,7 @@ impl Simulation {
             let (done, rest) = st.evals.split_at_mut(stage);
             self.torsion_rate(
                 tor,
-                (t + c * h, h, omega, oil),
+                (t + c * h, h, reference(t + c * h), oil),
                 &st.ys,
                 &done[stage - 1].totals,
                 (w, &mut st.nodes),
@@ -268,7 +314,7 @@ impl Simulation {
         for (i, v) in y.iter_mut().enumerate() {
             *v += h / 6.0 * (st.k[0][i] + 2.0 * st.k[1][i] + 2.0 * st.k[2][i] + st.k[3][i]);
         }
-        for (k, a) in rec.delta.iter_mut().enumerate() {
+        for (k, a) in delta.iter_mut().enumerate() {
             let r = |s: usize| st.evals[s].rates[k];
             *a += h / 6.0 * (r(0) + 2.0 * r(1) + 2.0 * r(2) + r(3));
         }
@@ -278,23 +324,23 @@ impl Simulation {
             &st.evals[2].regimes,
             &st.evals[3].regimes,
         ];
-        RegimeTimes::add_rule(&mut rec.regime_time, regimes, [1.0, 2.0, 2.0, 1.0], h / 6.0);
+        RegimeTimes::add_rule(regime_time, regimes, [1.0, 2.0, 2.0, 1.0], h / 6.0);
         Ok(())
     }
 
     /// The rate at the start of a step into `st.k[0]`/`st.evals[0]`, the laws committed
-    /// there, and the transducer torque and crank speed recorded.
-    fn torsion_begin(
+    /// there; the transducer's torque (N m, in the transducer), the crank's speed there and
+    /// whether the motor's controller sat at its limit.
+    pub(super) fn torsion_begin(
         &self,
         tor: &Torsion,
-        at: (f64, f64, f64, (f64, f64)),
+        at: Stage,
         y: &[f64],
         st: &mut Stages,
         w: &mut Work,
-        rec: &mut CycleRecord,
-    ) -> Result<(), SimError> {
+    ) -> Result<(f64, f64, bool), SimError> {
         let (first, last) = st.evals.split_at_mut(3);
-        self.torsion_rate(
+        let saturated = self.torsion_rate(
             tor,
             at,
             y,
@@ -306,20 +352,19 @@ impl Simulation {
         self.commit(w, &st.evals[0])?;
         // The scratch now holds the chain at the step's start.
         let s = &st.nodes;
-        rec.torque.push(
-            tor.chain
-                .transducer_torque(s.torques[tor.chain.rating.spring]),
-        );
-        rec.speed.push(s.w[tor.n() - 1]);
-        Ok(())
+        let torque = tor
+            .chain
+            .transducer_torque(s.torques[tor.chain.rating.spring]);
+        Ok((torque, s.w[tor.n() - 1], saturated))
     }
 
-    /// The chain's energy at `(t, y)`: its nodes' kinetic energy (the crank's mechanical
-    /// energy from the crank model) plus the springs' strain energy, J.
-    fn torsion_energy(&self, tor: &Torsion, t: f64, omega: f64, y: &[f64]) -> f64 {
-        let s = tor.nodes(t, omega, y);
+    /// The chain's energy at `(t, y)`: its free nodes' kinetic energy (the crank's mechanical
+    /// energy from the crank model) plus the springs' strain energy, J. A prescribed motor's
+    /// rotor belongs to the drive: the motor's work is what its shaft passes to the chain.
+    pub(super) fn torsion_energy(&self, tor: &Torsion, motor: Motor, y: &[f64]) -> f64 {
+        let s = tor.nodes(motor, y);
         let n = tor.n();
-        let kinetic: f64 = (0..n - 1)
+        let kinetic: f64 = (tor.first()..n - 1)
             .map(|i| 0.5 * tor.chain.inertias[i] * s.w[i] * s.w[i])
             .sum();
         kinetic
@@ -342,27 +387,26 @@ impl Simulation {
         let h = self.cycle_angle() / omega / m as f64;
         let rigid = self.rigid_samples(omega, oil, m, w)?;
         let mut y = self.torsion_start(tor, omega, &rigid);
-        let mut st = Stages {
-            evals: [w.eval(), w.eval(), w.eval(), w.eval()],
-            k: std::array::from_fn(|_| vec![0.0; y.len()]),
-            ys: vec![0.0; y.len()],
-            nodes: tor.nodes(0.0, omega, &y),
-        };
-        st.evals[3].totals.fill(0.0);
+        let mut st = Stages::new(tor, w, (0.0, omega), &y);
         let shoot = Shooting::new(tor, self.cycle_angle() / omega);
         let (mut last, mut t) = ((f64::NAN, f64::NAN), 0.0);
         for cycle in 1..=MAX_CYCLES {
             let y0 = y.clone();
             let mut rec = self.empty_record(m);
-            rec.chain_energy[0] = self.torsion_energy(tor, t, omega, &y);
+            rec.chain_energy[0] = self.torsion_energy(tor, (omega * t, omega), &y);
             let works = [y[y.len() - 2], y[y.len() - 1]];
+            let reference = |t: f64| (omega * t, omega);
             for _ in 0..m {
-                self.torsion_begin(tor, (t, h, omega, oil), &y, &mut st, w, &mut rec)?;
-                self.torsion_step(tor, (t, h, omega, oil), &mut y, &mut st, w, &mut rec)?;
+                let at = (t, h, reference(t), oil);
+                let (torque, speed, _) = self.torsion_begin(tor, at, &y, &mut st, w)?;
+                rec.torque.push(torque);
+                rec.speed.push(speed);
+                let sums = (rec.delta.as_mut_slice(), rec.regime_time.as_mut_slice());
+                self.torsion_step(tor, (t, h, oil), &reference, &mut y, &mut st, w, sums)?;
                 t += h;
                 *steps += 1;
             }
-            rec.chain_energy[1] = self.torsion_energy(tor, t, omega, &y);
+            rec.chain_energy[1] = self.torsion_energy(tor, (omega * t, omega), &y);
             let work = [y[y.len() - 2] - works[0], y[y.len() - 1] - works[1]];
             let (mean, pp) = stats(&rec.torque);
             let change =

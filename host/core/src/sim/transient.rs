@@ -158,7 +158,7 @@ impl Simulation {
                 field: "drivetrain".into(),
                 law: None,
                 param: None,
-                message: "a rig with a [drivetrain] runs in the steady state (`--steady`): the transient test cycle does not integrate the chain's degrees of freedom yet".into(),
+                message: "a rig with a [drivetrain] runs the whole test cycle (`run`) or the steady state (`--steady`); the stepping interface (the FMU, Python's stepping) does not integrate the chain's degrees of freedom".into(),
             });
         }
         let mut w = self.work()?;
@@ -494,7 +494,7 @@ impl Simulation {
 
     /// The run's grid over the cycle: segment ends, and for a prescribed crank the exact
     /// window starts, so every window begins and ends on a step.
-    fn grid(&self) -> Vec<f64> {
+    pub(super) fn grid(&self) -> Vec<f64> {
         let spec = self.window_spec();
         let duration = self.cycle.duration();
         let mut breaks: Vec<f64> = self.cycle.breakpoints();

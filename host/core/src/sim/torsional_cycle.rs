@@ -1,0 +1,376 @@
+//! The test cycle with the rig's drivetrain: the chain's nodes and the crank integrated
+//! together from rest through the whole cycle, ramps included (classical RK4 in whole steps
+//! per interval of the cycle's grid, the motor following the cycle's reference or held by the
+//! PI controller). Each plateau is measured over its hold's last whole cycles as the rigid run
+//! measures it ([`Plateaus`]); the transducer's shaft torque is filtered through the
+//! transducer's and the acquisition's low-passes as it goes and sampled at the acquisition's
+//! rate inside the same window ([`Signal`]): the bench's own record, transients included.
+
+use std::f64::consts::TAU;
+
+use super::error::SimError;
+use super::plateau::{Plateaus, WindowSpec};
+use super::results::{DriveKind, EnergyBalance, Instrument, PlateauResult, RunResult};
+use super::stepper::Integration;
+use super::torsional::{Motor, Stages, Torsion};
+use super::Simulation;
+use crate::model::Drive;
+use crate::observe::{StepObserver, StepSample};
+
+/// The largest RK4 step as a share of its stability limit on the imaginary axis
+/// (`|h w| <= 2.83`) at the chain's stiffest mode: the chain's modes are lightly damped, so
+/// its eigenvalues sit near that axis.
+const STABILITY_SHARE: f64 = 0.7;
+
+/// The transducer's signal near the end of each hold: time, the shaft torque (N m, in the
+/// transducer), the torque through both low-passes, the crank's speed and the energy the
+/// chain's dampers have dissipated (J), at every step's start within the hold's measurement
+/// margin.
+struct Signal {
+    /// Per plateau: the span it records, s, and its samples.
+    holds: Vec<([f64; 2], Vec<[f64; 5]>)>,
+    /// The two first-order low-passes' cut-offs, Hz: the transducer's, the acquisition's.
+    cutoffs: [f64; 2],
+    /// Their outputs now, N m.
+    filtered: [f64; 2],
+}
+
+impl Signal {
+    fn new(sim: &Simulation, spec: &WindowSpec, tor: &Torsion) -> Self {
+        let holds = sim
+            .cycle
+            .plateaus()
+            .iter()
+            .map(|p| {
+                let margin = spec.window_s + (spec.cycle_angle() + TAU) / p.omega.max(1e-9);
+                ([p.t_end - margin, p.t_end], Vec::new())
+            })
+            .collect();
+        Signal {
+            holds,
+            cutoffs: [tor.chain.rating.cutoff_hz, tor.chain.daq.lowpass_hz],
+            filtered: [0.0; 2],
+        }
+    }
+
+    /// The sample at `t` of the shaft torque `torque` held over the step of `h` before it
+    /// (first-order low-passes, exact for a signal held over the step), and the crank speed.
+    fn push(&mut self, t: f64, h: f64, [torque, speed, dissipated]: [f64; 3]) {
+        let mut input = torque;
+        for (f, fc) in self.filtered.iter_mut().zip(self.cutoffs) {
+            let a = (-TAU * fc * h).exp();
+            *f = a * *f + (1.0 - a) * input;
+            input = *f;
+        }
+        for (span, samples) in &mut self.holds {
+            if t >= span[0] && t <= span[1] + 1e-12 {
+                samples.push([t, torque, self.filtered[1], speed, dissipated]);
+            }
+        }
+    }
+
+    /// The instrument's figures over the window `[t0, t1]` (s) of plateau `pi`.
+    fn instrument(&self, pi: usize, [t0, t1]: [f64; 2], tor: &Torsion) -> Instrument {
+        let samples: Vec<&[f64; 5]> = self.holds[pi]
+            .1
+            .iter()
+            .filter(|s| s[0] >= t0 - 1e-12 && s[0] < t1 - 1e-12)
+            .collect();
+        let field = |k: usize| samples.iter().map(move |s| s[k]);
+        let (lo, hi) = extremes(field(1));
+        let (speed_lo, speed_hi) = extremes(field(3));
+        let count = samples.len().max(1) as f64;
+        let mean = field(1).sum::<f64>() / count;
+        let speed_mean = field(3).sum::<f64>() / count;
+        let acquired = self.acquire(pi, [t0, t1], tor);
+        let dissipated = self.at(pi, t1, 4) - self.at(pi, t0, 4);
+        let r = &tor.chain.rating;
+        Instrument {
+            transducer: r.name.clone(),
+            mean_torque_nm: mean,
+            min_torque_nm: lo,
+            max_torque_nm: hi,
+            peak_to_peak_nm: hi - lo,
+            acquired_mean_torque_nm: acquired.0,
+            acquired_peak_to_peak_nm: acquired.1,
+            clipped_share: acquired.2,
+            crank_speed_fluctuation: (speed_hi - speed_lo) / speed_mean,
+            rated_torque_nm: r.rated_nm,
+            limit_torque_nm: r.limit_nm,
+            oscillation_width_nm: r.width_nm,
+            chain_dissipation_w: dissipated / (t1 - t0).max(1e-300),
+            settling_cycles: 0,
+        }
+    }
+
+    /// Field `k` of plateau `pi`'s samples at `t`, linear between steps.
+    fn at(&self, pi: usize, t: f64, k: usize) -> f64 {
+        let samples = &self.holds[pi].1;
+        let j = samples.partition_point(|s| s[0] <= t).max(1) - 1;
+        match (samples.get(j), samples.get(j + 1)) {
+            (Some(a), Some(b)) if b[0] > a[0] => {
+                let s = ((t - a[0]) / (b[0] - a[0])).clamp(0.0, 1.0);
+                a[k] + s * (b[k] - a[k])
+            }
+            (Some(a), _) => a[k],
+            _ => 0.0,
+        }
+    }
+
+    /// The filtered torque sampled at the acquisition's rate over the window (linear between
+    /// steps), clipped to its range: the record's mean, peak-to-peak and share clipped.
+    fn acquire(&self, pi: usize, [t0, t1]: [f64; 2], tor: &Torsion) -> (f64, f64, f64) {
+        let daq = &tor.chain.daq;
+        let count = (((t1 - t0) * daq.sample_rate_hz).floor() as usize).max(1);
+        let (mut sum, mut clipped) = (0.0, 0usize);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..count {
+            let x = self.at(pi, t0 + k as f64 / daq.sample_rate_hz, 2);
+            if x.abs() > daq.range_nm {
+                clipped += 1;
+            }
+            let x = x.clamp(-daq.range_nm, daq.range_nm);
+            sum += x;
+            lo = lo.min(x);
+            hi = hi.max(x);
+        }
+        (sum / count as f64, hi - lo, clipped as f64 / count as f64)
+    }
+}
+
+/// The smallest and largest of `x`.
+fn extremes(x: impl Iterator<Item = f64>) -> (f64, f64) {
+    x.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    })
+}
+
+impl Simulation {
+    /// The largest step the chain allows an explicit RK4 step, s: the stability limit at its
+    /// stiffest mode, with the crank at the least inertia it has over the cycle (the
+    /// reciprocating mass at a dead centre), so the limit holds at every crank angle.
+    fn torsion_step_cap(&self, tor: &Torsion) -> f64 {
+        let inertia_at = |theta: f64| {
+            2.0 * (self.crank.mechanical_energy(theta, 1.0)
+                - self.crank.mechanical_energy(theta, 0.0))
+        };
+        let least = (0..144)
+            .map(|k| inertia_at(self.cycle_angle() * k as f64 / 144.0))
+            .fold(f64::INFINITY, f64::min);
+        let mut chain = tor.chain.clone();
+        if let Some(crank) = chain.inertias.last_mut() {
+            if least.is_finite() && least > 0.0 {
+                *crank = crank.min(least);
+            }
+        }
+        let stiffest = chain
+            .modes(tor.hold)
+            .iter()
+            .map(|m| m.frequency_hz)
+            .fold(0.0, f64::max);
+        if stiffest > 0.0 {
+            STABILITY_SHARE * 2.83 / (TAU * stiffest)
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The whole test cycle with the drivetrain (see the module). The energy balance is the
+    /// whole chain's: motor work = the laws' dissipation + the chain's + the gas work + the
+    /// change of the chain's and the crank's energy from rest.
+    pub(super) fn run_transient_drivetrain(
+        &self,
+        tor: &Torsion,
+        observer: &mut dyn StepObserver,
+    ) -> Result<RunResult, SimError> {
+        let mut w = self.work()?;
+        let n = self.layout().len();
+        let spec = self.window_spec();
+        let reference = |t: f64| -> Motor {
+            let (theta, omega, _) = self.reference(t);
+            (theta, omega)
+        };
+        let y = vec![0.0; tor.len()];
+        let mut run = CycleRun {
+            s: Integration::new(n, self.regime_times()),
+            plateaus: Plateaus::new(self.cycle.plateaus(), spec, (n, self.regime_times())),
+            signal: Signal::new(self, &spec, tor),
+            st: Stages::new(tor, &mut w, reference(0.0), &y),
+            e0: self.torsion_energy(tor, reference(0.0), &y),
+            y,
+            steps: 0,
+            filtered: 0.0,
+        };
+        let cap = self.torsion_step_cap(tor);
+        let mut t = 0.0;
+        let mut last: Option<f64> = None;
+        for b in self
+            .grid()
+            .into_iter()
+            .chain(std::iter::once(f64::INFINITY))
+        {
+            // The grid's end gets a last evaluation so the last step is booked.
+            let end = !b.is_finite();
+            let b = if end { t } else { b };
+            if !end && b <= t {
+                continue;
+            }
+            let omega_max = reference(t)
+                .1
+                .max(reference(b).1)
+                .max(run.y[tor.crank_speed()]);
+            let dt = self.time_step(self.step_rad, omega_max).min(cap);
+            let m = if end {
+                1
+            } else {
+                ((b - t) / dt).ceil().max(1.0) as u64
+            };
+            let h = if end { 0.0 } else { (b - t) / m as f64 };
+            for k in 0..m {
+                let at = (t, h, reference(t), self.oil_at(t));
+                let (torque, speed, saturated) =
+                    self.torsion_begin(tor, at, &run.y, &mut run.st, &mut w)?;
+                if let Some(h_prev) = last {
+                    self.book_torsion_step(&mut run, tor, (t, h_prev, speed, saturated), observer)?;
+                }
+                let dissipated = run.y[run.y.len() - 1];
+                run.signal
+                    .push(t, last.unwrap_or(0.0), [torque, speed, dissipated]);
+                if end {
+                    break;
+                }
+                let sums = (run.s.acc.as_mut_slice(), run.s.regime_time.as_mut_slice());
+                let (y, st) = (&mut run.y, &mut run.st);
+                self.torsion_step(tor, (t, h, at.3), &reference, y, st, &mut w, sums)?;
+                last = Some(h);
+                t = if k + 1 == m { b } else { t + h };
+                run.steps += 1;
+            }
+        }
+        run.s.t = t;
+        self.torsion_cycle_result(run, tor, w)
+    }
+
+    /// The finished run's result: every plateau with its instrument, the energy balance.
+    fn torsion_cycle_result(
+        &self,
+        run: CycleRun,
+        tor: &Torsion,
+        mut w: super::evaluate::Work,
+    ) -> Result<RunResult, SimError> {
+        let t = run.s.t;
+        let (theta, omega, _) = self.reference(t);
+        let (plateaus, warnings) = self.torsion_cycle_plateaus(&run, tor)?;
+        let change = self.torsion_energy(tor, (theta, omega), &run.y) - run.e0;
+        let CycleRun {
+            s,
+            y,
+            st,
+            e0,
+            steps,
+            ..
+        } = run;
+        for e in st.into_evals() {
+            w.recycle(e);
+        }
+        let layout = self.layout();
+        let dissipated: f64 = s.acc[layout.powers()].iter().sum::<f64>() + y[y.len() - 1];
+        let energy = EnergyBalance::from_terms_with_gas(
+            y[y.len() - 2],
+            change,
+            dissipated,
+            s.acc[layout.gas()],
+        )
+        .relative_to(e0.abs().max((e0 + change).abs()));
+        Ok(RunResult {
+            rig: self.rig_name.clone(),
+            drive: match self.drive {
+                Drive::Prescribed {} => DriveKind::Prescribed,
+                Drive::Pi { .. } => DriveKind::Pi,
+            },
+            plateaus,
+            fmep: self.fmep(),
+            energy_residual_j: energy.residual_j,
+            energy,
+            steps,
+            rejected_steps: 0,
+            replayed_steps: 0,
+            max_friction_iterations: w.max_it,
+            warnings: self.result_warnings(warnings),
+            law_time: super::bind::law_time(&self.joints),
+        })
+    }
+
+    /// Book the step of `h` that ended at `t` (crank `speed` there, the motor's controller at
+    /// its limit if `saturated`), now that its end's evaluation (`run.st.first()`) is known:
+    /// the windows' records, the filtered torque, the observer, the progress.
+    fn book_torsion_step(
+        &self,
+        run: &mut CycleRun,
+        tor: &Torsion,
+        (t, h, speed, saturated): (f64, f64, f64, bool),
+        observer: &mut dyn StepObserver,
+    ) -> Result<(), SimError> {
+        let end = run.st.first();
+        run.s.record(end);
+        let theta = run.y[tor.crank_angle()];
+        run.plateaus.record(t, h, (theta, speed), saturated, &run.s);
+        let a = (-TAU * self.lowpass_hz * h).exp();
+        run.filtered = a * run.filtered + (1.0 - a) * end.drive_torque;
+        if observer.reads_samples() {
+            let sample = StepSample {
+                time_s: t,
+                crank_angle_rad: theta,
+                speed_rad_s: speed,
+                motoring_torque_nm: end.drive_torque,
+                filtered_torque_nm: run.filtered,
+                normal_loads_n: &end.normals,
+            };
+            observer.step(&sample).map_err(SimError::Observer)?;
+        }
+        if run.steps % 4096 == 0 {
+            let permille = (1000.0 * t / self.cycle.duration()) as u64;
+            if let Some(p) = &self.progress {
+                p.set(permille);
+            }
+            observer.progress(permille);
+        }
+        Ok(())
+    }
+
+    /// Every plateau's result with its instrument's figures over its measurement window, and
+    /// the warnings: the windows' own, and where the transducer left its rating.
+    fn torsion_cycle_plateaus(
+        &self,
+        run: &CycleRun,
+        tor: &Torsion,
+    ) -> Result<(Vec<PlateauResult>, Vec<String>), SimError> {
+        let windows = std::cell::RefCell::new(vec![[0.0; 2]; self.cycle.plateaus().len()]);
+        let (results, mut warnings) = run.plateaus.results(|pi, m| {
+            windows.borrow_mut()[pi] = m.window_s;
+            self.plateau_result(pi, m)
+        })?;
+        let windows = windows.into_inner();
+        let mut results = results;
+        for (pi, r) in results.iter_mut().enumerate() {
+            let instrument = run.signal.instrument(pi, windows[pi], tor);
+            warnings.extend(instrument.rating_warning(r.set_speed_rpm));
+            r.instrument = Some(instrument);
+        }
+        Ok((results, warnings))
+    }
+}
+
+/// A transient run with the drivetrain under way: the accumulated quantities, the windows'
+/// records, the transducer's signal, the chain's and crank's state and its RK4 scratch, the
+/// energy at the start (J), the steps taken and the filtered motoring torque (N m).
+struct CycleRun {
+    s: Integration,
+    plateaus: Plateaus,
+    signal: Signal,
+    st: Stages,
+    e0: f64,
+    y: Vec<f64>,
+    steps: u64,
+    filtered: f64,
+}

@@ -71,7 +71,7 @@ const SEALS: f64 = 1.22e5;
 const JOURNAL: f64 = 3.03e-4;
 /// Crankshaft, "turbulent dissipation": `C D_b^2 N^2 n_b / n_c`. PNH, transcribed; an
 /// empirical `N^2` term of the teardown data's crank group (what it stood for in those
-/// engines could not be read here: docs/engines.md, "The correlation beside every engine").
+/// engines could not be read here: docs/engines.md, "The correlation's groups and terms").
 const TURBULENT: f64 = 1.35e-10;
 /// Reciprocating, piston skirt: `C (mu/mu0)^0.5 Sp / B`. PNH, transcribed; viscosity factor
 /// Sandoval and Heywood's.

@@ -1457,18 +1457,25 @@ fn tribo_groups(rows: &[FmepRow], rpm: f64) -> (f64, f64, f64) {
     (crank, recip, total)
 }
 
-/// Issue 48's acceptance: the unfitted `4b11-physical` (the manual's middle clearances, seals
-/// and windage on the crank) at 90 C, 1000-6000 rpm, read from `fmep.csv`: the rubbing total
-/// within +-30% of the correlation's head-less rubbing total, the crankshaft group (every main)
-/// and the reciprocating group (big ends, small ends, pistons) each within a factor 1.5 of the
-/// correlation's groups, which are written out here from the published terms.
+/// The 4B11 against the correlation's guard band: the unfitted `4b11-physical` (the manual's
+/// middle clearances, seals and windage on the crank) at 90 C, 1000-6000 rpm, read from
+/// `fmep.csv`: the rubbing total within +-30% of the correlation's head-less rubbing total, the
+/// crankshaft group (every main) and the reciprocating group (big ends, small ends, pistons)
+/// each within a factor 1.5 of the correlation's groups, written out here from the published
+/// terms.
 ///
-/// Not met at 6000 rpm: the crankshaft group is 0.65 of the correlation's there (docs/engines.md,
-/// "Against the correlation's groups"), where the correlation's turbulent-dissipation term
-/// (15 kPa) is thirty times what the physical windage and oil-pumping law gives. Run it with
+/// Not met at 6000 rpm only: the crankshaft group is 0.652 of the correlation's (17.39 against
+/// 26.67 kPa), 0.39 kPa short of the band. Why (docs/engines.md, "The correlation's groups"):
+/// the correlation's crank group grows 6.2 times from 1000 to 6000 rpm, Tribo's 3.1 times,
+/// because 15.19 kPa of it at 6000 rpm (57%) is the empirical `N^2` "turbulent dissipation"
+/// term, and the physical windage and oil-pumping law gives 0.50 kPa there. With the ratio at
+/// 1000 rpm at 1.286, the band leaves a window of 0.39-0.93 kPa of constant crank friction to
+/// add; the seal law's level is uncertain by more than that (its validation against ISO/TR
+/// 14179-2 is 3-12 times below at 90 C), so the verdict at 6000 rpm is set by an estimate, and
+/// no sourced mechanism supplies the `N^2` growth. Run it with
 /// `cargo test --release --test engine -- --ignored the_4b11_stands`.
 #[test]
-#[ignore = "acceptance not met at 6000 rpm: crankshaft group 0.65 of the correlation's (a finding, docs/engines.md)"]
+#[ignore = "not met at 6000 rpm: crankshaft group 0.652 of the correlation's, whose N^2 turbulent-dissipation term (15.2 kPa) no sourced mechanism supplies (docs/engines.md)"]
 fn the_4b11_stands_in_the_correlation_s_guard_band_at_90_c() {
     let (plateaus, rows) = run_4b11_fmep("4b11-physical");
     let mut failures = Vec::new();

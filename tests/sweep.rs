@@ -177,6 +177,50 @@ fn a_user_oil_given_by_set_replaces_the_bundled_one_and_its_name() {
     assert_eq!(json["oil"]["name"], "my oil");
 }
 
+/// The printed viscosity response `d ln T / d ln mu` between neighbouring temperatures: 1 for
+/// Petroff bearings (torque proportional to viscosity), 0 for Coulomb friction (viscosity-blind),
+/// one column per pair of temperatures and a row per speed.
+#[test]
+fn the_sweep_prints_the_viscosity_response_petroff_one_coulomb_zero() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for (set, want) in [
+        ("petroff-mains.toml", 1.0),
+        ("fedem-coulomb-only.toml", 0.0),
+    ] {
+        let out = tribo_in(
+            &[
+                "sweep",
+                "--lawset",
+                &fixture(set),
+                "--temps",
+                "40,70,110",
+                "--speeds",
+                "3000,9000",
+                "--out",
+                "o",
+            ],
+            dir.path(),
+        );
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "{stderr}");
+        let lines: Vec<&str> = stdout.lines().collect();
+        let at = lines
+            .iter()
+            .position(|l| l.starts_with("viscosity response d ln T / d ln mu"))
+            .unwrap_or_else(|| panic!("{set}: no response table in\n{stdout}"));
+        let head: Vec<&str> = lines[at + 1].split_whitespace().collect();
+        assert_eq!(head, ["rpm", "40-70", "70-110"], "{set}");
+        for (row, rpm) in lines[at + 2..at + 4].iter().zip(["3000", "9000"]) {
+            let cells: Vec<&str> = row.split_whitespace().collect();
+            assert_eq!(cells[0], rpm, "{set}");
+            for c in &cells[1..] {
+                let r: f64 = c.parse().expect("number");
+                assert!((r - want).abs() < 1e-3, "{set} {rpm}: {r}");
+            }
+        }
+    }
+}
+
 #[test]
 fn temperature_blind_law_set_gives_the_same_torque_at_every_temperature() {
     let dir = tempfile::tempdir().expect("temp dir");

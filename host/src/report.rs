@@ -1585,11 +1585,56 @@ pub fn sweep_text(s: &crate::study::Sweep) -> String {
             }
             out.push('\n');
         }
+        out.push_str(&viscosity_response_text(s, set));
         for w in &set.warnings {
             let _ = writeln!(out, "warning: {w}");
         }
     }
     fit_width(&out)
+}
+
+/// The law set's torque response to the oil's viscosity between neighbouring temperatures,
+/// `d ln T / d ln mu = ln(T_a / T_b) / ln(mu_a / mu_b)` per speed: 1 for a Petroff film at a
+/// fixed temperature, 0 for viscosity-blind friction (boundary contact, a rolling bearing's
+/// load term). Measured engines respond weakly (docs/engines.md, "Oil temperature"), so this
+/// is printed beside every sweep of two temperatures or more.
+fn viscosity_response_text(s: &crate::study::Sweep, set: &crate::study::SweepSet) -> String {
+    let mut out = String::new();
+    let n = s.speeds_rpm.len();
+    let pairs: Vec<usize> = (1..s.temps_c.len())
+        .filter(|&k| {
+            let (a, b) = (s.viscosities_pa_s[k - 1], s.viscosities_pa_s[k]);
+            a > 0.0 && b > 0.0 && (a / b).ln().abs() > 1e-9
+        })
+        .collect();
+    if pairs.is_empty() {
+        return out;
+    }
+    let _ = writeln!(out, "viscosity response d ln T / d ln mu");
+    let _ = write!(out, "{:>7}", "rpm");
+    for &k in &pairs {
+        let _ = write!(
+            out,
+            " {:>9}",
+            format!("{}-{}", s.temps_c[k - 1], s.temps_c[k])
+        );
+    }
+    out.push('\n');
+    for (i, rpm) in s.speeds_rpm.iter().enumerate() {
+        let _ = write!(out, "{rpm:>7.0}");
+        for &k in &pairs {
+            let (ta, tb) = (set.torque(k - 1, i, n), set.torque(k, i, n));
+            let mu = (s.viscosities_pa_s[k - 1] / s.viscosities_pa_s[k]).ln();
+            let r = if ta > 0.0 && tb > 0.0 {
+                (ta / tb).ln() / mu
+            } else {
+                f64::NAN
+            };
+            let _ = write!(out, " {r:>9.3}");
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// `sweep.csv`: one row per law set, temperature and speed (in the JSON's order: law set, then

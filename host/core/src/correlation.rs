@@ -30,6 +30,11 @@
 //! the 4B11 it would lower the ring term by 2.7 kPa at 1000 rpm and 0.5 kPa at 6000 rpm (12%
 //! and 1% of the reciprocating group). Sandoval and Heywood's viscosity scaling `(mu/mu0)^0.5`
 //! is applied to the hydrodynamic terms (bearings, skirt).
+//! What Sandoval's thesis states in its readable abstract (MIT 2002): the model predicts the
+//! rubbing losses of the crankshaft, reciprocating and valvetrain components, the auxiliary
+//! losses of the engine's accessories and the pumping losses, from engine friction data of
+//! 1980-1989, some terms from lubrication theory and others empirical from measurements of
+//! individual components. So the oil pump, an accessory, is not in the crankshaft group.
 //!
 //! `mu0` is the viscosity of the correlation's reference oil. Sandoval and Heywood scale the
 //! hydrodynamic terms by the square root of the oil's viscosity over that of the oil the PNH
@@ -50,6 +55,46 @@ use crate::oil::ViscosityModel;
 /// Source of every constant below.
 pub const SOURCE: &str =
     "PNH (SAE 890836) with Sandoval & Heywood's viscosity scaling (SAE 2003-01-0725)";
+
+// The constants, each with the term it belongs to and where it stands. "Transcribed": the
+// value every public transcription of PNH read here gives (module docs); the SAE papers
+// themselves could not be read from this repository's sources, so none is re-read from the
+// page. Units: FMEP in kPa, lengths in mm, speed in rpm, Sp in m/s.
+
+/// Crankshaft, main-bearing seals: `C D_b / (B^2 S n_c)`. PNH (SAE 890836), transcribed;
+/// kept unchanged by Sandoval and Heywood (SAE 2003-01-0725). Speed-independent: boundary
+/// friction of the lip under its own load.
+const SEALS: f64 = 1.22e5;
+/// Crankshaft and reciprocating, hydrodynamic journal bearings (mains and rod bearings):
+/// `C (mu/mu0)^0.5 N D_b^3 L_b n_b / (B^2 S n_c)`. PNH's constant, transcribed; the
+/// `(mu/mu0)^0.5` factor is Sandoval and Heywood's.
+const JOURNAL: f64 = 3.03e-4;
+/// Crankshaft, "turbulent dissipation": `C D_b^2 N^2 n_b / n_c`. PNH, transcribed; an
+/// empirical `N^2` term of the teardown data's crank group (what it stood for in those
+/// engines could not be read here: docs/engines.md, "The correlation's groups and terms").
+const TURBULENT: f64 = 1.35e-10;
+/// Reciprocating, piston skirt: `C (mu/mu0)^0.5 Sp / B`. PNH, transcribed; viscosity factor
+/// Sandoval and Heywood's.
+const SKIRT: f64 = 2.94e2;
+/// Reciprocating, piston rings without gas loading: `C (1 + RING_SPEED_RPM / N) / B^2`. PNH,
+/// transcribed.
+const RINGS: f64 = 4.06e4;
+/// The ring term's speed factor `1 + RING_SPEED_RPM / N`: PNH's 1000 rpm (SAE 890836, as an
+/// independent public implementation of PNH writes it). Public transcriptions of the 2003
+/// revision read 500 rpm; not applied, since that revision could not be read (module docs).
+const RING_SPEED_RPM: f64 = 1000.0;
+/// Reciprocating, gas loading on a rig with a head:
+/// `C (p_i/p_a) (GAS_LINEAR r_c + GAS_POWER r_c^(GAS_EXPONENT - GAS_K Sp))`. PNH's form,
+/// transcribed.
+const GAS: f64 = 6.89;
+/// See [`GAS`].
+const GAS_LINEAR: f64 = 0.088;
+/// See [`GAS`].
+const GAS_POWER: f64 = 0.182;
+/// See [`GAS`].
+const GAS_EXPONENT: f64 = 1.33;
+/// See [`GAS`], s/m.
+const GAS_K: f64 = 2.38e-2;
 
 /// Which part of the engine a term belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -198,7 +243,7 @@ impl EngineData {
     fn hydrodynamic_kpa(&self, set: &[(f64, f64)], n: f64, root: f64) -> f64 {
         let (b, s, nc) = (self.bore_mm, self.stroke_mm, self.cylinders as f64);
         set.iter()
-            .map(|(d, l)| 3.03e-4 * root * n * d.powi(3) * l / (b * b * s * nc))
+            .map(|(d, l)| JOURNAL * root * n * d.powi(3) * l / (b * b * s * nc))
             .sum()
     }
 
@@ -216,8 +261,8 @@ impl EngineData {
                 "main bearing seals",
                 Group::Crankshaft,
                 "",
-                Some(1.22e5 * mean_d / (b * b * s * nc)),
-                "1.22e5 D_b / (B^2 S n_c); no Tribo law models the seals",
+                Some(SEALS * mean_d / (b * b * s * nc)),
+                "1.22e5 D_b / (B^2 S n_c); lip-seal is the physical seal law",
             ),
             term(
                 "main bearings",
@@ -230,8 +275,8 @@ impl EngineData {
                 "turbulent dissipation",
                 Group::Crankshaft,
                 "",
-                Some(1.35e-10 * mean_d * mean_d * n * n * nb / nc),
-                "1.35e-10 D_b^2 N^2 n_b / n_c (oil pumped through the bearings); no Tribo law models it",
+                Some(TURBULENT * mean_d * mean_d * n * n * nb / nc),
+                "1.35e-10 D_b^2 N^2 n_b / n_c (empirical N^2 term of the teardown data); crank-windage is the physical windage and oil pumping",
             ),
         ]
     }
@@ -246,7 +291,7 @@ impl EngineData {
                 "gas loading",
                 Group::Reciprocating,
                 "piston_*",
-                Some(6.89 * pi_pa * (0.088 * rc + 0.182 * rc.powf(1.33 - 2.38e-2 * sp))),
+                Some(GAS * pi_pa * (GAS_LINEAR * rc + GAS_POWER * rc.powf(GAS_EXPONENT - GAS_K * sp))),
                 "6.89 (p_i/p_a) (0.088 r_c + 0.182 r_c^(1.33 - K Sp)), K = 2.38e-2 s/m (PNH's form)",
             ),
             None => term(
@@ -262,14 +307,14 @@ impl EngineData {
                 "piston skirt",
                 Group::Reciprocating,
                 "piston_*",
-                Some(2.94e2 * root * sp / b),
+                Some(SKIRT * root * sp / b),
                 "2.94e2 (mu/mu0)^0.5 Sp / B; Tribo's piston laws carry skirt and rings together",
             ),
             term(
                 "piston rings",
                 Group::Reciprocating,
                 "piston_*",
-                Some(4.06e4 * (1.0 + 1000.0 / n.max(1.0)) / (b * b)),
+                Some(RINGS * (1.0 + RING_SPEED_RPM / n.max(1.0)) / (b * b)),
                 "4.06e4 (1 + 1000/N) / B^2 (ring tension, without gas loading; PNH's form)",
             ),
             term(

@@ -340,6 +340,65 @@ mod tests {
         assert!(sens > 0.0 && sens < 1.0, "d ln T / d ln mu = {sens}");
     }
 
+    /// Validation against a published seal-loss relation: ISO/TR 14179-2 (the thermal
+    /// capacity of gear units) gives a radial lip seal's power loss as P = 7.69e-6 d^2 n W with
+    /// the shaft diameter `d` in mm and the speed `n` in rpm (the seal method the FVA Workbench's
+    /// loss documentation lists; public gear-loss codes transcribe the same constant), that is
+    /// a torque of 7.69e-6 d^2 * 60 / (2 pi) = 7.343e-5 d^2 N m at every speed: 0.5306 N m on an
+    /// 85 mm shaft, 0.1175 N m on a 40 mm one. The law with its bundled estimates (the 4B11's
+    /// 85 mm rear and 40 mm front seals, its 5W-30 at 40-110 C: 55.3, 19.7, 11.7, 7.6 mPa s) is
+    /// asked to be within a factor 1.5 of it, the spread of one seal type's measured friction
+    /// between new and run-in lips.
+    ///
+    /// Not met: the law is 2-20 times below the relation (3-12 times at 90 C; closest on cold
+    /// oil); the film (1 um) and the band (0.15 mm) are estimates, and the relation is a
+    /// temperature-blind design value for industrial seals, so neither side settles the level
+    /// (docs/laws/lip-seal.md, "Validation"). Run it with `cargo test --release -p
+    /// tribo-law-lip-seal -- --ignored against_iso`.
+    #[test]
+    #[ignore = "not met: the law is 2-20x below ISO/TR 14179-2's seal loss, 3-12x at 90 C (docs/laws/lip-seal.md, Validation)"]
+    fn the_seal_torque_against_iso_tr_14179_2() {
+        let mut failures = Vec::new();
+        for (d_mm, shaft) in [(85.0_f64, 0.085), (40.0, 0.040)] {
+            let l = law(&format!("shaft_diameter_m = {shaft}"));
+            let iso = 7.69e-6 * d_mm * d_mm * 60.0 / (2.0 * std::f64::consts::PI);
+            for (t_c, mu) in [
+                (40.0, 0.0553),
+                (70.0, 0.0197),
+                (90.0, 0.0117),
+                (110.0, 0.0076),
+            ] {
+                for rpm in [1000.0, 3000.0, 6000.0] {
+                    let w = rpm * std::f64::consts::PI / 30.0;
+                    let ratio = l.seal(w, mu, t_c).torque_nm / iso;
+                    if !(1.0 / 1.5..=1.5).contains(&ratio) {
+                        failures.push(format!("{d_mm} mm, {t_c} C, {rpm} rpm: {ratio:.2}"));
+                    }
+                }
+            }
+        }
+        assert!(failures.is_empty(), "law / ISO/TR 14179-2: {failures:#?}");
+    }
+
+    /// What the published relations agree on and the law reproduces in part, without any
+    /// fitting: the seal torque hardly depends on speed (ISO/TR 14179-2's torque and the
+    /// Patton-Nitschke-Heywood seal term are speed-independent), because the lip's film heats
+    /// with the power it shears. From 1000 to 6000 rpm at 90 C an isothermal film's torque
+    /// grows 6 times; the law's rear seal (85 mm, the one that heats most: power grows as d^3,
+    /// the conductance as d) by less than 3, the front seal (40 mm) by less than 6 and more
+    /// than the rear.
+    #[test]
+    fn the_seal_torque_flattens_in_speed_towards_the_published_relations() {
+        let w = |rpm: f64| rpm * std::f64::consts::PI / 30.0;
+        let growth = |shaft: f64| {
+            let l = law(&format!("shaft_diameter_m = {shaft}"));
+            l.seal(w(6000.0), 0.0117, 90.0).torque_nm / l.seal(w(1000.0), 0.0117, 90.0).torque_nm
+        };
+        let (rear, front) = (growth(0.085), growth(0.040));
+        assert!(rear > 1.0 && rear < 3.0, "rear x{rear:.2}");
+        assert!(front > rear && front < 6.0, "front x{front:.2}");
+    }
+
     #[test]
     fn an_oil_that_thickens_as_it_warms_is_refused() {
         let e = create_from_table::<LipSeal>(

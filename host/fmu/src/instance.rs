@@ -340,7 +340,7 @@ impl Instance {
         let mut out = Vec::with_capacity(vrs.len());
         for &vr in vrs {
             let v = self.variable(vr, ty)?;
-            if v.causality == Causality::Output {
+            if v.causality == Causality::Output && v.variability != Variability::Constant {
                 let role = v.role.clone();
                 if matches!(self.phase, Phase::Instantiated) {
                     return Err(format!(
@@ -375,6 +375,9 @@ impl Instance {
             Role::JointTorque { joint: j } => joint(*j).torque_nm,
             Role::JointPower { joint: j } => joint(*j).power_w,
             Role::JointEnergy { joint: j } => joint(*j).energy_j,
+            Role::Transducer { figure } => {
+                r.now.instrument.as_ref().map_or(f64::NAN, |i| figure.of(i))
+            }
             _ => f64::NAN,
         }
     }

@@ -29,6 +29,7 @@ fn symbol(s: &str) -> Option<[i32; 8]> {
         "Pa" => [1, -1, -2, 0, 0, 0, 0, 0],
         "J" => [1, 2, -2, 0, 0, 0, 0, 0],
         "W" => [1, 2, -3, 0, 0, 0, 0, 0],
+        "Hz" => [0, 0, -1, 0, 0, 0, 0, 0],
         "1" => [0; 8],
         _ => return None,
     })
@@ -137,17 +138,20 @@ fn write_into(s: &mut String, iface: &Interface) -> std::fmt::Result {
     }
     writeln!(s, "  </ModelVariables>")?;
     writeln!(s, "  <ModelStructure>")?;
-    let outputs: Vec<usize> = iface
+    let outputs: Vec<(usize, bool)> = iface
         .variables
         .iter()
         .enumerate()
         .filter(|(_, v)| v.causality == Causality::Output)
-        .map(|(i, _)| i + 1)
+        .map(|(i, v)| (i + 1, v.variability == Variability::Constant))
         .collect();
-    for section in ["Outputs", "InitialUnknowns"] {
+    // A constant output's value is its start value (initial "exact"): no initial unknown.
+    for (section, constants) in [("Outputs", true), ("InitialUnknowns", false)] {
         writeln!(s, "    <{section}>")?;
-        for i in &outputs {
-            writeln!(s, r#"      <Unknown index="{i}"/>"#)?;
+        for (i, constant) in &outputs {
+            if constants || !constant {
+                writeln!(s, r#"      <Unknown index="{i}"/>"#)?;
+            }
         }
         writeln!(s, "    </{section}>")?;
     }
@@ -246,6 +250,7 @@ fn variable(s: &mut String, vr: usize, v: &crate::interface::Variable) -> std::f
         Variability::Continuous => "continuous",
         Variability::Tunable => "tunable",
         Variability::Fixed => "fixed",
+        Variability::Constant => "constant",
     };
     writeln!(
         s,

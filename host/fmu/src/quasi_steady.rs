@@ -98,6 +98,8 @@ struct Table {
     power: Vec<Channel>,
     /// The drive torque, N m.
     drive: Channel,
+    /// The transducer's figures in the drivetrain's periodic cycle (a rig with a drivetrain).
+    instrument: Option<tribo_core::sim::Instrument>,
 }
 
 /// Where the run is: what a saved state holds.
@@ -153,6 +155,7 @@ impl QuasiSteady {
                 oil_temperature_c: f64::NAN,
                 power: Vec::new(),
                 drive: Channel::new(vec![0.0], 1.0),
+                instrument: None,
             }),
             cache: Vec::new(),
             state: State {
@@ -239,16 +242,35 @@ impl QuasiSteady {
         // The evaluated grid must be the steady run's, or the cycle integrals differ from it.
         debug_assert!((step - self.step).abs() <= 1e-12 * self.step);
         let drive: Vec<f64> = trace.samples.iter().map(|s| s.drive_torque_nm).collect();
+        let mut warnings = trace.warnings;
+        // With a drivetrain, its periodic cycle at this speed as `tribo run --steady` computes
+        // it: the transducer's figures, and its warnings (the rating exceeded, a cycle that did
+        // not repeat) that the crank's own cycle has not already given.
+        let instrument = match m.drivetrain {
+            Some(_) => {
+                let run = Simulation::new(&m, &self.registry)?.run_steady()?;
+                for w in run.warnings {
+                    if !warnings.contains(&w) {
+                        warnings.push(w);
+                    }
+                }
+                run.plateaus.into_iter().next().and_then(|p| p.instrument)
+            }
+            None => None,
+        };
         let table = Table {
             omega,
             oil_temperature_c: temp,
             power: power.into_iter().map(|p| Channel::new(p, step)).collect(),
             drive: Channel::new(drive, step),
+            instrument,
         };
-        let warnings = trace.warnings.into_iter();
         Ok((
             table,
-            warnings.map(|w| format!("oil at {temp} C, {w}")).collect(),
+            warnings
+                .into_iter()
+                .map(|w| format!("oil at {temp} C, {w}"))
+                .collect(),
         ))
     }
 }
@@ -314,6 +336,7 @@ impl Stepping for QuasiSteady {
             drive_torque_nm: self.table.drive.at(phi, self.step),
             drive_work_j: s.drive_work_j,
             joints,
+            instrument: self.table.instrument.clone(),
         }
     }
 

@@ -47,6 +47,10 @@ pub struct Outputs {
     pub drive_work_j: f64,
     /// Per joint with laws, in the interface's order.
     pub joints: Vec<JointOutput>,
+    /// The drivetrain's transducer over the periodic cycle at the current inputs (a rig with a
+    /// `[drivetrain]`; none without).
+    #[serde(default)]
+    pub instrument: Option<tribo_core::sim::Instrument>,
 }
 
 impl Outputs {

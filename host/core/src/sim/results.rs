@@ -119,7 +119,8 @@ pub struct PlateauResult {
 pub struct Instrument {
     /// The transducer's name.
     pub transducer: String,
-    /// Mean shaft torque in the transducer over the cycle, N m.
+    /// Mean shaft torque in the transducer over the cycle (the test cycle: over the plateau's
+    /// measurement window), N m.
     pub mean_torque_nm: f64,
     /// Smallest shaft torque, N m.
     pub min_torque_nm: f64,
@@ -144,7 +145,8 @@ pub struct Instrument {
     pub oscillation_width_nm: f64,
     /// Power dissipated in the chain's dampers, W.
     pub chain_dissipation_w: f64,
-    /// Cycles integrated until the cycle repeated.
+    /// Cycles integrated until the cycle repeated (steady state); 0 in the test cycle, which
+    /// settles, or not, as the bench did.
     pub settling_cycles: u32,
 }
 

@@ -660,60 +660,51 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 /// runs in a worker process; a library whose loading ends, crashes or hangs that worker is
 /// skipped with a warning naming it, and the listing is made again without it.
 fn cmd_laws(g: &Globals, a: LawsArgs) -> anyhow::Result<()> {
-    let mut job = laws::LawsJob {
-        json: a.json,
-        skip: Vec::new(),
-    };
-    loop {
+    let listed = isolate::listing::skipping_unloadable(|skip| {
         let plugins: Vec<PathBuf> = g
             .plugins
             .iter()
-            .filter(|p| !job.skip.iter().any(|(s, _)| s == *p))
+            .filter(|p| !skip.iter().any(|(s, _)| s == *p))
             .cloned()
             .collect();
+        let job = laws::LawsJob {
+            json: a.json,
+            skip: skip.to_vec(),
+        };
         let mut worker = isolate::Worker::start(
             isolate::worker_command(&plugins),
             isolate::Limits::default(),
-        )
-        .map_err(|e| anyhow::anyhow!("listing the laws: {e}"))?;
-        let reply = worker.call::<_, WorkerOutput>(&WorkerJob::Laws(job.clone()), &mut |e| {
+        )?;
+        let reply = worker.call::<_, WorkerOutput>(&WorkerJob::Laws(job), &mut |e| {
             isolate::show_event("", &e);
             Ok(())
         });
         worker.finish();
-        match reply {
-            Ok(WorkerOutput::Laws(text)) => {
-                // A skipped `--plugin` file is not in the worker's listing: warn here.
-                let given: Vec<String> = job
-                    .skip
-                    .iter()
-                    .filter(|(p, _)| g.plugins.contains(p))
-                    .map(|(p, why)| {
-                        format!(
-                            "skipped a plugin file that cannot be used: `{}` was not opened: {why}",
-                            p.display()
-                        )
-                    })
-                    .collect();
-                laws::print_warnings(&given);
-                return emit(&text);
-            }
-            Ok(_) => anyhow::bail!("a worker answered another job's question"),
-            Err(WorkerFailure::Study(message)) => anyhow::bail!("{message}"),
-            Err(e) => {
-                let text = e.to_string();
-                match tribo_plugin_api::loader::loading_library(&text) {
-                    Some(path)
-                        if !job.skip.iter().any(|(p, _)| *p == path)
-                            && job.skip.len() < laws::MAX_SKIPPED =>
-                    {
-                        let why = format!("loading it in a worker process failed: {text}");
-                        job.skip.push((path, why));
-                    }
-                    _ => anyhow::bail!("listing the laws: {text}"),
-                }
-            }
+        match reply? {
+            WorkerOutput::Laws(text) => Ok(text),
+            _ => Err(WorkerFailure::Internal(
+                "a worker answered another job's question".into(),
+            )),
         }
+    });
+    match listed {
+        Ok((text, skipped)) => {
+            // A skipped `--plugin` file is not in the worker's listing: warn here.
+            let given: Vec<String> = skipped
+                .iter()
+                .filter(|(p, _)| g.plugins.contains(p))
+                .map(|(p, why)| {
+                    format!(
+                        "skipped a plugin file that cannot be used: `{}` was not opened: {why}",
+                        p.display()
+                    )
+                })
+                .collect();
+            laws::print_warnings(&given);
+            emit(&text)
+        }
+        Err(WorkerFailure::Study(message)) => anyhow::bail!("{message}"),
+        Err(e) => anyhow::bail!("listing the laws: {e}"),
     }
 }
 

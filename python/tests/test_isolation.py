@@ -114,7 +114,7 @@ def test_a_crash_in_process_still_ends_the_interpreter_which_is_why_it_is_opt_in
 
 def test_laws_opens_the_libraries_in_workers_so_an_initialiser_that_exits_crashes_or_hangs_is_a_warning(tmp_path):
     # The fixture of the CLI's mischief tests, tests/fixtures/c/mischief.c: initialisers that
-    # call _exit(0), write through a null pointer, or never return.
+    # call _exit(0), raise SIGSEGV, or never return.
     plugins = tmp_path / "plugins"
     plugins.mkdir()
     cases = {"ctor_exit": (3, "status 0"), "ctor_crash": (11, "SIGSEGV"), "ctor_hang": (4, "did not return")}

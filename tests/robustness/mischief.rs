@@ -415,12 +415,12 @@ fn a_rig_with_a_15_mib_name_is_reported_within_its_limits() {
     assert!(printed >= name.len(), "{printed} of {} printed", name.len());
 }
 
-/// A law that plants a file in the `--out` folder of a compare while it runs: the folder's
-/// results are still written (the innocent set's and the law's own), the planted file is
-/// removed, and a warning names it. (Which law planted it is not known: the sets run in
-/// parallel; docs/reliability.md says so.)
+/// A law that plants a file in the `--out` folder of a compare while it runs, beside an
+/// innocent set: the planting law's set fails (exit 1) naming the law, its library and the
+/// file; the planted file is removed; the innocent set's results are written and the failed
+/// set listed.
 #[test]
-fn a_file_planted_in_the_result_folder_is_removed_and_the_results_are_written() {
+fn a_file_planted_in_the_result_folder_fails_the_planting_laws_set_and_the_others_are_written() {
     ensure_plugins_built();
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
@@ -430,31 +430,20 @@ fn a_file_planted_in_the_result_folder_is_removed_and_the_results_are_written() 
     let a = args(Cmd::Compare, &lib, "mischief-plant", d, false);
     let env = [("TRIBO_TEST_PLANT_DIR", out.to_string_lossy().into_owned())];
     let ran = run_as_callee(&a, d, &env, Duration::from_secs(60));
-    assert!(ran.caller_survived, "{}", ran.stderr);
-    assert!(
-        !out.join("planted.txt").exists(),
-        "the planted file is still there"
+    let lib_name = lib.file_name().expect("name").to_string_lossy();
+    let mut p = failed_naming(
+        &ran,
+        &[
+            "law set `hostile`",
+            "law `mischief-plant`",
+            &lib_name,
+            "`planted.txt` into the result folder",
+        ],
+        Duration::from_secs(30),
     );
-    assert!(
-        ran.stderr.contains("planted.txt")
-            && ran.stderr.contains("appeared there while the laws ran"),
-        "{}",
-        ran.stderr
-    );
-    let written: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(out.join("comparison.json")).expect("comparison.json written"),
-    )
-    .expect("JSON");
-    let sets: Vec<&str> = written["sets"]
-        .as_array()
-        .expect("sets")
-        .iter()
-        .filter_map(|s| s["lawset"].as_str())
-        .collect();
-    assert!(sets.contains(&"fedem-baseline"), "{sets:?}");
-    assert!(
-        ran.elapsed < Duration::from_secs(30),
-        "took {:?}",
-        ran.elapsed
-    );
+    if out.join("planted.txt").exists() {
+        p.push("the planted file is still there".into());
+    }
+    p.extend(other_sets_written(d, &ran.stdout));
+    report("plant", &p, &ran);
 }

@@ -41,6 +41,7 @@ fn failing_case(
         pid_file.to_string_lossy().into_owned(),
     )];
     let ran = run_as_callee(&a, dir, &env, Duration::from_secs(90));
+    let outlived = still_running(&pid_file);
     end_daemon(&pid_file);
     let lib_name = lib
         .file_name()
@@ -51,10 +52,39 @@ fn failing_case(
     let mut all = vec![law_named.as_str(), lib_name.as_str()];
     all.extend_from_slice(words);
     let mut p = failed_naming(&ran, &all, limit);
+    if let Some(pid) = outlived {
+        p.push(format!("process {pid} the law started outlived tribo"));
+    }
     if matches!(cmd, Cmd::Compare) {
         p.extend(other_sets_written(dir, &ran.stdout));
     }
     (ran, p)
+}
+
+/// The process whose id a fixture wrote into `pid_file`, if it is still running (not ended
+/// and not a zombie) 2 s after tribo returned: tribo kills a law's children, also one that
+/// left the worker's session while the worker lived.
+fn still_running(pid_file: &Path) -> Option<i32> {
+    let pid = std::fs::read_to_string(pid_file)
+        .ok()
+        .and_then(|t| t.trim().parse::<i32>().ok())?;
+    let running = || {
+        std::fs::read_to_string(format!("/proc/{pid}/stat"))
+            .ok()
+            .and_then(|t| {
+                t.rfind(')')
+                    .map(|i| t[i + 1..].trim_start().starts_with('Z'))
+            })
+            .is_some_and(|zombie| !zombie)
+    };
+    let until = std::time::Instant::now() + Duration::from_secs(2);
+    while running() {
+        if std::time::Instant::now() > until {
+            return Some(pid);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    None
 }
 
 /// End the process whose id a fixture wrote into `pid_file` (a daemon that left the worker's

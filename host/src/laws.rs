@@ -55,9 +55,6 @@ pub fn render(registry: &LawRegistry, job: &LawsJob) -> anyhow::Result<String> {
     })
 }
 
-/// The most plugin files `tribo laws` skips before it gives up (each costs a worker process).
-pub const MAX_SKIPPED: usize = 256;
-
 /// Print each of `lines` on standard error as `warning: LINE`. A standard error that cannot be
 /// written is ignored: the warnings are advice, the results still go to standard output.
 pub fn print_warnings<T: Display>(lines: &[T]) {

@@ -660,60 +660,51 @@ fn run(cli: Cli) -> anyhow::Result<()> {
 /// runs in a worker process; a library whose loading ends, crashes or hangs that worker is
 /// skipped with a warning naming it, and the listing is made again without it.
 fn cmd_laws(g: &Globals, a: LawsArgs) -> anyhow::Result<()> {
-    let mut job = laws::LawsJob {
-        json: a.json,
-        skip: Vec::new(),
-    };
-    loop {
+    let listed = isolate::listing::skipping_unloadable(|skip| {
         let plugins: Vec<PathBuf> = g
             .plugins
             .iter()
-            .filter(|p| !job.skip.iter().any(|(s, _)| s == *p))
+            .filter(|p| !skip.iter().any(|(s, _)| s == *p))
             .cloned()
             .collect();
+        let job = laws::LawsJob {
+            json: a.json,
+            skip: skip.to_vec(),
+        };
         let mut worker = isolate::Worker::start(
             isolate::worker_command(&plugins),
             isolate::Limits::default(),
-        )
-        .map_err(|e| anyhow::anyhow!("listing the laws: {e}"))?;
-        let reply = worker.call::<_, WorkerOutput>(&WorkerJob::Laws(job.clone()), &mut |e| {
+        )?;
+        let reply = worker.call::<_, WorkerOutput>(&WorkerJob::Laws(job), &mut |e| {
             isolate::show_event("", &e);
             Ok(())
         });
         worker.finish();
-        match reply {
-            Ok(WorkerOutput::Laws(text)) => {
-                // A skipped `--plugin` file is not in the worker's listing: warn here.
-                let given: Vec<String> = job
-                    .skip
-                    .iter()
-                    .filter(|(p, _)| g.plugins.contains(p))
-                    .map(|(p, why)| {
-                        format!(
-                            "skipped a plugin file that cannot be used: `{}` was not opened: {why}",
-                            p.display()
-                        )
-                    })
-                    .collect();
-                laws::print_warnings(&given);
-                return emit(&text);
-            }
-            Ok(_) => anyhow::bail!("a worker answered another job's question"),
-            Err(WorkerFailure::Study(message)) => anyhow::bail!("{message}"),
-            Err(e) => {
-                let text = e.to_string();
-                match tribo_plugin_api::loader::loading_library(&text) {
-                    Some(path)
-                        if !job.skip.iter().any(|(p, _)| *p == path)
-                            && job.skip.len() < laws::MAX_SKIPPED =>
-                    {
-                        let why = format!("loading it in a worker process failed: {text}");
-                        job.skip.push((path, why));
-                    }
-                    _ => anyhow::bail!("listing the laws: {text}"),
-                }
-            }
+        match reply? {
+            WorkerOutput::Laws(text) => Ok(text),
+            _ => Err(WorkerFailure::Internal(
+                "a worker answered another job's question".into(),
+            )),
         }
+    });
+    match listed {
+        Ok((text, skipped)) => {
+            // A skipped `--plugin` file is not in the worker's listing: warn here.
+            let given: Vec<String> = skipped
+                .iter()
+                .filter(|(p, _)| g.plugins.contains(p))
+                .map(|(p, why)| {
+                    format!(
+                        "skipped a plugin file that cannot be used: `{}` was not opened: {why}",
+                        p.display()
+                    )
+                })
+                .collect();
+            laws::print_warnings(&given);
+            emit(&text)
+        }
+        Err(WorkerFailure::Study(message)) => anyhow::bail!("{message}"),
+        Err(e) => anyhow::bail!("listing the laws: {e}"),
     }
 }
 
@@ -1689,6 +1680,77 @@ fn cmd_worker(g: &Globals) -> ! {
 /// One job in a worker process.
 fn work(g: &Globals, job: WorkerJob, session: &isolate::Session) -> anyhow::Result<WorkerOutput> {
     test_panic_hook("worker");
+    // A study's result folder is watched while its laws run: tribo writes there only after
+    // every set has finished, so what this process makes there is a law's doing.
+    let watch = match &job {
+        WorkerJob::Compare(a) => Some(&a.out),
+        WorkerJob::MassResponse(a) => Some(&a.out),
+        WorkerJob::Sweep(a) => Some(&a.out),
+        _ => None,
+    }
+    .and_then(|out| planted_watch(out));
+    let output = work_on(g, job, session)?;
+    if let Some(w) = watch {
+        planted_check(&w)?;
+    }
+    Ok(output)
+}
+
+/// A watch on the result folder `out` for entries this worker makes (Linux).
+#[cfg(target_os = "linux")]
+fn planted_watch(out: &std::path::Path) -> Option<isolate::planted::Planted> {
+    isolate::planted::Planted::watch(out)
+}
+
+#[cfg(not(target_os = "linux"))]
+fn planted_watch(_out: &std::path::Path) -> Option<std::convert::Infallible> {
+    None
+}
+
+/// The job's failure if this worker made entries in the watched result folder: the entries,
+/// the folder and the laws that ran (one of them did it).
+#[cfg(target_os = "linux")]
+fn planted_check(w: &isolate::planted::Planted) -> anyhow::Result<()> {
+    let made = w.made_here();
+    if made.is_empty() {
+        return Ok(());
+    }
+    let names: Vec<&str> = (1..)
+        .map_while(tribo_plugin_api::loader::inflight::name)
+        .filter(|n| n.starts_with("law `"))
+        .collect();
+    // A law bound to a joint is registered twice (alone and at its joint): the joints say more.
+    let at_joints: Vec<&str> = names
+        .iter()
+        .copied()
+        .filter(|n| n.contains(" at joint `"))
+        .collect();
+    let laws = if at_joints.is_empty() {
+        names
+    } else {
+        at_joints
+    };
+    let shown: Vec<String> = made.iter().take(5).map(|n| format!("`{n}`")).collect();
+    anyhow::bail!(
+        "a law of this set wrote {}{} into the result folder {} while it ran (tribo writes there only after every law has finished; what it wrote is removed); the laws that ran: {}",
+        shown.join(", "),
+        if made.len() > 5 { format!(" and {} more", made.len() - 5) } else { String::new() },
+        w.dir().display(),
+        if laws.is_empty() { "none registered".to_string() } else { laws.join(", ") }
+    )
+}
+
+#[cfg(not(target_os = "linux"))]
+fn planted_check(w: &std::convert::Infallible) -> anyhow::Result<()> {
+    match *w {}
+}
+
+/// The job itself, in this worker.
+fn work_on(
+    g: &Globals,
+    job: WorkerJob,
+    session: &isolate::Session,
+) -> anyhow::Result<WorkerOutput> {
     let registry = g.registry()?;
     Ok(match job {
         WorkerJob::Check(sources) => {

@@ -37,6 +37,8 @@ pub(crate) enum Job {
     Fit(String),
     /// `sweep`.
     Sweep(String),
+    /// `laws`.
+    Laws(crate::LawsJob),
 }
 
 /// A worker's answer: the function's result, or its failure (exception class and message).
@@ -52,6 +54,8 @@ pub(crate) enum Output {
     Fit((Box<tribo_studies::fit::FitResult>, String)),
     /// `sweep`.
     Sweep(Box<tribo_studies::study::Sweep>),
+    /// `laws`: the listing as JSON text.
+    Laws(String),
     /// The job failed as it would in process.
     Failed(Failure),
 }
@@ -106,30 +110,65 @@ thread_local! {
 /// without importing the `tribo` package, and serve.
 const BOOT: &str = "import sys, importlib.util as u\nfrom importlib.machinery import ExtensionFileLoader as L\nl = L('tribo._native', sys.argv[1])\ns = u.spec_from_file_location('tribo._native', sys.argv[1], loader=l)\nm = u.module_from_spec(s)\nl.exec_module(m)\nm._worker_main()\n";
 
-/// The command that starts a worker: this interpreter running [`BOOT`] on this module's file.
-fn worker_command(py: Python<'_>) -> Result<Command, Failure> {
-    let fail = |what: &str| {
-        Failure::new(
-            Kind::Simulation,
-            format!("cannot start a worker process for the laws: {what}; pass in_process=True to run them in this process"),
-        )
-    };
-    let exe: PathBuf = py
-        .import("sys")
-        .and_then(|m| m.getattr("executable"))
-        .and_then(|e| e.extract())
-        .map_err(|_| fail("sys.executable is not available"))?;
-    if exe.as_os_str().is_empty() {
-        return Err(fail("sys.executable is empty (an embedded interpreter)"));
+/// What starts a worker: this interpreter (`sys.executable`) and this module's file.
+struct Program {
+    exe: PathBuf,
+    module: PathBuf,
+}
+
+impl Program {
+    /// This interpreter and module, or why a worker cannot be started.
+    fn find(py: Python<'_>) -> Result<Self, Failure> {
+        let fail = |what: &str| {
+            Failure::new(
+                Kind::Simulation,
+                format!("cannot start a worker process for the laws: {what}; pass in_process=True to run them in this process"),
+            )
+        };
+        let exe: PathBuf = py
+            .import("sys")
+            .and_then(|m| m.getattr("executable"))
+            .and_then(|e| e.extract())
+            .map_err(|_| fail("sys.executable is not available"))?;
+        if exe.as_os_str().is_empty() {
+            return Err(fail("sys.executable is empty (an embedded interpreter)"));
+        }
+        let module: PathBuf = py
+            .import("tribo._native")
+            .and_then(|m| m.getattr("__file__"))
+            .and_then(|f| f.extract())
+            .map_err(|_| fail("the file of tribo._native is not known"))?;
+        Ok(Self { exe, module })
     }
-    let file: PathBuf = py
-        .import("tribo._native")
-        .and_then(|m| m.getattr("__file__"))
-        .and_then(|f| f.extract())
-        .map_err(|_| fail("the file of tribo._native is not known"))?;
-    let mut cmd = Command::new(exe);
-    cmd.args(["-I", "-c", BOOT]).arg(file);
-    Ok(cmd)
+
+    /// The command that starts a worker: the interpreter running [`BOOT`] on the module.
+    fn command(&self) -> Command {
+        let mut cmd = Command::new(&self.exe);
+        cmd.args(["-I", "-c", BOOT]).arg(&self.module);
+        cmd
+    }
+}
+
+/// What a call does with a worker's events while it waits: standard error and notes to
+/// `sys.stderr`; on each tick Python's signals are checked, and Ctrl-C (kept in `interrupted`)
+/// stops the wait.
+fn python_events(
+    interrupted: &mut Option<PyErr>,
+) -> impl FnMut(Event<'_>) -> Result<(), WorkerFailure> + '_ {
+    move |e| {
+        match e {
+            Event::Stderr(line) => to_stderr(line),
+            Event::Slow(note) => to_stderr(&format!("note: {note}")),
+            Event::Tick => {
+                if let Err(e) = Python::attach(|py| py.check_signals()) {
+                    *interrupted = Some(e);
+                    return Err(WorkerFailure::Interrupted);
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
 }
 
 /// Write `text` to Python's `sys.stderr` (where a notebook shows it).
@@ -174,7 +213,9 @@ pub(crate) fn dispatch<T: Send>(
             )),
         });
     }
-    let command = worker_command(py).map_err(|f| crate::raise(py, f))?;
+    let command = Program::find(py)
+        .map_err(|f| crate::raise(py, f))?
+        .command();
     let job = wrap(job.to_string());
     let mut interrupted: Option<PyErr> = None;
     let answer = py.detach(|| {
@@ -189,20 +230,7 @@ pub(crate) fn dispatch<T: Send>(
                 tribo_isolate::Worker::start(command, limits)?
             }
         };
-        let r = worker.call::<_, Output>(&job, &mut |e| {
-            match e {
-                Event::Stderr(line) => to_stderr(line),
-                Event::Slow(note) => to_stderr(&format!("note: {note}")),
-                Event::Tick => {
-                    if let Err(e) = Python::attach(|py| py.check_signals()) {
-                        interrupted = Some(e);
-                        return Err(WorkerFailure::Interrupted);
-                    }
-                }
-                _ => {}
-            }
-            Ok(())
-        });
+        let r = worker.call::<_, Output>(&job, &mut python_events(&mut interrupted));
         // Kept for the next call unless it failed (then it is gone already).
         if matches!(r, Ok(_) | Err(WorkerFailure::Study(_))) {
             WORKER.with(|w| *w.borrow_mut() = Some((started, worker)));
@@ -232,6 +260,68 @@ pub(crate) fn dispatch<T: Send>(
     }
 }
 
+/// `laws()`: the listing, made in fresh worker processes (the libraries opened
+/// there, never in this one); a file whose loading ended, crashed or hung a worker is left out
+/// and listed as broken with the reason, as `tribo laws` does.
+pub(crate) fn laws(py: Python<'_>, plugin_paths: &[PathBuf]) -> PyResult<serde_json::Value> {
+    let program = Program::find(py).map_err(|f| crate::raise(py, f))?;
+    let mut interrupted: Option<PyErr> = None;
+    let listed = py.detach(|| {
+        tribo_isolate::listing::skipping_unloadable(|skip| {
+            let job = Job::Laws(crate::LawsJob {
+                plugin_paths: plugin_paths
+                    .iter()
+                    .filter(|p| !skip.iter().any(|(s, _)| s == *p))
+                    .cloned()
+                    .collect(),
+                skip: skip.to_vec(),
+            });
+            let mut worker = tribo_isolate::Worker::start(program.command(), Limits::default())?;
+            let r = worker.call::<_, Output>(&job, &mut python_events(&mut interrupted));
+            worker.finish();
+            match r? {
+                Output::Laws(text) => Ok(Ok(text)),
+                Output::Failed(f) => Ok(Err(f)),
+                _ => Err(WorkerFailure::Internal(
+                    "a worker answered another job's question".into(),
+                )),
+            }
+        })
+    });
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
+    let (text, skipped) = match listed {
+        Ok((Ok(text), skipped)) => (text, skipped),
+        Ok((Err(f), _)) => return Err(crate::raise(py, f)),
+        Err(WorkerFailure::Study(message)) => {
+            return Err(crate::raise(py, Failure::new(Kind::Simulation, message)))
+        }
+        Err(e) => {
+            return Err(crate::raise(
+                py,
+                Failure::new(Kind::Simulation, format!("listing the laws failed: {e}")),
+            ))
+        }
+    };
+    // A skipped file given in `plugin_paths` is not in the worker's listing: add it here.
+    let mut value: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        crate::raise(
+            py,
+            Failure::new(Kind::Simulation, format!("reading the listing: {e}")),
+        )
+    })?;
+    if let Some(broken) = value["broken"].as_array_mut() {
+        for (path, why) in skipped.iter().filter(|(p, _)| plugin_paths.contains(p)) {
+            broken.push(serde_json::json!({
+                "file": path.display().to_string(),
+                "error": format!("`{}` was not opened: {why}", path.display()),
+            }));
+        }
+    }
+    Ok(value)
+}
+
 /// Run `job` here, its failure as an answer.
 fn local(job: Job) -> Output {
     let r = match job {
@@ -240,11 +330,12 @@ fn local(job: Job) -> Output {
         Job::MassResponse(j) => crate::mass_response_local(&j).map(Output::MassResponse),
         Job::Fit(j) => crate::fit_local(&j).map(Output::Fit),
         Job::Sweep(j) => crate::sweep_local(&j).map(Output::Sweep),
+        Job::Laws(j) => crate::laws_local(&j).map(Output::Laws),
     };
     r.unwrap_or_else(Output::Failed)
 }
 
-/// `_worker_main()`: be a worker (this interpreter was started by [`worker_command`]); never
+/// `_worker_main()`: be a worker (this interpreter was started by [`Program::command`]); never
 /// returns.
 #[pyfunction]
 pub(crate) fn _worker_main() {

@@ -482,29 +482,48 @@ fn check_lawset(py: Python<'_>, lawset: &str, plugin_paths: Vec<PathBuf>) -> PyR
 }
 
 /// `laws(plugin_paths)`: every law found (name, version, file), and the files that could not
-/// be opened with the reason: `{"laws": [...], "broken": [...]}`.
+/// be opened with the reason: `{"laws": [...], "broken": [...]}`. The libraries are opened in
+/// worker processes, as `tribo laws` opens them: one whose initialiser ends, crashes or hangs
+/// its process is listed as broken, naming why, and the interpreter goes on.
 #[pyfunction]
 fn laws<'py>(py: Python<'py>, plugin_paths: Vec<PathBuf>) -> PyResult<Bound<'py, PyAny>> {
-    detached_value(py, || {
-        let registry = registry(&plugin_paths)?;
-        let listing = registry.open_all()?;
-        let laws: Vec<_> = listing
-            .laws
-            .iter()
-            .map(|l| {
-                serde_json::json!({
-                    "name": l.name(),
-                    "file": l.path().display().to_string(),
-                })
+    let value = isolated::laws(py, &plugin_paths)?;
+    to_python(py, &value)
+}
+
+/// The files a listing leaves unopened and the search path besides them: what a worker asks
+/// for when it lists the laws ([`laws_local`]).
+#[derive(serde::Serialize, Deserialize)]
+pub(crate) struct LawsJob {
+    /// The `plugin_paths` given, but the files left out.
+    pub(crate) plugin_paths: Vec<PathBuf>,
+    /// Files not to open (their loading took a worker down), with the reason.
+    pub(crate) skip: Vec<(PathBuf, String)>,
+}
+
+/// The listing of [`laws`] as JSON text, made where the libraries are opened (a worker).
+fn laws_local(job: &LawsJob) -> Result<String, Failure> {
+    let registry = registry(&job.plugin_paths)?;
+    for (path, reason) in &job.skip {
+        registry.skip(path, reason.clone());
+    }
+    let listing = registry.open_all()?;
+    let laws: Vec<_> = listing
+        .laws
+        .iter()
+        .map(|l| {
+            serde_json::json!({
+                "name": l.name(),
+                "file": l.path().display().to_string(),
             })
-            .collect();
-        let broken: Vec<_> = listing
-            .broken
-            .iter()
-            .map(|(p, e)| serde_json::json!({"file": p.display().to_string(), "error": chain(*e)}))
-            .collect();
-        Ok(serde_json::json!({"laws": laws, "broken": broken}))
-    })
+        })
+        .collect();
+    let broken: Vec<_> = listing
+        .broken
+        .iter()
+        .map(|(p, e)| serde_json::json!({"file": p.display().to_string(), "error": chain(*e)}))
+        .collect();
+    Ok(serde_json::json!({"laws": laws, "broken": broken}).to_string())
 }
 
 /// `search_path(plugin_paths)`: the paths searched before `TRIBO_PLUGIN_PATH`.

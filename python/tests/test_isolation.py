@@ -110,3 +110,33 @@ def test_a_crash_in_process_still_ends_the_interpreter_which_is_why_it_is_opt_in
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode != 0
     assert "survived" not in proc.stdout
+
+
+def test_laws_opens_the_libraries_in_workers_so_an_initialiser_that_exits_crashes_or_hangs_is_a_warning(tmp_path):
+    # The fixture of the CLI's mischief tests, tests/fixtures/c/mischief.c: initialisers that
+    # call _exit(0), raise SIGSEGV, or never return.
+    plugins = tmp_path / "plugins"
+    plugins.mkdir()
+    cases = {"ctor_exit": (3, "status 0"), "ctor_crash": (11, "SIGSEGV"), "ctor_hang": (4, "did not return")}
+    for name, (case, _) in cases.items():
+        subprocess.run(
+            [os.environ.get("CC", "cc"), "-shared", "-fPIC", "-O2", "-std=c99", f"-DCASE={case}",
+             "-I", str(INCLUDE), str(ROOT / "tests" / "fixtures" / "c" / "mischief.c"),
+             "-o", str(plugins / f"libtribo_law_mischief_{name}.so"), "-lpthread"],
+            check=True,
+        )
+    start = time.monotonic()
+    with pytest.warns(RuntimeWarning) as caught:
+        listed = tribo.laws([plugins])
+    elapsed = time.monotonic() - start
+    # The interpreter is alive, and the good laws (the bundled ones) are listed.
+    assert "coulomb" in set(listed["name"]), listed
+    broken = {Path(b["file"]).name: b["error"] for b in listed.attrs["broken"]}
+    warned = [str(w.message) for w in caught]
+    for name, (_, words) in cases.items():
+        file = f"libtribo_law_mischief_{name}.so"
+        assert file in broken, broken
+        assert "while loading it" in broken[file] and words in broken[file], broken[file]
+        assert any(file in w for w in warned), warned
+    # The hang ends at the default 10 s call limit (the parent's backstop 3 s later), once.
+    assert elapsed < 10 + 3 + 10, elapsed

@@ -13,6 +13,7 @@ import copy
 import json
 import math
 import os
+import warnings
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Union
 
 import numpy as np
@@ -71,8 +72,13 @@ def plugin_search_path(plugin_paths: Optional[Iterable[PathLike]] = None) -> Lis
 
 def laws(plugin_paths: Optional[Iterable[PathLike]] = None) -> pd.DataFrame:
     """Every law found (``tribo laws``): columns ``name`` and ``file``. Files that could not be
-    opened are in ``.attrs["broken"]`` (file and reason)."""
+    opened are in ``.attrs["broken"]`` (file and reason), each also a ``RuntimeWarning``. The
+    libraries are opened in worker processes, as ``tribo laws`` opens them: one whose
+    initialiser ends, crashes or hangs its process is listed as broken, never the end of this
+    interpreter."""
     out = _native.laws(_plugin_paths(plugin_paths))
+    for b in out["broken"]:
+        warnings.warn(f"skipped a plugin file that cannot be used: {b['error']}", RuntimeWarning, stacklevel=2)
     df = pd.DataFrame(out["laws"], columns=["name", "file"])
     df.attrs["broken"] = out["broken"]
     return df

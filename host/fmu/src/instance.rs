@@ -108,7 +108,21 @@ impl Instance {
 
     /// Start the worker process and wait until it has read the resources.
     pub fn spawn(&mut self) -> CallResult<()> {
-        let w = Worker::spawn(&self.resources, self.call_timeout())?;
+        let plugins = self.resources.join(crate::worker::PLUGIN_DIR);
+        let laws = self
+            .iface
+            .laws
+            .iter()
+            .map(|l| {
+                format!(
+                    "law `{}` ({}) at joint `{}`",
+                    l.law,
+                    plugins.join(&l.library).display(),
+                    l.joint
+                )
+            })
+            .collect();
+        let w = Worker::spawn(&self.resources, self.call_timeout(), laws)?;
         self.log.info(&format!(
             "worker process started for {}",
             self.resources.display()

@@ -39,6 +39,8 @@ pub struct Worker {
     reader: Option<std::thread::JoinHandle<()>>,
     /// The worker's own per-request limit.
     limit: Duration,
+    /// The laws the worker runs, as a failure names them ("law `x` (file) at joint `j`").
+    laws: Vec<String>,
 }
 
 /// The end of the worker's standard error, filled by a reading thread.
@@ -50,7 +52,8 @@ struct Tail {
 
 impl Worker {
     /// Start the worker shipped in `resources` and wait for it to read them, within `limit`.
-    pub fn spawn(resources: &Path, limit: Duration) -> Result<Self, String> {
+    /// `laws` are the laws it runs, named in a failure its own words do not explain.
+    pub fn spawn(resources: &Path, limit: Duration, laws: Vec<String>) -> Result<Self, String> {
         let exe = resources.join(WORKER_EXE);
         let (program, _copy) = executable(&exe)?;
         let (ours, theirs) = UnixStream::pair()
@@ -86,6 +89,7 @@ impl Worker {
             stderr: tail,
             reader: Some(reader),
             limit,
+            laws,
         };
         match w.receive() {
             Ok(Reply::Ready(PROTOCOL_VERSION)) => Ok(w),
@@ -158,6 +162,14 @@ impl Worker {
         let tail = self.tail();
         if !tail.is_empty() {
             text.push_str(&format!("; its last words: {tail}"));
+        }
+        // The guards name the law when they can (a crash, exit()); an `_exit`, a SIGKILL or a
+        // hang before the watchdog speaks leave no word: then the laws the worker runs are named.
+        if !tail.contains("law `") && !self.laws.is_empty() {
+            text.push_str(&format!(
+                "; it gave no word of which law was running; the laws it runs: {}",
+                self.laws.join(", ")
+            ));
         }
         text
     }

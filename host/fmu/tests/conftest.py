@@ -88,7 +88,8 @@ def build_fixture_law(tmp_path_factory, source: str, law: str, extra: str) -> Pa
 @pytest.fixture(scope="session")
 def hostile_lib(tmp_path_factory) -> Path:
     """The hostile test law (tests/fixtures/c/hostile.c: parameter `mode` 0 behaves, 1
-    segfaults, 2 aborts, 3 hangs, 5 calls exit(0), 6 prints on standard output)."""
+    segfaults, 2 aborts, 3 hangs, 5 calls exit(0), 6 prints on standard output, 9 calls _exit(0),
+    10 kills its process group)."""
     params = "params = { mode = 0 }\n"
     return build_fixture_law(tmp_path_factory, "hostile", "fixture-hostile", params)
 

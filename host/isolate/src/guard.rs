@@ -269,7 +269,7 @@ fn watchdog(limits: Limits) {
                 write_stderr(line.as_bytes());
                 report_running();
             }
-            stop(GUARD_EXIT);
+            stop_at_limit();
         }
         if limits.memory_mb > 0 {
             let limit = MEMORY_LIMIT.load(Ordering::Relaxed);
@@ -286,10 +286,22 @@ fn watchdog(limits: Limits) {
                     write_stderr(line.as_bytes());
                     report_running();
                 }
-                stop(GUARD_EXIT);
+                stop_at_limit();
             }
         }
     }
+}
+
+/// End the process at a limit. A worker first kills the children its laws moved out of its
+/// process group (`setsid`): they are found as its descendants only while it lives, and the
+/// parent's kill of the group does not reach them.
+fn stop_at_limit() -> ! {
+    #[cfg(unix)]
+    if is_worker() {
+        // SAFETY: getpid has no preconditions.
+        crate::sys::kill_escaped(unsafe { libc::getpid() }, libc::SIGKILL);
+    }
+    stop(GUARD_EXIT)
 }
 
 /// The plugin code a slot mark names, in words.
@@ -313,7 +325,7 @@ fn stuck(slot: usize, mark: u64, running: Duration, limit_s: f64) -> ! {
     } else {
         write_stderr(format!("error: {text}; no results were written\n").as_bytes());
     }
-    stop(GUARD_EXIT)
+    stop_at_limit()
 }
 
 /// A call has been running for a few seconds: say so (a worker tells its parent).

@@ -27,6 +27,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 pub mod guard;
+pub mod listing;
 
 #[cfg(unix)]
 mod child;
@@ -34,6 +35,8 @@ mod child;
 mod frame;
 #[cfg(unix)]
 mod parent;
+#[cfg(target_os = "linux")]
+pub mod planted;
 #[cfg(unix)]
 mod sys;
 

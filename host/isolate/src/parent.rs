@@ -106,6 +106,7 @@ pub fn handle_termination() {
             }
             let signal = i32::from(byte[0]);
             for pgid in LIVE.lock().unwrap_or_else(|p| p.into_inner()).iter() {
+                sys::kill_escaped(*pgid, libc::SIGKILL);
                 sys::killpg(*pgid, libc::SIGKILL);
             }
             // Held until the process is gone: an owner that drops its guard to put its
@@ -326,7 +327,9 @@ impl Worker {
             return;
         }
         // The worker is not reaped yet (peek does not reap), so its process group's id cannot
-        // have been reused.
+        // have been reused. Its children that left the group (`setsid`) first, while they are
+        // still its children and so can be found.
+        sys::kill_escaped(self.pid, libc::SIGKILL);
         sys::killpg(self.pid, libc::SIGKILL);
         sys::reap(self.pid, Duration::from_secs(2));
         LIVE.lock()

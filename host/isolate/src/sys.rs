@@ -365,32 +365,78 @@ pub(crate) fn page_size() -> u64 {
     }
 }
 
-/// The memory a process group holds, bytes, from /proc (Linux; 0 elsewhere): the anonymous
-/// resident memory of every process in group `pgid` (a worker and the children its laws
-/// started) and the pages allocated to the memory files (memfd) any of them holds open, each
-/// file counted once. Library code and other file pages are not counted.
+/// The processes of worker `pgid` (Linux; empty elsewhere): every process in its process
+/// group, and every descendant of one of them, including a child that left the group with
+/// `setsid` while its parent lives. Read from /proc in one pass.
+pub(crate) fn family(pgid: libc::pid_t) -> Vec<libc::pid_t> {
+    #[cfg(target_os = "linux")]
+    {
+        let Ok(procs) = std::fs::read_dir("/proc") else {
+            return Vec::new();
+        };
+        // (pid, parent, group) of every process.
+        let all: Vec<(libc::pid_t, libc::pid_t, libc::pid_t)> = procs
+            .flatten()
+            .filter_map(|e| e.file_name().to_str()?.parse::<libc::pid_t>().ok())
+            .filter_map(|pid| {
+                let (parent, group) = parent_and_group(pid)?;
+                Some((pid, parent, group))
+            })
+            .collect();
+        let mut members: Vec<libc::pid_t> = all
+            .iter()
+            .filter(|(_, _, g)| *g == pgid)
+            .map(|(p, _, _)| *p)
+            .collect();
+        let mut k = 0;
+        while k < members.len() {
+            let parent = members[k];
+            for (pid, _, _) in all.iter().filter(|(_, pp, _)| *pp == parent) {
+                if !members.contains(pid) {
+                    members.push(*pid);
+                }
+            }
+            k += 1;
+        }
+        members
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = pgid;
+        Vec::new()
+    }
+}
+
+/// Send `signal` to every process of worker `pgid`'s [`family`] but those in its group (which
+/// `killpg` reaches): the children that left the group while their parent lived.
+pub(crate) fn kill_escaped(pgid: libc::pid_t, signal: libc::c_int) {
+    #[cfg(target_os = "linux")]
+    for pid in family(pgid) {
+        if pid > 1 && parent_and_group(pid).is_some_and(|(_, g)| g != pgid) {
+            // SAFETY: signalling a descendant of our own worker.
+            unsafe {
+                libc::kill(pid, signal);
+            }
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (pgid, signal);
+}
+
+/// The memory a worker holds, bytes, from /proc (Linux; 0 elsewhere): the anonymous resident
+/// memory of every process of its [`family`] (the worker, the children its laws started in
+/// its group, and those that left the group while their parent lived) and the pages allocated
+/// to the memory files (memfd) any of them holds open, each file counted once. Library code
+/// and other file pages are not counted.
 pub(crate) fn group_memory_bytes(pgid: libc::pid_t) -> u64 {
     #[cfg(target_os = "linux")]
     {
         use std::collections::HashSet;
         use std::os::unix::fs::MetadataExt;
-        let Ok(procs) = std::fs::read_dir("/proc") else {
-            return 0;
-        };
         let page = page_size();
         let mut total = 0u64;
         let mut files: HashSet<(u64, u64)> = HashSet::new();
-        for entry in procs.flatten() {
-            let Some(pid) = entry
-                .file_name()
-                .to_str()
-                .and_then(|n| n.parse::<libc::pid_t>().ok())
-            else {
-                continue;
-            };
-            if process_group(pid) != Some(pgid) {
-                continue;
-            }
+        for pid in family(pgid) {
             if let Ok(text) = std::fs::read_to_string(format!("/proc/{pid}/statm")) {
                 let mut f = text.split_whitespace().skip(1);
                 let resident: u64 = f.next().and_then(|x| x.parse().ok()).unwrap_or(0);
@@ -422,11 +468,14 @@ pub(crate) fn group_memory_bytes(pgid: libc::pid_t) -> u64 {
     }
 }
 
-/// The process group of process `pid`, from /proc/PID/stat (Linux).
+/// The parent and the process group of process `pid`, from /proc/PID/stat (Linux).
 #[cfg(target_os = "linux")]
-fn process_group(pid: libc::pid_t) -> Option<libc::pid_t> {
+fn parent_and_group(pid: libc::pid_t) -> Option<(libc::pid_t, libc::pid_t)> {
     let text = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     // The command name (in parentheses) may hold spaces: the fields follow its last `)`.
     let rest = &text[text.rfind(')')? + 1..];
-    rest.split_whitespace().nth(2)?.parse().ok()
+    let mut f = rest.split_whitespace().skip(1);
+    let parent = f.next()?.parse().ok()?;
+    let group = f.next()?.parse().ok()?;
+    Some((parent, group))
 }

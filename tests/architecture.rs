@@ -3,8 +3,10 @@
 //! contract depends on no host crate; a law depends on the contract only; the solver and the
 //! layers below the CLI carry no CLI, isolation or Python dependency.
 
+mod common;
+
 use std::collections::BTreeMap;
-use std::process::Command;
+use std::process::{Command, Stdio};
 
 use serde_json::Value;
 
@@ -17,10 +19,7 @@ struct Package {
 }
 
 fn packages() -> BTreeMap<String, Package> {
-    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("host/ has a parent")
-        .to_path_buf();
+    let root = common::workspace();
     let out = Command::new(env!("CARGO"))
         .args([
             "metadata",
@@ -30,12 +29,12 @@ fn packages() -> BTreeMap<String, Package> {
             "--offline",
         ])
         .current_dir(&root)
+        .stderr(Stdio::inherit())
         .output()
         .expect("cargo metadata runs");
     assert!(
         out.status.success(),
-        "cargo metadata failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
+        "cargo metadata failed (its message above)"
     );
     let meta: Value = serde_json::from_slice(&out.stdout).expect("cargo metadata's JSON");
     let mut map = BTreeMap::new();

@@ -96,20 +96,66 @@ fn every_workspace_crate_is_in_a_layer_or_is_a_law_or_a_fixture() {
     }
 }
 
-#[test]
-fn invariant_each_crate_depends_only_on_lower_layers() {
-    let all = packages();
-    for (name, p) in &all {
+/// The layering's breaches in `all`: a crate depending on its own or a higher layer, or
+/// linking a law or a fixture.
+fn layer_breaches(all: &BTreeMap<String, Package>) -> Vec<String> {
+    let mut out = Vec::new();
+    for (name, p) in all {
         let Some(own) = layer(name) else { continue };
         for dep in p.deps.iter().filter(|d| all.contains_key(*d)) {
             match layer(dep) {
-                Some(l) => assert!(l < own, "{name} (layer {own}) depends on {dep} (layer {l})"),
-                None => panic!(
+                Some(l) if l < own => {}
+                Some(l) => out.push(format!("{name} (layer {own}) depends on {dep} (layer {l})")),
+                None => out.push(format!(
                     "{name} depends on the law or fixture {dep}: laws are loaded, never linked"
-                ),
+                )),
             }
         }
     }
+    out
+}
+
+#[test]
+fn invariant_each_crate_depends_only_on_lower_layers() {
+    let breaches = layer_breaches(&packages());
+    assert!(breaches.is_empty(), "{breaches:#?}");
+}
+
+#[test]
+fn the_layer_check_catches_a_dependency_upwards_and_a_linked_law() {
+    let package = |manifest: &str, deps: &[&str]| Package {
+        manifest: manifest.into(),
+        deps: deps.iter().map(|d| d.to_string()).collect(),
+        dev_deps: Vec::new(),
+    };
+    let mut all = BTreeMap::new();
+    all.insert(
+        "tribo-plugin-api".into(),
+        package("plugin-api/Cargo.toml", &[]),
+    );
+    all.insert(
+        "tribo-config".into(),
+        package("host/config/Cargo.toml", &["tribo-core"]),
+    );
+    all.insert(
+        "tribo-law-x".into(),
+        package("plugins/x/Cargo.toml", &["tribo-plugin-api"]),
+    );
+    all.insert(
+        "tribo-core".into(),
+        package("host/core/Cargo.toml", &["tribo-plugin-api"]),
+    );
+    assert!(layer_breaches(&all).is_empty());
+    all.insert(
+        "tribo-core".into(),
+        package("host/core/Cargo.toml", &["tribo-config"]),
+    );
+    assert_eq!(layer_breaches(&all).len(), 1, "{:?}", layer_breaches(&all));
+    all.insert(
+        "tribo-core".into(),
+        package("host/core/Cargo.toml", &["tribo-law-x"]),
+    );
+    assert!(layer_breaches(&all)[0].contains("never linked"));
 }
 
 #[test]

@@ -102,28 +102,77 @@ struct Tolerance {
     steps: f64,
 }
 
-/// The tolerance of each mode, to be set from its measured reproducibility (`reproducibility`).
-fn tolerance(mode: Mode) -> Tolerance {
-    match mode {
-        // Periodic steady state by Newton on the cycle, then a quadrature: no step control.
-        Mode::Steady | Mode::CrankAngle => Tolerance {
-            relative: 1e-11,
-            share: 1e-11,
+/// The tolerance of each mode (and, for the two transient modes, of a rig with a vented
+/// crankcase), from its measured reproducibility: `reproducibility` runs every case with its
+/// speeds scaled by 1 + 1e-13 and reports the largest deviation from the capture (which, for
+/// the 220 cases captured with older code, also holds what the code moved them by since). Each
+/// tolerance is about five to twenty times the largest deviation measured, the figure and its
+/// case written beside it; a change of physics moves numbers by far more.
+fn tolerance(mode: Mode, vented: bool) -> Tolerance {
+    match (mode, vented) {
+        // Periodic steady state per plateau: no step control. Measured: values 3.5e-10 (the
+        // test bed's motor work: its chain's shooting converges to a tolerance, not to
+        // round-off), all other rigs 7.3e-11; shares 1.3e-14; steps exact.
+        (Mode::Steady, _) => Tolerance {
+            relative: 5e-9,
+            share: 1e-10,
             steps: 0.0,
         },
-        // Prescribed crank: the crank's motion is given; adaptive steps on the ramps.
-        Mode::Prescribed => Tolerance {
-            relative: 1e-9,
-            share: 1e-9,
+        // One cycle per plateau, with stateful laws repeated until the cycle's mean drive
+        // torque repeats (to that test's tolerance, not to round-off). Measured: 2.4e-6 (a
+        // plain journal's eccentricity, vtwin-90 / 4b11-physical-tight), stateless sets
+        // 3.6e-10.
+        (Mode::CrankAngle, _) => Tolerance {
+            relative: 2e-5,
+            share: 1e-10,
             steps: 0.0,
         },
-        // PI drive: the crank speed is a state the controller closes on.
-        Mode::Pi => Tolerance {
-            relative: 1e-5,
-            share: 1e-2,
-            steps: 5e-2,
+        // Prescribed crank: a perturbation moves where the error-controlled ramps' steps fall.
+        // Measured: values 8.7e-6 (crf250r-compression / lugre, dissipated energy), shares
+        // 1e-13, step counts 1.2e-4 (one step in 8 500).
+        (Mode::Prescribed, false) => Tolerance {
+            relative: 5e-5,
+            share: 1e-10,
+            steps: 1e-3,
+        },
+        // The vented crankcase's pressure comes from tables of its periodic solution, each an
+        // iteration converged to a tolerance: a perturbation in the last bits of a speed moves
+        // them by that tolerance. Measured: values 3.0e-4 (crf250r-vented / own, motor work),
+        // step counts 8.1e-4.
+        (Mode::Prescribed, true) => Tolerance {
+            relative: 2e-3,
+            share: 1e-10,
+            steps: 5e-3,
+        },
+        // PI drive: the crank speed is a state the controller closes on, so a perturbation
+        // takes other, equally valid steps. Measured: values 1.6e-4 (inline4-4b11 / lugre, a
+        // group's power), shares 3.4e-3 (regime times are not error-controlled: a law switching
+        // regime within a step is counted by the stages on each side; crf250r-fired /
+        // stribeck-duty), step counts 1.6e-2 (crf250r-fired / mixed-film).
+        (Mode::Pi, false) => Tolerance {
+            relative: 1e-3,
+            share: 2e-2,
+            steps: 0.1,
+        },
+        // PI drive on a vented crankcase: both of the above. Measured: values 2.0e-3
+        // (crf250r-vented / own, the 3000 rpm plateau's motoring torque), shares 2.4e-3, step
+        // counts 3.3e-3.
+        (Mode::Pi, true) => Tolerance {
+            relative: 1e-2,
+            share: 2e-2,
+            steps: 0.1,
         },
     }
+}
+
+/// Whether `rig` has a vented crankcase, whose pressure tables come from an iteration.
+fn vented(rig: &str) -> bool {
+    tribo::rig::load_rig(Path::new(rig), &[]).is_ok_and(|r| {
+        matches!(
+            r.file.gas.crankcase,
+            tribo::model::CrankcasePressure::Vented { .. }
+        )
+    })
 }
 
 /// One case: a bundled rig, a law set (`own`: the rig's own laws; `lugre`: LuGre on every
@@ -429,6 +478,14 @@ fn compare(
                 ));
             }
         }
+        // A message's numbers are printed rounded: its words are compared (`message_words`),
+        // its numbers belong to the values above (a warning's "reached only 7307.6 rpm" read
+        // 7307.5 under the perturbation of `reproducibility`).
+        (Value::String(g), Value::String(w)) => {
+            if message_words(g) != message_words(w) {
+                diffs.push(format!("{path}: {g:?}, captured {w:?}"));
+            }
+        }
         (g, w) => {
             if g != w {
                 diffs.push(format!("{path}: {g}, captured {w}"));
@@ -516,6 +573,7 @@ fn check_rig(
     mut run: impl FnMut(&Case) -> Value,
 ) -> (Vec<String>, BTreeMap<Mode, Deviations>) {
     let cases = cases_of(rig);
+    let vented = vented(rig);
     let empty = Map::new();
     let captured = fixture
         .and_then(|f| f["cases"].as_object())
@@ -536,7 +594,7 @@ fn check_rig(
         };
         let got = run(case);
         let dev = deviations.entry(case.mode).or_default();
-        let diffs = compare_case(&got, &want["result"], tolerance(case.mode), dev);
+        let diffs = compare_case(&got, &want["result"], tolerance(case.mode, vented), dev);
         if !diffs.is_empty() {
             let shown: Vec<&String> = diffs.iter().take(5).collect();
             failures.push(format!(
@@ -661,7 +719,7 @@ fn harness_an_uncaptured_case_fails() {
 
 #[test]
 fn harness_a_captured_error_fails_with_another_message_and_passes_with_the_same_words() {
-    let tol = tolerance(Mode::Pi);
+    let tol = tolerance(Mode::Pi, false);
     let captured = json!({"error": "the friction/reaction iteration did not converge at t = 0.105778 s after 7 iterations: the normal load of joint `piston_2` (law `lugre`) did not settle (last change 4.445e2 N, tolerance 1.0e-7 of the load)."});
     let mut dev = Deviations::new();
     // The same message passes.
@@ -685,6 +743,16 @@ fn harness_a_captured_error_fails_with_another_message_and_passes_with_the_same_
     let spaced =
         json!({"error": captured["error"].as_str().unwrap().replace("piston_2", "piston 2")});
     assert!(!compare_case(&spaced, &captured, tol, &mut dev).is_empty());
+    // A result's warnings likewise: the same words pass, other words fail.
+    let warned = |w: &str| json!({ "warnings": [w] });
+    let settled = "the 6000 rpm plateau reached only 7307.5 rpm on average";
+    let moved = warned(&settled.replace("7307.5", "7307.6"));
+    assert!(compare_case(&moved, &warned(settled), tol, &mut dev).is_empty());
+    let other = warned("the 6000 rpm plateau reached the torque limit");
+    assert_eq!(
+        compare_case(&other, &warned(settled), tol, &mut dev).len(),
+        1
+    );
     // An error where a result was captured fails, and a result where an error was.
     let result = synthetic_result(10.0, 0.5, 100);
     assert!(!compare_case(&captured, &result, tol, &mut dev).is_empty());
@@ -695,8 +763,8 @@ fn harness_a_captured_error_fails_with_another_message_and_passes_with_the_same_
 fn harness_numbers_are_held_to_their_modes_tolerance() {
     let want = synthetic_result(10.0, 0.5, 1000);
     let mut dev = Deviations::new();
-    for mode in Mode::ALL {
-        let tol = tolerance(mode);
+    for (mode, vented) in Mode::ALL.iter().flat_map(|m| [(*m, false), (*m, true)]) {
+        let tol = tolerance(mode, vented);
         let within = synthetic_result(
             10.0 * (1.0 + 0.5 * tol.relative),
             0.5 + 0.5 * tol.share,
@@ -704,31 +772,31 @@ fn harness_numbers_are_held_to_their_modes_tolerance() {
         );
         assert!(
             compare_case(&within, &want, tol, &mut dev).is_empty(),
-            "{mode:?}"
+            "{mode:?}, vented {vented}"
         );
         let torque = synthetic_result(10.0 * (1.0 + 2.0 * tol.relative), 0.5, 1000);
         assert_eq!(
             compare_case(&torque, &want, tol, &mut dev).len(),
             1,
-            "{mode:?}"
+            "{mode:?}, vented {vented}"
         );
         let share = synthetic_result(10.0, 0.5 + 2.0 * tol.share, 1000);
         assert_eq!(
             compare_case(&share, &want, tol, &mut dev).len(),
             1,
-            "{mode:?}"
+            "{mode:?}, vented {vented}"
         );
         let steps = synthetic_result(10.0, 0.5, 1001 + (2000.0 * tol.steps) as u64);
         assert_eq!(
             compare_case(&steps, &want, tol, &mut dev).len(),
             1,
-            "{mode:?}"
+            "{mode:?}, vented {vented}"
         );
         let nan = synthetic_result(f64::NAN, 0.5, 1000);
         assert_eq!(
             compare_case(&nan, &want, tol, &mut dev).len(),
             1,
-            "{mode:?}"
+            "{mode:?}, vented {vented}"
         );
     }
 }

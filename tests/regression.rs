@@ -109,59 +109,40 @@ struct Tolerance {
 /// tolerance is about five to twenty times the largest deviation measured, the figure and its
 /// case written beside it; a change of physics moves numbers by far more.
 fn tolerance(mode: Mode, vented: bool) -> Tolerance {
+    let tol = |relative, share, steps| Tolerance {
+        relative,
+        share,
+        steps,
+    };
     match (mode, vented) {
         // Periodic steady state per plateau: no step control. Measured: values 3.5e-10 (the
         // test bed's motor work: its chain's shooting converges to a tolerance, not to
         // round-off), all other rigs 7.3e-11; shares 1.3e-14; steps exact.
-        (Mode::Steady, _) => Tolerance {
-            relative: 5e-9,
-            share: 1e-10,
-            steps: 0.0,
-        },
+        (Mode::Steady, _) => tol(5e-9, 1e-10, 0.0),
         // One cycle per plateau, with stateful laws repeated until the cycle's mean drive
         // torque repeats (to that test's tolerance, not to round-off). Measured: 2.4e-6 (a
         // plain journal's eccentricity, vtwin-90 / 4b11-physical-tight), stateless sets
         // 3.6e-10.
-        (Mode::CrankAngle, _) => Tolerance {
-            relative: 2e-5,
-            share: 1e-10,
-            steps: 0.0,
-        },
+        (Mode::CrankAngle, _) => tol(2e-5, 1e-10, 0.0),
         // Prescribed crank: a perturbation moves where the error-controlled ramps' steps fall.
         // Measured: values 8.7e-6 (crf250r-compression / lugre, dissipated energy), shares
         // 1e-13, step counts 1.2e-4 (one step in 8 500).
-        (Mode::Prescribed, false) => Tolerance {
-            relative: 5e-5,
-            share: 1e-10,
-            steps: 1e-3,
-        },
+        (Mode::Prescribed, false) => tol(5e-5, 1e-10, 1e-3),
         // The vented crankcase's pressure comes from tables of its periodic solution, each an
         // iteration converged to a tolerance: a perturbation in the last bits of a speed moves
         // them by that tolerance. Measured: values 3.0e-4 (crf250r-vented / own, motor work),
         // step counts 8.1e-4.
-        (Mode::Prescribed, true) => Tolerance {
-            relative: 2e-3,
-            share: 1e-10,
-            steps: 5e-3,
-        },
+        (Mode::Prescribed, true) => tol(2e-3, 1e-10, 5e-3),
         // PI drive: the crank speed is a state the controller closes on, so a perturbation
         // takes other, equally valid steps. Measured: values 1.6e-4 (inline4-4b11 / lugre, a
         // group's power), shares 3.4e-3 (regime times are not error-controlled: a law switching
         // regime within a step is counted by the stages on each side; crf250r-fired /
         // stribeck-duty), step counts 1.6e-2 (crf250r-fired / mixed-film).
-        (Mode::Pi, false) => Tolerance {
-            relative: 1e-3,
-            share: 2e-2,
-            steps: 0.1,
-        },
+        (Mode::Pi, false) => tol(1e-3, 2e-2, 0.1),
         // PI drive on a vented crankcase: both of the above. Measured: values 2.0e-3
         // (crf250r-vented / own, the 3000 rpm plateau's motoring torque), shares 2.4e-3, step
         // counts 3.3e-3.
-        (Mode::Pi, true) => Tolerance {
-            relative: 1e-2,
-            share: 2e-2,
-            steps: 0.1,
-        },
+        (Mode::Pi, true) => tol(1e-2, 2e-2, 0.1),
     }
 }
 

@@ -13,7 +13,7 @@ single-threaded, and this leaves out the time spent waiting for a processor, whi
 wall clock's noise on a shared machine). Exits 1 if Python costs more than 10% over Rust on
 either measure (against the baseline with its JSON). The calls run in process
 (``in_process=True``): this measures the Python layer; the worker process every call gets by
-default adds a fixed cost per call (``docs/performance.md``, "Law isolation").
+default adds a fixed cost per call (``docs/performance.md``, "Current figures").
 
     cargo build --release --workspace && cargo build --release -p tribo-python --example steady_baseline
     python bench/overhead.py [REPEATS] [ROUNDS]

@@ -126,6 +126,19 @@ struct Expect<'a> {
     share_axis: bool,
 }
 
+impl<'a> Expect<'a> {
+    /// A plot with nothing forbidden in its title and an ordinary y axis.
+    fn plain(title_has: &'a [&'a str], legend: &'a [&'a str], series: usize) -> Self {
+        Expect {
+            title_has,
+            title_lacks: &[],
+            legend,
+            series,
+            share_axis: false,
+        }
+    }
+}
+
 /// A plot area of a chart: the box of its mesh lines (the translucent grid).
 fn plot_areas(els: &[Element]) -> Vec<Bbox> {
     // Each chart's grid: lines drawn translucent; charts split by their vertical extent.
@@ -386,23 +399,15 @@ fn comparison_plots_follow_the_style_guide() {
     );
     check(
         &out.join("contributions_fedem-baseline.svg"),
-        &Expect {
-            title_has: &["fedem-baseline"],
-            title_lacks: &[],
-            legend: &["piston (fedem-friction)"],
-            series: 7,
-            share_axis: false,
-        },
+        &Expect::plain(&["fedem-baseline"], &["piston (fedem-friction)"], 7),
     );
     check(
         &out.join("correlation_stribeck-duty.svg"),
-        &Expect {
-            title_has: &["FMEP", "stribeck-duty"],
-            title_lacks: &[],
-            legend: &["total: Tribo", "total: correlation"],
-            series: 6,
-            share_axis: false,
-        },
+        &Expect::plain(
+            &["FMEP", "stribeck-duty"],
+            &["total: Tribo", "total: correlation"],
+            6,
+        ),
     );
 }
 
@@ -424,13 +429,11 @@ fn a_mass_sweep_of_21_lines_keeps_every_line_distinct() {
     );
     check(
         &dir.path().join("mr/mass_sweep.svg"),
-        &Expect {
-            title_has: &["rod mass scale"],
-            title_lacks: &[],
-            legend: &["fedem-baseline 3000 rpm", "mixed-film 9000 rpm"],
-            series: 21,
-            share_axis: false,
-        },
+        &Expect::plain(
+            &["rod mass scale"],
+            &["fedem-baseline 3000 rpm", "mixed-film 9000 rpm"],
+            21,
+        ),
     );
 }
 
@@ -454,13 +457,11 @@ fn sweep_run_law_and_campbell_plots_follow_the_style_guide() {
     );
     check(
         &d.join("sw/sweep_fedem-baseline.svg"),
-        &Expect {
-            title_has: &["oil temperature", "fedem-baseline"],
-            title_lacks: &[],
-            legend: &["40 C", "110 C"],
-            series: 3,
-            share_axis: false,
-        },
+        &Expect::plain(
+            &["oil temperature", "fedem-baseline"],
+            &["40 C", "110 C"],
+            3,
+        ),
     );
     tribo_ok(
         &[
@@ -478,66 +479,38 @@ fn sweep_run_law_and_campbell_plots_follow_the_style_guide() {
     );
     check(
         &d.join("fm/fmep.svg"),
-        &Expect {
-            title_has: &["FMEP", "crf250r-motored"],
-            title_lacks: &[],
-            legend: &["total"],
-            series: 3,
-            share_axis: false,
-        },
+        &Expect::plain(&["FMEP", "crf250r-motored"], &["total"], 3),
     );
     check(
         &d.join("fm/fmep_correlation.svg"),
-        &Expect {
-            title_has: &["FMEP", "crf250r-motored"],
-            title_lacks: &[],
-            legend: &["total: Tribo", "total: correlation"],
-            series: 6,
-            share_axis: false,
-        },
+        &Expect::plain(
+            &["FMEP", "crf250r-motored"],
+            &["total: Tribo", "total: correlation"],
+            6,
+        ),
     );
     check(
         &d.join("ca/friction_vs_angle_6000.svg"),
-        &Expect {
-            title_has: &["6000 rpm"],
-            title_lacks: &[],
-            legend: &["piston"],
-            series: 3,
-            share_axis: false,
-        },
+        &Expect::plain(&["6000 rpm"], &["piston"], 3),
     );
     check(
         &d.join("ca/bearing_loads_6000.svg"),
-        &Expect {
-            title_has: &["6000 rpm"],
-            title_lacks: &[],
-            legend: &["big end (crank on rod)", "main bearings (on crank)"],
-            series: 2,
-            share_axis: false,
-        },
+        &Expect::plain(
+            &["6000 rpm"],
+            &["big end (crank on rod)", "main bearings (on crank)"],
+            2,
+        ),
     );
     tribo_ok(&["plot-law", "coulomb", "--out", "law.svg"], d);
     check(
         &d.join("law.svg"),
-        &Expect {
-            title_has: &["coulomb"],
-            title_lacks: &[],
-            legend: &["200 N, 40 C", "5000 N, 100 C"],
-            series: 3,
-            share_axis: false,
-        },
+        &Expect::plain(&["coulomb"], &["200 N, 40 C", "5000 N, 100 C"], 3),
     );
     tribo_ok(&["modes", "crf250r-testbed", "--svg", "campbell.svg"], d);
     let campbell = d.join("campbell.svg");
     check(
         &campbell,
-        &Expect {
-            title_has: &["Campbell", "crf250r-testbed"],
-            title_lacks: &[],
-            legend: &["red: modes"],
-            series: 1,
-            share_axis: false,
-        },
+        &Expect::plain(&["Campbell", "crf250r-testbed"], &["red: modes"], 1),
     );
 }
 

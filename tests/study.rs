@@ -1309,20 +1309,9 @@ fn a_set_leaving_joints_without_a_law_is_flagged_in_the_ranking() {
         "name = \"piston-only\"\ndescription = \"Coulomb on the piston, nothing on the bearings\"\n\n[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\nparams = { mu = 0.05 }\n",
     )
     .expect("write law set");
-    let out = tribo_in(
-        &[
-            "compare",
-            "--steady",
-            "--no-cv",
-            "--lawset",
-            "fedem-baseline",
-            "--lawset",
-            "piston-only.toml",
-            "--out",
-            "cmp",
-        ],
-        dir.path(),
-    );
+    let args =
+        "compare --steady --no-cv --lawset fedem-baseline --lawset piston-only.toml --out cmp";
+    let out = tribo_in(&args.split(' ').collect::<Vec<_>>(), dir.path());
     let (stdout, stderr) = text(&out);
     assert!(out.status.success(), "{stderr}");
     let json: serde_json::Value = serde_json::from_str(
@@ -1372,4 +1361,36 @@ fn a_set_leaving_joints_without_a_law_is_flagged_in_the_ranking() {
         assert!(line.contains(j.as_str()), "{j} not in {line}");
     }
     assert!(!stdout.contains("fedem-baseline: NO LAW"), "{stdout}");
+}
+
+/// On a frictionless rig every friction sum is empty: the run's and the sweep's text, CSV and
+/// FMEP tables print 0, never `-0`, `-0.000` or `-0.00000`.
+#[test]
+fn a_frictionless_rig_prints_no_negative_zero() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let mut printed = String::new();
+    for args in [
+        "run reference-frictionless --steady --fmep f1",
+        "sweep reference-frictionless --temps 40,110 --speeds 3000,6000 --out s1",
+    ] {
+        let out = tribo_in(&args.split(' ').collect::<Vec<_>>(), d);
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "{args}: {stderr}");
+        printed.push_str(&stdout);
+    }
+    for sub in ["f1", "s1"] {
+        for e in std::fs::read_dir(d.join(sub)).expect("dir") {
+            let path = e.expect("entry").path();
+            if path.extension().is_some_and(|x| x == "csv") {
+                printed.push_str(&std::fs::read_to_string(path).expect("csv"));
+            }
+        }
+    }
+    for token in printed.split([' ', ',', '\n', '(', ')']) {
+        let negative_zero = token.strip_prefix('-').is_some_and(|r| {
+            !r.is_empty() && r.chars().all(|c| c == '0' || c == '.') && r.contains('0')
+        });
+        assert!(!negative_zero, "`{token}` printed");
+    }
 }

@@ -196,7 +196,8 @@ fn header<'a>(lead: &[&'a str]) -> Vec<&'a str> {
 
 /// A CSV row: the leading columns, then the components side by side.
 fn csv_row(lead: &[String], row: &Beside) -> Vec<String> {
-    let opt = |x: Option<f64>| x.map_or(String::new(), |v| v.to_string());
+    // + 0.0: an empty sum (no law on any joint) is -0.0, written "-0"; it is plain 0.
+    let opt = |x: Option<f64>| x.map_or(String::new(), |v| (v + 0.0).to_string());
     let mut v: Vec<String> = lead.to_vec();
     v.extend([
         row.component.clone(),

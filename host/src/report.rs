@@ -135,8 +135,11 @@ pub fn crankcase_text(r: &RunResult) -> String {
         };
         let _ = writeln!(
             out,
-            "{:>10.0} {:>14.5} {:>8} {:>14.5}",
-            p.set_speed_rpm, pumping, share, p.gas_torque_nm
+            "{:>10.0} {:>14} {:>8} {:>14}",
+            p.set_speed_rpm,
+            fixed(pumping, 5),
+            share,
+            fixed(p.gas_torque_nm, 5)
         );
     }
     out
@@ -176,15 +179,15 @@ pub fn fmep_text(r: &RunResult) -> String {
             let f = &p.fmep;
             let _ = write!(
                 out,
-                "{:>10.0} {:>9.3} {:>7.4}",
+                "{:>10.0} {:>9} {:>7}",
                 p.set_speed_rpm,
-                f.total_kpa,
-                f.total_kpa / 100.0
+                fixed(f.total_kpa, 3),
+                fixed(f.total_kpa / 100.0, 4)
             );
             for c in &f.components {
-                let _ = write!(out, " {:>9.3}", c.kpa);
+                let _ = write!(out, " {:>9}", fixed(c.kpa, 3));
             }
-            let _ = writeln!(out, " {:>9.3}", f.motoring_kpa);
+            let _ = writeln!(out, " {:>9}", fixed(f.motoring_kpa, 3));
         }
         return out;
     }
@@ -217,7 +220,7 @@ pub fn fmep_text(r: &RunResult) -> String {
         for (name, v) in &rows {
             let _ = write!(out, "{name:>w$}");
             for x in &v[i * per..i * per + plateaus.len()] {
-                let _ = write!(out, " {x:>9.3}");
+                let _ = write!(out, " {:>9}", fixed(*x, 3));
             }
             out.push('\n');
         }
@@ -1110,7 +1113,7 @@ fn joint_table(s: &crate::study::SetResult) -> String {
         let _ = write!(out, "  {l:<w$}");
         for p in &s.run.plateaus {
             let v = p.joints.get(k).map_or(f64::NAN, |j| j.friction_torque_nm);
-            let _ = write!(out, " {v:>7.4}");
+            let _ = write!(out, " {:>7}", fixed(v, 4));
         }
         out.push('\n');
     }
@@ -1658,7 +1661,7 @@ pub fn sweep_text(s: &crate::study::Sweep) -> String {
         for (i, rpm) in s.speeds_rpm.iter().enumerate() {
             let _ = write!(out, "{rpm:>7.0}");
             for k in 0..s.temps_c.len() {
-                let _ = write!(out, " {:>9.4}", set.torque(k, i, n));
+                let _ = write!(out, " {:>9}", fixed(set.torque(k, i, n), 4));
             }
             out.push('\n');
         }

@@ -362,3 +362,33 @@ fn a_plugin_directory_others_can_write_is_warned_about_with_its_name_and_mode() 
         assert!(!stderr.contains("can be written by"), "{stderr}");
     }
 }
+
+/// A plugin directory of 10,000 junk files gives a few warning lines, not one per file: the
+/// first files by name and a count of the rest; `--json` still lists each under `broken`.
+#[test]
+fn ten_thousand_junk_plugin_files_give_a_short_summary() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let n = 10_000;
+    for k in 0..n {
+        std::fs::write(
+            dir.path().join(format!("libtribo_law_junk{k}.so")),
+            "junk\n",
+        )
+        .expect("write");
+    }
+    let out = tribo(&["laws"], dir.path(), dir.path(), &[]);
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stdout.contains("coulomb"), "the good laws are listed");
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert!(lines.len() <= 10, "{} lines of warnings", lines.len());
+    assert!(stderr.len() < 2_000, "{} bytes of warnings", stderr.len());
+    assert!(
+        stderr.contains(&format!("{} more plugin files", n - 3))
+            && stderr.contains(&format!("{n} in all")),
+        "{stderr}"
+    );
+    let json = tribo(&["laws", "--json"], dir.path(), dir.path(), &[]);
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
+    assert_eq!(v["broken"].as_array().map(Vec::len), Some(n));
+}

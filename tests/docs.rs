@@ -1,5 +1,6 @@
 //! The doc runner: every fenced `sh` or `bash` block of README.md, python/README.md,
-//! docs/writing-a-law.md, docs/fmu.md and docs/laws/ is run as a script, from a fresh directory where `./target/release/tribo` and `tribo` are
+//! docs/writing-a-law.md, docs/fmu.md, docs/temperature.md, docs/reliability.md and docs/laws/
+//! is run as a script, from a fresh directory where `./target/release/tribo` and `tribo` are
 //! this build's binary, and must succeed. A block that cannot run here says so in the doc, on
 //! the line before its fence: `<!-- doc-runner: skip: WHY -->` (it needs a prior step, another
 //! machine, or it is the test command itself); the runner refuses a marker without a reason.
@@ -36,6 +37,8 @@ fn documents() -> Vec<PathBuf> {
         ws.join("python/README.md"),
         ws.join("docs/writing-a-law.md"),
         ws.join("docs/fmu.md"),
+        ws.join("docs/temperature.md"),
+        ws.join("docs/reliability.md"),
     ];
     let mut found: Vec<PathBuf> = std::fs::read_dir(ws.join("docs/laws"))
         .expect("docs/laws")

@@ -172,3 +172,33 @@ fn an_export_that_cannot_be_made_fails_with_a_message_and_writes_nothing() {
     left.sort();
     assert_eq!(left, ["bad.toml", "taken"]);
 }
+
+/// What `fmu export` prints of an engine with 384 parameters stays in lines of at most 100
+/// characters: each law once with its joints, per-joint outputs once, parameters counted.
+#[test]
+fn an_engine_export_prints_short_lines() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let o = tribo_in(
+        &[
+            "fmu",
+            "export",
+            "inline4-4b11",
+            "--lawset",
+            "4b11-physical",
+            "--out",
+            "e.fmu",
+        ],
+        dir.path(),
+    );
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stderr}");
+    for line in stdout.lines() {
+        assert!(
+            line.chars().count() <= 100,
+            "{} chars: {line}",
+            line.chars().count()
+        );
+    }
+    assert_eq!(stdout.matches("plain-journal on").count(), 1, "{stdout}");
+    assert!(stdout.contains("parameters: "), "{stdout}");
+}

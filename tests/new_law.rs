@@ -428,10 +428,11 @@ fn every_language_template_builds_loads_and_gives_the_same_torques() {
             "{test_log}"
         );
         let build_log = make(&dir, &[]);
-        assert!(
-            !build_log.to_lowercase().contains("warning"),
-            "{lang}: {build_log}"
-        );
+        // Both builds compile with -Wall -Wextra (gfortran: -Wall -Wextra): `make test`
+        // compiles what `make` then only links (Fortran's objects), so both logs are read.
+        for log in [&test_log, &build_log] {
+            assert!(!log.to_lowercase().contains("warning"), "{lang}: {log}");
+        }
         let snake = name.replace('-', "_");
         let lib = dir.join(tribo::plugin_api::loader::plugin_file_name(&format!(
             "tribo_law_{snake}"

@@ -98,17 +98,18 @@ fn main_job_prints_the_table_and_writes_labelled_svg_plots_from_any_directory() 
     let svg = std::fs::read_to_string(results.join("torque_vs_speed.svg")).expect("svg");
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
     for label in [
-        "engine speed (rpm)",
+        "crank speed (rpm)",
         "motoring torque (N m)",
         "measured",
-        "fedem-baseline (RMSE",
-        "stribeck-duty (RMSE",
+        ">\nfedem-baseline\n<",
+        ">\nstribeck-duty\n<",
+        "RMSE ",
     ] {
         assert!(svg.contains(label), "plot lacks `{label}`");
     }
     let regimes = std::fs::read_to_string(results.join("piston_regimes.svg")).expect("svg");
     assert!(
-        regimes.contains("stribeck-duty: mixed") && regimes.contains("time share"),
+        regimes.contains("stribeck-duty: mixed") && regimes.contains("share of the cycle"),
         "regime plot legend"
     );
     let contrib =
@@ -1084,7 +1085,7 @@ fn reports_fit_100_columns_and_say_their_units_files_and_defaults() {
             assert!(help.contains(set), "`{cmd} --help` does not name {set}");
         }
     }
-    // The FMEP plot: engine speed along x, and each component its own colour.
+    // The FMEP plot: crank speed along x, and each component its own colour.
     fits(&[
         "run",
         "crf250r-motored",
@@ -1117,7 +1118,7 @@ fn reports_fit_100_columns_and_say_their_units_files_and_defaults() {
         "physical-bearings",
     ]);
     let svg = std::fs::read_to_string(dir.path().join("fmep/fmep.svg")).expect("svg");
-    assert!(svg.contains("engine speed (rpm)") && svg.contains("FMEP (kPa)"));
+    assert!(svg.contains("crank speed (rpm)") && svg.contains("FMEP (kPa)"));
     let colours: std::collections::BTreeSet<&str> = svg
         .split("stroke=\"")
         .skip(1)
@@ -1294,4 +1295,102 @@ fn mass_response_sweep_prints_a_speed_by_scale_table_of_percent_change_and_a_csv
         1 + 3 * changes.len() / 3,
         "a row per scale and speed"
     );
+}
+
+/// A set that leaves joints without a law the other sets cover is flagged in the ranking: the
+/// text names the joints, and comparison.json lists them for that set only. The joints
+/// expected are worked out here from the sets' own law lists in the JSON: every joint with a
+/// law in fedem-baseline but not in the piston-only set.
+#[test]
+fn a_set_leaving_joints_without_a_law_is_flagged_in_the_ranking() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(
+        dir.path().join("piston-only.toml"),
+        "name = \"piston-only\"\ndescription = \"Coulomb on the piston, nothing on the bearings\"\n\n[[laws]]\njoint = \"piston\"\nlaw = \"coulomb\"\nparams = { mu = 0.05 }\n",
+    )
+    .expect("write law set");
+    let args =
+        "compare --steady --no-cv --lawset fedem-baseline --lawset piston-only.toml --out cmp";
+    let out = tribo_in(&args.split(' ').collect::<Vec<_>>(), dir.path());
+    let (stdout, stderr) = text(&out);
+    assert!(out.status.success(), "{stderr}");
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("cmp/comparison.json")).expect("json"),
+    )
+    .expect("parse");
+    let sets = json["sets"].as_array().expect("sets");
+    let joints_of = |name: &str| -> Vec<String> {
+        let set = sets
+            .iter()
+            .find(|s| s["lawset"] == name)
+            .unwrap_or_else(|| panic!("{name} in {sets:?}"));
+        let mut j: Vec<String> = set["run"]["plateaus"][0]["joints"]
+            .as_array()
+            .expect("joints")
+            .iter()
+            .map(|l| l["joint"].as_str().expect("joint").to_string())
+            .collect();
+        j.dedup();
+        j
+    };
+    let covered = joints_of("piston-only");
+    assert_eq!(covered, ["piston"]);
+    let missing: Vec<String> = joints_of("fedem-baseline")
+        .into_iter()
+        .filter(|j| !covered.contains(j))
+        .collect();
+    assert!(missing.len() >= 3, "{missing:?}");
+    for s in sets {
+        let flagged: Vec<String> = s["uncovered_joints"]
+            .as_array()
+            .expect("uncovered_joints")
+            .iter()
+            .map(|v| v.as_str().expect("name").to_string())
+            .collect();
+        if s["lawset"] == "piston-only" {
+            assert_eq!(flagged, missing);
+        } else {
+            assert!(flagged.is_empty(), "{s:?}");
+        }
+    }
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("piston-only: NO LAW on"))
+        .unwrap_or_else(|| panic!("no flag in:\n{stdout}"));
+    for j in &missing {
+        assert!(line.contains(j.as_str()), "{j} not in {line}");
+    }
+    assert!(!stdout.contains("fedem-baseline: NO LAW"), "{stdout}");
+}
+
+/// On a frictionless rig every friction sum is empty: the run's and the sweep's text, CSV and
+/// FMEP tables print 0, never `-0`, `-0.000` or `-0.00000`.
+#[test]
+fn a_frictionless_rig_prints_no_negative_zero() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let mut printed = String::new();
+    for args in [
+        "run reference-frictionless --steady --fmep f1",
+        "sweep reference-frictionless --temps 40,110 --speeds 3000,6000 --out s1",
+    ] {
+        let out = tribo_in(&args.split(' ').collect::<Vec<_>>(), d);
+        let (stdout, stderr) = text(&out);
+        assert!(out.status.success(), "{args}: {stderr}");
+        printed.push_str(&stdout);
+    }
+    for sub in ["f1", "s1"] {
+        for e in std::fs::read_dir(d.join(sub)).expect("dir") {
+            let path = e.expect("entry").path();
+            if path.extension().is_some_and(|x| x == "csv") {
+                printed.push_str(&std::fs::read_to_string(path).expect("csv"));
+            }
+        }
+    }
+    for token in printed.split([' ', ',', '\n', '(', ')']) {
+        let negative_zero = token.strip_prefix('-').is_some_and(|r| {
+            !r.is_empty() && r.chars().all(|c| c == '0' || c == '.') && r.contains('0')
+        });
+        assert!(!negative_zero, "`{token}` printed");
+    }
 }

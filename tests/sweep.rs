@@ -329,7 +329,7 @@ fn csv_has_a_row_per_point_and_parses_back_to_the_json_and_the_plots_are_labelle
     for set in ["fedem-baseline", "stribeck-duty"] {
         let svg = std::fs::read_to_string(res.join(format!("sweep_{set}.svg"))).expect("svg");
         for label in [
-            "engine speed (rpm)",
+            "crank speed (rpm)",
             "motoring torque (N m)",
             "oil temperature",
             "40 C",

@@ -3,8 +3,6 @@
 
 use std::fmt::Write as _;
 
-use plotters::prelude::*;
-
 use crate::output::{OutputError, ResultDir};
 use crate::sim::{Fmep, PlateauResult, RunResult};
 use tribo_core::correlation::{beside, guard_band, Beside, Correlation};
@@ -198,7 +196,8 @@ fn header<'a>(lead: &[&'a str]) -> Vec<&'a str> {
 
 /// A CSV row: the leading columns, then the components side by side.
 fn csv_row(lead: &[String], row: &Beside) -> Vec<String> {
-    let opt = |x: Option<f64>| x.map_or(String::new(), |v| v.to_string());
+    // + 0.0: an empty sum (no law on any joint) is -0.0, written "-0"; it is plain 0.
+    let opt = |x: Option<f64>| x.map_or(String::new(), |v| (v + 0.0).to_string());
     let mut v: Vec<String> = lead.to_vec();
     v.extend([
         row.component.clone(),
@@ -516,17 +515,6 @@ pub fn sweep_csv(s: &crate::study::Sweep) -> std::io::Result<String> {
     crate::report::csv_text(&header(&["lawset", "oil_temp_c", "speed_rpm"]), rows)
 }
 
-/// One colour per component.
-const COLORS: [RGBColor; 7] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(148, 103, 189),
-    RGBColor(255, 127, 14),
-    RGBColor(140, 86, 75),
-    RGBColor(0, 0, 0),
-];
-
 /// A rendered file's text, or the error naming it.
 fn rendered(what: &str, r: std::io::Result<String>) -> Result<String, OutputError> {
     r.map_err(|error| OutputError::Render {
@@ -593,78 +581,8 @@ const PLOTTED: [&str; 7] = [
     "total",
 ];
 
-/// A plot of FMEP against speed: one colour per component, Tribo solid, the correlation
-/// dashed.
-fn speed_plot(title: &str, series: &[Series]) -> std::io::Result<String> {
-    let mut s = String::new();
-    draw_speed_plot(&mut s, title, series).map_err(|e| std::io::Error::other(e.to_string()))?;
-    Ok(s)
-}
-
 /// Label, speeds, Tribo's values and the correlation's (each `None` where it has none).
-type Series = (String, Vec<f64>, Vec<Option<f64>>, Vec<Option<f64>>);
-
-fn draw_speed_plot(
-    out: &mut String,
-    title: &str,
-    series: &[Series],
-) -> Result<(), Box<dyn std::error::Error>> {
-    let root = SVGBackend::with_string(out, (1000, 600)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let xs = series.iter().flat_map(|x| x.1.iter().copied());
-    let (x0, x1) = crate::plots::range(xs, 0.05);
-    let ys: Vec<f64> = series
-        .iter()
-        .flat_map(|x| x.2.iter().chain(x.3.iter()).filter_map(|v| *v))
-        .collect();
-    let (_, y1) = crate::plots::range(ys.into_iter().chain([0.0]), 0.1);
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
-        .margin(15)
-        .x_label_area_size(50)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1, 0.0..y1)?;
-    chart
-        .configure_mesh()
-        .x_desc("engine speed (rpm)")
-        .x_label_formatter(&|x| format!("{x:.0}"))
-        .y_desc("FMEP (kPa)")
-        .draw()?;
-    for (k, (label, x, tribo, corr)) in series.iter().enumerate() {
-        let color = COLORS[k % COLORS.len()];
-        let points = |v: &[Option<f64>]| -> Vec<(f64, f64)> {
-            x.iter()
-                .zip(v)
-                .filter_map(|(a, b)| b.map(|y| (*a, y)))
-                .collect()
-        };
-        chart
-            .draw_series(LineSeries::new(points(tribo), color.stroke_width(2)))?
-            .label(format!("{label}: Tribo"))
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-            });
-        chart
-            .draw_series(DashedLineSeries::new(
-                points(corr),
-                6,
-                4,
-                color.stroke_width(2),
-            ))?
-            .label(format!("{label}: correlation (dashed)"))
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 8, y)], color.stroke_width(2))
-            });
-    }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    root.present()?;
-    Ok(())
-}
+pub(crate) type Series = (String, Vec<f64>, Vec<Option<f64>>, Vec<Option<f64>>);
 
 /// `fmep_correlation.svg` of `run --fmep` (`lawset` `None`) or `correlation_<lawset>.svg` of
 /// `compare`: Tribo's and the correlation's FMEP per component against speed, the law set named
@@ -697,8 +615,8 @@ pub fn run_svg(r: &RunResult, lawset: Option<&str>) -> std::io::Result<String> {
         Some(set) => format!("{}, {set}", r.rig),
         None => r.rig.clone(),
     };
-    speed_plot(
-        &format!("{run}: Tribo (solid) beside Sandoval-Heywood (dashed)"),
+    crate::plots::correlation_svg(
+        &format!("FMEP vs crank speed, {run}: Tribo beside Sandoval-Heywood"),
         &series,
     )
 }

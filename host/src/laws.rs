@@ -16,14 +16,31 @@ pub fn warnings(registry: &LawRegistry, listing: &LawListing<'_>) -> Vec<String>
     out
 }
 
+/// Broken plugin files named one by one; beyond this many, the first ones and a count.
+pub const BROKEN_NAMED: usize = 3;
+
 /// One warning per plugin file found on the search path that could not be opened (the error
-/// names the file and the reason).
+/// names the file and the reason); past [`BROKEN_NAMED`] files, the first of them and one line
+/// counting the rest (a directory of junk gives a few lines, not one per file; `tribo laws
+/// --json` lists every one under `broken`).
 pub fn broken_warnings(listing: &LawListing<'_>) -> Vec<String> {
-    listing
-        .broken
+    let n = listing.broken.len();
+    let shown = if n > BROKEN_NAMED + 1 {
+        BROKEN_NAMED
+    } else {
+        n
+    };
+    let mut out: Vec<String> = listing.broken[..shown]
         .iter()
         .map(|(_, e)| format!("skipped a plugin file that cannot be used: {e}"))
-        .collect()
+        .collect();
+    if shown < n {
+        out.push(format!(
+            "skipped {} more plugin files that cannot be used ({n} in all; `tribo laws --json` lists each under `broken`)",
+            n - shown
+        ));
+    }
+    out
 }
 
 /// What a worker is asked for `tribo laws`: the listing as JSON or text, with the plugin

@@ -147,10 +147,10 @@ fn draw(r: &ModalReport, out: &mut String) -> DrawResult {
         .build_cartesian_2d(0.0..top_rpm, 0.0..top_hz)?;
     chart
         .configure_mesh()
-        .x_desc("crank speed, rpm")
-        .y_desc("frequency, Hz")
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| format!("{v:.0}"))
+        .x_desc("crank speed (rpm)")
+        .y_desc("frequency (Hz)")
+        .x_label_formatter(&|v| crate::plots::tick_label(*v, 0))
+        .y_label_formatter(&|v| crate::plots::tick_label(*v, 0))
         .draw()?;
     for order in campbell_orders() {
         let whole = order.fract() == 0.0;
@@ -208,6 +208,13 @@ fn legend(
     top_hz: f64,
 ) -> DrawResult {
     let font = ("sans-serif", 14).into_font();
+    // The key in a box, beside the plot (the plot's style guide: crate::plots).
+    let (w, _) = side.dim_in_pixel();
+    let rows = 6 + r.modes.len() as i32;
+    side.draw(&Rectangle::new(
+        [(2, 24), (w as i32 - 4, 40 + 20 * rows)],
+        BLACK.stroke_width(1),
+    ))?;
     let mut y = 40;
     let mut line = |text: String, color: RGBColor| -> DrawResult {
         side.draw(&Text::new(text, (8, y), font.clone().color(&color)))?;

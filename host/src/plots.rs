@@ -1,7 +1,30 @@
-//! SVG plots of a comparison (plotters, SVG backend) and the files written with them.
+//! SVG plots of every result Tribo writes (plotters, SVG backend) and the files written with
+//! them.
+//!
+//! # Style guide
+//!
+//! Every plot follows these rules, the conventions a matplotlib user expects; `tests/plots.rs`
+//! reads each SVG back and checks them.
+//! - **One colour and one dash pattern per series**, [`series_style`]: the ten-colour palette
+//!   (matplotlib's `tab10`) together with four dash patterns (solid, long dash, short dash,
+//!   dotted), cycled so that no two of the first 40 series share both; a set keeps its style
+//!   (its position in the comparison) across every plot of a result set.
+//! - **Legends in a box beside the plot**, never over the data ([`legend_beside`]); each entry
+//!   drawn as its series is (colour, dash, marker, fill), so a swatch always matches its line.
+//! - **Fills**: stacked areas are opaque tints; confidence bands are translucent and have their
+//!   own legend entry drawn with the same fill and opacity.
+//! - **Measured points** are black circles with error bars of one standard deviation wherever the
+//!   data declare their noise (`# noise_nm:`), the legend saying so.
+//! - **Axes**: units in parentheses in every axis title; shares and fractions from 0; no `-0`
+//!   tick label ([`tick_label`]).
+//! - **Titles** say what is plotted and for what: the rig, the law set, the speed; a plot of
+//!   one piston is not titled as a mean over an engine's pistons.
+//! - Curves that coincide are told apart by their dash patterns and named as coincident in
+//!   the legend (`same torques as ...`).
 
 use std::path::Path;
 
+use plotters::coord::ranged1d::Ranged;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
@@ -10,7 +33,8 @@ use crate::study::Comparison;
 
 type PlotResult = Result<(), Box<dyn std::error::Error>>;
 
-const COLORS: [RGBColor; 10] = [
+/// The series palette: matplotlib's `tab10`, in its order.
+pub const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -22,6 +46,65 @@ const COLORS: [RGBColor; 10] = [
     RGBColor(188, 189, 34),
     RGBColor(23, 190, 207),
 ];
+
+/// The dash patterns, (dash, gap) in pixels; `None` is a solid line. Dash lengths differ by
+/// at least a factor of two, so they read apart at a glance (and in the tests' read-back).
+pub const DASHES: [Option<(u32, u32)>; 4] = [None, Some((14, 6)), Some((6, 4)), Some((2, 4))];
+
+/// How far a stacked area's fill is lightened towards white (opaque, [`tint`]).
+const AREA_TINT: f64 = 0.3;
+
+/// Opacity of a confidence band's fill (and of its legend swatch).
+pub const BAND_OPACITY: f64 = 0.15;
+
+/// How one series is drawn: its colour and dash pattern.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SeriesStyle {
+    /// The line's colour.
+    pub color: RGBColor,
+    /// (dash, gap) in pixels, `None` solid.
+    pub dash: Option<(u32, u32)>,
+}
+
+/// The style of series `k`: colour `k mod 10`, and a dash pattern that moves on with the
+/// colour and shifts by three patterns per round of the palette, so series 0..40 all differ
+/// in (colour, dash) and neighbours differ in both (also across a round's end).
+pub fn series_style(k: usize) -> SeriesStyle {
+    let c = k % PALETTE.len();
+    let d = (c + 3 * (k / PALETTE.len())) % DASHES.len();
+    SeriesStyle {
+        color: PALETTE[c],
+        dash: DASHES[d],
+    }
+}
+
+/// `color` lightened towards white by `f` (0: itself, 1: white), opaque: the fill of a
+/// stacked area and of its swatch, identical in both.
+fn tint(color: RGBColor, f: f64) -> RGBColor {
+    let lift = |c: u8| (c as f64 + (255.0 - c as f64) * f).round() as u8;
+    RGBColor(lift(color.0), lift(color.1), lift(color.2))
+}
+
+/// Draw `pts` as one line in `style`, `width` pixels wide.
+fn draw_styled<X, Y>(
+    chart: &mut ChartContext<'_, SVGBackend<'_>, Cartesian2d<X, Y>>,
+    pts: Vec<(f64, f64)>,
+    style: SeriesStyle,
+    width: u32,
+) -> PlotResult
+where
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let stroke = style.color.stroke_width(width);
+    match style.dash {
+        None => chart.draw_series(LineSeries::new(pts, stroke))?,
+        Some((on, off)) => {
+            chart.draw_series(DashedLineSeries::new(pts, on as i32, off as i32, stroke))?
+        }
+    };
+    Ok(())
+}
 
 fn io(e: impl std::fmt::Display) -> std::io::Error {
     std::io::Error::other(e.to_string())
@@ -133,7 +216,7 @@ fn decimals_for(span: f64) -> usize {
 
 /// A tick label: `v` with `decimals`, trailing zeros dropped, and never `-0` (a tick at zero
 /// computed as -1e-17 is zero).
-fn tick_label(v: f64, decimals: usize) -> String {
+pub(crate) fn tick_label(v: f64, decimals: usize) -> String {
     let s = format!("{v:.decimals$}");
     let s = if s.contains('.') {
         s.trim_end_matches('0').trim_end_matches('.').to_string()
@@ -145,17 +228,6 @@ fn tick_label(v: f64, decimals: usize) -> String {
     } else {
         s
     }
-}
-
-/// The legend, boxed, at `pos`.
-fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, pos: SeriesLabelPosition) -> PlotResult {
-    chart
-        .configure_series_labels()
-        .position(pos)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
 }
 
 /// The largest magnitude an axis reaches. Values beyond it (a law or a data file gone wild)
@@ -187,14 +259,53 @@ pub(crate) fn range(values: impl Iterator<Item = f64>, pad: f64) -> (f64, f64) {
 }
 
 fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
-    let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
+    let noise = c.noise_nm.filter(|n| n.is_finite() && *n > 0.0);
+    let mut entries: Vec<(String, Swatch)> = vec![(
+        match noise {
+            Some(n) => format!("measured\nbars: noise +/-{n} N m (1 sigma)"),
+            None => "measured\n(the data declare no noise)".into(),
+        },
+        Swatch::Measured {
+            error_bar: noise.is_some(),
+        },
+    )];
+    for (i, s) in c.sets.iter().enumerate() {
+        let style = series_style(i);
+        let loo = s
+            .scores
+            .cv_rmse_nm
+            .map_or("-".to_string(), |v| format!("{v:.3}"));
+        let status = match s.calibration.status {
+            crate::study::CalibrationStatus::NotFitted => ", not fitted",
+            _ => "",
+        };
+        let mut label = format!(
+            "{}\nRMSE {:.3} N m, LOO {loo} N m{status}",
+            s.lawset, s.rmse_nm
+        );
+        if let Some(t) = s.tie.as_ref().filter(|t| t.same_torques) {
+            label.push_str(&format!("\nsame torques as {}", t.with.join(", ")));
+        }
+        entries.push((label, Swatch::Marked(style, i)));
+        if s.band_lower_nm.is_some() {
+            entries.push((
+                format!("{}: 95% band", s.lawset),
+                Swatch::Fill(style.color, BAND_OPACITY),
+            ));
+        }
+    }
+    let labels: Vec<String> = entries.iter().map(|e| e.0.clone()).collect();
+    let height = legend_height(&labels).max(560);
+    let root = SVGBackend::with_string(out, (1100, height)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (plot, side) = root.split_horizontally(1100 - legend_width(&labels));
     let speeds: Vec<f64> = c.data.iter().map(|d| d.speed_rpm).collect();
     let (x0, x1) = range(speeds.iter().copied(), 0.05);
-    // The bands are part of the picture: the axis reaches their upper edges too.
+    // The bands and error bars are part of the picture: the axis reaches their edges too.
     let all = c
         .data
         .iter()
-        .map(|d| d.torque_nm)
+        .map(|d| d.torque_nm + noise.unwrap_or(0.0))
         .chain(
             c.sets
                 .iter()
@@ -205,73 +316,64 @@ fn torque_plot(c: &Comparison, out: &mut String) -> PlotResult {
                 .iter()
                 .flat_map(|s| s.band_upper_nm.iter().flatten().copied()),
         );
-    let (y0, y1) = range(all, 0.15);
+    let (y0, y1) = range(all, 0.1);
+    let y0 = y0.min(0.0);
     let mut chart = frame(
-        &root,
-        &format!("Motoring torque vs engine speed ({}, {})", c.rig, c.mode),
+        &plot,
+        &format!("Motoring torque vs crank speed: {} ({})", c.rig, c.mode),
         x0..x1,
-        y0.min(0.0)..y1,
-        "engine speed (rpm)",
+        y0..y1,
+        "crank speed (rpm)",
         "motoring torque (N m)",
     )?;
-    // The 95% bands first, shaded, so the measurements and lines stay visible on top of them.
+    // The 95% bands first, translucent, so the measurements and lines stay visible on top.
     for (i, s) in c.sets.iter().enumerate() {
-        let color = COLORS[i % COLORS.len()];
+        let color = series_style(i).color;
         if let (Some(lo), Some(hi)) = (&s.band_lower_nm, &s.band_upper_nm) {
             let mut poly: Vec<(f64, f64)> = Vec::new();
             for (p, h) in s.run.plateaus.iter().zip(hi) {
                 poly.push((p.set_speed_rpm, h.min(y1)));
             }
             for (p, l) in s.run.plateaus.iter().zip(lo).rev() {
-                poly.push((p.set_speed_rpm, l.max(y0.min(0.0))));
+                poly.push((p.set_speed_rpm, l.max(y0)));
             }
             chart.draw_series(std::iter::once(Polygon::new(
                 poly,
-                color.mix(0.18).filled(),
+                color.mix(BAND_OPACITY).filled(),
             )))?;
         }
     }
-    chart
-        .draw_series(
-            c.data
-                .iter()
-                .map(|d| Circle::new((d.speed_rpm, d.torque_nm), 5, BLACK.filled())),
-        )?
-        .label("measured")
-        .legend(|(x, y)| Circle::new((x, y), 5, BLACK.filled()));
     for (i, s) in c.sets.iter().enumerate() {
-        let color = COLORS[i % COLORS.len()];
+        let style = series_style(i);
         let pts: Vec<(f64, f64)> = s
             .run
             .plateaus
             .iter()
             .map(|p| (p.set_speed_rpm, p.motoring_torque_nm))
             .collect();
-        let loo = s
-            .scores
-            .cv_rmse_nm
-            .map_or("-".to_string(), |v| format!("{v:.3}"));
-        let band = if s.band_lower_nm.is_some() {
-            ", shaded: 95% band"
-        } else {
-            ""
-        };
-        let status = match s.calibration.status {
-            crate::study::CalibrationStatus::NotFitted => ", not fitted",
-            _ => "",
-        };
-        chart
-            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
-            .label(format!(
-                "{} (RMSE {:.3}, LOO {loo} N m{band}{status})",
-                s.lawset, s.rmse_nm
-            ))
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-            });
-        chart.draw_series(pts.iter().map(|p| Cross::new(*p, 4, color.stroke_width(2))))?;
+        draw_styled(&mut chart, pts.clone(), style, 2)?;
+        draw_markers(&mut chart, i, &pts, style.color)?;
     }
-    legend(&mut chart, SeriesLabelPosition::LowerRight)?;
+    if let Some(n) = noise {
+        // One standard deviation either side, with caps.
+        chart.draw_series(c.data.iter().map(|d| {
+            let (x, y) = (d.speed_rpm, d.torque_nm);
+            PathElement::new(vec![(x, y - n), (x, y + n)], BLACK.stroke_width(1))
+        }))?;
+        let cap = 0.006 * (x1 - x0);
+        chart.draw_series(c.data.iter().flat_map(|d| {
+            let (x, y) = (d.speed_rpm, d.torque_nm);
+            [y - n, y + n].map(|yy| {
+                PathElement::new(vec![(x - cap, yy), (x + cap, yy)], BLACK.stroke_width(1))
+            })
+        }))?;
+    }
+    chart.draw_series(
+        c.data
+            .iter()
+            .map(|d| Circle::new((d.speed_rpm, d.torque_nm), 4, BLACK.filled())),
+    )?;
+    legend_beside(&side, "law set", &entries)?;
     root.present()?;
     Ok(())
 }
@@ -302,12 +404,12 @@ fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotRe
         &format!("Friction torque by joint and law: {}", set.lawset),
         x0..x1,
         0.0..y1,
-        "engine speed (rpm)",
+        "crank speed (rpm)",
         "friction torque at the crank (N m)",
     )?;
     // Stack: draw the cumulative sums from the top down so each band shows its own share.
     for k in (0..n_laws).rev() {
-        let color = COLORS[k % COLORS.len()];
+        let color = series_style(k).color;
         let pts: Vec<(f64, f64)> = p
             .iter()
             .map(|x| {
@@ -320,12 +422,17 @@ fn contributions_plot(set: &crate::study::SetResult, out: &mut String) -> PlotRe
                 )
             })
             .collect();
-        chart.draw_series(AreaSeries::new(pts, 0.0, color.mix(0.75)).border_style(color))?;
+        chart.draw_series(
+            AreaSeries::new(pts, 0.0, tint(color, AREA_TINT).filled()).border_style(color),
+        )?;
     }
     // Listed top down in the order the bands are stacked (topmost band first).
     let entries: Vec<(String, Swatch)> = (0..n_laws)
         .rev()
-        .map(|k| (labels[k].clone(), Swatch::Fill(COLORS[k % COLORS.len()])))
+        .map(|k| {
+            let fill = tint(series_style(k).color, AREA_TINT);
+            (labels[k].clone(), Swatch::Fill(fill, 1.0))
+        })
         .collect();
     legend_beside(&side, "joint (law)", &entries)?;
     root.present()?;
@@ -345,15 +452,40 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
     let (plot, side) = root.split_horizontally(1000 - legend_width(&labels));
     let speeds: Vec<f64> = c.data.iter().map(|d| d.speed_rpm).collect();
     let (x0, x1) = range(speeds.iter().copied(), 0.02);
-    // Below zero and above one, so a share that is 0 (or 1) at every speed is drawn clear of
-    // the axes instead of hidden under them.
+    // A share runs from 0 to 1: the axis starts at 0 (a share of 0 is drawn on it, its markers
+    // visible) and ends a little above 1.
+    let pistons = c
+        .sets
+        .iter()
+        .filter_map(|s| s.run.plateaus.first())
+        .map(|p| {
+            p.joints
+                .iter()
+                .filter(|j| is_piston(&j.joint))
+                .map(|j| &j.joint)
+        })
+        .map(|js| {
+            let mut v: Vec<_> = js.collect();
+            v.dedup();
+            v.len()
+        })
+        .max()
+        .unwrap_or(0);
+    let title = if pistons > 1 {
+        format!(
+            "Piston lubrication regime vs crank speed: {}, mean over its {pistons} pistons",
+            c.rig
+        )
+    } else {
+        format!("Piston lubrication regime vs crank speed: {}", c.rig)
+    };
     let mut chart = frame(
         &plot,
-        "Piston lubrication regime (time share; an engine: mean over its pistons)",
+        &title,
         x0..x1,
-        -0.06..1.06,
-        "engine speed (rpm)",
-        "time share of the regime (-)",
+        0.0..1.06,
+        "crank speed (rpm)",
+        "share of the cycle in the regime (-)",
     )?;
     let mut entries: Vec<(String, Swatch)> = Vec::new();
     for (i, s) in c.sets.iter().enumerate() {
@@ -389,13 +521,17 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
         if piston.is_empty() {
             continue;
         }
-        // One colour per law set, one marker per regime.
-        let color = COLORS[i % COLORS.len()];
+        // One colour per law set, one dash pattern and marker per regime.
+        let color = series_style(i).color;
         for (r, name) in names.iter().enumerate() {
+            let style = SeriesStyle {
+                color,
+                dash: DASHES[r],
+            };
             let pts: Vec<(f64, f64)> = piston.iter().map(|(v, sh)| (*v, sh[r])).collect();
-            chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
+            draw_styled(&mut chart, pts.clone(), style, 2)?;
             draw_markers(&mut chart, r, &pts, color)?;
-            entries.push((format!("{}: {name}", s.lawset), Swatch::Marked(color, r)));
+            entries.push((format!("{}: {name}", s.lawset), Swatch::Marked(style, r)));
         }
     }
     if entries.is_empty() {
@@ -443,10 +579,31 @@ pub fn write_mass_response(
     Ok(files)
 }
 
-/// Torque change against scale factor, one line per law set and speed (SVG text).
+/// Torque change against scale factor, one line per law set and speed (SVG text), the legend
+/// beside the plot.
 fn mass_sweep_svg(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
     svg(|out| {
-        let root = SVGBackend::with_string(out, (900, 560)).into_drawing_area();
+        let mut lines: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+        for set in r {
+            let mut speeds: Vec<f64> = set.changes.iter().map(|c| c.speed_rpm).collect();
+            speeds.sort_by(f64::total_cmp);
+            speeds.dedup();
+            for sp in speeds {
+                let mut pts: Vec<(f64, f64)> = set
+                    .changes
+                    .iter()
+                    .filter(|c| c.speed_rpm == sp)
+                    .map(|c| (c.scale, c.change_nm))
+                    .collect();
+                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                lines.push((format!("{} {:.0} rpm", set.lawset, sp), pts));
+            }
+        }
+        let labels: Vec<String> = lines.iter().map(|l| l.0.clone()).collect();
+        let height = legend_height(&labels).max(560);
+        let root = SVGBackend::with_string(out, (1000, height)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (plot, side) = root.split_horizontally(1000 - legend_width(&labels));
         let all = r.iter().flat_map(|s| s.changes.iter());
         let (x0, x1) = range(all.clone().map(|c| c.scale), 0.03);
         let (y0, y1) = range(all.map(|c| c.change_nm).chain([0.0]), 0.1);
@@ -455,49 +612,36 @@ fn mass_sweep_svg(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
             .map(|s| format!("{:?}", s.body).to_lowercase())
             .unwrap_or_default();
         let mut chart = frame(
-            &root,
-            &format!("Motoring torque change vs {body} mass scale"),
+            &plot,
+            &format!("Motoring torque change vs {body} mass scale, by law set and speed"),
             x0..x1,
             y0..y1,
             &format!("{body} mass scale (-)"),
             "torque change (N m)",
         )?;
-        let mut k = 0;
-        for set in r {
-            let mut speeds: Vec<f64> = set.changes.iter().map(|c| c.speed_rpm).collect();
-            speeds.sort_by(f64::total_cmp);
-            speeds.dedup();
-            for sp in speeds {
-                let color = COLORS[k % COLORS.len()];
-                k += 1;
-                let mut pts: Vec<(f64, f64)> = set
-                    .changes
-                    .iter()
-                    .filter(|c| c.speed_rpm == sp)
-                    .map(|c| (c.scale, c.change_nm))
-                    .collect();
-                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                chart
-                    .draw_series(LineSeries::new(pts, color.stroke_width(2)))?
-                    .label(format!("{} {:.0} rpm", set.lawset, sp))
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                    });
-            }
+        let mut entries = Vec::new();
+        for (k, (label, pts)) in lines.into_iter().enumerate() {
+            let style = series_style(k);
+            draw_styled(&mut chart, pts, style, 2)?;
+            entries.push((label, Swatch::Line(style)));
         }
-        legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
+        legend_beside(&side, "law set, speed", &entries)?;
         root.present()?;
         Ok(())
     })
 }
 
-/// How a legend entry is drawn: a line (series) or a filled box (stacked band).
+/// How a legend entry is drawn: as its series is, so swatch and line always match.
 #[derive(Clone, Copy)]
 enum Swatch {
-    Line(RGBColor),
-    Fill(RGBColor),
+    /// A line in its series' style.
+    Line(SeriesStyle),
+    /// A filled box: the colour and its opacity (1 for a stacked area's opaque tint).
+    Fill(RGBColor, f64),
     /// A line with the marker number `k` of [`draw_markers`] on it.
-    Marked(RGBColor, usize),
+    Marked(SeriesStyle, usize),
+    /// A measured point: a black circle, with an error bar when the data declare their noise.
+    Measured { error_bar: bool },
 }
 
 /// Marker shapes in the order [`marker`] uses them.
@@ -545,61 +689,102 @@ fn draw_marker_px(
     Ok(())
 }
 
-/// Colour `k` of `n` lines that must all differ: the ten-colour palette while it lasts, else
-/// hues spread evenly around the colour wheel.
-fn distinct_color(k: usize, n: usize) -> RGBColor {
-    if n <= COLORS.len() {
-        return COLORS[k % COLORS.len()];
-    }
-    let hsl = HSLColor(k as f64 / n as f64, 0.65, 0.42);
-    let (r, g, b) = hsl.rgb();
-    RGBColor(r, g, b)
-}
-
-/// Width in pixels of a legend column for `labels` at 14 px sans-serif, with its swatch.
+/// Width in pixels of a legend column for `labels` (each maybe several lines) at 14 px
+/// sans-serif, with its swatch and box.
 fn legend_width(labels: &[String]) -> u32 {
-    let chars = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32;
-    (chars * 8 + 60).clamp(90, 320)
+    let chars = labels
+        .iter()
+        .flat_map(|l| l.lines())
+        .map(|l| l.chars().count())
+        .max()
+        .unwrap_or(0) as u32;
+    (chars * 8 + 64).clamp(100, 380)
 }
 
-/// A legend drawn in its own area beside the plot (never over the data): a title, then one
-/// swatch and label per entry, top down.
+/// Height in pixels a [`legend_beside`] of `entries` needs, so a plot can grow to hold it.
+fn legend_height(labels: &[String]) -> u32 {
+    let lines: usize = labels.iter().map(|l| l.lines().count().max(1)).sum();
+    (30 + 34 + 20 * lines + 6 * labels.len() + 30) as u32
+}
+
+/// Draw a swatch with its middle at pixel (`x`, `y`) of `area`, 24 pixels wide.
+fn draw_swatch(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    swatch: Swatch,
+    (x, y): (i32, i32),
+) -> PlotResult {
+    match swatch {
+        Swatch::Line(s) | Swatch::Marked(s, _) => {
+            let stroke = s.color.stroke_width(2);
+            match s.dash {
+                None => area.draw(&PathElement::new(vec![(x, y), (x + 24, y)], stroke))?,
+                Some((on, off)) => area.draw(&plotters::element::DashedPathElement::new(
+                    vec![(x, y), (x + 24, y)],
+                    on as i32,
+                    off as i32,
+                    stroke,
+                ))?,
+            }
+            if let Swatch::Marked(_, k) = swatch {
+                draw_marker_px(area, k, (x + 12, y), s.color)?;
+            }
+        }
+        Swatch::Fill(c, opacity) => area.draw(&Rectangle::new(
+            [(x, y - 6), (x + 24, y + 6)],
+            c.mix(opacity).filled(),
+        ))?,
+        Swatch::Measured { error_bar } => {
+            if error_bar {
+                area.draw(&PathElement::new(
+                    vec![(x + 12, y - 8), (x + 12, y + 8)],
+                    BLACK,
+                ))?;
+                for yy in [y - 8, y + 8] {
+                    area.draw(&PathElement::new(vec![(x + 8, yy), (x + 16, yy)], BLACK))?;
+                }
+            }
+            area.draw(&Circle::new((x + 12, y), 4, BLACK.filled()))?;
+        }
+    }
+    Ok(())
+}
+
+/// The legend: in its own area beside the plot (never over the data), in a box, a title and
+/// then one swatch and label per entry, top down; a label may run over several lines.
 fn legend_beside(
     area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
     title: &str,
     entries: &[(String, Swatch)],
 ) -> PlotResult {
     area.fill(&WHITE)?;
-    let (x0, mut y) = (8_i32, 60_i32);
+    let (w, _) = area.dim_in_pixel();
+    let (x0, top) = (10_i32, 30_i32);
+    let lines: i32 = entries
+        .iter()
+        .map(|(l, _)| l.lines().count().max(1) as i32)
+        .sum();
+    let bottom = top + 34 + 20 * lines + 6 * entries.len() as i32;
+    area.draw(&Rectangle::new(
+        [(2, top), (w as i32 - 4, bottom)],
+        BLACK.stroke_width(1),
+    ))?;
     area.draw(&Text::new(
         title.to_string(),
-        (x0, y - 24),
+        (x0, top + 8),
         ("sans-serif", 15),
     ))?;
+    let mut y = top + 44;
     for (label, swatch) in entries {
-        match *swatch {
-            Swatch::Line(c) => area.draw(&PathElement::new(
-                vec![(x0, y), (x0 + 24, y)],
-                c.stroke_width(3),
-            ))?,
-            Swatch::Fill(c) => area.draw(&Rectangle::new(
-                [(x0, y - 6), (x0 + 24, y + 6)],
-                c.mix(0.75).filled(),
-            ))?,
-            Swatch::Marked(c, k) => {
-                area.draw(&PathElement::new(
-                    vec![(x0, y), (x0 + 24, y)],
-                    c.stroke_width(2),
-                ))?;
-                draw_marker_px(area, k, (x0 + 12, y), c)?;
-            }
+        draw_swatch(area, *swatch, (x0, y))?;
+        for (i, line) in label.lines().enumerate() {
+            let size = if i == 0 { 14 } else { 12 };
+            area.draw(&Text::new(
+                line.to_string(),
+                (x0 + 32, y - 7 + 20 * i as i32),
+                ("sans-serif", size),
+            ))?;
         }
-        area.draw(&Text::new(
-            label.clone(),
-            (x0 + 32, y - 7),
-            ("sans-serif", 14),
-        ))?;
-        y += 24;
+        y += 20 * label.lines().count().max(1) as i32 + 6;
     }
     Ok(())
 }
@@ -664,25 +849,29 @@ fn sweep_plot(
     let mut chart = frame(
         &plot,
         &format!(
-            "Motoring torque vs speed by oil temperature: {}",
-            set.lawset
+            "Motoring torque vs crank speed by oil temperature: {}, {}",
+            s.rig, set.lawset
         ),
         x0..x1,
         y0..y1,
-        "engine speed (rpm)",
+        "crank speed (rpm)",
         "motoring torque (N m)",
     )?;
     let n = s.speeds_rpm.len();
     let mut entries = Vec::new();
     for (k, label) in labels.iter().enumerate() {
-        let color = temperature_color(k, s.temps_c.len());
+        // Colour along the cold-to-hot scale, and a dash pattern of its own.
+        let style = SeriesStyle {
+            color: temperature_color(k, s.temps_c.len()),
+            dash: DASHES[k % DASHES.len()],
+        };
         let mut pts: Vec<(f64, f64)> = (0..n)
             .map(|i| (s.speeds_rpm[i], set.torque(k, i, n)))
             .collect();
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
-        chart.draw_series(pts.iter().map(|p| Circle::new(*p, 3, color.filled())))?;
-        entries.push((label.clone(), Swatch::Line(color)));
+        draw_styled(&mut chart, pts.clone(), style, 2)?;
+        draw_markers(&mut chart, k, &pts, style.color)?;
+        entries.push((label.clone(), Swatch::Marked(style, k)));
     }
     legend_beside(&side, title, &entries)?;
     root.present()?;
@@ -775,10 +964,14 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
             2
         }
     };
-    let color = |k: &crate::check::Curve| {
+    // Colour by temperature and load, a dash pattern per load.
+    let style = |k: &crate::check::Curve| {
         let t = temps.iter().position(|x| *x == k.oil_temp_c).unwrap_or(0);
         let l = loads.iter().position(|x| *x == k.load_n).unwrap_or(0);
-        law_curve_color(t, temps.len(), l, loads.len())
+        SeriesStyle {
+            color: law_curve_color(t, temps.len(), l, loads.len()),
+            dash: DASHES[l % DASHES.len()],
+        }
     };
     // Top: signed force through zero.
     let (x0, x1) = range(
@@ -810,7 +1003,7 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
             .filter(|p| p.1.is_finite())
             .copied()
             .collect();
-        chart.draw_series(LineSeries::new(pts, color(k).stroke_width(stroke(k))))?;
+        draw_styled(&mut chart, pts, style(k), stroke(k))?;
     }
     // Bottom: magnitude against speed on a log axis (the Stribeck region near zero).
     let speeds = c
@@ -846,6 +1039,7 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
         .x_desc("sliding speed at the contact (m/s)")
         .x_label_formatter(&|x| format!("{x:.0e}"))
         .y_desc(format!("|{quantity}| ({unit})"))
+        .y_label_formatter(&|y| tick_label(*y, decimals_for(m1 - m0)))
         .draw()?;
     for k in &c.curves {
         let pts: Vec<(f64, f64)> = k
@@ -854,13 +1048,13 @@ fn law_plot(c: &crate::check::LawCurves, out: &mut String) -> PlotResult {
             .filter(|p| p.0 > 0.0 && p.1.is_finite())
             .copied()
             .collect();
-        log_chart.draw_series(LineSeries::new(pts, color(k).stroke_width(stroke(k))))?;
+        draw_styled(&mut log_chart, pts, style(k), stroke(k))?;
     }
     let entries: Vec<(String, Swatch)> = c
         .curves
         .iter()
         .zip(&labels)
-        .map(|(k, l)| (l.clone(), Swatch::Line(color(k))))
+        .map(|(k, l)| (l.clone(), Swatch::Line(style(k))))
         .collect();
     legend_beside(&side, title, &entries)?;
     root.present()?;
@@ -900,21 +1094,19 @@ fn fmep_plot(r: &crate::sim::RunResult, out: &mut String) -> PlotResult {
     };
     let mut chart = frame(
         &plot,
-        &format!("FMEP by component: {} ({basis})", r.rig),
+        &format!("FMEP by component vs crank speed: {} ({basis})", r.rig),
         x0..x1,
         y0..y1,
-        "engine speed (rpm)",
+        "crank speed (rpm)",
         "FMEP (kPa)",
     )?;
-    let n = labels.len();
-    for k in 0..n {
-        let color = distinct_color(k, n);
+    for k in 0..labels.len() {
+        let style = series_style(k);
         let pts: Vec<(f64, f64)> = p
             .iter()
             .filter_map(|x| x.fmep.components.get(k).map(|c| (x.set_speed_rpm, c.kpa)))
             .collect();
-        chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
-        draw_markers(&mut chart, k, &pts, color)?;
+        draw_styled(&mut chart, pts, style, 2)?;
     }
     let total: Vec<(f64, f64)> = p
         .iter()
@@ -924,9 +1116,15 @@ fn fmep_plot(r: &crate::sim::RunResult, out: &mut String) -> PlotResult {
     let mut entries: Vec<(String, Swatch)> = labels
         .iter()
         .enumerate()
-        .map(|(k, l)| (l.clone(), Swatch::Marked(distinct_color(k, n), k)))
+        .map(|(k, l)| (l.clone(), Swatch::Line(series_style(k))))
         .collect();
-    entries.push(("total".into(), Swatch::Line(BLACK)));
+    entries.push((
+        "total".into(),
+        Swatch::Line(SeriesStyle {
+            color: BLACK,
+            dash: None,
+        }),
+    ));
     legend_beside(&side, "component", &entries)?;
     root.present()?;
     Ok(())
@@ -981,13 +1179,12 @@ fn friction_vs_angle_plot(t: &crate::sim::CrankAngleTrace, out: &mut String) -> 
         "friction torque at the crank (N m)",
     )?;
     for (k, pts) in series.into_iter().enumerate() {
-        let color = COLORS[k % COLORS.len()];
-        chart.draw_series(LineSeries::new(pts, color.stroke_width(2)))?;
+        draw_styled(&mut chart, pts, series_style(k), 2)?;
     }
     let entries: Vec<(String, Swatch)> = joints
         .iter()
         .enumerate()
-        .map(|(k, j)| (j.clone(), Swatch::Line(COLORS[k % COLORS.len()])))
+        .map(|(k, j)| (j.clone(), Swatch::Line(series_style(k))))
         .collect();
     legend_beside(&side, "joint", &entries)?;
     root.present()?;
@@ -1002,7 +1199,8 @@ pub fn bearing_polar_svg(t: &crate::sim::CrankAngleTrace) -> std::io::Result<Str
 }
 
 fn bearing_polar_plot(t: &crate::sim::CrankAngleTrace, out: &mut String) -> PlotResult {
-    let root = SVGBackend::with_string(out, (760, 700)).into_drawing_area();
+    let root = SVGBackend::with_string(out, (960, 700)).into_drawing_area();
+    root.fill(&WHITE)?;
     let big: Vec<(f64, f64)> = t
         .samples
         .iter()
@@ -1019,32 +1217,29 @@ fn bearing_polar_plot(t: &crate::sim::CrankAngleTrace, out: &mut String) -> Plot
         .map(|p| p.0.abs().max(p.1.abs()))
         .fold(1.0_f64, f64::max)
         * 1.1;
+    let series = [
+        ("big end (crank on rod)".to_string(), big),
+        ("main bearings (on crank)".to_string(), main),
+    ];
+    let names: Vec<String> = series.iter().map(|s| s.0.clone()).collect();
+    let (plot, side) = root.split_horizontally(960 - legend_width(&names));
     let mut chart = frame(
-        &root,
+        &plot,
         &format!("Bearing loads over the cycle at {:.0} rpm", t.speed_rpm),
         -reach..reach,
         -reach..reach,
         "force across the cylinder, x (N)",
         "force along the cylinder axis, y (N)",
     )?;
-    for (k, (name, pts)) in [
-        ("big end (crank on rod)", big),
-        ("main bearings (on crank)", main),
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        let color = COLORS[k];
+    let mut entries = Vec::new();
+    for (k, (name, pts)) in series.into_iter().enumerate() {
+        let style = series_style(k);
         let mut closed = pts.clone();
-        if let Some(first) = pts.first() {
-            closed.push(*first);
-        }
-        chart
-            .draw_series(LineSeries::new(closed, color.stroke_width(2)))?
-            .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+        closed.extend(pts.first().copied());
+        draw_styled(&mut chart, closed, style, 2)?;
+        entries.push((name, Swatch::Line(style)));
     }
-    legend(&mut chart, SeriesLabelPosition::UpperRight)?;
+    legend_beside(&side, "bearing", &entries)?;
     root.present()?;
     Ok(())
 }
@@ -1140,14 +1335,13 @@ fn eccentricity_polar_plot(speed_rpm: f64, loci: &[Locus], out: &mut String) -> 
         })
         .collect();
     chart.draw_series(LineSeries::new(wall, BLACK.stroke_width(1)))?;
-    let n = loci.len();
     for (k, (_, pts)) in loci.iter().enumerate() {
-        let color = distinct_color(k, n);
+        let style = series_style(k);
         let mut closed = pts.clone();
         closed.extend(pts.first().copied());
-        chart.draw_series(LineSeries::new(closed, color.stroke_width(2)))?;
+        draw_styled(&mut chart, closed, style, 2)?;
         // The cycle's start (crank angle 0) marked, so the direction of travel reads.
-        draw_markers(&mut chart, k, &pts[..1.min(pts.len())], color)?;
+        draw_markers(&mut chart, k, &pts[..1.min(pts.len())], style.color)?;
     }
     note_lines(
         &note,
@@ -1160,7 +1354,7 @@ fn eccentricity_polar_plot(speed_rpm: f64, loci: &[Locus], out: &mut String) -> 
     let entries: Vec<(String, Swatch)> = names
         .iter()
         .enumerate()
-        .map(|(k, j)| (j.clone(), Swatch::Marked(distinct_color(k, n), k)))
+        .map(|(k, j)| (j.clone(), Swatch::Marked(series_style(k), k)))
         .collect();
     legend_beside(&side, "journal (law)", &entries)?;
     root.present()?;
@@ -1200,10 +1394,8 @@ fn piston_offset_plot(
             BLACK.stroke_width(1),
         ))?;
     }
-    let n = offsets.len();
     for (k, (_, pts)) in offsets.iter().enumerate() {
-        let color = distinct_color(k, n);
-        chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
+        draw_styled(&mut chart, pts.clone(), series_style(k), 2)?;
     }
     note_lines(
         &note,
@@ -1215,11 +1407,66 @@ fn piston_offset_plot(
     let entries: Vec<(String, Swatch)> = names
         .iter()
         .enumerate()
-        .map(|(k, j)| (j.clone(), Swatch::Line(distinct_color(k, n))))
+        .map(|(k, j)| (j.clone(), Swatch::Line(series_style(k))))
         .collect();
     legend_beside(&side, "piston (law)", &entries)?;
     root.present()?;
     Ok(())
+}
+
+/// FMEP against crank speed per component, Tribo's and the correlation's: one colour per
+/// component, Tribo solid and the correlation dashed (`run --fmep`'s `fmep_correlation.svg`,
+/// `compare`'s `correlation_<set>.svg`); FMEP from 0.
+pub(crate) fn correlation_svg(
+    title: &str,
+    series: &[crate::beside::Series],
+) -> std::io::Result<String> {
+    svg(|out| {
+        let root = SVGBackend::with_string(out, (1100, 600)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut entries: Vec<(String, Swatch)> = Vec::new();
+        for (k, (label, ..)) in series.iter().enumerate() {
+            let color = PALETTE[k % PALETTE.len()];
+            for (who, dash) in [("Tribo", DASHES[0]), ("correlation", DASHES[1])] {
+                entries.push((
+                    format!("{label}: {who}"),
+                    Swatch::Line(SeriesStyle { color, dash }),
+                ));
+            }
+        }
+        let labels: Vec<String> = entries.iter().map(|e| e.0.clone()).collect();
+        let (plot, side) = root.split_horizontally(1100 - legend_width(&labels));
+        let (x0, x1) = range(series.iter().flat_map(|x| x.1.iter().copied()), 0.05);
+        let ys = series
+            .iter()
+            .flat_map(|x| x.2.iter().chain(x.3.iter()).filter_map(|v| *v));
+        let (_, y1) = range(ys.chain([0.0]), 0.1);
+        let mut chart = frame(
+            &plot,
+            title,
+            x0..x1,
+            0.0..y1,
+            "crank speed (rpm)",
+            "FMEP (kPa)",
+        )?;
+        let mut k = 0;
+        for (_, x, tribo, corr) in series {
+            for values in [tribo, corr] {
+                let pts: Vec<(f64, f64)> = x
+                    .iter()
+                    .zip(values)
+                    .filter_map(|(a, b)| b.map(|y| (*a, y)))
+                    .collect();
+                if let Swatch::Line(style) = entries[k].1 {
+                    draw_styled(&mut chart, pts, style, 2)?;
+                }
+                k += 1;
+            }
+        }
+        legend_beside(&side, "component: source", &entries)?;
+        root.present()?;
+        Ok(())
+    })
 }
 
 /// Lines of explanation under a plot, in `area`.

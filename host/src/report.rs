@@ -35,21 +35,18 @@ pub fn to_text(r: &RunResult) -> String {
     out.push_str(&crankcase_text(r));
     out.push_str(&fmep_text(r));
     if r.plateaus.iter().any(|p| !p.joints.is_empty()) {
-        let _ = writeln!(out, "\nper joint and law (friction torque at the crank, N m; power, W; regime shares b/m/h)");
+        let _ = writeln!(out, "\nper joint and law (friction torque at the crank, N m; power, W; regime shares b/m/h, - where the law reports no regime)");
         for p in &r.plateaus {
             let _ = writeln!(out, "  {:.0} rpm", p.set_speed_rpm);
             for j in &p.joints {
-                let s = j.regime_share;
                 let _ = writeln!(
                     out,
-                    "    {:<10} {:<16} {:>10.5} {:>10.3}   {:.2}/{:.2}/{:.2}",
+                    "    {:<10} {:<16} {:>10} {:>10}   {}",
                     j.joint,
                     j.law,
-                    j.friction_torque_nm,
-                    j.power_w,
-                    s.boundary,
-                    s.mixed,
-                    s.hydrodynamic
+                    fixed(j.friction_torque_nm, 5),
+                    fixed(j.power_w, 3),
+                    regime_cell(&j.regime_share)
                 );
             }
         }
@@ -64,8 +61,10 @@ pub fn to_text(r: &RunResult) -> String {
             for g in &p.groups {
                 let _ = writeln!(
                     out,
-                    "    {:<12} {:>10.5} {:>10.3}",
-                    g.group, g.friction_torque_nm, g.power_w
+                    "    {:<12} {:>10} {:>10}",
+                    g.group,
+                    fixed(g.friction_torque_nm, 5),
+                    fixed(g.power_w, 3)
                 );
             }
         }
@@ -136,8 +135,11 @@ pub fn crankcase_text(r: &RunResult) -> String {
         };
         let _ = writeln!(
             out,
-            "{:>10.0} {:>14.5} {:>8} {:>14.5}",
-            p.set_speed_rpm, pumping, share, p.gas_torque_nm
+            "{:>10.0} {:>14} {:>8} {:>14}",
+            p.set_speed_rpm,
+            fixed(pumping, 5),
+            share,
+            fixed(p.gas_torque_nm, 5)
         );
     }
     out
@@ -177,15 +179,15 @@ pub fn fmep_text(r: &RunResult) -> String {
             let f = &p.fmep;
             let _ = write!(
                 out,
-                "{:>10.0} {:>9.3} {:>7.4}",
+                "{:>10.0} {:>9} {:>7}",
                 p.set_speed_rpm,
-                f.total_kpa,
-                f.total_kpa / 100.0
+                fixed(f.total_kpa, 3),
+                fixed(f.total_kpa / 100.0, 4)
             );
             for c in &f.components {
-                let _ = write!(out, " {:>9.3}", c.kpa);
+                let _ = write!(out, " {:>9}", fixed(c.kpa, 3));
             }
-            let _ = writeln!(out, " {:>9.3}", f.motoring_kpa);
+            let _ = writeln!(out, " {:>9}", fixed(f.motoring_kpa, 3));
         }
         return out;
     }
@@ -218,7 +220,7 @@ pub fn fmep_text(r: &RunResult) -> String {
         for (name, v) in &rows {
             let _ = write!(out, "{name:>w$}");
             for x in &v[i * per..i * per + plateaus.len()] {
-                let _ = write!(out, " {x:>9.3}");
+                let _ = write!(out, " {:>9}", fixed(*x, 3));
             }
             out.push('\n');
         }
@@ -256,6 +258,8 @@ pub fn fmep_csv(r: &RunResult) -> std::io::Result<String> {
                 ("motoring", p.fmep.motoring_kpa),
             ]);
         for (name, kpa) in parts {
+            // + 0.0: an empty sum is -0.0, written "-0"; zero friction is plain 0.
+            let kpa = kpa + 0.0;
             rows.push(vec![
                 p.set_speed_rpm.to_string(),
                 name.to_string(),
@@ -561,9 +565,50 @@ const JOINTS_CSV_HEADER: [&str; 10] = [
     "share_hydrodynamic",
 ];
 
+/// Units a number is never parted from at a line break (`0.05 N m`, `80 C`, `12 kPa`).
+const UNITS: [&str; 18] = [
+    "N", "m", "kPa", "Pa", "C", "rpm", "W", "J", "Hz", "cSt", "mPa", "s", "%", "kg", "mm", "um",
+    "m/s", "bar",
+];
+
+/// The words of `body` with the spaces before each (1 for the first), a number and the unit
+/// after it (`0.05 N m`) kept as one word.
+fn wrap_tokens(body: &str) -> Vec<(usize, String)> {
+    let mut out: Vec<(usize, String)> = Vec::new();
+    let mut gap = 0;
+    // Whether the last word is a number (or a number with a unit already glued to it).
+    let mut after_number = false;
+    for word in body.split(' ') {
+        if word.is_empty() {
+            gap += 1;
+            continue;
+        }
+        let spaces = gap + 1;
+        gap = 0;
+        let unit = UNITS.contains(&word.trim_end_matches([',', ';', ')', '.', ':']));
+        match out.last_mut() {
+            Some(last) if after_number && unit && spaces == 1 => {
+                last.1.push(' ');
+                last.1.push_str(word);
+            }
+            _ => {
+                after_number = false;
+                out.push((spaces, word.to_string()));
+            }
+        }
+        let w = word.trim_start_matches(['(', '[', '~', '+', '-']);
+        after_number |= w.starts_with(|c: char| c.is_ascii_digit());
+        if !unit && !w.starts_with(|c: char| c.is_ascii_digit()) {
+            after_number = false;
+        }
+    }
+    out
+}
+
 /// `text` broken into lines of at most `width` characters at spaces (its own line breaks
 /// kept, and a line that fits left as it is), continuation lines starting with `indent`; a
-/// word longer than a line is cut.
+/// word longer than a line is cut. Words that stay on a line keep the spaces between them, so
+/// the columns of a table row stay aligned up to where it breaks.
 pub fn wrap(text: &str, width: usize, indent: &str) -> String {
     let mut out = String::new();
     for paragraph in text.split('\n') {
@@ -578,12 +623,12 @@ pub fn wrap(text: &str, width: usize, indent: &str) -> String {
         let mut line = paragraph[..paragraph.len() - body.len()].to_string();
         let mut line_w = line.len();
         let mut fresh = true;
-        for word in body.split(' ').filter(|w| !w.is_empty()) {
+        for (spaces, word) in wrap_tokens(body) {
             let chars: Vec<char> = word.chars().collect();
             // The part of the word not yet placed: cutting a long word moves this start, never
             // the characters (a 15 MiB word is cut in time linear in its length).
             let mut word: &[char] = &chars;
-            if !fresh && line_w + 1 + word.len() > width {
+            if !fresh && line_w + spaces + word.len() > width {
                 out.push_str(&line);
                 out.push('\n');
                 line = indent.to_string();
@@ -591,8 +636,8 @@ pub fn wrap(text: &str, width: usize, indent: &str) -> String {
                 fresh = true;
             }
             if !fresh {
-                line.push(' ');
-                line_w += 1;
+                line.extend(std::iter::repeat_n(' ', spaces));
+                line_w += spaces;
             }
             // A word that cannot fit on a line of its own is cut.
             while line_w + word.len() > width && width > line_w {
@@ -742,6 +787,21 @@ impl Blocks<'_> {
 }
 
 /// A law set's name with its calibration status where it is not the plain case.
+/// A law's regime shares as `b/m/h` (boundary, mixed, hydrodynamic); `-` for a law that
+/// reports no regime over the whole cycle (it has none to report, not a share of zero each).
+fn regime_cell(s: &crate::sim::RegimeShare) -> String {
+    if s.boundary + s.mixed + s.hydrodynamic <= 0.0 {
+        "-".into()
+    } else {
+        format!(
+            "{}/{}/{}",
+            fixed(s.boundary, 2),
+            fixed(s.mixed, 2),
+            fixed(s.hydrodynamic, 2)
+        )
+    }
+}
+
 /// A set's place in the ranking: `2`, or `2=` when tied with another.
 fn rank_label(s: &crate::study::SetResult) -> String {
     if s.tie.is_some() {
@@ -780,6 +840,25 @@ fn ties_text(ranked: &[&crate::study::SetResult]) -> String {
                 names.join(", "),
                 tie.error_spread_nm,
                 fixed(tie.noise_nm, 3)
+            ),
+            MAX_COLUMNS,
+            "      ",
+        ));
+    }
+    out
+}
+
+/// One line per set that leaves joints without a law the other sets cover: its ranking
+/// compares a torque missing those joints' friction.
+fn uncovered_text(ranked: &[&crate::study::SetResult]) -> String {
+    let mut out = String::new();
+    for s in ranked.iter().filter(|s| !s.uncovered_joints.is_empty()) {
+        out.push_str(&wrap(
+            &format!(
+                "  {} {}: NO LAW on {} (other sets put one there): its torque lacks that friction, so its place is not like for like",
+                rank_label(s),
+                s.lawset,
+                s.uncovered_joints.join(", ")
             ),
             MAX_COLUMNS,
             "      ",
@@ -937,6 +1016,7 @@ pub fn comparison_text(c: &crate::study::Comparison) -> String {
         "  (RMSE in N m: RMSE in sample, LOO RMSE out of sample; params: free parameters, fitted\n   to these data before scoring unless marked not fitted, + numbers tuned to these data\n   elsewhere; AICc and BIC count those and the noise variance, lower is better; +10C max:\n   largest torque change per 10 C of oil warming, ! above 10%; 1=: tied, see below)"
     );
     out.push_str(&ties_text(&ranked));
+    out.push_str(&uncovered_text(&ranked));
     for s in &ranked {
         if s.calibration.params.is_empty() {
             continue;
@@ -1033,7 +1113,7 @@ fn joint_table(s: &crate::study::SetResult) -> String {
         let _ = write!(out, "  {l:<w$}");
         for p in &s.run.plateaus {
             let v = p.joints.get(k).map_or(f64::NAN, |j| j.friction_torque_nm);
-            let _ = write!(out, " {v:>7.4}");
+            let _ = write!(out, " {:>7}", fixed(v, 4));
         }
         out.push('\n');
     }
@@ -1273,7 +1353,7 @@ pub fn fit_text(r: &crate::fit::FitResult) -> String {
         );
         let _ = writeln!(
             out,
-            "{:<w$} {:>10.4e} {:>10.4e} {:>9} {:>21}  [{:.3e}, {:.3e}]",
+            "{:<w$} {:>10.4e} {:>10.4e} {:>9} {:>21}  [{:.2e}, {:.2e}]",
             r.params[i],
             r.start[i],
             r.values[i],
@@ -1581,7 +1661,7 @@ pub fn sweep_text(s: &crate::study::Sweep) -> String {
         for (i, rpm) in s.speeds_rpm.iter().enumerate() {
             let _ = write!(out, "{rpm:>7.0}");
             for k in 0..s.temps_c.len() {
-                let _ = write!(out, " {:>9.4}", set.torque(k, i, n));
+                let _ = write!(out, " {:>9}", fixed(set.torque(k, i, n), 4));
             }
             out.push('\n');
         }
@@ -1692,6 +1772,54 @@ pub fn sweep_csv(s: &crate::study::Sweep) -> Result<String, csv::Error> {
 mod tests {
     use super::*;
     use crate::sim::{EnergyBalance, LawResult, PlateauResult, RegimeShare};
+
+    /// A table row longer than the width breaks at its end, its columns as they were; a
+    /// number is never parted from its unit at a break, wherever the break falls.
+    #[test]
+    fn wrap_keeps_columns_and_units_together() {
+        let row = format!(
+            "{:<20} {:>10} {:>10} {}",
+            "piston.law.mu_b",
+            "1.5e-1",
+            "2.0e-1",
+            "x ".repeat(40)
+        );
+        let out = wrap(&row, 60, "    ");
+        let first = out.lines().next().expect("a line");
+        let columns = row.split(" x").next().expect("columns");
+        assert!(first.starts_with(columns), "{out}");
+        for width in 20..60 {
+            let text = "the spread is 0.05 N m at 3000 rpm and 80 C, above 12 kPa ".repeat(2);
+            let out = wrap(&text, width, "  ");
+            for line in out.lines() {
+                let t = line.trim_start();
+                assert!(
+                    !["N m", "m ", "rpm", "C,", "kPa"]
+                        .iter()
+                        .any(|u| t.starts_with(u)),
+                    "width {width}: a unit starts a line: {out}"
+                );
+            }
+        }
+    }
+
+    /// A law without regimes shows `-`, not shares of zero; a share of zero of a law with
+    /// regimes is printed.
+    #[test]
+    fn a_law_without_regimes_shows_a_dash() {
+        let none = RegimeShare {
+            none: 1.0,
+            ..Default::default()
+        };
+        assert_eq!(regime_cell(&none), "-");
+        let some = RegimeShare {
+            none: 0.0,
+            boundary: 0.0,
+            mixed: 0.25,
+            hydrodynamic: 0.75,
+        };
+        assert_eq!(regime_cell(&some), "0.00/0.25/0.75");
+    }
 
     fn result_with_law(law: &str) -> RunResult {
         let joint = LawResult {

@@ -148,7 +148,9 @@ pub fn export(e: &Export, out: &Path) -> Result<Interface, FmuError> {
     Ok(iface)
 }
 
-/// What `tribo fmu export` prints: the file and its interface in brief.
+/// What `tribo fmu export` prints: the file and its interface in brief, in lines of at most
+/// [`SUMMARY_COLUMNS`]: each law once with its joints, the rig-level outputs by name and the
+/// per-joint ones once, the parameters counted (every one is in `modelDescription.xml`).
 pub fn summary(iface: &Interface, out: &Path) -> String {
     use crate::interface::Causality;
     let names = |c: Causality| -> Vec<&str> {
@@ -159,21 +161,85 @@ pub fn summary(iface: &Interface, out: &Path) -> String {
             .map(|v| v.name.as_str())
             .collect()
     };
-    let laws: Vec<String> = iface
-        .laws
+    let mut by_law: Vec<(&str, Vec<&str>)> = Vec::new();
+    for l in &iface.laws {
+        match by_law.iter_mut().find(|(law, _)| *law == l.law) {
+            Some((_, joints)) => {
+                if !joints.contains(&l.joint.as_str()) {
+                    joints.push(&l.joint);
+                }
+            }
+            None => by_law.push((&l.law, vec![&l.joint])),
+        }
+    }
+    let laws: Vec<String> = by_law
         .iter()
-        .map(|l| format!("{} on {}", l.law, l.joint))
+        .map(|(law, joints)| format!("{law} on {}", joints.join(" ")))
         .collect();
-    format!(
-        "wrote {} (FMI 2.0 Co-Simulation, linux64, GUID {})\n  rig: {}\n  laws: {}\n  inputs: {}\n  outputs: {}\n  parameters: {}\n",
+    // Per-joint outputs (`JOINT.QUANTITY`) once by quantity, with the number of joints.
+    let outputs = names(Causality::Output);
+    let (rig_level, per_joint): (Vec<&str>, Vec<&str>) =
+        outputs.iter().partition(|n| !n.contains('.'));
+    let mut quantities: Vec<&str> = Vec::new();
+    let mut joints: Vec<&str> = Vec::new();
+    for n in &per_joint {
+        if let Some((joint, q)) = n.split_once('.') {
+            if !quantities.contains(&q) {
+                quantities.push(q);
+            }
+            if !joints.contains(&joint) {
+                joints.push(joint);
+            }
+        }
+    }
+    let mut output_items: Vec<String> = rig_level.iter().map(|s| s.to_string()).collect();
+    if !joints.is_empty() {
+        output_items.push(format!(
+            "JOINT.{{{}}} for each of {} joints",
+            quantities.join(", "),
+            joints.len()
+        ));
+    }
+    let params = names(Causality::Parameter);
+    let mut text = format!(
+        "wrote {} (FMI 2.0 Co-Simulation, linux64, GUID {})\n  rig: {}\n",
         out.display(),
         iface.guid,
-        iface.model_name,
-        laws.join(", "),
-        names(Causality::Input).join(", "),
-        names(Causality::Output).join(", "),
-        names(Causality::Parameter).join(", ")
-    )
+        iface.model_name
+    );
+    text.push_str(&listed("laws", &laws));
+    text.push_str(&listed("inputs", &names(Causality::Input)));
+    text.push_str(&listed("outputs", &output_items));
+    text.push_str(&format!(
+        "  parameters: {} (JOINT.LAW.PARAM for every law parameter, and the worker's; each is\n    listed in the FMU's modelDescription.xml)\n",
+        params.len()
+    ));
+    text
+}
+
+/// The widest line [`summary`] prints.
+pub const SUMMARY_COLUMNS: usize = 100;
+
+/// `  LABEL: a, b, c` over as many lines as [`SUMMARY_COLUMNS`] needs, continuation lines
+/// indented; items are never split.
+fn listed<T: AsRef<str>>(label: &str, items: &[T]) -> String {
+    let mut out = format!("  {label}:");
+    let mut width = out.len();
+    for (k, item) in items.iter().enumerate() {
+        let item = item.as_ref();
+        let sep = if k + 1 < items.len() { "," } else { "" };
+        let piece = item.chars().count() + sep.len();
+        if width + 1 + piece > SUMMARY_COLUMNS && width > 6 {
+            out.push_str("\n     ");
+            width = 5;
+        }
+        out.push(' ');
+        out.push_str(item);
+        out.push_str(sep);
+        width += 1 + piece;
+    }
+    out.push('\n');
+    out
 }
 
 /// The comment heading `model.toml`: what it is.

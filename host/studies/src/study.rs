@@ -600,6 +600,11 @@ pub struct SetResult {
     /// The sets this one cannot be told apart from on these data, and why (`None`: none).
     #[serde(default)]
     pub tie: Option<Tie>,
+    /// Joints this set leaves without a law although another set of the comparison gives them
+    /// one ([`mark_uncovered_joints`]): its torque lacks their friction, so its ranking is not
+    /// like for like. Empty when it covers every joint the others do.
+    #[serde(default)]
+    pub uncovered_joints: Vec<String>,
     /// Out-of-sample scores: leave-one-out RMSE, free parameters, AICc, BIC.
     pub scores: Scores,
     /// The linearised uncertainty of the free parameters and the 95% band of the torque.
@@ -1041,6 +1046,7 @@ fn score_set(
         max_abs_error_nm,
         rank: 0,
         tie: None,
+        uncovered_joints: Vec::new(),
         scores,
         uncertainty: unc,
         calibration,
@@ -1232,6 +1238,7 @@ impl Comparison {
                 / n
         });
         rank_sets(&mut self.sets, no_cv, noise);
+        mark_uncovered_joints(&mut self.sets);
         self.verdict = crate::verdict::judge(self);
         if let Some(note) = self.instrument_note() {
             self.verdict.sentence.push_str(&note);
@@ -1350,6 +1357,35 @@ pub fn rank_sets(sets: &mut [SetResult], no_cv: bool, noise_nm: f64) {
             }
         }
         start = end;
+    }
+}
+
+/// Set each set's [`SetResult::uncovered_joints`]: the joints some other set puts a law on
+/// (in its first plateau's per-law results) and this one does not, in the order they first
+/// appear.
+pub fn mark_uncovered_joints(sets: &mut [SetResult]) {
+    let covered = |s: &SetResult| -> Vec<String> {
+        let mut joints: Vec<String> = Vec::new();
+        for j in s.run.plateaus.first().map_or(&[][..], |p| &p.joints[..]) {
+            if !joints.contains(&j.joint) {
+                joints.push(j.joint.clone());
+            }
+        }
+        joints
+    };
+    let each: Vec<Vec<String>> = sets.iter().map(covered).collect();
+    let mut all: Vec<&String> = Vec::new();
+    for j in each.iter().flatten() {
+        if !all.contains(&j) {
+            all.push(j);
+        }
+    }
+    for (s, own) in sets.iter_mut().zip(&each) {
+        s.uncovered_joints = all
+            .iter()
+            .filter(|j| !own.contains(j))
+            .map(|j| (*j).clone())
+            .collect();
     }
 }
 
@@ -1909,10 +1945,16 @@ pub fn sweep(
     let mut sets = Vec::with_capacity(lawsets.len());
     for (i, ls) in lawsets.iter().enumerate() {
         let mut points = Vec::with_capacity(temps_c.len() * speeds_rpm.len());
-        let mut warnings = Vec::new();
+        // Each warning once, with the temperatures it was given at.
+        let mut by_warning: Vec<(&String, Vec<f64>)> = Vec::new();
         for (k, t) in temps_c.iter().enumerate() {
             let run = &runs[i * temps_c.len() + k];
-            warnings.extend(run.warnings.iter().map(|w| format!("{t} C: {w}")));
+            for w in &run.warnings {
+                match by_warning.iter_mut().find(|(x, _)| *x == w) {
+                    Some((_, ts)) => ts.push(*t),
+                    None => by_warning.push((w, vec![*t])),
+                }
+            }
             for p in &run.plateaus {
                 let joints = joint_names
                     .iter()
@@ -1937,6 +1979,17 @@ pub fn sweep(
                 });
             }
         }
+        let warnings = by_warning
+            .into_iter()
+            .map(|(w, ts)| {
+                let list: Vec<String> = ts.iter().map(|t| t.to_string()).collect();
+                if ts.len() == temps_c.len() && ts.len() > 1 {
+                    format!("at every oil temperature ({} C): {w}", list.join(", "))
+                } else {
+                    format!("{} C: {w}", list.join(", "))
+                }
+            })
+            .collect();
         sets.push(SweepSet {
             lawset: ls.name().into(),
             file: ls.path.display().to_string(),

@@ -1,5 +1,6 @@
 //! The doc runner: every fenced `sh` or `bash` block of README.md, python/README.md,
-//! docs/writing-a-law.md, docs/fmu.md, docs/temperature.md, docs/reliability.md and docs/laws/
+//! docs/writing-a-law.md, docs/fmu.md, docs/temperature.md, docs/reliability.md,
+//! docs/crf250r-study.md, docs/engines.md, docs/solver.md, docs/performance.md and docs/laws/
 //! is run as a script, from a fresh directory where `./target/release/tribo` and `tribo` are
 //! this build's binary, and must succeed. A block that cannot run here says so in the doc, on
 //! the line before its fence: `<!-- doc-runner: skip: WHY -->` (it needs a prior step, another
@@ -39,6 +40,10 @@ fn documents() -> Vec<PathBuf> {
         ws.join("docs/fmu.md"),
         ws.join("docs/temperature.md"),
         ws.join("docs/reliability.md"),
+        ws.join("docs/crf250r-study.md"),
+        ws.join("docs/engines.md"),
+        ws.join("docs/solver.md"),
+        ws.join("docs/performance.md"),
     ];
     let mut found: Vec<PathBuf> = std::fs::read_dir(ws.join("docs/laws"))
         .expect("docs/laws")

@@ -9,14 +9,14 @@
 //!   (matplotlib's `tab10`) together with four dash patterns (solid, long dash, short dash,
 //!   dotted), cycled so that no two of the first 40 series share both; a set keeps its style
 //!   (its position in the comparison) across every plot of a result set.
-//! - **Legends in a box beside the plot**, never over the data ([`legend_beside`]); each entry
+//! - **Legends in a box beside the plot**, never over the data (`legend_beside`); each entry
 //!   drawn as its series is (colour, dash, marker, fill), so a swatch always matches its line.
 //! - **Fills**: stacked areas are opaque tints; confidence bands are translucent and have their
 //!   own legend entry drawn with the same fill and opacity.
 //! - **Measured points** are black circles with error bars of one standard deviation wherever the
 //!   data declare their noise (`# noise_nm:`), the legend saying so.
 //! - **Axes**: units in parentheses in every axis title; shares and fractions from 0; no `-0`
-//!   tick label ([`tick_label`]).
+//!   tick label (`tick_label`).
 //! - **Titles** say what is plotted and for what: the rig, the law set, the speed; a plot of
 //!   one piston is not titled as a mean over an engine's pistons.
 //! - Curves that coincide are told apart by their dash patterns and named as coincident in

@@ -100,19 +100,45 @@ impl Simulation {
         (steps, max_it): (u64, u32),
         warnings: Vec<String>,
     ) -> RunResult {
+        let warnings = [self.steady_settings_warnings(), warnings].concat();
+        self.run_result(
+            DriveKind::Steady,
+            (plateaus, energy),
+            ([steps, 0, 0], max_it),
+            warnings,
+        )
+    }
+
+    /// A run's result from its plateaus and energy balance, its step counts (taken, rejected,
+    /// replayed) and most friction iterations, and its warnings (the rig's notes added).
+    pub(super) fn run_result(
+        &self,
+        drive: DriveKind,
+        (plateaus, energy): (Vec<super::results::PlateauResult>, EnergyBalance),
+        ([steps, rejected, replayed], max_it): ([u64; 3], u32),
+        warnings: Vec<String>,
+    ) -> RunResult {
         RunResult {
             rig: self.rig_name.clone(),
-            drive: DriveKind::Steady,
+            drive,
             plateaus,
             fmep: self.fmep(),
             energy_residual_j: energy.residual_j,
             energy,
             steps,
-            rejected_steps: 0,
-            replayed_steps: 0,
+            rejected_steps: rejected,
+            replayed_steps: replayed,
             max_friction_iterations: max_it,
-            warnings: self.result_warnings([self.steady_settings_warnings(), warnings].concat()),
+            warnings: self.result_warnings(warnings),
             law_time: super::bind::law_time(&self.joints),
+        }
+    }
+
+    /// The result's drive: the rig's, for a run over the test cycle.
+    pub(super) fn cycle_drive(&self) -> DriveKind {
+        match self.drive {
+            crate::model::Drive::Prescribed {} => DriveKind::Prescribed,
+            crate::model::Drive::Pi { .. } => DriveKind::Pi,
         }
     }
 

@@ -10,11 +10,10 @@ use std::f64::consts::TAU;
 
 use super::error::SimError;
 use super::plateau::{Plateaus, WindowSpec};
-use super::results::{DriveKind, EnergyBalance, Instrument, PlateauResult, RunResult};
+use super::results::{EnergyBalance, Instrument, PlateauResult, RunResult};
 use super::stepper::Integration;
 use super::torsional::{Motor, Stages, Torsion};
 use super::Simulation;
-use crate::model::Drive;
 use crate::observe::{StepObserver, StepSample};
 
 /// The largest RK4 step as a share of its stability limit on the imaginary axis
@@ -282,23 +281,12 @@ impl Simulation {
             s.acc[layout.gas()],
         )
         .relative_to(e0.abs().max((e0 + change).abs()));
-        Ok(RunResult {
-            rig: self.rig_name.clone(),
-            drive: match self.drive {
-                Drive::Prescribed {} => DriveKind::Prescribed,
-                Drive::Pi { .. } => DriveKind::Pi,
-            },
-            plateaus,
-            fmep: self.fmep(),
-            energy_residual_j: energy.residual_j,
-            energy,
-            steps,
-            rejected_steps: 0,
-            replayed_steps: 0,
-            max_friction_iterations: w.max_it,
-            warnings: self.result_warnings(warnings),
-            law_time: super::bind::law_time(&self.joints),
-        })
+        Ok(self.run_result(
+            self.cycle_drive(),
+            (plateaus, energy),
+            ([steps, 0, 0], w.max_it),
+            warnings,
+        ))
     }
 
     /// Book the step of `h` that ended at `t` (crank `speed` there, the motor's controller at

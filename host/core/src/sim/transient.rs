@@ -13,7 +13,7 @@ use super::orbit::{Energy, Orbit};
 use super::plateau::Plateaus;
 use super::rates::RateLayout;
 use super::replay::Replay;
-use super::results::{DriveKind, EnergyBalance, RunResult};
+use super::results::{EnergyBalance, RunResult};
 use super::stepper::{CrankState, Integration, Quadrature, Rk4, Step, Stepper};
 use super::{Commit, Simulation};
 use crate::erk::{Controller, DORMAND_PRINCE_54};
@@ -442,24 +442,12 @@ impl Simulation {
             .booked
             .plateaus
             .results(|pi, m| self.plateau_result(pi, m))?;
-        let warnings = self.result_warnings(run_warnings);
-        Ok(RunResult {
-            rig: self.rig_name.clone(),
-            drive: match self.drive {
-                Drive::Prescribed {} => DriveKind::Prescribed,
-                Drive::Pi { .. } => DriveKind::Pi,
-            },
-            plateaus: results,
-            fmep: self.fmep(),
-            energy_residual_j: energy.residual_j,
-            energy,
-            steps: r.booked.steps,
-            rejected_steps: r.s.rejected,
-            replayed_steps: r.replayed,
-            max_friction_iterations: r.w.max_it,
-            warnings,
-            law_time: super::bind::law_time(&self.joints),
-        })
+        Ok(self.run_result(
+            self.cycle_drive(),
+            (results, energy),
+            ([r.booked.steps, r.s.rejected, r.replayed], r.w.max_it),
+            run_warnings,
+        ))
     }
 
     /// Commit every stateful law over the accepted step whose end evaluation is `e`, at the

@@ -510,15 +510,84 @@ impl Shooting {
     }
 }
 
+/// Mean, least and largest of samples.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Span {
+    pub(super) mean: f64,
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+}
+
+impl Span {
+    pub(super) fn of(x: impl Iterator<Item = f64>) -> Self {
+        let (mut sum, mut count) = (0.0, 0usize);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for v in x {
+            sum += v;
+            count += 1;
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        Span {
+            mean: sum / count.max(1) as f64,
+            lo,
+            hi,
+        }
+    }
+
+    pub(super) fn width(&self) -> f64 {
+        self.hi - self.lo
+    }
+}
+
 /// Mean and peak-to-peak of samples.
 fn stats(x: &[f64]) -> (f64, f64) {
-    let mean = x.iter().sum::<f64>() / x.len().max(1) as f64;
-    let (lo, hi) = x
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(*v), b.max(*v))
-        });
-    (mean, hi - lo)
+    let span = Span::of(x.iter().copied());
+    (span.mean, span.width())
+}
+
+/// What the acquisition records of `x`, clipped to its input `range` (N m): the record's mean,
+/// its peak-to-peak and the share of samples clipped.
+pub(super) fn record(x: impl Iterator<Item = f64>, range: f64) -> (f64, f64, f64) {
+    let (mut count, mut clipped) = (0usize, 0usize);
+    let span = Span::of(x.map(|v| {
+        count += 1;
+        clipped += usize::from(v.abs() > range);
+        v.clamp(-range, range)
+    }));
+    (
+        span.mean,
+        span.width(),
+        clipped as f64 / count.max(1) as f64,
+    )
+}
+
+/// The instrument's figures: the shaft torque's and the crank speed's spans, the acquired
+/// record ([`record`]), the chain's dissipation (W) and the cycles it took to settle.
+pub(super) fn instrument_of(
+    tor: &Torsion,
+    (shaft, speed): (Span, Span),
+    acquired: (f64, f64, f64),
+    chain_w: f64,
+    cycles: u32,
+) -> Instrument {
+    let r = &tor.chain.rating;
+    Instrument {
+        transducer: r.name.clone(),
+        mean_torque_nm: shaft.mean,
+        min_torque_nm: shaft.lo,
+        max_torque_nm: shaft.hi,
+        peak_to_peak_nm: shaft.width(),
+        acquired_mean_torque_nm: acquired.0,
+        acquired_peak_to_peak_nm: acquired.1,
+        clipped_share: acquired.2,
+        crank_speed_fluctuation: speed.width() / speed.mean,
+        rated_torque_nm: r.rated_nm,
+        limit_torque_nm: r.limit_nm,
+        oscillation_width_nm: r.width_nm,
+        chain_dissipation_w: chain_w,
+        settling_cycles: cycles,
+    }
 }
 
 /// The instrument's figures from one periodic cycle of samples.
@@ -529,27 +598,12 @@ fn instrument(
     cycles: usize,
     chain_w: f64,
 ) -> Instrument {
-    let (mean, pp) = stats(&rec.torque);
-    let lo = rec.torque.iter().fold(f64::INFINITY, |a, v| a.min(*v));
-    let (speed_mean, speed_pp) = stats(&rec.speed);
-    let daq = acquire(&rec.torque, period, &tor.chain);
-    let r = &tor.chain.rating;
-    Instrument {
-        transducer: r.name.clone(),
-        mean_torque_nm: mean,
-        min_torque_nm: lo,
-        max_torque_nm: lo + pp,
-        peak_to_peak_nm: pp,
-        acquired_mean_torque_nm: daq.0,
-        acquired_peak_to_peak_nm: daq.1,
-        clipped_share: daq.2,
-        crank_speed_fluctuation: speed_pp / speed_mean,
-        rated_torque_nm: r.rated_nm,
-        limit_torque_nm: r.limit_nm,
-        oscillation_width_nm: r.width_nm,
-        chain_dissipation_w: chain_w,
-        settling_cycles: cycles as u32,
-    }
+    let spans = (
+        Span::of(rec.torque.iter().copied()),
+        Span::of(rec.speed.iter().copied()),
+    );
+    let acquired = acquire(&rec.torque, period, &tor.chain);
+    instrument_of(tor, spans, acquired, chain_w, cycles as u32)
 }
 
 /// The transducer's periodic signal as the acquisition records it: through the transducer's
@@ -570,10 +624,7 @@ fn acquire(torque: &[f64], period: f64, chain: &Chain) -> (f64, f64, f64) {
     let count = (chain.daq.record_s * chain.daq.sample_rate_hz)
         .round()
         .max(1.0) as usize;
-    let range = chain.daq.range_nm;
-    let (mut sum, mut clipped) = (0.0, 0usize);
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for s in 0..count {
+    let samples = (0..count).map(|s| {
         let t = s as f64 / chain.daq.sample_rate_hz;
         let step = Complex::from_polar(1.0, base * t);
         let mut rot = step;
@@ -582,15 +633,9 @@ fn acquire(torque: &[f64], period: f64, chain: &Chain) -> (f64, f64, f64) {
             x += 2.0 * (c * rot).re;
             rot *= step;
         }
-        if x.abs() > range {
-            clipped += 1;
-        }
-        let x = x.clamp(-range, range);
-        sum += x;
-        lo = lo.min(x);
-        hi = hi.max(x);
-    }
-    (sum / count as f64, hi - lo, clipped as f64 / count as f64)
+        x
+    });
+    record(samples, chain.daq.range_nm)
 }
 
 impl Simulation {

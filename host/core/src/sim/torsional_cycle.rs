@@ -12,7 +12,7 @@ use super::error::SimError;
 use super::plateau::{Plateaus, WindowSpec};
 use super::results::{EnergyBalance, Instrument, PlateauResult, RunResult};
 use super::stepper::Integration;
-use super::torsional::{Motor, Stages, Torsion};
+use super::torsional::{instrument_of, record, Motor, Span, Stages, Torsion};
 use super::Simulation;
 use crate::observe::{StepObserver, StepSample};
 
@@ -41,8 +41,11 @@ impl Signal {
             .plateaus()
             .iter()
             .map(|p| {
-                let margin = spec.window_s + (spec.cycle_angle() + TAU) / p.omega.max(1e-9);
-                ([p.t_end - margin, p.t_end], Vec::new())
+                let w = p.omega.max(1e-9);
+                let margin = spec.window_s + (spec.cycle_angle() + TAU) / w;
+                // Sized before the run, as the windows' records are: no allocation while stepping.
+                let steps = (margin / spec.time_step(spec.step_rad, w)).ceil() as usize + 16;
+                ([p.t_end - margin, p.t_end], Vec::with_capacity(steps))
             })
             .collect();
         Signal {
@@ -70,36 +73,25 @@ impl Signal {
 
     /// The instrument's figures over the window `[t0, t1]` (s) of plateau `pi`.
     fn instrument(&self, pi: usize, [t0, t1]: [f64; 2], tor: &Torsion) -> Instrument {
-        let samples: Vec<&[f64; 5]> = self.holds[pi]
-            .1
-            .iter()
-            .filter(|s| s[0] >= t0 - 1e-12 && s[0] < t1 - 1e-12)
-            .collect();
-        let field = |k: usize| samples.iter().map(move |s| s[k]);
-        let (lo, hi) = extremes(field(1));
-        let (speed_lo, speed_hi) = extremes(field(3));
-        let count = samples.len().max(1) as f64;
-        let mean = field(1).sum::<f64>() / count;
-        let speed_mean = field(3).sum::<f64>() / count;
-        let acquired = self.acquire(pi, [t0, t1], tor);
+        let inside = || {
+            self.holds[pi]
+                .1
+                .iter()
+                .filter(move |s| s[0] >= t0 - 1e-12 && s[0] < t1 - 1e-12)
+        };
+        let spans = (
+            Span::of(inside().map(|s| s[1])),
+            Span::of(inside().map(|s| s[3])),
+        );
+        let daq = &tor.chain.daq;
+        let count = (((t1 - t0) * daq.sample_rate_hz).floor() as usize).max(1);
+        let acquired = record(
+            (0..count).map(|k| self.at(pi, t0 + k as f64 / daq.sample_rate_hz, 2)),
+            daq.range_nm,
+        );
         let dissipated = self.at(pi, t1, 4) - self.at(pi, t0, 4);
-        let r = &tor.chain.rating;
-        Instrument {
-            transducer: r.name.clone(),
-            mean_torque_nm: mean,
-            min_torque_nm: lo,
-            max_torque_nm: hi,
-            peak_to_peak_nm: hi - lo,
-            acquired_mean_torque_nm: acquired.0,
-            acquired_peak_to_peak_nm: acquired.1,
-            clipped_share: acquired.2,
-            crank_speed_fluctuation: (speed_hi - speed_lo) / speed_mean,
-            rated_torque_nm: r.rated_nm,
-            limit_torque_nm: r.limit_nm,
-            oscillation_width_nm: r.width_nm,
-            chain_dissipation_w: dissipated / (t1 - t0).max(1e-300),
-            settling_cycles: 0,
-        }
+        let chain_w = dissipated / (t1 - t0).max(1e-300);
+        instrument_of(tor, spans, acquired, chain_w, 0)
     }
 
     /// Field `k` of plateau `pi`'s samples at `t`, linear between steps.
@@ -115,33 +107,6 @@ impl Signal {
             _ => 0.0,
         }
     }
-
-    /// The filtered torque sampled at the acquisition's rate over the window (linear between
-    /// steps), clipped to its range: the record's mean, peak-to-peak and share clipped.
-    fn acquire(&self, pi: usize, [t0, t1]: [f64; 2], tor: &Torsion) -> (f64, f64, f64) {
-        let daq = &tor.chain.daq;
-        let count = (((t1 - t0) * daq.sample_rate_hz).floor() as usize).max(1);
-        let (mut sum, mut clipped) = (0.0, 0usize);
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for k in 0..count {
-            let x = self.at(pi, t0 + k as f64 / daq.sample_rate_hz, 2);
-            if x.abs() > daq.range_nm {
-                clipped += 1;
-            }
-            let x = x.clamp(-daq.range_nm, daq.range_nm);
-            sum += x;
-            lo = lo.min(x);
-            hi = hi.max(x);
-        }
-        (sum / count as f64, hi - lo, clipped as f64 / count as f64)
-    }
-}
-
-/// The smallest and largest of `x`.
-fn extremes(x: impl Iterator<Item = f64>) -> (f64, f64) {
-    x.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-        (a.min(v), b.max(v))
-    })
 }
 
 impl Simulation {
@@ -201,17 +166,9 @@ impl Simulation {
             filtered: 0.0,
         };
         let cap = self.torsion_step_cap(tor);
-        let mut t = 0.0;
-        let mut last: Option<f64> = None;
-        for b in self
-            .grid()
-            .into_iter()
-            .chain(std::iter::once(f64::INFINITY))
-        {
-            // The grid's end gets a last evaluation so the last step is booked.
-            let end = !b.is_finite();
-            let b = if end { t } else { b };
-            if !end && b <= t {
+        let (mut t, mut last) = (0.0, None);
+        for b in self.grid() {
+            if b <= t {
                 continue;
             }
             let omega_max = reference(t)
@@ -219,25 +176,11 @@ impl Simulation {
                 .max(reference(b).1)
                 .max(run.y[tor.crank_speed()]);
             let dt = self.time_step(self.step_rad, omega_max).min(cap);
-            let m = if end {
-                1
-            } else {
-                ((b - t) / dt).ceil().max(1.0) as u64
-            };
-            let h = if end { 0.0 } else { (b - t) / m as f64 };
+            let m = ((b - t) / dt).ceil().max(1.0) as u64;
+            let h = (b - t) / m as f64;
             for k in 0..m {
                 let at = (t, h, reference(t), self.oil_at(t));
-                let (torque, speed, saturated) =
-                    self.torsion_begin(tor, at, &run.y, &mut run.st, &mut w)?;
-                if let Some(h_prev) = last {
-                    self.book_torsion_step(&mut run, tor, (t, h_prev, speed, saturated), observer)?;
-                }
-                let dissipated = run.y[run.y.len() - 1];
-                run.signal
-                    .push(t, last.unwrap_or(0.0), [torque, speed, dissipated]);
-                if end {
-                    break;
-                }
+                self.torsion_mark(&mut run, tor, at, last, &mut w, observer)?;
                 let sums = (run.s.acc.as_mut_slice(), run.s.regime_time.as_mut_slice());
                 let (y, st) = (&mut run.y, &mut run.st);
                 self.torsion_step(tor, (t, h, at.3), &reference, y, st, &mut w, sums)?;
@@ -246,6 +189,9 @@ impl Simulation {
                 run.steps += 1;
             }
         }
+        // The cycle's end: evaluated so the last step is booked.
+        let at = (t, 0.0, reference(t), self.oil_at(t));
+        self.torsion_mark(&mut run, tor, at, last, &mut w, observer)?;
         run.s.t = t;
         self.torsion_cycle_result(run, tor, w)
     }
@@ -287,6 +233,27 @@ impl Simulation {
             ([steps, 0, 0], w.max_it),
             warnings,
         ))
+    }
+
+    /// The evaluation at the start of a step (`at`), committing the laws there; the step of
+    /// `last` (s) that ended there booked; the transducer's signal sampled.
+    fn torsion_mark(
+        &self,
+        run: &mut CycleRun,
+        tor: &Torsion,
+        at: super::torsional::Stage,
+        last: Option<f64>,
+        w: &mut super::evaluate::Work,
+        observer: &mut dyn StepObserver,
+    ) -> Result<(), SimError> {
+        let (torque, speed, saturated) = self.torsion_begin(tor, at, &run.y, &mut run.st, w)?;
+        if let Some(h) = last {
+            self.book_torsion_step(run, tor, (at.0, h, speed, saturated), observer)?;
+        }
+        let dissipated = run.y[run.y.len() - 1];
+        run.signal
+            .push(at.0, last.unwrap_or(0.0), [torque, speed, dissipated]);
+        Ok(())
     }
 
     /// Book the step of `h` that ended at `t` (crank `speed` there, the motor's controller at

@@ -397,6 +397,39 @@ fn comparison_plots_follow_the_style_guide() {
             share_axis: true,
         },
     );
+    // Sets whose piston shares coincide (read from comparison.json) are named as coincident,
+    // since one draws over the other.
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("comparison.json")).expect("comparison.json"),
+    )
+    .expect("json");
+    let shares = |set: &serde_json::Value| -> Vec<String> {
+        set["run"]["plateaus"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .flat_map(|p| p["joints"].as_array().into_iter().flatten())
+            .filter(|j| j["joint"].as_str().is_some_and(|n| n.starts_with("piston")))
+            .map(|j| j["regime_share"].to_string())
+            .collect()
+    };
+    let listed = json["sets"].as_array().expect("sets");
+    let svg = std::fs::read_to_string(out.join("piston_regimes.svg")).expect("svg");
+    let mut coincident = 0;
+    for a in listed {
+        for b in listed {
+            let (na, nb) = (a["lawset"].as_str(), b["lawset"].as_str());
+            if na != nb && shares(a) == shares(b) && !shares(a).is_empty() {
+                coincident += 1;
+                let said = format!("same shares as {}", nb.unwrap_or_default());
+                assert!(svg.contains(&said), "{na:?}: no `{said}` in the legend");
+            }
+        }
+    }
+    assert!(
+        coincident > 0,
+        "stribeck-duty and mixed-film share their regimes"
+    );
     check(
         &out.join("contributions_fedem-baseline.svg"),
         &Expect::plain(&["fedem-baseline"], &["piston (fedem-friction)"], 7),

@@ -488,39 +488,20 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
         "share of the cycle in the regime (-)",
     )?;
     let mut entries: Vec<(String, Swatch)> = Vec::new();
-    for (i, s) in c.sets.iter().enumerate() {
-        // The single cylinder's piston, or the mean over an engine's pistons (`piston_k`).
-        let piston: Vec<_> = s
-            .run
-            .plateaus
-            .iter()
-            .filter_map(|p| {
-                let shares: Vec<_> = p
-                    .joints
-                    .iter()
-                    .filter(|j| is_piston(&j.joint))
-                    .filter(|j| j.regime_share.none < 0.5)
-                    .map(|j| j.regime_share)
-                    .collect();
-                let n = shares.len() as f64;
-                (n > 0.0).then(|| {
-                    let mean = |f: fn(&crate::sim::RegimeShare) -> f64| {
-                        shares.iter().map(f).sum::<f64>() / n
-                    };
-                    (
-                        p.set_speed_rpm,
-                        [
-                            mean(|r| r.boundary),
-                            mean(|r| r.mixed),
-                            mean(|r| r.hydrodynamic),
-                        ],
-                    )
-                })
-            })
-            .collect();
+    let series: Vec<Vec<(f64, [f64; 3])>> = c.sets.iter().map(piston_regimes).collect();
+    for (i, (s, piston)) in c.sets.iter().zip(&series).enumerate() {
         if piston.is_empty() {
             continue;
         }
+        // Sets with the same shares draw one over the other: the legend says so.
+        let same: Vec<&str> = c
+            .sets
+            .iter()
+            .zip(&series)
+            .enumerate()
+            .filter(|(k, (_, other))| *k != i && *other == piston)
+            .map(|(_, (o, _))| o.lawset.as_str())
+            .collect();
         // One colour per law set, one dash pattern and marker per regime.
         let color = series_style(i).color;
         for (r, name) in names.iter().enumerate() {
@@ -531,7 +512,11 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
             let pts: Vec<(f64, f64)> = piston.iter().map(|(v, sh)| (*v, sh[r])).collect();
             draw_styled(&mut chart, pts.clone(), style, 2)?;
             draw_markers(&mut chart, r, &pts, color)?;
-            entries.push((format!("{}: {name}", s.lawset), Swatch::Marked(style, r)));
+            let mut label = format!("{}: {name}", s.lawset);
+            if r == 0 && !same.is_empty() {
+                label.push_str(&format!("\nsame shares as {}", same.join(", ")));
+            }
+            entries.push((label, Swatch::Marked(style, r)));
         }
     }
     if entries.is_empty() {
@@ -544,6 +529,37 @@ fn regimes_plot(c: &Comparison, out: &mut String) -> PlotResult {
     legend_beside(&side, "law set: regime", &entries)?;
     root.present()?;
     Ok(())
+}
+
+/// Each plateau's speed (rpm) and the piston's boundary, mixed and hydrodynamic shares: the
+/// single cylinder's piston, or the mean over an engine's pistons (`piston_k`).
+fn piston_regimes(s: &crate::study::SetResult) -> Vec<(f64, [f64; 3])> {
+    s.run
+        .plateaus
+        .iter()
+        .filter_map(|p| {
+            let shares: Vec<_> = p
+                .joints
+                .iter()
+                .filter(|j| is_piston(&j.joint))
+                .filter(|j| j.regime_share.none < 0.5)
+                .map(|j| j.regime_share)
+                .collect();
+            let n = shares.len() as f64;
+            (n > 0.0).then(|| {
+                let mean =
+                    |f: fn(&crate::sim::RegimeShare) -> f64| shares.iter().map(f).sum::<f64>() / n;
+                (
+                    p.set_speed_rpm,
+                    [
+                        mean(|r| r.boundary),
+                        mean(|r| r.mixed),
+                        mean(|r| r.hydrodynamic),
+                    ],
+                )
+            })
+        })
+        .collect()
 }
 
 /// Write the result set of a mass study into `dir` (`mass-response --out`):

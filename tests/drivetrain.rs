@@ -14,70 +14,10 @@ fn num(v: &serde_json::Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
 
-/// `K - w^2 M` of the chain `tribo modes --json` printed (motor node fixed when prescribed).
-fn dynamic_matrix(report: &serde_json::Value, omega: f64) -> Vec<Vec<f64>> {
-    let j: Vec<f64> = report["inertias"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| num(&n["inertia_kg_m2"]))
-        .collect();
-    let k: Vec<f64> = report["springs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| num(&s["stiffness_nm_per_rad"]))
-        .collect();
-    let n = j.len();
-    let mut a = vec![vec![0.0; n]; n];
-    for (i, ki) in k.iter().enumerate() {
-        a[i][i] += ki;
-        a[i + 1][i + 1] += ki;
-        a[i][i + 1] -= ki;
-        a[i + 1][i] -= ki;
-    }
-    for (i, ji) in j.iter().enumerate() {
-        a[i][i] -= omega * omega * ji;
-    }
-    // The prescribed motor is a fixed node: drop its row and column.
-    a.remove(0);
-    for row in &mut a {
-        row.remove(0);
-    }
-    a
-}
-
 #[test]
 fn modes_solve_the_printed_chain() {
     let report = json_in(&["modes", "crf250r-testbed", "--json"], &workspace());
-    assert_eq!(report["motor_hold"], "prescribed");
-    let springs = report["springs"].as_array().unwrap();
-    for s in springs {
-        assert_eq!(s["between"].as_array().unwrap().len(), 2);
-    }
-    let modes = report["modes"].as_array().unwrap();
-    // A prescribed motor holds every node but itself: one mode per free node.
-    assert_eq!(
-        modes.len(),
-        report["inertias"].as_array().unwrap().len() - 1
-    );
-    for m in modes {
-        let omega = TAU * num(&m["frequency_hz"]);
-        let a = dynamic_matrix(&report, omega);
-        let shape: Vec<f64> = m["shape"].as_array().unwrap()[1..]
-            .iter()
-            .map(num)
-            .collect();
-        // (K - w^2 M) v = 0 for the mode's shape, relative to the terms' size.
-        for row in &a {
-            let r: f64 = row.iter().zip(&shape).map(|(x, v)| x * v).sum();
-            let scale: f64 = row.iter().zip(&shape).map(|(x, v)| (x * v).abs()).sum();
-            assert!(
-                r.abs() <= 1e-8 * scale,
-                "residual {r} of {scale} at {omega} rad/s"
-            );
-        }
-    }
+    closed_form::assert_modes_solve(&report);
 }
 
 #[test]
@@ -85,7 +25,10 @@ fn modes_of_a_rig_without_drivetrain_is_a_clear_error() {
     let out = tribo_in(&["modes", "crf250r-motored"], &workspace());
     let (_, err) = text(&out);
     assert!(!out.status.success());
-    assert_mentions(&err, &["no [drivetrain]", "crf250r-testbed"]);
+    assert_mentions(
+        &err,
+        &["[drivetrain]", "[engine.crankshaft]", "crf250r-testbed"],
+    );
 }
 
 /// A rig whose crank is one inertia with an unbalance (gravity: a pure first-order torque

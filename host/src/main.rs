@@ -43,7 +43,8 @@ enum Command {
     /// heavier (the thesis's lighter-rod study), per law set.
     MassResponse(MassResponseArgs),
     /// The drivetrain's natural frequencies and mode shapes (linearised, at crank speed) and
-    /// its Campbell diagram (`--svg`), for a rig with a `[drivetrain]`.
+    /// its Campbell diagram (`--svg`), for a rig with a `[drivetrain]` or an elastic
+    /// crankshaft (`[engine.crankshaft]`).
     Modes(ModesArgs),
     /// Calibrate a law set's free parameters to measured torque (least squares, steady state).
     Fit(FitArgs),
@@ -571,7 +572,8 @@ fn with_oil_file(oil: Option<&std::path::Path>, sets: Vec<String>) -> anyhow::Re
 /// The arguments of `tribo modes`.
 #[derive(Args)]
 struct ModesArgs {
-    /// Rig file (TOML) or bundled rig name; it must have a `[drivetrain]`.
+    /// Rig file (TOML) or bundled rig name; it must have a `[drivetrain]` or an
+    /// `[engine.crankshaft]`.
     rig: PathBuf,
     /// Override any rig value by its dotted path, e.g. drivetrain.motor.inertia_kg_m2=0.003.
     #[arg(long = "set", value_name = "KEY=VALUE")]
@@ -592,7 +594,7 @@ fn cmd_modes(a: ModesArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("{e}"))?
         .with_context(|| {
             format!(
-                "rig `{}` has no [drivetrain]: `tribo modes` analyses the chain from the motor to the crank (e.g. the bundled crf250r-testbed)",
+                "rig `{}` has neither a [drivetrain] nor an elastic crankshaft ([engine.crankshaft]): `tribo modes` analyses the torsional chain from the motor to the crank (e.g. the bundled crf250r-testbed or inline4-4b11-elastic)",
                 model.name
             )
         })?;

@@ -65,3 +65,72 @@ pub fn friction(omega: f64, m_c: f64) -> [f64; 5] {
     }
     power.map(|p| p / omega)
 }
+
+fn json_f64(v: &serde_json::Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+/// `K - w^2 M` of the chain `tribo modes --json` printed (motor node fixed when prescribed).
+pub fn dynamic_matrix(report: &serde_json::Value, omega: f64) -> Vec<Vec<f64>> {
+    let j: Vec<f64> = report["inertias"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| json_f64(&n["inertia_kg_m2"]))
+        .collect();
+    let k: Vec<f64> = report["springs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| json_f64(&s["stiffness_nm_per_rad"]))
+        .collect();
+    let n = j.len();
+    let mut a = vec![vec![0.0; n]; n];
+    for (i, ki) in k.iter().enumerate() {
+        a[i][i] += ki;
+        a[i + 1][i + 1] += ki;
+        a[i][i + 1] -= ki;
+        a[i + 1][i] -= ki;
+    }
+    for (i, ji) in j.iter().enumerate() {
+        a[i][i] -= omega * omega * ji;
+    }
+    // The prescribed motor is a fixed node: drop its row and column.
+    a.remove(0);
+    for row in &mut a {
+        row.remove(0);
+    }
+    a
+}
+
+/// Every mode `tribo modes --json` printed (`report`) solves `(K - w^2 M) v = 0` of the chain
+/// it printed, one mode per free node of the prescribed motor's chain.
+pub fn assert_modes_solve(report: &serde_json::Value) {
+    assert_eq!(report["motor_hold"], "prescribed");
+    for s in report["springs"].as_array().unwrap() {
+        assert_eq!(s["between"].as_array().unwrap().len(), 2);
+    }
+    let modes = report["modes"].as_array().unwrap();
+    // A prescribed motor holds every node but itself: one mode per free node.
+    assert_eq!(
+        modes.len(),
+        report["inertias"].as_array().unwrap().len() - 1
+    );
+    for m in modes {
+        let omega = std::f64::consts::TAU * json_f64(&m["frequency_hz"]);
+        let a = dynamic_matrix(report, omega);
+        let shape: Vec<f64> = m["shape"].as_array().unwrap()[1..]
+            .iter()
+            .map(json_f64)
+            .collect();
+        // (K - w^2 M) v = 0 for the mode's shape, relative to the terms' size.
+        for row in &a {
+            let r: f64 = row.iter().zip(&shape).map(|(x, v)| x * v).sum();
+            let scale: f64 = row.iter().zip(&shape).map(|(x, v)| (x * v).abs()).sum();
+            assert!(
+                r.abs() <= 1e-8 * scale,
+                "residual {r} of {scale} at {omega} rad/s"
+            );
+        }
+    }
+}

@@ -110,6 +110,151 @@ pub struct DaqSpec {
     pub record_s: f64,
 }
 
+/// An engine's elastic crankshaft (`[engine.crankshaft]`): the throws turn as inertias of
+/// their own, joined by the torsional stiffness of the journals and webs between them, with
+/// the flywheel beyond the last main (where the drive or the drivetrain attaches) and the
+/// front pulley beyond the first, optionally carrying a torsional damper.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct CrankshaftSpec {
+    /// Flywheel (or drive flange) inertia, kg m^2.
+    pub flywheel_inertia_kg_m2: f64,
+    /// Front pulley (with its hub and the timing sprocket) inertia, kg m^2.
+    pub pulley_inertia_kg_m2: f64,
+    /// The shaft's sections from the front: pulley to the first throw, throw to throw in
+    /// axial order, the last throw to the flywheel (throws + 1 sections).
+    pub sections: Vec<SectionSpec>,
+    /// A torsional damper on the front pulley: a ring on a rubber or viscous layer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damper: Option<DamperSpec>,
+}
+
+/// One section of the crankshaft between two of its masses.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct SectionSpec {
+    /// Torsional stiffness, N m/rad.
+    pub stiffness_nm_per_rad: f64,
+    /// Structural damping as a viscous equivalent, N m s/rad.
+    #[serde(default)]
+    pub damping_nm_s_per_rad: f64,
+}
+
+/// A torsional damper: its ring's inertia and the layer joining it to the pulley.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(crate = "tribo_plugin_api::serde")]
+#[serde(deny_unknown_fields)]
+pub struct DamperSpec {
+    /// Ring inertia, kg m^2.
+    pub inertia_kg_m2: f64,
+    /// The layer's torsional stiffness, N m/rad.
+    pub stiffness_nm_per_rad: f64,
+    /// The layer's damping, N m s/rad.
+    pub damping_nm_s_per_rad: f64,
+}
+
+/// The crank end of a chain: the rigid crank's one node, or an elastic crankshaft's nodes
+/// (flywheel first) with the sections between them.
+pub struct CrankEnd {
+    names: Vec<String>,
+    inertias: Vec<f64>,
+    raws: Vec<Raw>,
+    /// Each throw's node within these nodes (throws in axial order).
+    throws: Vec<usize>,
+}
+
+impl CrankEnd {
+    /// A rigid crank of cycle-mean inertia `inertia_kg_m2`.
+    pub fn rigid(inertia_kg_m2: f64) -> Self {
+        CrankEnd {
+            names: vec!["crank".into()],
+            inertias: vec![inertia_kg_m2],
+            raws: Vec::new(),
+            throws: vec![0],
+        }
+    }
+}
+
+impl CrankshaftSpec {
+    /// The crankshaft's nodes from the flywheel to the pulley (and the damper's ring), with
+    /// the throws' cycle-mean inertias `throw_inertias` (kg m^2, throws in axial order).
+    pub fn crank_end(&self, throw_inertias: &[f64]) -> Result<CrankEnd, DrivetrainError> {
+        let n = throw_inertias.len();
+        positive("flywheel_inertia_kg_m2".into(), self.flywheel_inertia_kg_m2)?;
+        positive("pulley_inertia_kg_m2".into(), self.pulley_inertia_kg_m2)?;
+        if self.sections.len() != n + 1 {
+            return Err(err(
+                "sections",
+                format!("expected {} sections (pulley to throw 1, one between each pair of the {n} throws, the last throw to the flywheel), got {}", n + 1, self.sections.len()),
+            ));
+        }
+        let section = |i: usize, name: String| -> Result<Raw, DrivetrainError> {
+            let s = &self.sections[i];
+            positive(
+                format!("sections[{i}].stiffness_nm_per_rad"),
+                s.stiffness_nm_per_rad,
+            )?;
+            non_negative(
+                format!("sections[{i}].damping_nm_s_per_rad"),
+                s.damping_nm_s_per_rad,
+            )?;
+            Ok(Raw {
+                name,
+                k: s.stiffness_nm_per_rad,
+                c: s.damping_nm_s_per_rad,
+                backlash: 0.0,
+                ratio: 1.0,
+                rating: None,
+            })
+        };
+        let throw = |j: usize| format!("throw {}", j + 1);
+        let mut end = CrankEnd {
+            names: vec!["flywheel".into()],
+            inertias: vec![self.flywheel_inertia_kg_m2],
+            raws: Vec::new(),
+            throws: vec![0; n],
+        };
+        // From the flywheel towards the front: the throws in reverse axial order.
+        for j in (0..n).rev() {
+            let behind = if j + 1 == n {
+                "flywheel".into()
+            } else {
+                throw(j + 1)
+            };
+            end.raws.push(section(
+                j + 1,
+                format!("crankshaft {}-{}", throw(j), behind),
+            )?);
+            end.throws[j] = end.names.len();
+            end.names.push(throw(j));
+            positive(format!("throw {} inertia", j + 1), throw_inertias[j])?;
+            end.inertias.push(throw_inertias[j]);
+        }
+        end.raws
+            .push(section(0, format!("crankshaft front pulley-{}", throw(0)))?);
+        end.names.push("front pulley".into());
+        end.inertias.push(self.pulley_inertia_kg_m2);
+        if let Some(d) = &self.damper {
+            positive("damper.inertia_kg_m2".into(), d.inertia_kg_m2)?;
+            positive("damper.stiffness_nm_per_rad".into(), d.stiffness_nm_per_rad)?;
+            non_negative("damper.damping_nm_s_per_rad".into(), d.damping_nm_s_per_rad)?;
+            end.raws.push(Raw {
+                name: "damper layer".into(),
+                k: d.stiffness_nm_per_rad,
+                c: d.damping_nm_s_per_rad,
+                backlash: 0.0,
+                ratio: 1.0,
+                rating: None,
+            });
+            end.names.push("damper ring".into());
+            end.inertias.push(d.inertia_kg_m2);
+        }
+        Ok(end)
+    }
+}
+
 /// A drivetrain that cannot be built.
 #[derive(Debug, Clone, thiserror::Error, PartialEq)]
 #[error("drivetrain.{field}: {message}")]
@@ -171,10 +316,12 @@ pub struct Chain {
     pub ratios: Vec<f64>,
     /// `springs[i]` joins nodes `i` and `i + 1`.
     pub springs: Vec<Spring>,
-    /// The measuring element.
-    pub rating: Rating,
-    /// The acquisition.
-    pub daq: DaqSpec,
+    /// The measuring element and its acquisition (none on an engine's own crankshaft without
+    /// a drivetrain).
+    pub instrument: Option<(Rating, DaqSpec)>,
+    /// Each crank throw's node (one node, the last, for a rigid crank): where the crank
+    /// train's torques act.
+    pub throws: Vec<usize>,
 }
 
 /// How the motor node is held in a linearised analysis: by the prescribed drive (its speed
@@ -332,6 +479,13 @@ impl DrivetrainSpec {
     /// `crank_inertia_kg_m2` as its last node. Refuses a chain that does not alternate
     /// compliant elements and inertias, or that has not exactly one transducer.
     pub fn chain(&self, crank_inertia_kg_m2: f64) -> Result<Chain, DrivetrainError> {
+        positive("crank inertia".into(), crank_inertia_kg_m2)?;
+        self.chain_to(CrankEnd::rigid(crank_inertia_kg_m2))
+    }
+
+    /// The chain reflected to crank speed, ending in `end` (the rigid crank, or an elastic
+    /// crankshaft from its flywheel).
+    pub fn chain_to(&self, end: CrankEnd) -> Result<Chain, DrivetrainError> {
         positive("motor.inertia_kg_m2".into(), self.motor.inertia_kg_m2)?;
         self.daq.check()?;
         let (mut names, mut inertias) = (vec!["motor".to_string()], vec![self.motor.inertia_kg_m2]);
@@ -369,10 +523,30 @@ impl DrivetrainSpec {
                 "the chain must run motor, compliant element, [inertia, compliant element ...], crank: it must start and end with a shaft, belt or transducer",
             ));
         }
-        names.push("crank".into());
-        inertias.push(crank_inertia_kg_m2);
-        positive("crank inertia".into(), crank_inertia_kg_m2)?;
-        reflect(names, inertias, raws, self.daq.clone())
+        let throws = end.throws.iter().map(|j| j + names.len()).collect();
+        names.extend(end.names);
+        inertias.extend(end.inertias);
+        raws.extend(end.raws);
+        let chain = reflect(names, inertias, raws, Some(self.daq.clone()), throws)?;
+        if chain.instrument.is_none() {
+            return Err(err(
+                "elements",
+                "no transducer: the chain needs one `transducer` element, whose torque is the measured torque",
+            ));
+        }
+        Ok(chain)
+    }
+}
+
+impl Chain {
+    /// An engine's elastic crankshaft alone, the drive on its flywheel (whose node is then the
+    /// motor's, its inertia with the drive's `drive_inertia_kg_m2`).
+    pub fn crankshaft(
+        mut end: CrankEnd,
+        drive_inertia_kg_m2: f64,
+    ) -> Result<Chain, DrivetrainError> {
+        end.inertias[0] += drive_inertia_kg_m2;
+        reflect(end.names, end.inertias, end.raws, None, end.throws)
     }
 }
 
@@ -381,7 +555,8 @@ fn reflect(
     names: Vec<String>,
     mut inertias: Vec<f64>,
     raws: Vec<Raw>,
-    daq: DaqSpec,
+    daq: Option<DaqSpec>,
+    throws: Vec<usize>,
 ) -> Result<Chain, DrivetrainError> {
     let n = inertias.len();
     // Speed ratios from the crank back to the motor: a belt's driving side turns 1/ratio as
@@ -415,19 +590,13 @@ fn reflect(
             ratio: r,
         });
     }
-    let rating = rating.ok_or_else(|| {
-        err(
-            "elements",
-            "no transducer: the chain needs one `transducer` element, whose torque is the measured torque",
-        )
-    })?;
     Ok(Chain {
         names,
         inertias,
         ratios,
         springs,
-        rating,
-        daq,
+        instrument: rating.zip(daq),
+        throws,
     })
 }
 
@@ -559,7 +728,13 @@ impl Chain {
             Complex::new(k[(p, q)] - omega * omega * mass, omega * c[(p, q)])
         });
         let mut b = DVector::from_element(m, Complex::new(0.0, 0.0));
-        b[m - 1] = force;
+        // An elastic crankshaft's torque shared equally by its throws.
+        let share = 1.0 / self.throws.len().max(1) as f64;
+        for node in &self.throws {
+            if *node >= free.start {
+                b[node - free.start] += force * share;
+            }
+        }
         let x = a.lu().solve(&b)?;
         let mut out = vec![Complex::new(0.0, 0.0); self.inertias.len()];
         for (i, node) in free.enumerate() {
@@ -621,10 +796,17 @@ impl Chain {
             .sum()
     }
 
-    /// The torque in the transducer itself (N m, not reflected) from its reflected torque.
+    /// The spring whose torque measures the chain: the transducer's, or without one the
+    /// drive's (the first).
+    pub fn measured_spring(&self) -> usize {
+        self.instrument.as_ref().map_or(0, |(r, _)| r.spring)
+    }
+
+    /// The torque in the measured element itself (N m, not reflected) from its reflected
+    /// torque.
     #[inline]
     pub fn transducer_torque(&self, reflected_nm: f64) -> f64 {
-        reflected_nm / self.springs[self.rating.spring].ratio
+        reflected_nm / self.springs[self.measured_spring()].ratio
     }
 }
 

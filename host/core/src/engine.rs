@@ -205,6 +205,10 @@ pub struct TrainReactions {
     pub cylinders: Vec<CylinderReactions>,
     /// Torque the drive applies to the crank (along theta), N m.
     pub drive_torque_nm: f64,
+    /// Each throw's torque from its rods and counterweights (the big ends' friction and the
+    /// pins' forces, the counterweights' weight), N m: the part of the drive torque each throw
+    /// of an elastic crankshaft takes, its own inertia and the mains' friction aside.
+    pub throw_torques_nm: Vec<f64>,
     /// Force the moving parts put on the block through the mains and the cylinder walls
     /// (the shaking force), N.
     pub block_force_n: Vector2<f64>,
@@ -242,6 +246,9 @@ pub struct TrainKinematics {
     pub theta: f64,
     /// Crank speed, rad/s.
     pub omega: f64,
+    /// Each throw's angle and speed (rad, rad/s): the crank's own on a rigid crankshaft, its
+    /// own twisted state on an elastic one.
+    pub throws: Vec<(f64, f64)>,
     /// Per cylinder.
     pub cylinders: Vec<CylinderKinematics>,
 }
@@ -367,6 +374,24 @@ impl CrankTrain {
         self.j_axis
     }
 
+    /// Each throw's own moment of inertia about the axis on an elastic crankshaft, kg m^2:
+    /// an equal share of the balanced crank's and its webs' counterweights (the drive's
+    /// inertia sits on the flywheel's node instead).
+    pub fn throw_inertias(&self) -> Vec<f64> {
+        let n = self.geo.throws.len().max(1) as f64;
+        self.geo
+            .throws
+            .iter()
+            .map(|t| {
+                self.geo.crank_inertia_kg_m2 / n
+                    + t.counterweights
+                        .iter()
+                        .map(|w| w.mass_kg * w.radius_m * w.radius_m)
+                        .sum::<f64>()
+            })
+            .collect()
+    }
+
     /// Each throw's two mains (0-based) and the share of its load each carries.
     pub fn main_split(&self) -> &[[(usize, f64); 2]] {
         &self.split
@@ -376,14 +401,33 @@ impl CrankTrain {
     /// `omega`, J (heights from the crank centre): what the motor's work changes over a
     /// transient run, for its energy balance.
     pub fn mechanical_energy(&self, theta: f64, omega: f64) -> f64 {
+        self.twisted_mechanical_energy(theta, omega, &[], None)
+    }
+
+    /// [`CrankTrain::mechanical_energy`] of an elastic crankshaft: throw `j` turned by
+    /// `twist[j]` (angle, speed) from `theta` and `omega`, turning with its own inertia
+    /// `inertias[j]` (kg m^2; `None`: the rigid crank's inertia about the axis).
+    pub fn twisted_mechanical_energy(
+        &self,
+        theta: f64,
+        omega: f64,
+        twist: &[(f64, f64)],
+        inertias: Option<&[f64]>,
+    ) -> f64 {
         let g = self.geo.gravity_m_s2;
-        let mut energy = 0.5 * self.j_axis * omega * omega;
-        for t in &self.geo.throws {
+        let mut kin = TrainKinematics::default();
+        self.twisted_kinematics_into(theta, omega, twist, &[], &mut kin);
+        let mut energy = match inertias {
+            None => 0.5 * self.j_axis * omega * omega,
+            Some(j) => (j.iter().zip(&kin.throws))
+                .map(|(j, (_, w))| 0.5 * j * w * w)
+                .sum(),
+        };
+        for (t, (theta, _)) in self.geo.throws.iter().zip(&kin.throws) {
             for cw in &t.counterweights {
                 energy += cw.mass_kg * g * cw.radius_m * (theta + t.angle_rad + cw.angle_rad).cos();
             }
         }
-        let kin = self.kinematics(theta, omega, &[]);
         let r = self.geo.crank_radius_m;
         for ((c, ck), fr) in self
             .geo
@@ -392,6 +436,7 @@ impl CrankTrain {
             .zip(&kin.cylinders)
             .zip(&self.frames)
         {
+            let omega = kin.throws[c.throw].1;
             let (s, co) = ck.local_angle_rad.sin_cos();
             let (sp, cp) = ck.rod_angle_rad.sin_cos();
             let rate = ck.rod_rate_rad_s;
@@ -423,11 +468,35 @@ impl CrankTrain {
         piston_forces_n: &[f64],
         out: &mut TrainKinematics,
     ) {
+        self.twisted_kinematics_into(theta, omega, &[], piston_forces_n, out);
+    }
+
+    /// [`CrankTrain::kinematics_into`] on an elastic crankshaft: throw `j` turned by
+    /// `twist[j]` (angle, rad, and speed, rad/s) from the crank's `theta` and `omega`; an empty
+    /// `twist` is the rigid crank.
+    pub fn twisted_kinematics_into(
+        &self,
+        theta: f64,
+        omega: f64,
+        twist: &[(f64, f64)],
+        piston_forces_n: &[f64],
+        out: &mut TrainKinematics,
+    ) {
         out.theta = theta;
         out.omega = omega;
+        out.throws.clear();
+        if twist.is_empty() {
+            out.throws.resize(self.geo.throws.len(), (theta, omega));
+        } else {
+            out.throws.extend((0..self.geo.throws.len()).map(|j| {
+                let (d, dw) = twist.get(j).copied().unwrap_or((0.0, 0.0));
+                (theta + d, omega + dw)
+            }));
+        }
         out.cylinders.clear();
         let r = self.geo.crank_radius_m;
         for (k, c) in self.geo.cylinders.iter().enumerate() {
+            let (theta, omega) = out.throws.get(c.throw).copied().unwrap_or((theta, omega));
             let local = theta + self.geo.cylinder_offset_rad(k);
             let (s, co) = local.sin_cos();
             let l = c.rod.length_m;
@@ -499,6 +568,45 @@ impl CrankTrain {
         loads: &TrainLoads,
         out: &mut TrainReactions,
     ) {
+        self.reactions_with(kin, alpha, |_| alpha, loads, out);
+    }
+
+    /// [`CrankTrain::reactions_into`] on an elastic crankshaft: throw `j` at acceleration
+    /// `alphas[j]` (rad/s^2). The drive torque is then the sum of the throws' torques at their
+    /// own accelerations with each throw's `inertias[j]` (kg m^2) and its share of the mains'
+    /// friction `main_torques_nm[j]` (N m).
+    pub fn twisted_reactions_into(
+        &self,
+        kin: &TrainKinematics,
+        (alphas, inertias, main_torques_nm): (&[f64], &[f64], &[f64]),
+        loads: &TrainLoads,
+        out: &mut TrainReactions,
+    ) {
+        let alpha_of = |j: usize| alphas.get(j).copied().unwrap_or(0.0);
+        self.reactions_with(kin, alpha_of(0), alpha_of, loads, out);
+        out.drive_torque_nm = out
+            .throw_torques_nm
+            .iter()
+            .enumerate()
+            .map(|(j, t)| {
+                inertias.get(j).copied().unwrap_or(0.0) * alpha_of(j)
+                    - main_torques_nm.get(j).copied().unwrap_or(0.0)
+                    + t
+            })
+            .sum();
+    }
+
+    /// The reactions with throw `j` at acceleration `alpha_of(j)`; the drive torque the rigid
+    /// crank's at `alpha`.
+    #[inline]
+    fn reactions_with(
+        &self,
+        kin: &TrainKinematics,
+        alpha: f64,
+        alpha_of: impl Fn(usize) -> f64,
+        loads: &TrainLoads,
+        out: &mut TrainReactions,
+    ) {
         let g = self.geo.gravity_m_s2;
         let gravity = Vector2::new(0.0, -g);
         out.cylinders.clear();
@@ -511,28 +619,38 @@ impl CrankTrain {
         // mass's weight, its counterweights' inertia and weight, its rods' big-end forces.
         // The recycled buffer: no allocation once it has the size.
         let mut throw_loads = std::mem::take(&mut out.throws_n);
+        let mut throw_torques = std::mem::take(&mut out.throw_torques_nm);
         throw_loads.clear();
-        throw_loads.extend(self.geo.throws.iter().map(|t| {
+        throw_torques.clear();
+        for (j, t) in self.geo.throws.iter().enumerate() {
             let mut f = -gravity * self.mass_per_throw;
+            let mut torque = 0.0;
+            let (theta, omega) = kin.throws.get(j).copied().unwrap_or((kin.theta, kin.omega));
+            let a = alpha_of(j);
             for cw in &t.counterweights {
-                let ang = kin.theta + t.angle_rad + cw.angle_rad;
+                let ang = theta + t.angle_rad + cw.angle_rad;
                 let (s, c) = ang.sin_cos();
                 let pos = Vector2::new(-s, c) * cw.radius_m;
-                let w2 = kin.omega * kin.omega;
+                let w2 = omega * omega;
                 // d2/dt2 of R(-sin, cos): R(-c a + s w^2, -s a - c w^2).
-                let acc = Vector2::new(-c * alpha + s * w2, -s * alpha - c * w2) * cw.radius_m;
+                let acc = Vector2::new(-c * a + s * w2, -s * a - c * w2) * cw.radius_m;
                 f += (acc - gravity) * cw.mass_kg;
-                drive -= cross(pos, gravity * cw.mass_kg);
+                let weight = cross(pos, gravity * cw.mass_kg);
+                drive -= weight;
+                torque -= weight;
             }
-            f
-        }));
+            throw_loads.push(f);
+            throw_torques.push(torque);
+        }
         for (ki, (c, ck)) in self.geo.cylinders.iter().zip(&kin.cylinders).enumerate() {
             let fr = self.frames[ki];
             let ld = loads.cylinders.get(ki).copied().unwrap_or_default();
-            let f = self.cylinder_forces(ki, ck, alpha, &ld);
+            let f = self.cylinder_forces(ki, ck, alpha_of(c.throw), &ld);
             let f_b_glob = fr.to_global(f.big_end);
             let pin_glob = fr.to_global(ck.pin);
-            drive += ld.big_end_torque_nm + cross(pin_glob, f_b_glob);
+            let on_pin = ld.big_end_torque_nm + cross(pin_glob, f_b_glob);
+            drive += on_pin;
+            throw_torques[c.throw] += on_pin;
             throw_loads[c.throw] += f_b_glob;
             block -= fr.to_global(Vector2::new(f.lateral, ld.slide_force_n));
             out.cylinders.push(CylinderReactions {
@@ -554,6 +672,7 @@ impl CrankTrain {
             total -= gravity * self.geo.crank_mass_kg;
         }
         out.throws_n = throw_loads;
+        out.throw_torques_nm = throw_torques;
         out.main_total_n = total;
         out.block_force_n = block - total;
         out.drive_torque_nm = drive;

@@ -88,6 +88,10 @@ pub struct EngineSpec {
     pub cylinders: Vec<CylinderSpec>,
     /// One rod per cylinder.
     pub rods: Vec<RodSpec>,
+    /// An elastic crankshaft (its throws, flywheel, front pulley and damper as torsional
+    /// nodes); absent: the crank is rigid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crankshaft: Option<crate::drivetrain::CrankshaftSpec>,
     /// Laws per engine joint (`main_2`, `piston_3`, ...): what a law set attaches. A cylinder
     /// joint not listed takes the laws of its `[joints.*]` table.
     #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]

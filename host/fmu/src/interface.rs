@@ -569,7 +569,10 @@ fn drivetrain_outputs(model: &RigFile) -> Result<Vec<Variable>, FmuError> {
                 format!("transducer.{name}"),
                 format!(
                     "transducer `{}`: {what} over the periodic cycle at the current inputs",
-                    chain.rating.name
+                    chain
+                        .instrument
+                        .as_ref()
+                        .map_or("", |(r, _)| r.name.as_str())
                 ),
                 unit,
                 Role::Transducer { figure },

@@ -54,6 +54,32 @@ pub(crate) struct TrainCrank {
     kin: TrainKinematics,
     re: TrainReactions,
     loads: TrainLoads,
+    /// The elastic crankshaft's throws (`None`: a rigid crank).
+    elastic: Option<Box<Elastic>>,
+}
+
+/// An elastic crankshaft's throws as one evaluation sees them: what the chain's integration
+/// sets (each throw's twist from the crank's reference angle and speed, the net torque of the
+/// shaft's sections on it) and what the solve returns (each throw's acceleration).
+#[derive(Clone, Debug)]
+pub(crate) struct Elastic {
+    /// Whether the twist and torques below hold for the evaluation under way (a rigid
+    /// evaluation of the same run clears it).
+    active: bool,
+    /// Each throw's angle and speed minus the reference's, rad, rad/s.
+    twist: Vec<(f64, f64)>,
+    /// Net torque of the sections on each throw, N m.
+    torque: Vec<f64>,
+    /// Each throw's own inertia about the axis, kg m^2.
+    inertia: Vec<f64>,
+    /// Per main: the throws its friction torque acts on and their shares (summing to 1).
+    mains: Vec<Vec<(usize, f64)>>,
+    /// Each throw's share of the mains' friction torque in the last solve, N m.
+    main_torque: Vec<f64>,
+    /// Each throw's acceleration from the last solve, rad/s^2.
+    alpha: Vec<f64>,
+    /// Scratch: the throws' torques at zero and unit acceleration.
+    probe: [Vec<f64>; 2],
 }
 
 impl Crank {
@@ -92,7 +118,113 @@ impl Crank {
                 cylinders: vec![CylinderLoads::default(); n],
             },
             train,
+            elastic: None,
         }))
+    }
+
+    /// Make an engine's crankshaft elastic: its throws turn each with its own inertia
+    /// ([`CrankTrain::throw_inertias`]), each main's friction on the throws either side of it
+    /// in the lever shares of their loads. Nothing on the single-cylinder rig.
+    pub(crate) fn make_elastic(&mut self) {
+        let Crank::Train(t) = self else { return };
+        let n = t.train.geometry().throws.len();
+        let mut mains = vec![Vec::new(); t.train.geometry().mains_axial_m.len()];
+        for (j, split) in t.train.main_split().iter().enumerate() {
+            for (main, w) in split {
+                if *w > 0.0 {
+                    mains[*main].push((j, *w));
+                }
+            }
+        }
+        for m in &mut mains {
+            let total: f64 = m.iter().map(|(_, w)| w).sum();
+            m.iter_mut().for_each(|(_, w)| *w /= total);
+        }
+        t.elastic = Some(Box::new(Elastic {
+            active: false,
+            twist: vec![(0.0, 0.0); n],
+            torque: vec![0.0; n],
+            inertia: t.train.throw_inertias(),
+            mains,
+            main_torque: vec![0.0; n],
+            alpha: vec![0.0; n],
+            probe: [vec![0.0; n], vec![0.0; n]],
+        }));
+    }
+
+    /// Each throw's inertia about the axis with its rods and pistons, averaged over a
+    /// revolution (the reciprocating masses at their cycle mean), kg m^2: an elastic
+    /// crankshaft's throw nodes in the linearised chain (empty on the single-cylinder rig).
+    pub(crate) fn throw_mean_inertias(&self) -> Vec<f64> {
+        let Crank::Train(t) = self else {
+            return Vec::new();
+        };
+        let own = t.train.throw_inertias();
+        let n = own.len();
+        let samples = 360;
+        (0..n)
+            .map(|j| {
+                let mut twist = vec![(0.0, 0.0); n];
+                twist[j].1 = 1.0;
+                (0..samples)
+                    .map(|k| {
+                        let theta = std::f64::consts::TAU * k as f64 / samples as f64;
+                        let e = |tw: &[(f64, f64)]| {
+                            t.train
+                                .twisted_mechanical_energy(theta, 0.0, tw, Some(&own))
+                        };
+                        2.0 * (e(&twist) - e(&[]))
+                    })
+                    .sum::<f64>()
+                    / samples as f64
+            })
+            .collect()
+    }
+
+    /// Each throw's own inertia on an elastic crankshaft (empty on a rigid one), kg m^2.
+    pub(crate) fn throw_inertias(&self) -> &[f64] {
+        match self {
+            Crank::Train(t) => t.elastic.as_ref().map_or(&[], |e| &e.inertia),
+            Crank::Rig(_) => &[],
+        }
+    }
+
+    /// The next evaluations see throw `j` turned by `twist[j]` (angle, speed) from the crank's
+    /// reference and loaded by the sections' net torque `torque[j]` (N m), to be solved with
+    /// [`Control::Throws`]; `None` makes them rigid again.
+    pub(crate) fn set_throws(&mut self, throws: Option<(&[(f64, f64)], &[f64])>) {
+        let Crank::Train(t) = self else { return };
+        let Some(e) = t.elastic.as_mut() else { return };
+        match throws {
+            Some((twist, torque)) => {
+                e.active = true;
+                e.twist.copy_from_slice(twist);
+                e.torque.copy_from_slice(torque);
+            }
+            None => e.active = false,
+        }
+    }
+
+    /// Each throw's acceleration from the last solve with [`Control::Throws`], rad/s^2.
+    pub(crate) fn throw_alphas(&self) -> &[f64] {
+        match self {
+            Crank::Train(t) => t.elastic.as_ref().map_or(&[], |e| &e.alpha),
+            Crank::Rig(_) => &[],
+        }
+    }
+
+    /// The twisted crank train's kinetic and potential energy, J: throw `j` turned by
+    /// `twist[j]` from `theta`, `omega` (the rigid crank's energy without an elastic shaft).
+    pub(crate) fn twisted_energy(&self, theta: f64, omega: f64, twist: &[(f64, f64)]) -> f64 {
+        match self {
+            Crank::Train(t) if t.elastic.is_some() => t.train.twisted_mechanical_energy(
+                theta,
+                omega,
+                twist,
+                t.elastic.as_ref().map(|e| e.inertia.as_slice()),
+            ),
+            _ => self.mechanical_energy(theta, omega),
+        }
     }
 
     /// Number of cylinders.
@@ -176,16 +308,34 @@ impl Crank {
             Crank::Train(t) => {
                 let kin = &t.kin;
                 let crank = (kin.theta, kin.omega);
-                let bank = |k: usize| t.train.geometry().cylinders[k].bank_rad;
+                let geo = t.train.geometry();
+                let bank = |k: usize| geo.cylinders[k].bank_rad;
                 let rod = |k: usize| {
                     let c = &kin.cylinders[k];
                     (bank(k) + c.rod_angle_rad, c.rod_rate_rad_s)
                 };
+                // On an elastic shaft a pin turns with its throw, a journal as the throws
+                // either side of its main in their shares.
+                let pin = |k: usize| {
+                    kin.throws
+                        .get(geo.cylinders[k].throw)
+                        .copied()
+                        .unwrap_or(crank)
+                };
+                let journal = |i: usize| match &t.elastic {
+                    Some(e) if e.active => e.mains[i].iter().fold((0.0, 0.0), |(a, w), (j, s)| {
+                        (a + s * kin.throws[*j].0, w + s * kin.throws[*j].1)
+                    }),
+                    _ => crank,
+                };
                 match role {
-                    Role::Main(_) => Bodies { a: crank, b: block },
+                    Role::Main(i) => Bodies {
+                        a: journal(i),
+                        b: block,
+                    },
                     Role::BigEnd(k) => Bodies {
                         a: rod(k),
-                        b: crank,
+                        b: pin(k),
                     },
                     Role::SmallEnd(k) => Bodies {
                         a: (bank(k), 0.0),
@@ -222,6 +372,8 @@ impl Crank {
                 let alpha = match control {
                     Control::Acceleration(alpha) => alpha,
                     Control::Torque(torque) => r.kin.alpha_for_torque(torque, &loads),
+                    // The rig's crank is rigid: never driven by throws.
+                    Control::Throws => 0.0,
                 };
                 r.re = r.kin.reactions(alpha, &loads);
                 alpha
@@ -241,9 +393,14 @@ impl Crank {
                         Role::Piston(c) => loads.cylinders[c].slide_force_n = *total,
                     }
                 }
+                if let (Control::Throws, Some(e)) = (control, t.elastic.as_deref_mut()) {
+                    return solve_throws(&t.train, &t.kin, roles, totals, loads, e, &mut t.re);
+                }
                 let alpha = match control {
                     Control::Acceleration(alpha) => alpha,
                     Control::Torque(torque) => t.train.alpha_for_torque(&t.kin, torque, loads),
+                    // A rigid crank has no throws of its own: not driven by them.
+                    Control::Throws => 0.0,
                 };
                 t.train.reactions_into(&t.kin, alpha, loads, &mut t.re);
                 alpha
@@ -449,7 +606,12 @@ impl TrainCrank {
         state: impl Fn(&GasModel, GasState) -> GasState,
         law_gas: &mut Vec<LawGas>,
     ) -> f64 {
-        self.train.kinematics_into(theta, omega, &[], &mut self.kin);
+        let twist = match &self.elastic {
+            Some(e) if e.active => e.twist.as_slice(),
+            _ => &[],
+        };
+        self.train
+            .twisted_kinematics_into(theta, omega, twist, &[], &mut self.kin);
         // One crankcase under every piston: its pressure from the summed travel (a sealed
         // one's volume) and the engine's crank angle (a vented one's table).
         let crankcase_pa = gas.first().map_or(STANDARD_ATMOSPHERE_PA, |g| {
@@ -496,4 +658,42 @@ impl TrainCrank {
             ),
         }
     }
+}
+
+/// The elastic crankshaft's solve: each main's friction torque shared out to its throws, each
+/// throw's acceleration from its own balance (its torque is affine in its own acceleration
+/// alone: probed at 0 and 1), then the reactions at those accelerations. Returns the first
+/// throw's acceleration.
+fn solve_throws(
+    train: &CrankTrain,
+    kin: &TrainKinematics,
+    roles: &[Role],
+    totals: &[f64],
+    loads: &TrainLoads,
+    e: &mut Elastic,
+    re: &mut TrainReactions,
+) -> f64 {
+    e.main_torque.fill(0.0);
+    for (role, total) in roles.iter().zip(totals) {
+        if let Role::Main(i) = *role {
+            for (j, share) in &e.mains[i] {
+                e.main_torque[*j] += share * total;
+            }
+        }
+    }
+    let n = e.alpha.len();
+    for (p, a) in [0.0, 1.0].into_iter().enumerate() {
+        e.alpha.fill(a);
+        train.twisted_reactions_into(kin, (&e.alpha, &e.inertia, &e.main_torque), loads, re);
+        for j in 0..n {
+            e.probe[p][j] = e.inertia[j] * a - e.main_torque[j]
+                + re.throw_torques_nm.get(j).copied().unwrap_or(0.0);
+        }
+    }
+    for j in 0..n {
+        // d(torque)/d(alpha) is the throw's effective inertia with its rods and pistons (> 0).
+        e.alpha[j] = (e.torque[j] - e.probe[0][j]) / (e.probe[1][j] - e.probe[0][j]);
+    }
+    train.twisted_reactions_into(kin, (&e.alpha, &e.inertia, &e.main_torque), loads, re);
+    e.alpha.first().copied().unwrap_or(0.0)
 }

@@ -283,24 +283,42 @@ fn crank_and_gas(f: &RigFile) -> Result<(Crank, [Vec<GasModel>; 2]), SimError> {
     } else {
         Vec::new()
     };
-    Ok((Crank::train(train, phases), [gas, ambient]))
+    let mut crank = Crank::train(train, phases);
+    if e.crankshaft.is_some() {
+        crank.make_elastic();
+    }
+    Ok((crank, [gas, ambient]))
 }
 
 /// The rig's drivetrain reflected to crank speed, its crank node the crank's cycle-mean
 /// inertia (the reciprocating masses averaged over a revolution), the motor held by the drive.
 fn torsion(f: &RigFile, crank: &Crank) -> Result<Option<torsional::Torsion>, SimError> {
-    let Some(spec) = &f.drivetrain else {
-        return Ok(None);
+    let setup = |prefix: &str, e: crate::drivetrain::DrivetrainError| SimError::Setup {
+        at: None,
+        field: format!("{prefix}.{}", e.field),
+        law: None,
+        param: None,
+        message: e.message,
     };
-    let chain = spec
-        .chain(crank.mean_inertia_kg_m2())
-        .map_err(|e| SimError::Setup {
-            at: None,
-            field: format!("drivetrain.{}", e.field),
-            law: None,
-            param: None,
-            message: e.message,
-        })?;
+    let shaft = f.engine.as_ref().and_then(|e| e.crankshaft.as_ref());
+    let end = match shaft {
+        Some(spec) => Some(
+            spec.crank_end(&crank.throw_mean_inertias())
+                .map_err(|e| setup("engine.crankshaft", e))?,
+        ),
+        None => None,
+    };
+    let chain = match (&f.drivetrain, end) {
+        (None, None) => return Ok(None),
+        (Some(spec), None) => spec
+            .chain(crank.mean_inertia_kg_m2())
+            .map_err(|e| setup("drivetrain", e))?,
+        (Some(spec), Some(end)) => spec.chain_to(end).map_err(|e| setup("drivetrain", e))?,
+        (None, Some(end)) => {
+            crate::drivetrain::Chain::crankshaft(end, f.drive.reflected_inertia_kg_m2())
+                .map_err(|e| setup("engine.crankshaft", e))?
+        }
+    };
     let (hold, limit_nm) = match f.drive {
         Drive::Prescribed {} => (crate::drivetrain::MotorHold::Prescribed, f64::INFINITY),
         Drive::Pi {
@@ -310,11 +328,12 @@ fn torsion(f: &RigFile, crank: &Crank) -> Result<Option<torsional::Torsion>, Sim
             ..
         } => (crate::drivetrain::MotorHold::Pi { kp, ki }, torque_limit_nm),
     };
-    Ok(Some(torsional::Torsion {
+    Ok(Some(torsional::Torsion::new(
         chain,
         hold,
         limit_nm,
-    }))
+        shaft.is_some(),
+    )))
 }
 
 /// The rig's drivetrain reflected to crank speed with the crank's cycle-mean inertia, and how

@@ -29,6 +29,9 @@ pub(super) struct Torsion {
     pub(super) chain: Chain,
     pub(super) hold: MotorHold,
     pub(super) limit_nm: f64,
+    /// Per node: the crank throw it is on an elastic crankshaft (empty for a rigid crank,
+    /// the chain's last node).
+    pub(super) throw_at: Vec<Option<usize>>,
 }
 
 /// The motor's reference at crank speed: angle (rad) and speed (rad/s).
@@ -44,17 +47,50 @@ pub(super) struct Nodes {
     w: Vec<f64>,
     /// Each spring's torque at crank speed.
     torques: Vec<f64>,
+    /// An elastic crankshaft's throws: each one's twist from the crank node (angle, speed)
+    /// and the net torque of the sections on it.
+    twist: Vec<(f64, f64)>,
+    load: Vec<f64>,
 }
 
 impl Torsion {
+    /// The drivetrain `chain` held by `hold` (the motor's torque `limit_nm`), its crank rigid
+    /// or, if `elastic`, the engine's throws at the chain's throw nodes.
+    pub(super) fn new(chain: Chain, hold: MotorHold, limit_nm: f64, elastic: bool) -> Self {
+        let mut throw_at = Vec::new();
+        if elastic {
+            throw_at = vec![None; chain.inertias.len()];
+            for (j, node) in chain.throws.iter().enumerate() {
+                throw_at[*node] = Some(j);
+            }
+        }
+        Torsion {
+            chain,
+            hold,
+            limit_nm,
+            throw_at,
+        }
+    }
+
+    /// Whether the crankshaft is elastic (its throws nodes of their own).
+    fn elastic(&self) -> bool {
+        !self.throw_at.is_empty()
+    }
+
+    /// The crank's node: the rigid crank, or an elastic crankshaft's first throw (the
+    /// reference its twist is measured from).
+    fn crank_node(&self) -> usize {
+        self.chain.throws.first().copied().unwrap_or(self.n() - 1)
+    }
+
     /// Index of the crank's angle in the integrated state.
     pub(super) fn crank_angle(&self) -> usize {
-        self.n() - self.first() - 1
+        self.crank_node() - self.first()
     }
 
     /// Index of the crank's speed in the integrated state.
     pub(super) fn crank_speed(&self) -> usize {
-        2 * (self.n() - self.first()) - 1
+        self.n() - 2 * self.first() + self.crank_node()
     }
 
     /// Index of the first integrated node (the motor's angle is imposed when prescribed).
@@ -77,10 +113,17 @@ impl Torsion {
     /// Every node's angle and speed with the motor's reference at `motor` (angle, speed).
     pub(super) fn nodes(&self, motor: Motor, y: &[f64]) -> Nodes {
         let n = self.n();
+        let throws = if self.elastic() {
+            self.chain.throws.len()
+        } else {
+            0
+        };
         let mut s = Nodes {
             phi: vec![0.0; n],
             w: vec![0.0; n],
             torques: vec![0.0; n - 1],
+            twist: vec![(0.0, 0.0); throws],
+            load: vec![0.0; throws],
         };
         self.fill(motor, y, &mut s);
         s
@@ -97,6 +140,12 @@ impl Torsion {
         s.w[f..].copy_from_slice(&y[m..2 * m]);
         for i in 0..n - 1 {
             s.torques[i] = self.chain.spring_torque(i, &s.phi, &s.w);
+        }
+        let r = self.crank_node();
+        for (j, node) in self.chain.throws.iter().enumerate().take(s.twist.len()) {
+            s.twist[j] = (s.phi[*node] - s.phi[r], s.w[*node] - s.w[r]);
+            let behind = if *node + 1 < n { s.torques[*node] } else { 0.0 };
+            s.load[j] = s.torques[*node - 1] - behind;
         }
     }
 
@@ -134,25 +183,35 @@ impl Simulation {
         let (n, f) = (tor.n(), tor.first());
         let torques = &s.torques;
         let (motor, saturated) = tor.motor_torque(reference, s, torques[0]);
+        let r = tor.crank_node();
+        let control = if tor.elastic() {
+            w.crank.set_throws(Some((&s.twist, &s.load)));
+            Control::Throws
+        } else {
+            Control::Torque(torques[n - 2])
+        };
         let at = Point {
             t,
             dt: h,
-            theta: s.phi[n - 1],
-            omega: s.w[n - 1],
-            control: Control::Torque(torques[n - 2]),
+            theta: s.phi[r],
+            omega: s.w[r],
+            control,
             margin: f64::INFINITY,
             oil,
         };
         self.evaluate(&at, guess, w, e)?;
         let m = n - f;
+        let alphas = w.crank.throw_alphas();
         for k in 0..m {
             let node = k + f;
             dy[k] = s.w[node];
             let drive = if node == 0 { motor } else { torques[node - 1] };
-            dy[m + k] = if node == n - 1 {
-                e.alpha
-            } else {
-                (drive - torques[node]) / tor.chain.inertias[node]
+            let behind = if node + 1 < n { torques[node] } else { 0.0 };
+            dy[m + k] = match tor.throw_at.get(node) {
+                Some(Some(j)) => alphas[*j],
+                Some(None) => (drive - behind) / tor.chain.inertias[node],
+                None if node == n - 1 => e.alpha,
+                None => (drive - behind) / tor.chain.inertias[node],
             };
         }
         dy[2 * m] = motor * s.w[0];
@@ -203,6 +262,7 @@ impl Simulation {
         w: &mut Work,
     ) -> Result<Vec<f64>, SimError> {
         let h = self.cycle_angle() / omega / m as f64;
+        w.crank.set_throws(None);
         let mut guess = vec![0.0; self.joints.len()];
         let mut e = w.eval();
         let mut out = Vec::with_capacity(m);
@@ -354,8 +414,8 @@ impl Simulation {
         let s = &st.nodes;
         let torque = tor
             .chain
-            .transducer_torque(s.torques[tor.chain.rating.spring]);
-        Ok((torque, s.w[tor.n() - 1], saturated))
+            .transducer_torque(s.torques[tor.chain.measured_spring()]);
+        Ok((torque, s.w[tor.crank_node()], saturated))
     }
 
     /// The chain's energy at `(t, y)`: its free nodes' kinetic energy (the crank's mechanical
@@ -363,13 +423,18 @@ impl Simulation {
     /// rotor belongs to the drive: the motor's work is what its shaft passes to the chain.
     pub(super) fn torsion_energy(&self, tor: &Torsion, motor: Motor, y: &[f64]) -> f64 {
         let s = tor.nodes(motor, y);
-        let n = tor.n();
-        let kinetic: f64 = (tor.first()..n - 1)
+        let (n, r) = (tor.n(), tor.crank_node());
+        let crank = |i: usize| match tor.throw_at.get(i) {
+            Some(j) => j.is_some(),
+            None => i == n - 1,
+        };
+        let kinetic: f64 = (tor.first()..n)
+            .filter(|i| !crank(*i))
             .map(|i| 0.5 * tor.chain.inertias[i] * s.w[i] * s.w[i])
             .sum();
         kinetic
             + tor.chain.strain_energy(&s.phi)
-            + self.crank.mechanical_energy(s.phi[n - 1], s.w[n - 1])
+            + self.crank.twisted_energy(s.phi[r], s.w[r], &s.twist)
     }
 
     /// Integrate cycle after cycle at plateau `pi` until the transducer's cycle repeats; the
@@ -383,8 +448,12 @@ impl Simulation {
     ) -> Result<(CycleRecord, usize, Option<f64>, [f64; 2]), SimError> {
         let omega = self.cycle.plateaus()[pi].omega;
         let oil = (self.temps[pi], self.viscosities[pi]);
-        let m = ((self.cycle_angle() / self.step_rad).ceil() as usize).max(16);
-        let h = self.cycle_angle() / omega / m as f64;
+        let period = self.cycle_angle() / omega;
+        // The crank-angle step, and no longer than the chain's stiffest mode lets RK4 go.
+        let m = ((self.cycle_angle() / self.step_rad).ceil() as usize)
+            .max((period / self.torsion_step_cap(tor)).ceil() as usize)
+            .max(16);
+        let h = period / m as f64;
         let rigid = self.rigid_samples(omega, oil, m, w)?;
         let mut y = self.torsion_start(tor, omega, &rigid);
         let mut st = Stages::new(tor, w, (0.0, omega), &y);
@@ -460,16 +529,24 @@ impl Simulation {
         let mut result = self.plateau_result(pi, &measured);
         let instrument = instrument(tor, &rec, period, cycles, work[1] / period);
         let mut warnings = Vec::new();
+        let what = if instrument.is_some() {
+            "the transducer's"
+        } else {
+            "the drive shaft's torque"
+        };
         if let Some(change) = unsettled {
             warnings.push(format!(
-                "at the {:.0} rpm plateau the drivetrain did not repeat a cycle within {MAX_CYCLES} cycles (the transducer's mean and peak-to-peak still moved by {change:.1e} of their size in the last): its values are the last cycle's, not a steady state",
+                "at the {:.0} rpm plateau the drivetrain did not repeat a cycle within {MAX_CYCLES} cycles ({what} mean and peak-to-peak still moved by {change:.1e} of their size in the last): its values are the last cycle's, not a steady state",
                 p.speed_rpm
             ));
         }
-        if let Some(text) = instrument.rating_warning(p.speed_rpm) {
+        if let Some(text) = instrument
+            .as_ref()
+            .and_then(|i| i.rating_warning(p.speed_rpm))
+        {
             warnings.push(text);
         }
-        result.instrument = Some(instrument);
+        result.instrument = instrument;
         let change = rec.chain_energy[1] - rec.chain_energy[0];
         Ok((result, [work[0], work[1], change], warnings))
     }
@@ -565,13 +642,12 @@ pub(super) fn record(x: impl Iterator<Item = f64>, range: f64) -> (f64, f64, f64
 /// The instrument's figures: the shaft torque's and the crank speed's spans, the acquired
 /// record ([`record`]), the chain's dissipation (W) and the cycles it took to settle.
 pub(super) fn instrument_of(
-    tor: &Torsion,
+    r: &crate::drivetrain::Rating,
     (shaft, speed): (Span, Span),
     acquired: (f64, f64, f64),
     chain_w: f64,
     cycles: u32,
 ) -> Instrument {
-    let r = &tor.chain.rating;
     Instrument {
         transducer: r.name.clone(),
         mean_torque_nm: shaft.mean,
@@ -597,23 +673,35 @@ fn instrument(
     period: f64,
     cycles: usize,
     chain_w: f64,
-) -> Instrument {
+) -> Option<Instrument> {
+    let (rating, daq) = tor.chain.instrument.as_ref()?;
     let spans = (
         Span::of(rec.torque.iter().copied()),
         Span::of(rec.speed.iter().copied()),
     );
-    let acquired = acquire(&rec.torque, period, &tor.chain);
-    instrument_of(tor, spans, acquired, chain_w, cycles as u32)
+    let acquired = acquire(&rec.torque, period, rating, daq);
+    Some(instrument_of(
+        rating,
+        spans,
+        acquired,
+        chain_w,
+        cycles as u32,
+    ))
 }
 
 /// The transducer's periodic signal as the acquisition records it: through the transducer's
 /// and the amplifier's first-order low-passes, sampled at the acquisition's rate over its
 /// record, clipped to its range. Returns the record's mean, its peak-to-peak and the share of
 /// samples clipped.
-fn acquire(torque: &[f64], period: f64, chain: &Chain) -> (f64, f64, f64) {
+fn acquire(
+    torque: &[f64],
+    period: f64,
+    rating: &crate::drivetrain::Rating,
+    daq: &crate::drivetrain::DaqSpec,
+) -> (f64, f64, f64) {
     let m = torque.len();
     let base = TAU / period;
-    let (fc, fl) = (chain.rating.cutoff_hz, chain.daq.lowpass_hz);
+    let (fc, fl) = (rating.cutoff_hz, daq.lowpass_hz);
     let coeffs: Vec<Complex<f64>> = (0..m.div_ceil(2))
         .map(|k| {
             let f = base * k as f64 / TAU;
@@ -621,11 +709,9 @@ fn acquire(torque: &[f64], period: f64, chain: &Chain) -> (f64, f64, f64) {
             dft(torque, k) / h
         })
         .collect();
-    let count = (chain.daq.record_s * chain.daq.sample_rate_hz)
-        .round()
-        .max(1.0) as usize;
+    let count = (daq.record_s * daq.sample_rate_hz).round().max(1.0) as usize;
     let samples = (0..count).map(|s| {
-        let t = s as f64 / chain.daq.sample_rate_hz;
+        let t = s as f64 / daq.sample_rate_hz;
         let step = Complex::from_polar(1.0, base * t);
         let mut rot = step;
         let mut x = coeffs[0].re;
@@ -635,7 +721,7 @@ fn acquire(torque: &[f64], period: f64, chain: &Chain) -> (f64, f64, f64) {
         }
         x
     });
-    record(samples, chain.daq.range_nm)
+    record(samples, daq.range_nm)
 }
 
 impl Simulation {

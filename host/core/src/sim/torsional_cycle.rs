@@ -50,7 +50,12 @@ impl Signal {
             .collect();
         Signal {
             holds,
-            cutoffs: [tor.chain.rating.cutoff_hz, tor.chain.daq.lowpass_hz],
+            // Without a transducer the signal is the drive shaft's torque as it is.
+            cutoffs: tor
+                .chain
+                .instrument
+                .as_ref()
+                .map_or([f64::INFINITY; 2], |(r, d)| [r.cutoff_hz, d.lowpass_hz]),
             filtered: [0.0; 2],
         }
     }
@@ -72,7 +77,8 @@ impl Signal {
     }
 
     /// The instrument's figures over the window `[t0, t1]` (s) of plateau `pi`.
-    fn instrument(&self, pi: usize, [t0, t1]: [f64; 2], tor: &Torsion) -> Instrument {
+    fn instrument(&self, pi: usize, [t0, t1]: [f64; 2], tor: &Torsion) -> Option<Instrument> {
+        let (rating, daq) = tor.chain.instrument.as_ref()?;
         let inside = || {
             self.holds[pi]
                 .1
@@ -83,7 +89,6 @@ impl Signal {
             Span::of(inside().map(|s| s[1])),
             Span::of(inside().map(|s| s[3])),
         );
-        let daq = &tor.chain.daq;
         let count = (((t1 - t0) * daq.sample_rate_hz).floor() as usize).max(1);
         let acquired = record(
             (0..count).map(|k| self.at(pi, t0 + k as f64 / daq.sample_rate_hz, 2)),
@@ -91,7 +96,7 @@ impl Signal {
         );
         let dissipated = self.at(pi, t1, 4) - self.at(pi, t0, 4);
         let chain_w = dissipated / (t1 - t0).max(1e-300);
-        instrument_of(tor, spans, acquired, chain_w, 0)
+        Some(instrument_of(rating, spans, acquired, chain_w, 0))
     }
 
     /// Field `k` of plateau `pi`'s samples at `t`, linear between steps.
@@ -113,7 +118,7 @@ impl Simulation {
     /// The largest step the chain allows an explicit RK4 step, s: the stability limit at its
     /// stiffest mode, with the crank at the least inertia it has over the cycle (the
     /// reciprocating mass at a dead centre), so the limit holds at every crank angle.
-    fn torsion_step_cap(&self, tor: &Torsion) -> f64 {
+    pub(super) fn torsion_step_cap(&self, tor: &Torsion) -> f64 {
         let inertia_at = |theta: f64| {
             2.0 * (self.crank.mechanical_energy(theta, 1.0)
                 - self.crank.mechanical_energy(theta, 0.0))
@@ -122,9 +127,17 @@ impl Simulation {
             .map(|k| inertia_at(self.cycle_angle() * k as f64 / 144.0))
             .fold(f64::INFINITY, f64::min);
         let mut chain = tor.chain.clone();
-        if let Some(crank) = chain.inertias.last_mut() {
-            if least.is_finite() && least > 0.0 {
-                *crank = crank.min(least);
+        let bare = self.crank.throw_inertias();
+        if bare.is_empty() {
+            if let Some(crank) = chain.inertias.last_mut() {
+                if least.is_finite() && least > 0.0 {
+                    *crank = crank.min(least);
+                }
+            }
+        } else {
+            // An elastic crankshaft's throws: at least their own inertia at any angle.
+            for (node, j) in chain.throws.iter().zip(bare) {
+                chain.inertias[*node] = chain.inertias[*node].min(*j);
             }
         }
         let stiffest = chain
@@ -309,8 +322,12 @@ impl Simulation {
         let mut results = results;
         for (pi, r) in results.iter_mut().enumerate() {
             let instrument = run.signal.instrument(pi, windows[pi], tor);
-            warnings.extend(instrument.rating_warning(r.set_speed_rpm));
-            r.instrument = Some(instrument);
+            warnings.extend(
+                instrument
+                    .as_ref()
+                    .and_then(|i| i.rating_warning(r.set_speed_rpm)),
+            );
+            r.instrument = instrument;
         }
         Ok((results, warnings))
     }

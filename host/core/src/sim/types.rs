@@ -79,4 +79,7 @@ pub(super) enum Control {
     Acceleration(f64),
     /// Drive torque on the crank, N m.
     Torque(f64),
+    /// An elastic crankshaft: each throw driven by the torque of the shaft's sections on it,
+    /// set on the crank model before the evaluation (`Crank::set_throws`).
+    Throws,
 }

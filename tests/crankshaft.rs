@@ -75,7 +75,10 @@ fn torques(run: &serde_json::Value) -> Vec<f64> {
 
 #[test]
 fn the_elastic_crankshafts_modes_solve_its_printed_chain() {
-    let report = json_in(&["modes", "inline4-4b11-elastic", "--json"], &workspace());
+    let report = json_in(
+        &["modes", "rigs/inline4-4b11-elastic.toml", "--json"],
+        &workspace(),
+    );
     let names: Vec<&str> = report["inertias"]
         .as_array()
         .unwrap()
@@ -144,7 +147,7 @@ fn the_elastic_crankshaft_balances_its_energy_steady_and_over_the_cycle() {
     let cycle = |extra: &[&str]| {
         let mut args = vec![
             "run",
-            "inline4-4b11-elastic",
+            "rigs/inline4-4b11-elastic.toml",
             "--lawset",
             "fedem-baseline",
             "--json",

@@ -594,7 +594,7 @@ fn cmd_modes(a: ModesArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("{e}"))?
         .with_context(|| {
             format!(
-                "rig `{}` has neither a [drivetrain] nor an elastic crankshaft ([engine.crankshaft]): `tribo modes` analyses the torsional chain from the motor to the crank (e.g. the bundled crf250r-testbed or inline4-4b11-elastic)",
+                "rig `{}` has neither a [drivetrain] nor an elastic crankshaft ([engine.crankshaft]): `tribo modes` analyses the torsional chain from the motor to the crank (e.g. the bundled crf250r-testbed, or rigs/inline4-4b11-elastic.toml)",
                 model.name
             )
         })?;

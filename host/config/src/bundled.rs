@@ -43,10 +43,6 @@ const RIGS: &[(&str, &str)] = &[
         "inline4-4b11-vented.toml",
         include_str!("../../../rigs/inline4-4b11-vented.toml"),
     ),
-    (
-        "inline4-4b11-elastic.toml",
-        include_str!("../../../rigs/inline4-4b11-elastic.toml"),
-    ),
     ("vtwin-90.toml", include_str!("../../../rigs/vtwin-90.toml")),
     (
         "vtwin-90-frictionless.toml",

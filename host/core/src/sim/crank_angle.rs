@@ -239,14 +239,18 @@ impl Simulation {
         for pi in 0..self.cycle.plateaus().len() {
             let (samples, unsettled) = self.plateau_trace(pi, &mut grid)?;
             let speed_rpm = self.cycle.plateaus()[pi].speed_rpm;
+            let mut warnings: Vec<String> = unsettled
+                .map(|change| unsettled_warning(speed_rpm, change))
+                .into_iter()
+                .collect();
+            if self.drivetrain.is_some() {
+                warnings.push(format!("the {speed_rpm:.0} rpm traces are the rigid crank's at a constant speed: the rig's drivetrain and elastic crankshaft are not in them (`tribo run` integrates them)"));
+            }
             traces.push(CrankAngleTrace {
                 speed_rpm,
                 laws: laws.clone(),
                 samples,
-                warnings: unsettled
-                    .map(|change| unsettled_warning(speed_rpm, change))
-                    .into_iter()
-                    .collect(),
+                warnings,
             });
         }
         Ok(traces)

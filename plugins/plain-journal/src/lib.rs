@@ -1019,7 +1019,8 @@ mod tests {
     /// At a 40 C sump the lumped exit temperature is up to 10 K above the distributed film's
     /// maximum (6.6 K at 3000 rpm, 9.6 K at 6000): within the torque's 10% still, outside the
     /// 5 K, and asserted as found. This checks the lumping, not the adiabatic premise: metal
-    /// conduction, which the law leaves out, would make both films cooler.
+    /// conduction, which the law leaves out, would make both films cooler. The table:
+    /// `cargo test --release -p tribo-law-plain-journal --lib -- the_lumped --nocapture`.
     #[test]
     fn the_lumped_heat_balance_matches_the_distributed_adiabatic_film() {
         let (r, l, c, rho, cp) = (0.025_f64, 0.020_f64, 10.5e-6_f64, 850.0_f64, 2150.0_f64);
@@ -1051,7 +1052,12 @@ mod tests {
                 let torque = -lumped.evaluate(&i, &[0.0; STATE]).force;
                 let ratio = torque / film_torque;
                 let over_k = feed_c + temp.rise_k - t;
-                let at = format!("{feed_c} C, {rpm} rpm: torque x{ratio:.4}, exit +{over_k:.2} K");
+                let at = format!(
+                    "{feed_c} C, {rpm} rpm: torque x{ratio:.4}, exit +{over_k:.2} K (law: effective {:.1} C, exit {:.1} C)",
+                    temp.effective_c,
+                    feed_c + temp.rise_k
+                );
+                println!("{at}");
                 assert!((1.0..1.10).contains(&ratio), "{at}");
                 let limit_k = if feed_c >= 70.0 { 5.0 } else { 10.0 };
                 assert!(over_k >= 0.0 && over_k < limit_k, "{at}");

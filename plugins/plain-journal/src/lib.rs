@@ -998,6 +998,73 @@ mod tests {
         assert!(film(600.0, 5000.0) > film(300.0, 5000.0));
     }
 
+    /// The effective-temperature rule against the film it stands for. The law lumps the film
+    /// into one temperature, `T_feed + dT / 2`, and one exit temperature, `T_feed + dT`. The
+    /// adiabatic film it models can be solved without lumping: the Couette flow
+    /// `Q = omega R c L / 2` carries the oil round from the feed, heated on the way by the shear
+    /// at its own temperature,
+    ///
+    /// ```text
+    /// rho c_p Q dT/dtheta = mu(T) omega^2 R^3 L / c,   T(0) = T_feed,   T_max = T(2 pi)
+    /// torque = rho c_p Q (T(2 pi) - T_feed) / omega     (all the heat leaves with the flow)
+    /// ```
+    ///
+    /// integrated here by fourth-order Runge-Kutta on the oil's Walther line written out
+    /// independently of the law. On the 4B11's main (50 x 20 mm, 10.5 um radial) from 1000 to
+    /// 6000 rpm the law's torque is asked to be within 10% of the distributed film's and its
+    /// exit temperature within 5 K of the film's maximum (the issue's thresholds for a heat
+    /// balance), at warm sumps (70-110 C). Both must be high, never low: the distributed film
+    /// heats fastest where it enters cold and thick, so its temperature averaged round the
+    /// bearing is above the mean of its ends, and the lumped rule over-weights the viscosity.
+    /// At a 40 C sump the lumped exit temperature is up to 10 K above the distributed film's
+    /// maximum (6.6 K at 3000 rpm, 9.6 K at 6000): within the torque's 10% still, outside the
+    /// 5 K, and asserted as found. This checks the lumping, not the adiabatic premise: metal
+    /// conduction, which the law leaves out, would make both films cooler. The table:
+    /// `cargo test --release -p tribo-law-plain-journal --lib -- the_lumped --nocapture`.
+    #[test]
+    fn the_lumped_heat_balance_matches_the_distributed_adiabatic_film() {
+        let (r, l, c, rho, cp) = (0.025_f64, 0.020_f64, 10.5e-6_f64, 850.0_f64, 2150.0_f64);
+        let params = "clearance_m = 10.5e-6\nthermal = \"effective\"\noil_kv40_cst = 65.0\noil_kv100_cst = 11.0\ndensity_kg_m3 = 850.0\nspecific_heat_j_kg_k = 2150.0";
+        let lumped = law(params).expect("law");
+        for feed_c in [40.0, 70.0, 90.0, 110.0] {
+            for rpm in [1000.0, 3000.0, 6000.0] {
+                let omega = rpm * PI / 30.0;
+                let q = 0.5 * omega * r * c * l;
+                let slope = |t: f64| {
+                    rig_oil_viscosity(t) * omega * omega * r.powi(3) * l / c / (rho * cp * q)
+                };
+                let (n, mut t) = (4000, feed_c);
+                let h = 2.0 * PI / n as f64;
+                for _ in 0..n {
+                    let k1 = slope(t);
+                    let k2 = slope(t + 0.5 * h * k1);
+                    let k3 = slope(t + 0.5 * h * k2);
+                    let k4 = slope(t + h * k3);
+                    t += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+                }
+                let film_torque = rho * cp * q * (t - feed_c) / omega;
+                let mut i = main_bearing(omega, 0.0, 0.0);
+                i.oil_temp_c = feed_c;
+                i.viscosity_pa_s = rig_oil_viscosity(feed_c);
+                let temp = lumped
+                    .film_temperature(&i, &[0.0; STATE])
+                    .expect("effective");
+                let torque = -lumped.evaluate(&i, &[0.0; STATE]).force;
+                let ratio = torque / film_torque;
+                let over_k = feed_c + temp.rise_k - t;
+                let at = format!(
+                    "{feed_c} C, {rpm} rpm: torque x{ratio:.4}, exit +{over_k:.2} K (law: effective {:.1} C, exit {:.1} C)",
+                    temp.effective_c,
+                    feed_c + temp.rise_k
+                );
+                println!("{at}");
+                assert!((1.0..1.10).contains(&ratio), "{at}");
+                let limit_k = if feed_c >= 70.0 { 5.0 } else { 10.0 };
+                assert!(over_k >= 0.0 && over_k < limit_k, "{at}");
+            }
+        }
+    }
+
     #[test]
     fn an_oil_that_thickens_as_it_warms_is_refused() {
         let e = law("thermal = \"effective\"\noil_kv40_cst = 10.0\noil_kv100_cst = 11.0")

@@ -308,15 +308,6 @@ const KNOWN_CIRCLES: &[(&str, &[&str])] = &[
         ],
     ),
     (
-        "tribo-isolate",
-        &[
-            "host/isolate/src/child.rs",
-            "host/isolate/src/guard.rs",
-            "host/isolate/src/lib.rs",
-            "host/isolate/src/parent.rs",
-        ],
-    ),
-    (
         "tribo-plugin-api",
         &[
             "plugin-api/src/loader/c_abi.rs",

@@ -1454,18 +1454,7 @@ fn fit_study(
         data_for_any_rig: a.data_for_any_rig,
     };
     let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &runs, registry, &options)?;
-    let header = format!(
-        "Calibrated by `tribo fit` on rig {} against {} points in {} run(s): RMSE {:.4} N m in sample, {} N m leave-one-out.\nParameters fitted: {}",
-        rig.file.name,
-        result.measured_nm.len(),
-        runs.len(),
-        result.rmse_nm,
-        result
-            .scores
-            .cv_rmse_nm
-            .map_or("(not computed)".to_string(), |v| format!("{v:.4}")),
-        result.params.join(", ")
-    );
+    let header = tribo::fit::calibrated_header(&rig, &result, runs.len());
     let text = fitted
         .to_toml(&header)
         .context("serialising the calibrated law set")?;

@@ -426,7 +426,11 @@ pub(crate) fn fit_local(job: &str) -> Result<(Box<FitResult>, String), Failure> 
     let free = ls.free_params(&registry, job.params.as_deref())?;
     let (result, fitted) = tribo_studies::fit::fit(&rig, &ls, &free, &runs, &registry, &options)?;
     let text = fitted
-        .to_toml(&fit_header(&rig, &result, runs.len()))
+        .to_toml(&tribo_studies::fit::calibrated_header(
+            &rig,
+            &result,
+            runs.len(),
+        ))
         .map_err(|e| {
             Failure::new(
                 Kind::Simulation,
@@ -434,22 +438,6 @@ pub(crate) fn fit_local(job: &str) -> Result<(Box<FitResult>, String), Failure> 
             )
         })?;
     Ok((Box::new(result), text))
-}
-
-/// The header `tribo fit` writes above a calibrated law set.
-pub(crate) fn fit_header(rig: &Rig, result: &FitResult, runs: usize) -> String {
-    format!(
-        "Calibrated by `tribo fit` on rig {} against {} points in {} run(s): RMSE {:.4} N m in sample, {} N m leave-one-out.\nParameters fitted: {}",
-        rig.file.name,
-        result.measured_nm.len(),
-        runs,
-        result.rmse_nm,
-        result
-            .scores
-            .cv_rmse_nm
-            .map_or("(not computed)".to_string(), |v| format!("{v:.4}")),
-        result.params.join(", ")
-    )
 }
 
 /// A `tribo sweep` job.

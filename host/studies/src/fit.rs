@@ -426,3 +426,20 @@ fn start_spread(free: &[FreeParam], starts: &[StartOutcome], best_rmse: f64) -> 
     }
     out
 }
+
+/// The comment `tribo fit` (and Python's `fit`) writes above a calibrated law set: the rig, the
+/// points and runs it was fitted to, its in-sample and leave-one-out RMSE, the parameters.
+pub fn calibrated_header(rig: &Rig, result: &FitResult, runs: usize) -> String {
+    format!(
+        "Calibrated by `tribo fit` on rig {} against {} points in {} run(s): RMSE {:.4} N m in sample, {} N m leave-one-out.\nParameters fitted: {}",
+        rig.file.name,
+        result.measured_nm.len(),
+        runs,
+        result.rmse_nm,
+        result
+            .scores
+            .cv_rmse_nm
+            .map_or("(not computed)".to_string(), |v| format!("{v:.4}")),
+        result.params.join(", ")
+    )
+}

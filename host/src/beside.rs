@@ -581,9 +581,6 @@ const PLOTTED: [&str; 7] = [
     "total",
 ];
 
-/// Label, speeds, Tribo's values and the correlation's (each `None` where it has none).
-pub(crate) type Series = (String, Vec<f64>, Vec<Option<f64>>, Vec<Option<f64>>);
-
 /// `fmep_correlation.svg` of `run --fmep` (`lawset` `None`) or `correlation_<lawset>.svg` of
 /// `compare`: Tribo's and the correlation's FMEP per component against speed, the law set named
 /// in the title where the run is one of several.

@@ -7,6 +7,8 @@
 //! Its own modules:
 //!
 //! - [`report`]: tables for people, CSV tables (through the `csv` writer);
+//! - [`results`]: the result directories of `run`, `compare`, `mass-response` and `sweep`:
+//!   report's tables, the plots and the correlation files put together, swapped in whole;
 //! - [`plots`]: SVG plots of comparisons, mass responses and sweeps, with the files beside them;
 //! - [`beside`]: the Sandoval-Heywood correlation beside the laws' FMEP (tables, CSV, plots);
 //! - [`output`]: results written atomically: a result directory swapped in whole, a single
@@ -33,6 +35,7 @@ pub mod output;
 pub mod plots;
 pub mod progress;
 pub mod report;
+pub mod results;
 pub mod scaffold;
 pub mod timeseries;
 

@@ -896,15 +896,15 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(dir) = &csv {
-        tribo::report::write_csv(&result, dir)
+        tribo::results::write_csv(&result, dir)
             .with_context(|| format!("writing CSV into {}", dir.display()))?;
     }
     if let Some(dir) = &fmep {
-        tribo::report::write_fmep(&result, dir)
+        tribo::results::write_fmep(&result, dir)
             .with_context(|| format!("writing FMEP into {}", dir.display()))?;
     }
     if let (Some(dir), Some(traces)) = (&crank_angle, &traces) {
-        tribo::report::write_crank_angle(traces, dir)
+        tribo::results::write_crank_angle(traces, dir)
             .with_context(|| format!("writing crank-angle results into {}", dir.display()))?;
     }
     if json {
@@ -1210,7 +1210,7 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
     };
     drop(progress);
     let out = &a.out;
-    tribo::plots::write_comparison(&cmp, out)
+    tribo::results::write_comparison(&cmp, out)
         .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&cmp)?)?;
@@ -1232,7 +1232,7 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
             "correlation.csv".into(),
             "correlation_*.svg".into(),
         ];
-        files.extend(cmp.sets.iter().filter_map(tribo::plots::fitted_file));
+        files.extend(cmp.sets.iter().filter_map(tribo::results::fitted_file));
         write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
@@ -1423,7 +1423,7 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
     };
     drop(progress);
     let out = &a.out;
-    let files = tribo::plots::write_mass_response(&result, out, a.scales.is_some())
+    let files = tribo::results::write_mass_response(&result, out, a.scales.is_some())
         .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;
@@ -1456,18 +1456,7 @@ fn fit_study(
         data_for_any_rig: a.data_for_any_rig,
     };
     let (result, fitted) = tribo::fit::fit(&rig, &ls, &free, &runs, registry, &options)?;
-    let header = format!(
-        "Calibrated by `tribo fit` on rig {} against {} points in {} run(s): RMSE {:.4} N m in sample, {} N m leave-one-out.\nParameters fitted: {}",
-        rig.file.name,
-        result.measured_nm.len(),
-        runs.len(),
-        result.rmse_nm,
-        result
-            .scores
-            .cv_rmse_nm
-            .map_or("(not computed)".to_string(), |v| format!("{v:.4}")),
-        result.params.join(", ")
-    );
+    let header = tribo::fit::calibrated_header(&rig, &result, runs.len());
     let text = fitted
         .to_toml(&header)
         .context("serialising the calibrated law set")?;
@@ -1638,7 +1627,7 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
         merge_sweeps(&sets_loaded, results)?
     };
     let out = &a.out;
-    let files = tribo::plots::write_sweep(&result, out)
+    let files = tribo::results::write_sweep(&result, out)
         .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
         writeln!(out_text, "{}", serde_json::to_string_pretty(&result)?)?;

@@ -28,7 +28,7 @@ use plotters::coord::ranged1d::Ranged;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use crate::output::{OutputError, ResultDir};
+use crate::output::OutputError;
 use crate::study::Comparison;
 
 type PlotResult = Result<(), Box<dyn std::error::Error>>;
@@ -106,61 +106,33 @@ where
     Ok(())
 }
 
-fn io(e: impl std::fmt::Display) -> std::io::Error {
+pub(crate) fn io(e: impl std::fmt::Display) -> std::io::Error {
     std::io::Error::other(e.to_string())
 }
 
-/// Write the result set of a comparison into `dir` (`compare --out`): `comparison.csv`,
-/// `scores.csv`, `validation.csv`, the SVG plots, `comparison.json`, and each fitted set with
-/// its fitted values as `fitted_<set>.toml` (the values it was ranked by). The set is rendered
-/// into a temporary directory and swapped in whole ([`ResultDir`]), so `dir` is always the old
-/// set or the new one, and plots of law sets no longer compared disappear with the old set.
-pub fn write_comparison(c: &Comparison, dir: &Path) -> Result<(), OutputError> {
-    let mut out = ResultDir::create(dir, "compare", "--out")?;
-    out.write(
-        "comparison.csv",
-        rendered("comparison.csv", crate::report::comparison_csv(c))?.as_bytes(),
-    )?;
-    out.write(
-        "scores.csv",
-        rendered("scores.csv", crate::report::scores_csv(c))?.as_bytes(),
-    )?;
-    out.write(
-        "validation.csv",
-        rendered("validation.csv", crate::report::validation_csv(c))?.as_bytes(),
-    )?;
-    let name = "torque_vs_speed.svg";
-    out.write(name, rendered(name, svg(|s| torque_plot(c, s)))?.as_bytes())?;
-    for set in &c.sets {
-        let name = format!("contributions_{}.svg", set.lawset);
-        let text = rendered(&name, svg(|s| contributions_plot(set, s)))?;
-        out.write(&name, text.as_bytes())?;
-    }
-    let name = "piston_regimes.svg";
-    out.write(
-        name,
-        rendered(name, svg(|s| regimes_plot(c, s)))?.as_bytes(),
-    )?;
-    let json = rendered(
-        "comparison.json",
-        serde_json::to_string_pretty(c).map_err(io),
-    )?;
-    out.write("comparison.json", json.as_bytes())?;
-    for set in &c.sets {
-        if let (Some(name), Some(text)) = (fitted_file(set), &set.fitted_lawset_toml) {
-            out.write(&name, text.as_bytes())?;
-        }
-    }
-    crate::beside::write_comparison(c, &mut out)?;
-    out.commit()
+/// `torque_vs_speed.svg` of `compare`: each set's torque against the measured points.
+pub fn torque_svg(c: &Comparison) -> std::io::Result<String> {
+    svg(|s| torque_plot(c, s))
 }
 
-/// The file a fitted set's calibrated law set is written to, `fitted_<set>.toml`.
-pub fn fitted_file(s: &crate::study::SetResult) -> Option<String> {
-    s.fitted_lawset_toml
-        .as_ref()
-        .map(|_| format!("fitted_{}.toml", file_stem(&s.lawset)))
+/// `contributions_<set>.svg` of `compare`: the joints' shares of one set's torque.
+pub fn contributions_svg(set: &crate::study::SetResult) -> std::io::Result<String> {
+    svg(|s| contributions_plot(set, s))
 }
+
+/// `piston_regimes.svg` of `compare`: the pistons' lubrication regimes per set.
+pub fn regimes_svg(c: &Comparison) -> std::io::Result<String> {
+    svg(|s| regimes_plot(c, s))
+}
+
+/// `sweep_<set>.svg` of `sweep`: one set's torque over oil temperature and speed.
+pub fn sweep_svg(s: &crate::study::Sweep, set: &crate::study::SweepSet) -> std::io::Result<String> {
+    svg(|o| sweep_plot(s, set, o))
+}
+
+/// Label, speeds, Tribo's values and the correlation's (each `None` where it has none): one
+/// line pair of [`correlation_svg`].
+pub(crate) type Series = (String, Vec<f64>, Vec<Option<f64>>, Vec<Option<f64>>);
 
 /// A rendered file's text, or the error naming the file.
 fn rendered<T>(what: &str, r: std::io::Result<T>) -> Result<T, OutputError> {
@@ -562,42 +534,9 @@ fn piston_regimes(s: &crate::study::SetResult) -> Vec<(f64, [f64; 3])> {
         .collect()
 }
 
-/// Write the result set of a mass study into `dir` (`mass-response --out`):
-/// `mass_response.json`, and with `sweep_plot` (a sweep of scales) `mass_sweep.svg`, the torque
-/// change against scale factor. Swapped in whole like [`write_comparison`]. Returns the names
-/// of the files written.
-pub fn write_mass_response(
-    r: &[crate::study::MassResponse],
-    dir: &Path,
-    sweep_plot: bool,
-) -> Result<Vec<String>, OutputError> {
-    let mut out = ResultDir::create(dir, "mass-response", "--out")?;
-    let json = rendered(
-        "mass_response.json",
-        serde_json::to_string_pretty(r).map_err(io),
-    )?;
-    out.write("mass_response.json", json.as_bytes())?;
-    for (name, text) in [
-        ("mass_response.csv", crate::report::mass_csv(r)),
-        (
-            "mass_response_joints.csv",
-            crate::report::mass_joints_csv(r),
-        ),
-    ] {
-        out.write(name, rendered(name, text)?.as_bytes())?;
-    }
-    if sweep_plot {
-        let name = "mass_sweep.svg";
-        out.write(name, rendered(name, mass_sweep_svg(r))?.as_bytes())?;
-    }
-    let files = out.files().to_vec();
-    out.commit()?;
-    Ok(files)
-}
-
 /// Torque change against scale factor, one line per law set and speed (SVG text), the legend
 /// beside the plot.
-fn mass_sweep_svg(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
+pub fn mass_sweep_svg(r: &[crate::study::MassResponse]) -> std::io::Result<String> {
     svg(|out| {
         let mut lines: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
         for set in r {
@@ -892,26 +831,6 @@ fn sweep_plot(
     legend_beside(&side, title, &entries)?;
     root.present()?;
     Ok(())
-}
-
-/// Write the result set of a sweep into `dir` (`sweep --out`): `sweep.csv`,
-/// `sweep_<lawset>.svg` per law set and `sweep.json`, swapped in whole like
-/// [`write_comparison`]. Returns the names of the files written.
-pub fn write_sweep(s: &crate::study::Sweep, dir: &Path) -> Result<Vec<String>, OutputError> {
-    let mut out = ResultDir::create(dir, "sweep", "--out")?;
-    let csv = rendered("sweep.csv", crate::report::sweep_csv(s).map_err(io))?;
-    out.write("sweep.csv", csv.as_bytes())?;
-    for set in &s.sets {
-        let name = format!("sweep_{}.svg", file_stem(&set.lawset));
-        let text = rendered(&name, svg(|o| sweep_plot(s, set, o)))?;
-        out.write(&name, text.as_bytes())?;
-    }
-    let json = rendered("sweep.json", serde_json::to_string_pretty(s).map_err(io))?;
-    out.write("sweep.json", json.as_bytes())?;
-    crate::beside::write_sweep(s, &mut out)?;
-    let files = out.files().to_vec();
-    out.commit()?;
-    Ok(files)
 }
 
 /// The SVG of `tribo plot-law`: a law's force (or torque) against sliding velocity through
@@ -1433,10 +1352,7 @@ fn piston_offset_plot(
 /// FMEP against crank speed per component, Tribo's and the correlation's: one colour per
 /// component, Tribo solid and the correlation dashed (`run --fmep`'s `fmep_correlation.svg`,
 /// `compare`'s `correlation_<set>.svg`); FMEP from 0.
-pub(crate) fn correlation_svg(
-    title: &str,
-    series: &[crate::beside::Series],
-) -> std::io::Result<String> {
+pub(crate) fn correlation_svg(title: &str, series: &[Series]) -> std::io::Result<String> {
     svg(|out| {
         let root = SVGBackend::with_string(out, (1100, 600)).into_drawing_area();
         root.fill(&WHITE)?;

@@ -22,7 +22,7 @@ use pyo3::prelude::*;
 use serde::{Deserialize, Serialize};
 use tribo_isolate::{Event, Limits, WorkerFailure};
 
-use crate::{Failure, Kind};
+use crate::failure::{Failure, Kind};
 
 /// A job for the worker: the function and its job JSON.
 #[derive(Serialize, Deserialize)]
@@ -38,14 +38,14 @@ pub(crate) enum Job {
     /// `sweep`.
     Sweep(String),
     /// `laws`.
-    Laws(crate::LawsJob),
+    Laws(crate::jobs::LawsJob),
 }
 
 /// A worker's answer: the function's result, or its failure (exception class and message).
 #[derive(Serialize, Deserialize)]
 pub(crate) enum Output {
     /// `run`.
-    Run(Box<crate::RunReply>),
+    Run(Box<crate::jobs::RunReply>),
     /// `compare`.
     Compare(Box<tribo_studies::study::Comparison>),
     /// `mass_response`.
@@ -192,8 +192,9 @@ pub(crate) fn dispatch<T: Send>(
     pick: fn(Output) -> Option<T>,
 ) -> PyResult<T> {
     let iso: Isolation = match isolation {
-        Some(text) => serde_json::from_str(text)
-            .map_err(|e| crate::raise(py, Failure::new(Kind::Input, format!("isolation: {e}"))))?,
+        Some(text) => serde_json::from_str(text).map_err(|e| {
+            crate::failure::raise(py, Failure::new(Kind::Input, format!("isolation: {e}")))
+        })?,
         None => Isolation::default(),
     };
     let limits = Limits {
@@ -202,10 +203,10 @@ pub(crate) fn dispatch<T: Send>(
         call_s: iso.call_limit_s,
     }
     .checked(["time_limit_s", "memory_limit_mb", "call_limit_s"])
-    .map_err(|e| crate::raise(py, Failure::new(Kind::Input, e.to_string())))?;
+    .map_err(|e| crate::failure::raise(py, Failure::new(Kind::Input, e.to_string())))?;
     if iso.in_process {
         let job = wrap(job.to_string());
-        return crate::detached(py, move || match pick(local(job)) {
+        return crate::failure::detached(py, move || match pick(local(job)) {
             Some(t) => Ok(t),
             None => Err(Failure::new(
                 Kind::Simulation,
@@ -214,7 +215,7 @@ pub(crate) fn dispatch<T: Send>(
         });
     }
     let command = Program::find(py)
-        .map_err(|f| crate::raise(py, f))?
+        .map_err(|f| crate::failure::raise(py, f))?
         .command();
     let job = wrap(job.to_string());
     let mut interrupted: Option<PyErr> = None;
@@ -243,17 +244,18 @@ pub(crate) fn dispatch<T: Send>(
         return Err(e);
     }
     match answer {
-        Ok(Output::Failed(f)) => Err(crate::raise(py, f)),
+        Ok(Output::Failed(f)) => Err(crate::failure::raise(py, f)),
         Ok(o) => pick(o).ok_or_else(|| {
-            crate::raise(
+            crate::failure::raise(
                 py,
                 Failure::new(Kind::Simulation, "a worker answered another job's question"),
             )
         }),
-        Err(WorkerFailure::Study(message)) => {
-            Err(crate::raise(py, Failure::new(Kind::Simulation, message)))
-        }
-        Err(e) => Err(crate::raise(
+        Err(WorkerFailure::Study(message)) => Err(crate::failure::raise(
+            py,
+            Failure::new(Kind::Simulation, message),
+        )),
+        Err(e) => Err(crate::failure::raise(
             py,
             Failure::new(Kind::Simulation, format!("{what} failed: {e}")),
         )),
@@ -264,11 +266,11 @@ pub(crate) fn dispatch<T: Send>(
 /// there, never in this one); a file whose loading ended, crashed or hung a worker is left out
 /// and listed as broken with the reason, as `tribo laws` does.
 pub(crate) fn laws(py: Python<'_>, plugin_paths: &[PathBuf]) -> PyResult<serde_json::Value> {
-    let program = Program::find(py).map_err(|f| crate::raise(py, f))?;
+    let program = Program::find(py).map_err(|f| crate::failure::raise(py, f))?;
     let mut interrupted: Option<PyErr> = None;
     let listed = py.detach(|| {
         tribo_isolate::listing::skipping_unloadable(|skip| {
-            let job = Job::Laws(crate::LawsJob {
+            let job = Job::Laws(crate::jobs::LawsJob {
                 plugin_paths: plugin_paths
                     .iter()
                     .filter(|p| !skip.iter().any(|(s, _)| s == *p))
@@ -293,12 +295,15 @@ pub(crate) fn laws(py: Python<'_>, plugin_paths: &[PathBuf]) -> PyResult<serde_j
     }
     let (text, skipped) = match listed {
         Ok((Ok(text), skipped)) => (text, skipped),
-        Ok((Err(f), _)) => return Err(crate::raise(py, f)),
+        Ok((Err(f), _)) => return Err(crate::failure::raise(py, f)),
         Err(WorkerFailure::Study(message)) => {
-            return Err(crate::raise(py, Failure::new(Kind::Simulation, message)))
+            return Err(crate::failure::raise(
+                py,
+                Failure::new(Kind::Simulation, message),
+            ))
         }
         Err(e) => {
-            return Err(crate::raise(
+            return Err(crate::failure::raise(
                 py,
                 Failure::new(Kind::Simulation, format!("listing the laws failed: {e}")),
             ))
@@ -306,7 +311,7 @@ pub(crate) fn laws(py: Python<'_>, plugin_paths: &[PathBuf]) -> PyResult<serde_j
     };
     // A skipped file given in `plugin_paths` is not in the worker's listing: add it here.
     let mut value: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-        crate::raise(
+        crate::failure::raise(
             py,
             Failure::new(Kind::Simulation, format!("reading the listing: {e}")),
         )
@@ -325,12 +330,12 @@ pub(crate) fn laws(py: Python<'_>, plugin_paths: &[PathBuf]) -> PyResult<serde_j
 /// Run `job` here, its failure as an answer.
 fn local(job: Job) -> Output {
     let r = match job {
-        Job::Run(j) => crate::run_local(&j).map(|r| Output::Run(Box::new(r))),
-        Job::Compare(j) => crate::compare_local(&j).map(Output::Compare),
-        Job::MassResponse(j) => crate::mass_response_local(&j).map(Output::MassResponse),
-        Job::Fit(j) => crate::fit_local(&j).map(Output::Fit),
-        Job::Sweep(j) => crate::sweep_local(&j).map(Output::Sweep),
-        Job::Laws(j) => crate::laws_local(&j).map(Output::Laws),
+        Job::Run(j) => crate::jobs::run_local(&j).map(|r| Output::Run(Box::new(r))),
+        Job::Compare(j) => crate::jobs::compare_local(&j).map(Output::Compare),
+        Job::MassResponse(j) => crate::jobs::mass_response_local(&j).map(Output::MassResponse),
+        Job::Fit(j) => crate::jobs::fit_local(&j).map(Output::Fit),
+        Job::Sweep(j) => crate::jobs::sweep_local(&j).map(Output::Sweep),
+        Job::Laws(j) => crate::jobs::laws_local(&j).map(Output::Laws),
     };
     r.unwrap_or_else(Output::Failed)
 }

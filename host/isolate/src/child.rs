@@ -15,7 +15,8 @@ use serde::Serialize;
 use tribo_plugin_api::loader::inflight;
 
 use crate::frame::{self, Kind};
-use crate::{guard, sys, Limits, Reply};
+use crate::terms::{Limits, Reply};
+use crate::{guard, sys};
 
 /// The worker's end of the request/reply socket.
 pub(crate) const CHANNEL_FD: i32 = 3;

@@ -20,7 +20,7 @@ use tribo_plugin_api::loader::inflight;
 use tribo_plugin_api::{JointKind, LawInput};
 
 use crate::frame;
-use crate::Limits;
+use crate::terms::Limits;
 
 /// Set once the command has finished and may exit; before that, `exit()` is a law's doing.
 static MAY_EXIT: AtomicBool = AtomicBool::new(true);
@@ -428,7 +428,7 @@ extern "C" fn on_fatal_signal(signal: libc::c_int) {
         report_running();
     } else {
         write_stderr(b"error: tribo was stopped by a fatal signal (");
-        write_stderr(crate::signal_name(signal).as_bytes());
+        write_stderr(crate::terms::signal_name(signal).as_bytes());
         write_stderr(b"); no results were written\n");
         report_running();
         write_stderr(b"note: without --in-process, tribo runs laws in a separate process, so one crashing law fails only its own run or law set\n");

@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use crate::WorkerFailure;
+use crate::terms::WorkerFailure;
 
 /// The most plugin files a listing leaves out before it gives up (each costs a worker process).
 pub const MAX_SKIPPED: usize = 256;

@@ -18,8 +18,9 @@ use tribo_plugin_api::loader::inflight;
 
 use crate::child::{Shared, CHANNEL_FD, MARKER_FD, SHARED_FD, SHARED_LEN};
 use crate::frame::{self, Kind, Parsed};
+use crate::guard;
 use crate::sys::{self, State};
-use crate::{guard, Limits, Reply, WorkerFailure};
+use crate::terms::{Limits, Reply, WorkerFailure, NO_CALL_PREFIX};
 
 /// How often the parent looks at its workers.
 const TICK: Duration = Duration::from_millis(20);
@@ -654,7 +655,7 @@ impl Worker {
         if laws.is_empty() {
             return Vec::new();
         }
-        vec![format!("{}{}", crate::NO_CALL_PREFIX, laws.join(", "))]
+        vec![format!("{}{}", NO_CALL_PREFIX, laws.join(", "))]
     }
 
     /// The limits the worker enforces itself, enforced again from outside a little later: a

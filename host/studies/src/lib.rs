@@ -8,7 +8,11 @@
 //! go through `tribo_core`; rigs and law sets come from `tribo_config`. No printing, no files
 //! written: results are plain data (serde) for any front end.
 
+pub mod calibrate;
+pub mod error;
 pub mod fit;
+pub mod inputs;
+pub mod model;
 pub mod score;
 pub mod study;
 pub mod uncertainty;

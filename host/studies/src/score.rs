@@ -21,10 +21,42 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use tribo_plugin_api::loader::LawRegistry;
 
-use crate::fit::{calibrate, TorqueModel};
-use crate::study::{errors, prepare, run_rig, DataRun, StudyError};
+use crate::calibrate::calibrate;
+use crate::error::StudyError;
+use crate::inputs::{errors, prepare, run_rig, DataRow, DataRun};
+use crate::model::TorqueModel;
 use tribo_config::lawset::LawSet;
 use tribo_config::rig::Rig;
+
+/// Two sets whose torques differ by at most this at every data point give "the same torques",
+/// N m: a fiftieth of the bundled data's declared noise, far below anything a torque
+/// transducer resolves.
+pub const SAME_TORQUE_NM: f64 = 1e-3;
+
+/// How a set's free parameters entered a comparison.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CalibrationStatus {
+    /// Calibrated on the comparison's data before it was scored (as `tribo fit` does).
+    #[serde(rename = "fitted")]
+    Fitted,
+    /// Kept at the law-set file's values (`--no-fit`), and scored as they are.
+    #[serde(rename = "not fitted")]
+    NotFitted,
+    /// The set has no free parameters.
+    #[serde(rename = "no free parameters")]
+    NoFreeParameters,
+}
+
+impl CalibrationStatus {
+    /// The words used in tables, CSV and plot legends.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Fitted => "fitted",
+            Self::NotFitted => "not fitted",
+            Self::NoFreeParameters => "no free parameters",
+        }
+    }
+}
 
 /// Out-of-sample and information-criterion scores of one law set on one data set.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -260,7 +292,7 @@ pub fn temperature_response(
         data.with_rows(
             data.rows
                 .iter()
-                .map(|d| crate::study::DataRow {
+                .map(|d| DataRow {
                     oil_temp_c: (d.oil_temp_c + dt).clamp(lo_c, hi_c),
                     ..*d
                 })
@@ -334,7 +366,6 @@ fn display(p: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::study::DataRow;
 
     #[test]
     fn information_criteria_by_hand() {

@@ -12,7 +12,7 @@ use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use statrs::distribution::{ContinuousCDF, StudentsT};
 
-use crate::fit::TorqueModel;
+use crate::model::TorqueModel;
 
 /// The linearised uncertainty of a parameter set on its data.
 #[derive(Debug, Clone, Serialize, Deserialize)]

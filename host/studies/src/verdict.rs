@@ -1,4 +1,6 @@
 //! The one-sentence verdict of a comparison: what the scores let a user conclude, in words.
+//! It reads a summary of each set ([`SetSummary`]), never the comparison itself, so the
+//! comparison (`study::judge`) calls it and not the other way round.
 //!
 //! The sentence is chosen by these rules, in order (the rule's name is in the JSON):
 //!
@@ -22,7 +24,7 @@
 //!      share of the measured value there), and the state of its parameters.
 //!
 //! Sets tied with the best one in the ranking (their out-of-sample errors within the noise
-//! `s` of the best's, [`crate::study::rank_sets`]) are named with it as **indistinguishable**,
+//! `s` of the best's, `study::rank_sets`) are named with it as **indistinguishable**,
 //! saying why: the same torque at every point, or errors apart by less than the noise.
 //!
 //! Whatever the rule under 3, a best set whose torque rises by more than
@@ -31,7 +33,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::study::{CalibrationStatus, Comparison, SetResult};
+use crate::score::{CalibrationStatus, SAME_TORQUE_NM, TEMPERATURE_RISE_FLAG_PERCENT};
 
 /// Share of the mean measured torque taken as the data's noise when the data file declares
 /// none, an assumption the verdict names. estimate: a round figure for the repeatability of a
@@ -118,33 +120,6 @@ pub struct SetSummary {
     pub same_torques: bool,
 }
 
-impl SetSummary {
-    /// The summary of a comparison's set.
-    pub fn of(s: &SetResult) -> Self {
-        Self {
-            name: s.lawset.clone(),
-            out_of_sample_nm: s.scores.cv_rmse_nm,
-            point_errors_nm: s.scores.cv_errors_nm.clone(),
-            status: s.calibration.status,
-            params: s.calibration.params.len(),
-            on_bounds: s.calibration.on_bounds(),
-            undetermined: s.calibration.undetermined(),
-            prior_fitted: s.scores.prior_fitted_params,
-            max_rise_percent_per_10c: s.temperature_response.max_rise_percent_per_10c,
-            tied_with: s.tie.as_ref().map(|t| t.with.clone()).unwrap_or_default(),
-            same_torques: s.tie.as_ref().is_some_and(|t| t.same_torques),
-        }
-    }
-}
-
-/// The verdict of `c` (see the module documentation for the rules).
-pub fn judge(c: &Comparison) -> Verdict {
-    let sets: Vec<SetSummary> = c.sets.iter().map(SetSummary::of).collect();
-    let measured: Vec<f64> = c.data.iter().map(|d| d.torque_nm).collect();
-    let speeds: Vec<f64> = c.data.iter().map(|d| d.speed_rpm).collect();
-    verdict(&sets, &measured, &speeds, c.noise_nm)
-}
-
 /// The verdict for sets `sets` on data `measured` at `speeds_rpm` with declared noise
 /// `noise_nm` (see the module documentation for the rules).
 pub fn verdict(
@@ -210,7 +185,7 @@ pub fn verdict(
             if best.same_torques {
                 format!(
                     "the same torque within {} N m at every point",
-                    crate::study::SAME_TORQUE_NM
+                    SAME_TORQUE_NM
                 )
             } else {
                 format!(
@@ -311,7 +286,7 @@ pub fn verdict(
             ),
         )
     };
-    if best.max_rise_percent_per_10c > crate::score::TEMPERATURE_RISE_FLAG_PERCENT {
+    if best.max_rise_percent_per_10c > TEMPERATURE_RISE_FLAG_PERCENT {
         sentence.push_str(&format!(
             "; its torque rises {:.0}% per 10 C of oil warming, against full-film physics",
             best.max_rise_percent_per_10c

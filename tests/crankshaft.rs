@@ -98,6 +98,15 @@ fn the_elastic_crankshafts_modes_solve_its_printed_chain() {
         ]
     );
     closed_form::assert_modes_solve(&report);
+    // The springs carry the rig file's damping (at crank speed: the shaft turns with the
+    // crank, so nothing is reflected): 2 N m s/rad per section, 1.3 in the damper's layer.
+    let damping: Vec<f64> = report["springs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| num(&s["damping_nm_s_per_rad"]))
+        .collect();
+    assert_eq!(damping, [2.0, 2.0, 2.0, 2.0, 2.0, 1.3]);
     // A throw's cycle-mean inertia: its own (a quarter of the 0.020 kg m^2 crank and two
     // 0.35 kg counterweights at 45 mm) plus its rod and piston, which move with less than
     // their whole mass (0.55 + 0.40 kg) at the crank radius (43 mm) on average.

@@ -830,6 +830,8 @@ pub struct SpringReport {
     pub between: [String; 2],
     /// Stiffness at crank speed, N m/rad.
     pub stiffness_nm_per_rad: f64,
+    /// Viscous damping at crank speed, N m s/rad (the modes are undamped; the runs use it).
+    pub damping_nm_s_per_rad: f64,
 }
 
 /// Where an engine order crosses a mode: the crank speed at which `order` times the
@@ -940,6 +942,7 @@ impl Chain {
                     name: s.name.clone(),
                     between: [self.names[i].clone(), self.names[i + 1].clone()],
                     stiffness_nm_per_rad: s.k,
+                    damping_nm_s_per_rad: s.c,
                 })
                 .collect(),
             modes,

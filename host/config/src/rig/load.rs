@@ -49,21 +49,64 @@ fn apply_set(table: &mut toml::Table, assignment: &str) -> Result<String, RigErr
         .ok_or_else(|| err(key, "empty key".into()))?;
     let mut cur = table;
     for (i, p) in parents.iter().enumerate() {
-        cur = match cur
-            .entry((*p).to_string())
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
-        {
+        let at = parts[..=i].join(".");
+        let (name, index) = indexed(p).map_err(|m| err(key, m))?;
+        let slot = match index {
+            None => cur
+                .entry(name.to_string())
+                .or_insert_with(|| toml::Value::Table(toml::Table::new())),
+            Some(k) => element(cur, name, k).map_err(|m| err(key, m))?,
+        };
+        cur = match slot {
             toml::Value::Table(t) => t,
-            _ => {
-                return Err(err(
-                    key,
-                    format!("`{}` is not a table", parts[..=i].join(".")),
-                ))
-            }
+            _ => return Err(err(key, format!("`{at}` is not a table"))),
         };
     }
-    cur.insert((*last).to_string(), value);
+    match indexed(last).map_err(|m| err(key, m))? {
+        (name, None) => {
+            cur.insert(name.to_string(), value);
+        }
+        (name, Some(k)) => *element(cur, name, k).map_err(|m| err(key, m))? = value,
+    }
     Ok(key.to_string())
+}
+
+/// A `--set` key's part: its name and, for `name[k]`, the array index `k`.
+fn indexed(part: &str) -> Result<(&str, Option<usize>), String> {
+    let Some((name, rest)) = part.split_once('[') else {
+        return Ok((part, None));
+    };
+    let index = rest
+        .strip_suffix(']')
+        .and_then(|k| k.trim().parse::<usize>().ok())
+        .ok_or_else(|| {
+            format!(
+                "`{part}`: expected `{name}[INDEX]` with a whole number from 0, e.g. `{name}[0]`"
+            )
+        })?;
+    Ok((name, Some(index)))
+}
+
+/// Element `k` of the array `name` in `table`: it must be there (a `--set` changes an element
+/// of an array the rig has; it does not grow it).
+fn element<'a>(
+    table: &'a mut toml::Table,
+    name: &str,
+    k: usize,
+) -> Result<&'a mut toml::Value, String> {
+    match table.get_mut(name) {
+        Some(toml::Value::Array(a)) => {
+            let len = a.len();
+            a.get_mut(k).ok_or_else(|| {
+                format!(
+                    "`{name}` has {len} entries (indices 0 to {}), not an entry {k}",
+                    len.saturating_sub(1)
+                )
+            })
+        }
+        Some(_) => Err(format!("`{name}` is not an array: it takes no index")),
+        None => Err(format!("no `{name}` here to index")),
+    }
 }
 
 /// Overlay `child` on `base`: tables merge key by key, anything else replaces.
@@ -338,4 +381,44 @@ fn unknown_key_in_table(mut err: RigError, table_path: &str, table: &toml::Table
         };
     }
     err
+}
+
+#[cfg(test)]
+mod tests {
+    use super::apply_set;
+
+    fn table() -> toml::Table {
+        "[drivetrain]\nelements = [{ kind = \"shaft\", k = 1.0 }, { kind = \"belt\", k = 2.0 }]\n"
+            .parse()
+            .unwrap()
+    }
+
+    #[test]
+    fn a_set_reaches_an_array_element_and_refuses_one_the_array_has_not() {
+        let mut t = table();
+        apply_set(&mut t, "drivetrain.elements[1].k=5.0").unwrap();
+        let elements = t["drivetrain"]["elements"].as_array().unwrap();
+        assert_eq!(elements[1]["k"].as_float(), Some(5.0));
+        assert_eq!(elements[0]["k"].as_float(), Some(1.0));
+        apply_set(
+            &mut t,
+            "drivetrain.elements[0]={ kind = \"shaft\", k = 3.0 }",
+        )
+        .unwrap();
+        assert_eq!(t["drivetrain"]["elements"][0]["k"].as_float(), Some(3.0));
+        let out = apply_set(&mut t, "drivetrain.elements[2].k=1").unwrap_err();
+        assert!(
+            out.message.contains("2 entries") && out.message.contains("entry 2"),
+            "{}",
+            out.message
+        );
+        let bad = apply_set(&mut t, "drivetrain.elements[x].k=1").unwrap_err();
+        assert!(bad.message.contains("whole number"), "{}", bad.message);
+        let scalar = apply_set(&mut t, "drivetrain[0].k=1").unwrap_err();
+        assert!(
+            scalar.message.contains("not an array"),
+            "{}",
+            scalar.message
+        );
+    }
 }

@@ -477,3 +477,53 @@ fn a_file_planted_in_the_result_folder_fails_the_planting_laws_set_and_the_other
     p.extend(other_sets_written(d, &ran.stdout));
     report("plant", &p, &ran);
 }
+
+/// A law that double-forks a sleeper into a session of its own (its parent ends at once, so
+/// the sleeper is nobody's descendant once orphaned): under `run`, where the law then behaves
+/// (exit 0) and where it then `_exit`s its worker (exit 1, the law named), the sleeper is
+/// killed with the worker's family, none of it survives tribo, and the run says how many
+/// processes it killed.
+#[test]
+fn a_sleeper_a_law_double_forks_does_not_survive_the_run_and_is_reported() {
+    ensure_plugins_built();
+    let root = tempfile::tempdir().expect("temp dir");
+    for (case, name, code) in [(12, "double-fork", 0), (13, "double-fork-exit", 1)] {
+        let dir = root.path().join(name);
+        std::fs::create_dir_all(&dir).expect("case dir");
+        let lib = build(&dir, case, name);
+        let pid_file = dir.join("child.pid");
+        let mut a = args(Cmd::Run, &lib, &format!("mischief-{name}"), &dir, false);
+        a.extend(["--time-limit-s".into(), "20".into()]);
+        let env = [(
+            "TRIBO_TEST_PID_FILE",
+            pid_file.to_string_lossy().into_owned(),
+        )];
+        let ran = run_as_callee(&a, &dir, &env, Duration::from_secs(60));
+        let outlived = still_running(&pid_file);
+        end_daemon(&pid_file);
+        let mut p = Vec::new();
+        if !pid_file.exists() {
+            p.push("the sleeper never started".to_string());
+        }
+        if !ran.caller_survived || ran.code != Some(code) {
+            p.push(format!("exit code {:?}, expected {code}", ran.code));
+        }
+        if let Some(pid) = outlived {
+            p.push(format!("the sleeper {pid} outlived tribo"));
+        }
+        let law = format!("law `mischief-{name}`");
+        for w in [
+            "1 process started by the laws of a worker",
+            "was still running when the worker ended",
+            law.as_str(),
+        ] {
+            if !ran.stderr.contains(w) {
+                p.push(format!("message lacks `{w}`"));
+            }
+        }
+        if ran.elapsed > Duration::from_secs(25) {
+            p.push(format!("took {:?}", ran.elapsed));
+        }
+        report(name, &p, &ran);
+    }
+}

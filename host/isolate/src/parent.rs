@@ -85,7 +85,12 @@ pub fn register_temp(path: &Path) -> TempGuard {
 /// On SIGINT, SIGTERM or SIGHUP: kill every worker's process group, remove the registered
 /// temporary paths, then end with the signal. For a command-line process (Python has its own
 /// Ctrl-C handling, [`Event::Tick`]).
+///
+/// The process also becomes a child subreaper (Linux): a process a law started that outlives
+/// its worker (a double fork, a worker that `_exit`ed) is adopted by it instead of by init, and
+/// killed and counted with its worker's family.
 pub fn handle_termination() {
+    sys::adopt_orphans();
     let Some(pipe) = sys::termination_pipe() else {
         return;
     };
@@ -105,9 +110,9 @@ pub fn handle_termination() {
                 }
             }
             let signal = i32::from(byte[0]);
-            for pgid in LIVE.lock().unwrap_or_else(|p| p.into_inner()).iter() {
-                sys::kill_escaped(*pgid, libc::SIGKILL);
-                sys::killpg(*pgid, libc::SIGKILL);
+            let live = LIVE.lock().unwrap_or_else(|p| p.into_inner());
+            for pgid in live.iter() {
+                sys::end_family(*pgid, &live);
             }
             // Held until the process is gone: an owner that drops its guard to put its
             // temporary in place (a result set's swap) waits, and never moves a half-removed one.
@@ -204,11 +209,15 @@ impl Worker {
         unsafe {
             command.pre_exec(move || sys::child_setup(&moves, parent));
         }
+        // Started and listed under the lock, so another worker's end never takes this one,
+        // seen before it is listed, for an orphan to kill.
+        let mut live = LIVE.lock().unwrap_or_else(|p| p.into_inner());
         let mut child = command
             .spawn()
             .map_err(|e| io("starting a worker process", e))?;
         let pid = child.id() as libc::pid_t;
-        LIVE.lock().unwrap_or_else(|p| p.into_inner()).push(pid);
+        live.push(pid);
+        drop(live);
         drop((child_chan, child_markers, shared_fd));
         let stderr: OwnedFd = match child.stderr.take() {
             Some(e) => e.into(),
@@ -328,15 +337,30 @@ impl Worker {
         }
         // The worker is not reaped yet (peek does not reap), so its process group's id cannot
         // have been reused. Its children that left the group (`setsid`) first, while they are
-        // still its children and so can be found.
-        sys::kill_escaped(self.pid, libc::SIGKILL);
-        sys::killpg(self.pid, libc::SIGKILL);
+        // still its children and so can be found; then the orphans it or this process adopted.
+        let left = {
+            let mut live = LIVE.lock().unwrap_or_else(|p| p.into_inner());
+            live.retain(|p| *p != self.pid);
+            sys::end_family(self.pid, &live)
+        };
         sys::reap(self.pid, Duration::from_secs(2));
-        LIVE.lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .retain(|p| *p != self.pid);
         self.pid = 0;
         self.ended = true;
+        if left > 0 {
+            let laws = match self.running_or_loaded().first() {
+                Some(l) => l
+                    .strip_prefix(crate::NO_CALL_PREFIX)
+                    .unwrap_or(l)
+                    .to_string(),
+                None => "no law".to_string(),
+            };
+            forward_stderr(&format!(
+                "warning: {left} process{} started by the laws of a worker ({laws}) {} still running when the worker ended (a daemon, or a double fork); tribo killed {}",
+                if left == 1 { "" } else { "es" },
+                if left == 1 { "was" } else { "were" },
+                if left == 1 { "it" } else { "them" },
+            ));
+        }
     }
 
     /// Send what is queued, as far as the socket takes it now.

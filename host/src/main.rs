@@ -1894,6 +1894,9 @@ fn cmd_fmu_export(g: &Globals, a: FmuExportArgs) -> anyhow::Result<()> {
 /// `tribo __fmu-worker RESOURCES`: one FMU instance's worker, answering on standard output
 /// (the real one: whatever a law prints goes to standard error).
 fn cmd_fmu_worker(a: &FmuWorkerArgs) -> anyhow::Result<()> {
+    // The law calls are marked on the page the FMU shares, before any law is loaded.
+    #[cfg(unix)]
+    isolate::page::adopt();
     struct Results;
     impl std::io::Write for Results {
         fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {

@@ -34,6 +34,8 @@ mod child;
 #[cfg(unix)]
 mod frame;
 #[cfg(unix)]
+pub mod page;
+#[cfg(unix)]
 mod parent;
 #[cfg(target_os = "linux")]
 pub mod planted;

@@ -445,19 +445,29 @@ fn a_rig_with_a_15_mib_name_is_reported_within_its_limits() {
     assert!(printed >= name.len(), "{printed} of {} printed", name.len());
 }
 
-/// A law that plants a file in the `--out` folder of a compare while it runs, beside an
-/// innocent set: the planting law's set fails (exit 1) naming the law, its library and the
-/// file; the planted file is removed; the innocent set's results are written and the failed
-/// set listed.
+/// A law that plants a file in the `--out` folder of a compare while it runs, itself or from
+/// a child process it starts, beside an innocent set: the planting law's set fails (exit 1)
+/// naming the law, its library and the file; the planted file is removed; the innocent set's
+/// results are written and the failed set listed.
 #[test]
 fn a_file_planted_in_the_result_folder_fails_the_planting_laws_set_and_the_others_are_written() {
+    planted_case(8, "plant");
+}
+
+#[test]
+fn a_file_a_laws_child_plants_in_the_result_folder_fails_that_laws_set_only() {
+    planted_case(14, "plant-child");
+}
+
+fn planted_case(case: u32, name: &str) {
     ensure_plugins_built();
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
-    let lib = build(d, 8, "plant");
+    let lib = build(d, case, name);
     let out = d.join("out");
     std::fs::create_dir(&out).expect("an empty --out");
-    let a = args(Cmd::Compare, &lib, "mischief-plant", d, false);
+    let law = format!("mischief-{name}");
+    let a = args(Cmd::Compare, &lib, &law, d, false);
     let env = [("TRIBO_TEST_PLANT_DIR", out.to_string_lossy().into_owned())];
     let ran = run_as_callee(&a, d, &env, Duration::from_secs(60));
     let lib_name = lib.file_name().expect("name").to_string_lossy();
@@ -465,7 +475,7 @@ fn a_file_planted_in_the_result_folder_fails_the_planting_laws_set_and_the_other
         &ran,
         &[
             "law set `hostile`",
-            "law `mischief-plant`",
+            &format!("law `{law}`"),
             &lib_name,
             "`planted.txt` into the result folder",
         ],
@@ -475,7 +485,7 @@ fn a_file_planted_in_the_result_folder_fails_the_planting_laws_set_and_the_other
         p.push("the planted file is still there".into());
     }
     p.extend(other_sets_written(d, &ran.stdout));
-    report("plant", &p, &ran);
+    report(name, &p, &ran);
 }
 
 /// A law that double-forks a sleeper into a session of its own (its parent ends at once, so
@@ -526,4 +536,50 @@ fn a_sleeper_a_law_double_forks_does_not_survive_the_run_and_is_reported() {
         }
         report(name, &p, &ran);
     }
+}
+
+/// With `--in-process` every set runs in tribo's own process, so a file a law plants in
+/// `--out` cannot be charged to one set: the command fails (exit 1) naming the file, the
+/// option and the laws loaded, the file is removed, and every set's results are written.
+#[test]
+fn in_process_a_planted_file_fails_the_command_and_every_sets_results_are_written() {
+    ensure_plugins_built();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let lib = build(d, 8, "plant");
+    let out = d.join("out");
+    std::fs::create_dir(&out).expect("an empty --out");
+    let a = args(Cmd::Compare, &lib, "mischief-plant", d, true);
+    let env = [("TRIBO_TEST_PLANT_DIR", out.to_string_lossy().into_owned())];
+    let ran = run_as_callee(&a, d, &env, Duration::from_secs(60));
+    let lib_name = lib.file_name().expect("name").to_string_lossy();
+    let mut p = failed_naming(
+        &ran,
+        &[
+            "`planted.txt` into the result folder",
+            "with --in-process",
+            "law `mischief-plant`",
+            &lib_name,
+        ],
+        Duration::from_secs(30),
+    );
+    if out.join("planted.txt").exists() {
+        p.push("the planted file is still there".into());
+    }
+    let written = std::fs::read_to_string(out.join("comparison.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+    let sets: Vec<String> = written
+        .as_ref()
+        .and_then(|w| w["sets"].as_array())
+        .map(|a| {
+            a.iter()
+                .filter_map(|s| s["lawset"].as_str().map(str::to_string))
+                .collect()
+        })
+        .unwrap_or_default();
+    if sets != ["fedem-baseline", "hostile"] {
+        p.push(format!("sets written: {sets:?}, expected both"));
+    }
+    report("plant in process", &p, &ran);
 }

@@ -903,9 +903,12 @@ where
             })
         })
         .collect();
+    #[cfg(target_os = "linux")]
     if let Some(watch) = watch {
         watch.charge(tasks, command, limits, events, &mut runs);
     }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (&mut runs, watch);
     runs.into_iter().map(|r| r.result).collect()
 }
 
@@ -1109,17 +1112,6 @@ impl FolderWatch {
     }
 
     fn leave(&self, _: usize) {
-        match *self {}
-    }
-
-    fn charge<J, T>(
-        &self,
-        _: &[J],
-        _: &(dyn Fn() -> Command + Sync),
-        _: Limits,
-        _: &(dyn Fn(usize, Event<'_>) + Sync),
-        _: &mut [Run<T>],
-    ) {
         match *self {}
     }
 }

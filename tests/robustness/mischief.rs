@@ -583,3 +583,28 @@ fn in_process_a_planted_file_fails_the_command_and_every_sets_results_are_writte
     }
     report("plant in process", &p, &ran);
 }
+
+/// A law that closes every descriptor from 3 up, or shuts down the worker's socket, and then
+/// behaves: the worker cannot answer, and the run fails (exit 1) naming the law and its
+/// library (the worker's laws, since no call was under way when it ended), never "no law".
+#[test]
+fn a_law_that_closes_the_channel_is_named_when_the_worker_cannot_answer() {
+    ensure_plugins_built();
+    let root = tempfile::tempdir().expect("temp dir");
+    for (case, name) in [(15, "close-fds"), (16, "shutdown")] {
+        let (ran, p) = failing_case(
+            &root.path().join(name),
+            case,
+            name,
+            Cmd::Run,
+            &["--time-limit-s", "20"],
+            &[],
+            Duration::from_secs(25),
+        );
+        let mut p = p;
+        if ran.stderr.contains("while no law was running") {
+            p.push("said no law was running".into());
+        }
+        report(name, &p, &ran);
+    }
+}

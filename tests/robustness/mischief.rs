@@ -460,32 +460,53 @@ fn a_file_a_laws_child_plants_in_the_result_folder_fails_that_laws_set_only() {
 }
 
 fn planted_case(case: u32, name: &str) {
+    let law = format!("mischief-{name}");
+    let words = [
+        "law set `hostile`",
+        &format!("law `{law}`"),
+        "`planted.txt` into the result folder",
+    ];
+    let (ran, d, mut p) = planting_run(case, name, false, &words);
+    p.extend(other_sets_written(d.path(), &ran.stdout));
+    report(name, &p, &ran);
+}
+
+/// Build case `case`, have it plant into an empty `--out` of a compare beside fedem-baseline
+/// (`in_process`: with `--in-process`), and list what is wrong: exit 1 naming the law's library
+/// and `words` within 30 s, the planted file still there.
+fn planting_run(
+    case: u32,
+    name: &str,
+    in_process: bool,
+    words: &[&str],
+) -> (Ran, tempfile::TempDir, Vec<String>) {
     ensure_plugins_built();
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
     let lib = build(d, case, name);
     let out = d.join("out");
     std::fs::create_dir(&out).expect("an empty --out");
-    let law = format!("mischief-{name}");
-    let a = args(Cmd::Compare, &lib, &law, d, false);
+    let a = args(
+        Cmd::Compare,
+        &lib,
+        &format!("mischief-{name}"),
+        d,
+        in_process,
+    );
     let env = [("TRIBO_TEST_PLANT_DIR", out.to_string_lossy().into_owned())];
     let ran = run_as_callee(&a, d, &env, Duration::from_secs(60));
-    let lib_name = lib.file_name().expect("name").to_string_lossy();
-    let mut p = failed_naming(
-        &ran,
-        &[
-            "law set `hostile`",
-            &format!("law `{law}`"),
-            &lib_name,
-            "`planted.txt` into the result folder",
-        ],
-        Duration::from_secs(30),
-    );
+    let lib_name = lib
+        .file_name()
+        .expect("name")
+        .to_string_lossy()
+        .into_owned();
+    let mut all = vec![lib_name.as_str()];
+    all.extend_from_slice(words);
+    let mut p = failed_naming(&ran, &all, Duration::from_secs(30));
     if out.join("planted.txt").exists() {
         p.push("the planted file is still there".into());
     }
-    p.extend(other_sets_written(d, &ran.stdout));
-    report(name, &p, &ran);
+    (ran, dir, p)
 }
 
 /// A law that double-forks a sleeper into a session of its own (its parent ends at once, so
@@ -543,29 +564,13 @@ fn a_sleeper_a_law_double_forks_does_not_survive_the_run_and_is_reported() {
 /// option and the laws loaded, the file is removed, and every set's results are written.
 #[test]
 fn in_process_a_planted_file_fails_the_command_and_every_sets_results_are_written() {
-    ensure_plugins_built();
-    let dir = tempfile::tempdir().expect("temp dir");
-    let d = dir.path();
-    let lib = build(d, 8, "plant");
-    let out = d.join("out");
-    std::fs::create_dir(&out).expect("an empty --out");
-    let a = args(Cmd::Compare, &lib, "mischief-plant", d, true);
-    let env = [("TRIBO_TEST_PLANT_DIR", out.to_string_lossy().into_owned())];
-    let ran = run_as_callee(&a, d, &env, Duration::from_secs(60));
-    let lib_name = lib.file_name().expect("name").to_string_lossy();
-    let mut p = failed_naming(
-        &ran,
-        &[
-            "`planted.txt` into the result folder",
-            "with --in-process",
-            "law `mischief-plant`",
-            &lib_name,
-        ],
-        Duration::from_secs(30),
-    );
-    if out.join("planted.txt").exists() {
-        p.push("the planted file is still there".into());
-    }
+    let words = [
+        "`planted.txt` into the result folder",
+        "with --in-process",
+        "law `mischief-plant`",
+    ];
+    let (ran, dir, mut p) = planting_run(8, "plant", true, &words);
+    let out = dir.path().join("out");
     let written = std::fs::read_to_string(out.join("comparison.json"))
         .ok()
         .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
@@ -592,7 +597,7 @@ fn a_law_that_closes_the_channel_is_named_when_the_worker_cannot_answer() {
     ensure_plugins_built();
     let root = tempfile::tempdir().expect("temp dir");
     for (case, name) in [(15, "close-fds"), (16, "shutdown")] {
-        let (ran, p) = failing_case(
+        let (ran, mut p) = failing_case(
             &root.path().join(name),
             case,
             name,
@@ -601,7 +606,6 @@ fn a_law_that_closes_the_channel_is_named_when_the_worker_cannot_answer() {
             &[],
             Duration::from_secs(25),
         );
-        let mut p = p;
         if ran.stderr.contains("while no law was running") {
             p.push("said no law was running".into());
         }

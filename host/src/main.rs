@@ -1067,10 +1067,23 @@ impl Globals {
             |o| matches!(o, WorkerOutput::Checked).then_some(()),
         )?;
         let command = || isolate::worker_command(&self.plugins);
-        Ok(isolate::run_all(&jobs, &command, limits, &|i, e| {
-            let label = labels.get(i).map_or("", String::as_str);
-            isolate::show_event(label, &e)
-        }))
+        // The result folder is watched while the sets run: what appears there is a law's.
+        let watched = jobs.iter().find_map(|j| match j {
+            WorkerJob::Compare(a) => Some(a.out.clone()),
+            WorkerJob::MassResponse(a) => Some(a.out.clone()),
+            WorkerJob::Sweep(a) => Some(a.out.clone()),
+            _ => None,
+        });
+        Ok(isolate::run_all_watched(
+            &jobs,
+            &command,
+            limits,
+            &|i, e| {
+                let label = labels.get(i).map_or("", String::as_str);
+                isolate::show_event(label, &e)
+            },
+            watched.as_deref(),
+        ))
     }
 
     /// Run `job` in one worker process with `limits`; its events go to `events`. A failure of
@@ -1236,7 +1249,8 @@ fn cmd_compare(g: &Globals, a: CompareArgs) -> anyhow::Result<()> {
         write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
-    failures_error(&cmp.failed, sources.len(), Some(out))
+    failures_error(&cmp.failed, sources.len(), Some(out))?;
+    planted_in_process(a.isolation.in_process, out)
 }
 
 impl CompareArgs {
@@ -1432,7 +1446,8 @@ fn cmd_mass_response(g: &Globals, a: MassResponseArgs) -> anyhow::Result<()> {
         write!(out_text, "{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
-    failures_error(&failed, specs.len(), Some(out))
+    failures_error(&failed, specs.len(), Some(out))?;
+    planted_in_process(a.isolation.in_process, out)
 }
 
 /// `fit` in this process: the report and the calibrated law set as TOML.
@@ -1637,7 +1652,8 @@ fn cmd_sweep(g: &Globals, a: SweepArgs) -> anyhow::Result<()> {
         write!(out_text, "\n{}", wrote_into(out, &files))?;
     }
     emit(&out_text)?;
-    failures_error(&result.failed, specs.len(), Some(out))
+    failures_error(&result.failed, specs.len(), Some(out))?;
+    planted_in_process(a.isolation.in_process, out)
 }
 
 /// One sweep from the one-set sweeps of the workers, failed sets listed.
@@ -1706,6 +1722,23 @@ fn planted_check(w: &isolate::planted::Planted) -> anyhow::Result<()> {
     if made.is_empty() {
         return Ok(());
     }
+    // Told to the parent too, which watches the folder for the processes laws start.
+    for n in &made {
+        isolate::guard::marker("planted", n);
+    }
+    let laws = laws_loaded_here();
+    let shown: Vec<String> = made.iter().take(5).map(|n| format!("`{n}`")).collect();
+    anyhow::bail!(
+        "a law of this set wrote {}{} into the result folder {} while it ran (tribo writes there only after every law has finished; what it wrote is removed); the laws that ran: {}",
+        shown.join(", "),
+        if made.len() > 5 { format!(" and {} more", made.len() - 5) } else { String::new() },
+        w.dir().display(),
+        if laws.is_empty() { "none registered".to_string() } else { laws.join(", ") }
+    )
+}
+
+/// The laws this process has loaded, by name, file and joint.
+fn laws_loaded_here() -> Vec<&'static str> {
     let names: Vec<&str> = (1..)
         .map_while(tribo_plugin_api::loader::inflight::name)
         .filter(|n| n.starts_with("law `"))
@@ -1716,17 +1749,28 @@ fn planted_check(w: &isolate::planted::Planted) -> anyhow::Result<()> {
         .copied()
         .filter(|n| n.contains(" at joint `"))
         .collect();
-    let laws = if at_joints.is_empty() {
+    if at_joints.is_empty() {
         names
     } else {
         at_joints
-    };
-    let shown: Vec<String> = made.iter().take(5).map(|n| format!("`{n}`")).collect();
+    }
+}
+
+/// With `--in-process`, what appeared in the result folder `out` while the laws ran (a law,
+/// or a process it started, wrote it) fails the command once the results are written: every
+/// set ran in this process, so none can be singled out, and the results stay (the entries are
+/// removed). Without it the workers' watch fails the set that did it.
+fn planted_in_process(in_process: bool, out: &std::path::Path) -> anyhow::Result<()> {
+    let planted = tribo::output::take_planted(out);
+    if !in_process || planted.is_empty() {
+        return Ok(());
+    }
+    let shown: Vec<String> = planted.iter().take(5).map(|n| format!("`{n}`")).collect();
+    let laws = laws_loaded_here();
     anyhow::bail!(
-        "a law of this set wrote {}{} into the result folder {} while it ran (tribo writes there only after every law has finished; what it wrote is removed); the laws that ran: {}",
+        "a law, or a process it started, wrote {} into the result folder {} while the laws ran (removed; the results were written); with --in-process every law set runs in this process, so tribo cannot tell whose law it was: run without --in-process to have that set named and failed; the laws loaded: {}",
         shown.join(", "),
-        if made.len() > 5 { format!(" and {} more", made.len() - 5) } else { String::new() },
-        w.dir().display(),
+        out.display(),
         if laws.is_empty() { "none registered".to_string() } else { laws.join(", ") }
     )
 }
@@ -1885,6 +1929,9 @@ fn cmd_fmu_export(g: &Globals, a: FmuExportArgs) -> anyhow::Result<()> {
 /// `tribo __fmu-worker RESOURCES`: one FMU instance's worker, answering on standard output
 /// (the real one: whatever a law prints goes to standard error).
 fn cmd_fmu_worker(a: &FmuWorkerArgs) -> anyhow::Result<()> {
+    // The law calls are marked on the page the FMU shares, before any law is loaded.
+    #[cfg(unix)]
+    isolate::page::adopt();
     struct Results;
     impl std::io::Write for Results {
         fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {

@@ -259,6 +259,21 @@ pub fn check_result_dir(out: &Path, flag: &str) -> Result<(), OutputError> {
 static CHECKED: std::sync::Mutex<Vec<(PathBuf, std::time::SystemTime)>> =
     std::sync::Mutex::new(Vec::new());
 
+/// Entries of result directories that appeared while the laws ran and were removed at
+/// writing time: (directory, name).
+static PLANTED: std::sync::Mutex<Vec<(PathBuf, String)>> = std::sync::Mutex::new(Vec::new());
+
+/// The entries removed from result directory `out` at writing time because they appeared
+/// while the laws ran (a law, or a process it started, wrote them), taken.
+pub fn take_planted(out: &Path) -> Vec<String> {
+    let mut all = PLANTED.lock().unwrap_or_else(|p| p.into_inner());
+    let (mine, rest): (Vec<_>, Vec<_>) = std::mem::take(&mut *all)
+        .into_iter()
+        .partition(|(d, _)| d == out);
+    *all = rest;
+    mine.into_iter().map(|(_, n)| n).collect()
+}
+
 /// Whether the entry `path` of result directory `dir` appeared (its inode changed) after `dir`
 /// was checked before the laws ran.
 fn appeared_since_check(dir: &Path, path: &Path) -> bool {
@@ -480,6 +495,10 @@ fn check_replaceable(dir: &Path, target: &str) -> Result<(), OutputError> {
     let (planted, names): (Vec<String>, Vec<String>) = names
         .into_iter()
         .partition(|n| n != MARKER && appeared_since_check(dir, &dir.join(n)));
+    PLANTED
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .extend(planted.iter().map(|n| (dir.to_path_buf(), n.clone())));
     for n in &planted {
         let path = dir.join(n);
         let removed = std::fs::remove_dir_all(&path).or_else(|_| std::fs::remove_file(&path));

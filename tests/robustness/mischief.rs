@@ -445,35 +445,170 @@ fn a_rig_with_a_15_mib_name_is_reported_within_its_limits() {
     assert!(printed >= name.len(), "{printed} of {} printed", name.len());
 }
 
-/// A law that plants a file in the `--out` folder of a compare while it runs, beside an
-/// innocent set: the planting law's set fails (exit 1) naming the law, its library and the
-/// file; the planted file is removed; the innocent set's results are written and the failed
-/// set listed.
+/// A law that plants a file in the `--out` folder of a compare while it runs, itself or from
+/// a child process it starts, beside an innocent set: the planting law's set fails (exit 1)
+/// naming the law, its library and the file; the planted file is removed; the innocent set's
+/// results are written and the failed set listed.
 #[test]
 fn a_file_planted_in_the_result_folder_fails_the_planting_laws_set_and_the_others_are_written() {
+    planted_case(8, "plant");
+}
+
+#[test]
+fn a_file_a_laws_child_plants_in_the_result_folder_fails_that_laws_set_only() {
+    planted_case(14, "plant-child");
+}
+
+fn planted_case(case: u32, name: &str) {
+    let law = format!("mischief-{name}");
+    let words = [
+        "law set `hostile`",
+        &format!("law `{law}`"),
+        "`planted.txt` into the result folder",
+    ];
+    let (ran, d, mut p) = planting_run(case, name, false, &words);
+    p.extend(other_sets_written(d.path(), &ran.stdout));
+    report(name, &p, &ran);
+}
+
+/// Build case `case`, have it plant into an empty `--out` of a compare beside fedem-baseline
+/// (`in_process`: with `--in-process`), and list what is wrong: exit 1 naming the law's library
+/// and `words` within 30 s, the planted file still there.
+fn planting_run(
+    case: u32,
+    name: &str,
+    in_process: bool,
+    words: &[&str],
+) -> (Ran, tempfile::TempDir, Vec<String>) {
     ensure_plugins_built();
     let dir = tempfile::tempdir().expect("temp dir");
     let d = dir.path();
-    let lib = build(d, 8, "plant");
+    let lib = build(d, case, name);
     let out = d.join("out");
     std::fs::create_dir(&out).expect("an empty --out");
-    let a = args(Cmd::Compare, &lib, "mischief-plant", d, false);
+    let a = args(
+        Cmd::Compare,
+        &lib,
+        &format!("mischief-{name}"),
+        d,
+        in_process,
+    );
     let env = [("TRIBO_TEST_PLANT_DIR", out.to_string_lossy().into_owned())];
     let ran = run_as_callee(&a, d, &env, Duration::from_secs(60));
-    let lib_name = lib.file_name().expect("name").to_string_lossy();
-    let mut p = failed_naming(
-        &ran,
-        &[
-            "law set `hostile`",
-            "law `mischief-plant`",
-            &lib_name,
-            "`planted.txt` into the result folder",
-        ],
-        Duration::from_secs(30),
-    );
+    let lib_name = lib
+        .file_name()
+        .expect("name")
+        .to_string_lossy()
+        .into_owned();
+    let mut all = vec![lib_name.as_str()];
+    all.extend_from_slice(words);
+    let mut p = failed_naming(&ran, &all, Duration::from_secs(30));
     if out.join("planted.txt").exists() {
         p.push("the planted file is still there".into());
     }
-    p.extend(other_sets_written(d, &ran.stdout));
-    report("plant", &p, &ran);
+    (ran, dir, p)
+}
+
+/// A law that double-forks a sleeper into a session of its own (its parent ends at once, so
+/// the sleeper is nobody's descendant once orphaned): under `run`, where the law then behaves
+/// (exit 0) and where it then `_exit`s its worker (exit 1, the law named), the sleeper is
+/// killed with the worker's family, none of it survives tribo, and the run says how many
+/// processes it killed.
+#[test]
+fn a_sleeper_a_law_double_forks_does_not_survive_the_run_and_is_reported() {
+    ensure_plugins_built();
+    let root = tempfile::tempdir().expect("temp dir");
+    for (case, name, code) in [(12, "double-fork", 0), (13, "double-fork-exit", 1)] {
+        let dir = root.path().join(name);
+        std::fs::create_dir_all(&dir).expect("case dir");
+        let lib = build(&dir, case, name);
+        let pid_file = dir.join("child.pid");
+        let mut a = args(Cmd::Run, &lib, &format!("mischief-{name}"), &dir, false);
+        a.extend(["--time-limit-s".into(), "20".into()]);
+        let env = [(
+            "TRIBO_TEST_PID_FILE",
+            pid_file.to_string_lossy().into_owned(),
+        )];
+        let ran = run_as_callee(&a, &dir, &env, Duration::from_secs(60));
+        let outlived = still_running(&pid_file);
+        end_daemon(&pid_file);
+        let mut p = Vec::new();
+        if !pid_file.exists() {
+            p.push("the sleeper never started".to_string());
+        }
+        if !ran.caller_survived || ran.code != Some(code) {
+            p.push(format!("exit code {:?}, expected {code}", ran.code));
+        }
+        if let Some(pid) = outlived {
+            p.push(format!("the sleeper {pid} outlived tribo"));
+        }
+        let law = format!("law `mischief-{name}`");
+        for w in [
+            "1 process started by the laws of a worker",
+            "was still running when the worker ended",
+            law.as_str(),
+        ] {
+            if !ran.stderr.contains(w) {
+                p.push(format!("message lacks `{w}`"));
+            }
+        }
+        if ran.elapsed > Duration::from_secs(25) {
+            p.push(format!("took {:?}", ran.elapsed));
+        }
+        report(name, &p, &ran);
+    }
+}
+
+/// With `--in-process` every set runs in tribo's own process, so a file a law plants in
+/// `--out` cannot be charged to one set: the command fails (exit 1) naming the file, the
+/// option and the laws loaded, the file is removed, and every set's results are written.
+#[test]
+fn in_process_a_planted_file_fails_the_command_and_every_sets_results_are_written() {
+    let words = [
+        "`planted.txt` into the result folder",
+        "with --in-process",
+        "law `mischief-plant`",
+    ];
+    let (ran, dir, mut p) = planting_run(8, "plant", true, &words);
+    let out = dir.path().join("out");
+    let written = std::fs::read_to_string(out.join("comparison.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok());
+    let sets: Vec<String> = written
+        .as_ref()
+        .and_then(|w| w["sets"].as_array())
+        .map(|a| {
+            a.iter()
+                .filter_map(|s| s["lawset"].as_str().map(str::to_string))
+                .collect()
+        })
+        .unwrap_or_default();
+    if sets != ["fedem-baseline", "hostile"] {
+        p.push(format!("sets written: {sets:?}, expected both"));
+    }
+    report("plant in process", &p, &ran);
+}
+
+/// A law that closes every descriptor from 3 up, or shuts down the worker's socket, and then
+/// behaves: the worker cannot answer, and the run fails (exit 1) naming the law and its
+/// library (the worker's laws, since no call was under way when it ended), never "no law".
+#[test]
+fn a_law_that_closes_the_channel_is_named_when_the_worker_cannot_answer() {
+    ensure_plugins_built();
+    let root = tempfile::tempdir().expect("temp dir");
+    for (case, name) in [(15, "close-fds"), (16, "shutdown")] {
+        let (ran, mut p) = failing_case(
+            &root.path().join(name),
+            case,
+            name,
+            Cmd::Run,
+            &["--time-limit-s", "20"],
+            &[],
+            Duration::from_secs(25),
+        );
+        if ran.stderr.contains("while no law was running") {
+            p.push("said no law was running".into());
+        }
+        report(name, &p, &ran);
+    }
 }

@@ -41,6 +41,9 @@ pub struct Worker {
     limit: Duration,
     /// The laws the worker runs, as a failure names them ("law `x` (file) at joint `j`").
     laws: Vec<String>,
+    /// The worker's in-flight marks and names (shared memory that outlives it): the law
+    /// call it died in, when it died without a word.
+    page: Option<tribo_isolate::page::InflightPage>,
 }
 
 /// The end of the worker's standard error, filled by a reading thread.
@@ -58,7 +61,12 @@ impl Worker {
         let (program, _copy) = executable(&exe)?;
         let (ours, theirs) = UnixStream::pair()
             .map_err(|e| format!("cannot make the channel to the FMU's worker process: {e}"))?;
-        let mut child = Command::new(&program)
+        let page = tribo_isolate::page::InflightPage::new();
+        let mut command = Command::new(&program);
+        if let Some(p) = &page {
+            p.share_with(&mut command);
+        }
+        let mut child = command
             .arg(WORKER_SUBCOMMAND)
             .arg(resources)
             .env_remove("TRIBO_PLUGIN_PATH")
@@ -90,6 +98,7 @@ impl Worker {
             reader: Some(reader),
             limit,
             laws,
+            page,
         };
         match w.receive() {
             Ok(Reply::Ready(PROTOCOL_VERSION)) => Ok(w),
@@ -164,8 +173,19 @@ impl Worker {
             text.push_str(&format!("; its last words: {tail}"));
         }
         // The guards name the law when they can (a crash, exit()); an `_exit`, a SIGKILL or a
-        // hang before the watchdog speaks leave no word: then the laws the worker runs are named.
-        if !tail.contains("law `") && !self.laws.is_empty() {
+        // hang before the watchdog speaks leave no word: then the law call its in-flight page
+        // shows under way (one of the laws it runs), else the laws it runs.
+        let running: Vec<String> = self
+            .page
+            .as_ref()
+            .map(|p| p.running())
+            .unwrap_or_default()
+            .into_iter()
+            .filter(|r| self.laws.iter().any(|l| same_law(l, r)))
+            .collect();
+        if !tail.contains("law `") && !running.is_empty() {
+            text.push_str(&format!("; it died in a call of {}", running.join(" and ")));
+        } else if !tail.contains("law `") && !self.laws.is_empty() {
             text.push_str(&format!(
                 "; it gave no word of which law was running; the laws it runs: {}",
                 self.laws.join(", ")
@@ -260,6 +280,17 @@ impl Drop for Worker {
             }
         }
     }
+}
+
+/// Whether two names of a law bound to a joint ("law `x` (file) at joint `j`") name the same
+/// law at the same joint, whichever way each spells the library's path.
+fn same_law(a: &str, b: &str) -> bool {
+    let parts = |s: &str| -> Option<(String, String)> {
+        let (law, rest) = s.split_once(" (")?;
+        let (_, joint) = rest.rsplit_once(") at joint ")?;
+        Some((law.to_string(), joint.to_string()))
+    };
+    matches!((parts(a), parts(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// Kill the process group led by `pid` (the worker and anything a law started).

@@ -335,9 +335,10 @@ HOSTILE = {
     2: ["killed by signal 6", "SIGABRT", "fixture-hostile"],
     3: ["worker.call_timeout = 2 s", "fixture-hostile"],
     5: ["exit()", "fixture-hostile"],
-    # No word from the worker: the FMU names the laws it runs, with their library files.
-    9: ["exit status 0", "law `fixture-hostile`", "libtribo_law_fixture_hostile.so", "at joint `piston`"],
-    10: ["killed by signal 9", "law `fixture-hostile`", "libtribo_law_fixture_hostile.so", "at joint `piston`"],
+    # No word from the worker: the FMU names the law call it died in (from the worker's
+    # in-flight page), with its library file and joint.
+    9: ["exit status 0", "died in a call of law `fixture-hostile`", "libtribo_law_fixture_hostile.so) at joint `piston`"],
+    10: ["killed by signal 9", "died in a call of law `fixture-hostile`", "libtribo_law_fixture_hostile.so) at joint `piston`"],
 }
 
 

@@ -31,6 +31,8 @@ mod child;
 #[cfg(unix)]
 mod frame;
 #[cfg(unix)]
+pub mod page;
+#[cfg(unix)]
 mod parent;
 #[cfg(target_os = "linux")]
 pub mod planted;
@@ -41,6 +43,7 @@ mod sys;
 pub use child::{serve, Session};
 #[cfg(unix)]
 pub use parent::{
-    forward_stderr, handle_termination, register_temp, run_all, Event, TempGuard, Worker,
+    forward_stderr, handle_termination, register_temp, run_all, run_all_watched, Event, TempGuard,
+    Worker,
 };
 pub use terms::*;

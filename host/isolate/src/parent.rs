@@ -86,7 +86,12 @@ pub fn register_temp(path: &Path) -> TempGuard {
 /// On SIGINT, SIGTERM or SIGHUP: kill every worker's process group, remove the registered
 /// temporary paths, then end with the signal. For a command-line process (Python has its own
 /// Ctrl-C handling, [`Event::Tick`]).
+///
+/// The process also becomes a child subreaper (Linux): a process a law started that outlives
+/// its worker (a double fork, a worker that `_exit`ed) is adopted by it instead of by init, and
+/// killed and counted with its worker's family.
 pub fn handle_termination() {
+    sys::adopt_orphans();
     let Some(pipe) = sys::termination_pipe() else {
         return;
     };
@@ -106,9 +111,9 @@ pub fn handle_termination() {
                 }
             }
             let signal = i32::from(byte[0]);
-            for pgid in LIVE.lock().unwrap_or_else(|p| p.into_inner()).iter() {
-                sys::kill_escaped(*pgid, libc::SIGKILL);
-                sys::killpg(*pgid, libc::SIGKILL);
+            let live = LIVE.lock().unwrap_or_else(|p| p.into_inner());
+            for pgid in live.iter() {
+                sys::end_family(*pgid, &live);
             }
             // Held until the process is gone: an owner that drops its guard to put its
             // temporary in place (a result set's swap) waits, and never moves a half-removed one.
@@ -205,11 +210,15 @@ impl Worker {
         unsafe {
             command.pre_exec(move || sys::child_setup(&moves, parent));
         }
+        // Started and listed under the lock, so another worker's end never takes this one,
+        // seen before it is listed, for an orphan to kill.
+        let mut live = LIVE.lock().unwrap_or_else(|p| p.into_inner());
         let mut child = command
             .spawn()
             .map_err(|e| io("starting a worker process", e))?;
         let pid = child.id() as libc::pid_t;
-        LIVE.lock().unwrap_or_else(|p| p.into_inner()).push(pid);
+        live.push(pid);
+        drop(live);
         drop((child_chan, child_markers, shared_fd));
         let stderr: OwnedFd = match child.stderr.take() {
             Some(e) => e.into(),
@@ -329,15 +338,30 @@ impl Worker {
         }
         // The worker is not reaped yet (peek does not reap), so its process group's id cannot
         // have been reused. Its children that left the group (`setsid`) first, while they are
-        // still its children and so can be found.
-        sys::kill_escaped(self.pid, libc::SIGKILL);
-        sys::killpg(self.pid, libc::SIGKILL);
+        // still its children and so can be found; then the orphans it or this process adopted.
+        let left = {
+            let mut live = LIVE.lock().unwrap_or_else(|p| p.into_inner());
+            live.retain(|p| *p != self.pid);
+            sys::end_family(self.pid, &live)
+        };
         sys::reap(self.pid, Duration::from_secs(2));
-        LIVE.lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .retain(|p| *p != self.pid);
         self.pid = 0;
         self.ended = true;
+        if left > 0 {
+            let laws = match self.running_or_loaded().first() {
+                Some(l) => l
+                    .strip_prefix(NO_CALL_PREFIX)
+                    .unwrap_or(l)
+                    .to_string(),
+                None => "no law".to_string(),
+            };
+            forward_stderr(&format!(
+                "warning: {left} process{} started by the laws of a worker ({laws}) {} still running when the worker ended (a daemon, or a double fork); tribo killed {}",
+                if left == 1 { "" } else { "es" },
+                if left == 1 { "was" } else { "were" },
+                if left == 1 { "it" } else { "them" },
+            ));
+        }
     }
 
     /// Send what is queued, as far as the socket takes it now.
@@ -641,6 +665,15 @@ impl Worker {
         if !running.is_empty() {
             return running;
         }
+        let laws = self.loaded_laws();
+        if laws.is_empty() {
+            return Vec::new();
+        }
+        vec![format!("{}{}", NO_CALL_PREFIX, laws.join(", "))]
+    }
+
+    /// The laws the worker has loaded, each once ("law `x` (file) at joint `j`" where bound).
+    fn loaded_laws(&self) -> Vec<String> {
         let mut laws: Vec<&str> = self
             .names
             .values()
@@ -652,10 +685,7 @@ impl Worker {
         // "law `x` (file)" is said by "law `x` (file) at joint `j`" already.
         let all = laws.clone();
         laws.retain(|l| !all.iter().any(|o| o != l && o.starts_with(l)));
-        if laws.is_empty() {
-            return Vec::new();
-        }
-        vec![format!("{}{}", NO_CALL_PREFIX, laws.join(", "))]
+        laws.into_iter().map(str::to_string).collect()
     }
 
     /// The limits the worker enforces itself, enforced again from outside a little later: a
@@ -807,13 +837,41 @@ where
     J: Serialize + Sync,
     T: DeserializeOwned + Send,
 {
+    run_all_watched(tasks, command, limits, events, None)
+}
+
+/// [`run_all`], with the result folder `watched` (where tribo writes only after every task
+/// has finished) watched while the tasks run: an entry that appears there fails the task whose
+/// worker made it ([`WorkerFailure::Planted`]), also when a process a law started made it.
+/// A worker names what its own process made; what another process made is charged to the
+/// task whose worker was running then; when several were, each of them runs again alone and
+/// the one that makes an entry again is charged (the others keep their second result); where
+/// none does, each of them is (said as such). Linux with fanotify; elsewhere as [`run_all`].
+pub fn run_all_watched<J, T>(
+    tasks: &[J],
+    command: &(dyn Fn() -> Command + Sync),
+    limits: Limits,
+    events: &(dyn Fn(usize, Event<'_>) + Sync),
+    watched: Option<&Path>,
+) -> Vec<Result<T, WorkerFailure>>
+where
+    J: Serialize + Sync,
+    T: DeserializeOwned + Send,
+{
+    #[cfg(target_os = "linux")]
+    let watch = watched.and_then(FolderWatch::new);
+    #[cfg(not(target_os = "linux"))]
+    let watch: Option<FolderWatch> = {
+        let _ = watched;
+        None
+    };
+    let watch = watch.as_ref();
     let parallel = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1)
         .min(tasks.len().max(1));
     let next = AtomicUsize::new(0);
-    let mut results: Vec<Option<Result<T, WorkerFailure>>> =
-        (0..tasks.len()).map(|_| None).collect();
+    let mut runs: Vec<Option<Run<T>>> = (0..tasks.len()).map(|_| None).collect();
     let (tx, rx) = mpsc::channel();
     std::thread::scope(|s| {
         for _ in 0..parallel {
@@ -822,7 +880,7 @@ where
             s.spawn(move || loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(task) = tasks.get(i) else { break };
-                let r = run_one(task, command(), limits, &mut |e| {
+                let r = run_watched(task, i, command(), limits, watch, &mut |e| {
                     events(i, e);
                     Ok(())
                 });
@@ -833,26 +891,238 @@ where
         }
         drop(tx);
         for (i, r) in rx {
-            results[i] = Some(r);
+            runs[i] = Some(r);
         }
     });
-    results
+    let mut runs: Vec<Run<T>> = runs
         .into_iter()
         .map(|r| {
-            r.unwrap_or_else(|| Err(WorkerFailure::Io("a worker thread stopped early".into())))
+            r.unwrap_or_else(|| Run {
+                result: Err(WorkerFailure::Io("a worker thread stopped early".into())),
+                laws: Vec::new(),
+                claimed: Vec::new(),
+            })
         })
-        .collect()
+        .collect();
+    #[cfg(target_os = "linux")]
+    if let Some(watch) = watch {
+        watch.charge(tasks, command, limits, events, &mut runs);
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (&mut runs, watch);
+    runs.into_iter().map(|r| r.result).collect()
 }
 
-/// One request in a fresh worker, which is ended afterwards.
-pub(crate) fn run_one<J: Serialize, T: DeserializeOwned>(
+/// One task's run: its result, the laws its worker loaded, and the entries of the watched
+/// folder its worker said its own process made.
+struct Run<T> {
+    result: Result<T, WorkerFailure>,
+    laws: Vec<String>,
+    claimed: Vec<String>,
+}
+
+/// Task `i` in a fresh worker, ended afterwards, with the watched folder (if any) told when
+/// the worker starts and once its whole family is gone.
+fn run_watched<J: Serialize, T: DeserializeOwned>(
     task: &J,
+    i: usize,
     command: Command,
     limits: Limits,
+    watch: Option<&FolderWatch>,
     events: &mut dyn FnMut(Event<'_>) -> Result<(), WorkerFailure>,
-) -> Result<T, WorkerFailure> {
-    let mut w = Worker::start(command, limits)?;
-    let r = w.call(task, events);
-    w.finish();
-    r
+) -> Run<T> {
+    if let Some(w) = watch {
+        w.enter(i);
+    }
+    let run = match Worker::start(command, limits) {
+        Err(e) => Run {
+            result: Err(e),
+            laws: Vec::new(),
+            claimed: Vec::new(),
+        },
+        Ok(mut w) => {
+            let result = w.call(task, events);
+            let laws = w.loaded_laws();
+            let claimed = w
+                .reports
+                .iter()
+                .filter(|(k, _)| k == "planted")
+                .map(|(_, name)| name.clone())
+                .collect();
+            w.finish();
+            Run {
+                result,
+                laws,
+                claimed,
+            }
+        }
+    };
+    if let Some(w) = watch {
+        w.leave(i);
+    }
+    run
+}
+
+/// The parent's watch on a result folder while tasks run: each entry made there, with the
+/// tasks whose workers were running when it was made (the one that made it among them: a
+/// worker's family is killed before its task is said to have left).
+#[cfg(target_os = "linux")]
+struct FolderWatch {
+    watch: crate::planted::Planted,
+    state: Mutex<Seen>,
+}
+
+/// The tasks running now, and each entry seen with its suspects.
+#[cfg(target_os = "linux")]
+#[derive(Default)]
+struct Seen {
+    live: Vec<usize>,
+    entries: Vec<(String, Vec<usize>)>,
+}
+
+#[cfg(not(target_os = "linux"))]
+enum FolderWatch {}
+
+#[cfg(target_os = "linux")]
+impl FolderWatch {
+    fn new(dir: &Path) -> Option<Self> {
+        Some(Self {
+            watch: crate::planted::Planted::watch(dir)?,
+            state: Mutex::new(Seen::default()),
+        })
+    }
+
+    /// Record the entries made since the last look, each with the tasks running now.
+    fn look(state: &mut Seen, made: Vec<String>) {
+        for name in made {
+            let live = state.live.clone();
+            match state.entries.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, suspects)) => {
+                    for t in live {
+                        if !suspects.contains(&t) {
+                            suspects.push(t);
+                        }
+                    }
+                }
+                None => state.entries.push((name, live)),
+            }
+        }
+    }
+
+    fn enter(&self, task: usize) {
+        let mut s = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        Self::look(&mut s, self.watch.made_by_anyone());
+        s.live.push(task);
+    }
+
+    fn leave(&self, task: usize) {
+        let mut s = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        Self::look(&mut s, self.watch.made_by_anyone());
+        s.live.retain(|t| *t != task);
+    }
+
+    /// The entries seen so far, with their suspects, taken.
+    fn take(&self) -> Vec<(String, Vec<usize>)> {
+        let mut s = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        Self::look(&mut s, self.watch.made_by_anyone());
+        std::mem::take(&mut s.entries)
+    }
+
+    /// Charge each entry made while the tasks ran to the task that made it, running the
+    /// suspects of an entry made while several ran again, one at a time.
+    fn charge<J: Serialize, T: DeserializeOwned>(
+        &self,
+        tasks: &[J],
+        command: &(dyn Fn() -> Command + Sync),
+        limits: Limits,
+        events: &(dyn Fn(usize, Event<'_>) + Sync),
+        runs: &mut [Run<T>],
+    ) {
+        let mut charged: BTreeMap<usize, (Vec<String>, bool)> = BTreeMap::new();
+        let mut ambiguous: Vec<(String, Vec<usize>)> = Vec::new();
+        for (name, suspects) in self.take() {
+            // Named by the worker that made it: that task has failed already, naming it.
+            if runs.iter().any(|r| r.claimed.contains(&name)) {
+                continue;
+            }
+            match suspects[..] {
+                [] => {}
+                [one] => charged.entry(one).or_default().0.push(name),
+                _ => ambiguous.push((name, suspects)),
+            }
+        }
+        let mut again: Vec<usize> = ambiguous
+            .iter()
+            .flat_map(|(_, s)| s.iter().copied())
+            .filter(|t| !charged.contains_key(t))
+            .collect();
+        again.sort_unstable();
+        again.dedup();
+        if !again.is_empty() {
+            // What they made is removed, so making it again is seen again.
+            for (name, _) in &ambiguous {
+                remove_entry(&self.watch.dir().join(name));
+            }
+            let _ = self.take();
+        }
+        for t in again {
+            let rerun: Run<T> =
+                run_watched(&tasks[t], t, command(), limits, Some(self), &mut |e| {
+                    events(t, e);
+                    Ok(())
+                });
+            let made: Vec<String> = self
+                .take()
+                .into_iter()
+                .map(|(n, _)| n)
+                .filter(|n| !rerun.claimed.contains(n))
+                .collect();
+            runs[t] = rerun;
+            if !made.is_empty() {
+                charged.entry(t).or_default().0.extend(made);
+            }
+        }
+        for (name, suspects) in ambiguous {
+            if !suspects.iter().any(|t| charged.contains_key(t)) {
+                for t in suspects {
+                    let c = charged.entry(t).or_default();
+                    c.0.push(name.clone());
+                    c.1 = true;
+                }
+            }
+        }
+        for (t, (mut entries, uncertain)) in charged {
+            entries.dedup();
+            let run = &mut runs[t];
+            if run.result.is_ok() {
+                run.result = Err(WorkerFailure::Planted {
+                    entries,
+                    dir: self.watch.dir().display().to_string(),
+                    laws: run.laws.clone(),
+                    uncertain,
+                });
+            }
+        }
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+impl FolderWatch {
+    fn enter(&self, _: usize) {
+        match *self {}
+    }
+
+    fn leave(&self, _: usize) {
+        match *self {}
+    }
+}
+
+/// Remove a planted entry, never following a link.
+#[cfg(target_os = "linux")]
+fn remove_entry(path: &Path) {
+    let _ = match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_dir() => std::fs::remove_dir_all(path),
+        Ok(_) => std::fs::remove_file(path),
+        Err(_) => Ok(()),
+    };
 }

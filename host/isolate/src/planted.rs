@@ -80,6 +80,18 @@ impl Planted {
     pub fn made_here(&self) -> Vec<String> {
         // SAFETY: getpid has no preconditions.
         let me = unsafe { libc::getpid() };
+        self.made_by(|pid| pid == me)
+    }
+
+    /// The names of the entries any process created or moved into the folder since the last
+    /// look, each once, in the order made (the parent's watch: its workers, their children).
+    pub fn made_by_anyone(&self) -> Vec<String> {
+        self.made_by(|_| true)
+    }
+
+    /// The entries made by the processes `pid` accepts (an unprivileged listener sees 0 for
+    /// every process but its own).
+    fn made_by(&self, accept: impl Fn(i32) -> bool) -> Vec<String> {
         let mut names: Vec<String> = Vec::new();
         let mut buf = vec![0u8; 64 << 10];
         loop {
@@ -91,7 +103,7 @@ impl Planted {
             }
             for (pid, name) in events(&buf[..n]) {
                 let counts = self.only.as_deref().is_none_or(|o| o == name.as_slice());
-                if pid == me && counts {
+                if accept(pid) && counts {
                     let name = String::from_utf8_lossy(&name).into_owned();
                     if !names.contains(&name) {
                         names.push(name);

@@ -257,7 +257,7 @@ pub(crate) fn killpg(pgid: libc::pid_t, signal: libc::c_int) {
 }
 
 /// In the child between fork and exec (async-signal-safe calls only): a new session and process
-/// group, death with the parent, and the channel's descriptors moved to their fixed numbers
+/// group, death with the parent, a child subreaper (its laws' orphans stay its own), and the channel's descriptors moved to their fixed numbers
 /// (`moves`: from, to; every `from` is close-on-exec, every `to` will not be).
 ///
 /// # Safety
@@ -268,6 +268,9 @@ pub(crate) unsafe fn child_setup(moves: &[(RawFd, RawFd)], parent: libc::pid_t) 
     #[cfg(target_os = "linux")]
     {
         check(libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL))?;
+        // The worker adopts its laws' orphans (a double fork): they stay its descendants,
+        // where its parent finds, counts and kills them, instead of going to init.
+        check(libc::prctl(libc::PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0))?;
         if libc::getppid() != parent {
             libc::_exit(1);
         }
@@ -365,40 +368,63 @@ pub(crate) fn page_size() -> u64 {
     }
 }
 
+/// One process as /proc/PID/stat shows it (Linux).
+#[cfg(target_os = "linux")]
+#[derive(Debug, Clone, Copy)]
+struct Proc {
+    pid: libc::pid_t,
+    parent: libc::pid_t,
+    group: libc::pid_t,
+    session: libc::pid_t,
+    zombie: bool,
+}
+
+/// Every process /proc lists now (Linux).
+#[cfg(target_os = "linux")]
+fn processes() -> Vec<Proc> {
+    let Ok(procs) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    procs
+        .flatten()
+        .filter_map(|e| e.file_name().to_str()?.parse::<libc::pid_t>().ok())
+        .filter_map(stat)
+        .collect()
+}
+
+/// The processes of `all` in group `pgid` and every descendant of one of them, and of `roots`
+/// (by parent links; a child that left the group with `setsid` is found while its parent
+/// lives, and, where the worker is a child subreaper, its orphans stay its children).
+#[cfg(target_os = "linux")]
+fn descendants(all: &[Proc], pgid: libc::pid_t, roots: &[libc::pid_t]) -> Vec<Proc> {
+    let mut members: Vec<Proc> = all
+        .iter()
+        .filter(|p| p.group == pgid || roots.contains(&p.pid))
+        .copied()
+        .collect();
+    let mut k = 0;
+    while k < members.len() {
+        let parent = members[k].pid;
+        for p in all.iter().filter(|p| p.parent == parent) {
+            if !members.iter().any(|m| m.pid == p.pid) {
+                members.push(*p);
+            }
+        }
+        k += 1;
+    }
+    members
+}
+
 /// The processes of worker `pgid` (Linux; empty elsewhere): every process in its process
 /// group, and every descendant of one of them, including a child that left the group with
-/// `setsid` while its parent lives. Read from /proc in one pass.
+/// `setsid`. Read from /proc in one pass.
 pub(crate) fn family(pgid: libc::pid_t) -> Vec<libc::pid_t> {
     #[cfg(target_os = "linux")]
     {
-        let Ok(procs) = std::fs::read_dir("/proc") else {
-            return Vec::new();
-        };
-        // (pid, parent, group) of every process.
-        let all: Vec<(libc::pid_t, libc::pid_t, libc::pid_t)> = procs
-            .flatten()
-            .filter_map(|e| e.file_name().to_str()?.parse::<libc::pid_t>().ok())
-            .filter_map(|pid| {
-                let (parent, group) = parent_and_group(pid)?;
-                Some((pid, parent, group))
-            })
-            .collect();
-        let mut members: Vec<libc::pid_t> = all
+        descendants(&processes(), pgid, &[])
             .iter()
-            .filter(|(_, _, g)| *g == pgid)
-            .map(|(p, _, _)| *p)
-            .collect();
-        let mut k = 0;
-        while k < members.len() {
-            let parent = members[k];
-            for (pid, _, _) in all.iter().filter(|(_, pp, _)| *pp == parent) {
-                if !members.contains(pid) {
-                    members.push(*pid);
-                }
-            }
-            k += 1;
-        }
-        members
+            .map(|p| p.pid)
+            .collect()
     }
     #[cfg(not(target_os = "linux"))]
     {
@@ -407,15 +433,82 @@ pub(crate) fn family(pgid: libc::pid_t) -> Vec<libc::pid_t> {
     }
 }
 
+/// This process adopts the orphans of its workers (Linux: a child subreaper), so a process
+/// a law started that outlives its worker (a double fork, a worker that `_exit`ed) is found,
+/// counted and killed with the worker's group instead of escaping to init.
+static ADOPTING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Make this process a child subreaper (Linux; a no-op elsewhere): for a process whose only
+/// children are workers and programs it waits for (the `tribo` command).
+pub(crate) fn adopt_orphans() {
+    #[cfg(target_os = "linux")]
+    {
+        // SAFETY: prctl with constant arguments on this process.
+        if unsafe { libc::prctl(libc::PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) } == 0 {
+            ADOPTING.store(true, std::sync::atomic::Ordering::SeqCst);
+        }
+    }
+}
+
+/// Kill worker `pgid`'s whole family with SIGKILL: the children that left its group (before
+/// `killpg`, while they can still be found as its descendants), its group, and, where this
+/// process adopts orphans ([`adopt_orphans`]), the orphans it adopted that are not one of the
+/// live workers `others` (and their descendants). Returns how many processes besides the
+/// worker itself were still running (not zombies) and were killed.
+pub(crate) fn end_family(pgid: libc::pid_t, others: &[libc::pid_t]) -> usize {
+    #[cfg(target_os = "linux")]
+    {
+        let all = processes();
+        // SAFETY: getpid and getsid(0) have no preconditions.
+        let (me, my_session) = unsafe { (libc::getpid(), libc::getsid(0)) };
+        // Orphans adopted by this process: its children in a session other than its own (its
+        // own helpers stay in its session) that are not a live worker.
+        let adopted: Vec<libc::pid_t> = if ADOPTING.load(std::sync::atomic::Ordering::SeqCst) {
+            all.iter()
+                .filter(|p| p.parent == me && p.session != my_session)
+                .filter(|p| p.pid != pgid && !others.contains(&p.pid))
+                .map(|p| p.pid)
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let members = descendants(&all, pgid, &adopted);
+        let mut running = 0;
+        for p in &members {
+            if p.pid > 1 && p.pid != me {
+                if p.pid != pgid && !p.zombie {
+                    running += 1;
+                }
+                // SAFETY: signalling a process of our own worker's family.
+                unsafe {
+                    libc::kill(p.pid, libc::SIGKILL);
+                }
+            }
+        }
+        killpg(pgid, libc::SIGKILL);
+        // The adopted ones are this process's children now: reaped, so no zombie is left.
+        for pid in adopted {
+            reap(pid, Duration::from_millis(500));
+        }
+        running
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = others;
+        killpg(pgid, libc::SIGKILL);
+        0
+    }
+}
+
 /// Send `signal` to every process of worker `pgid`'s [`family`] but those in its group (which
 /// `killpg` reaches): the children that left the group while their parent lived.
 pub(crate) fn kill_escaped(pgid: libc::pid_t, signal: libc::c_int) {
     #[cfg(target_os = "linux")]
-    for pid in family(pgid) {
-        if pid > 1 && parent_and_group(pid).is_some_and(|(_, g)| g != pgid) {
+    for p in descendants(&processes(), pgid, &[]) {
+        if p.pid > 1 && p.group != pgid {
             // SAFETY: signalling a descendant of our own worker.
             unsafe {
-                libc::kill(pid, signal);
+                libc::kill(p.pid, signal);
             }
         }
     }
@@ -468,14 +561,22 @@ pub(crate) fn group_memory_bytes(pgid: libc::pid_t) -> u64 {
     }
 }
 
-/// The parent and the process group of process `pid`, from /proc/PID/stat (Linux).
+/// Process `pid` from /proc/PID/stat (Linux).
 #[cfg(target_os = "linux")]
-fn parent_and_group(pid: libc::pid_t) -> Option<(libc::pid_t, libc::pid_t)> {
+fn stat(pid: libc::pid_t) -> Option<Proc> {
     let text = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     // The command name (in parentheses) may hold spaces: the fields follow its last `)`.
     let rest = &text[text.rfind(')')? + 1..];
-    let mut f = rest.split_whitespace().skip(1);
+    let mut f = rest.split_whitespace();
+    let zombie = matches!(f.next()?, "Z" | "X");
     let parent = f.next()?.parse().ok()?;
     let group = f.next()?.parse().ok()?;
-    Some((parent, group))
+    let session = f.next()?.parse().ok()?;
+    Some(Proc {
+        pid,
+        parent,
+        group,
+        session,
+        zombie,
+    })
 }

@@ -186,6 +186,19 @@ pub enum WorkerFailure {
         /// The plugin code running when the bytes came.
         running: Vec<String>,
     },
+    /// A law of the task, or a process it started, made entries in the result folder while
+    /// the laws ran (tribo writes there only after every law has finished).
+    #[error("a law of this set, or a process it started, wrote {} into the result folder {dir} while the laws ran (tribo writes there only after every law has finished; what was written is removed){}; the laws loaded: {}", entries_text(entries), if *uncertain { " (another set ran at the same time, and running each again alone did not repeat it: tribo cannot tell which of them did it, so each is failed)" } else { "" }, if laws.is_empty() { "none".to_string() } else { laws.join(", ") })]
+    Planted {
+        /// The entries made.
+        entries: Vec<String>,
+        /// The result folder.
+        dir: String,
+        /// The laws the worker had loaded.
+        laws: Vec<String>,
+        /// Charged to every set that ran at the same time (the maker could not be told).
+        uncertain: bool,
+    },
     /// Tribo itself failed inside the worker (a bug, not the law's fault).
     #[error("internal error in the worker process: {0}; this is a bug in tribo, not in a law: please report it")]
     Internal(String),
@@ -211,6 +224,17 @@ fn running_text(running: &[String]) -> String {
             " while no law was running (in tribo itself, or between law calls)".into()
         }
         None => format!(" while running {}", running.join(" and ")),
+    }
+}
+
+/// Up to five entry names, quoted, and how many more.
+fn entries_text(entries: &[String]) -> String {
+    let shown: Vec<String> = entries.iter().take(5).map(|n| format!("`{n}`")).collect();
+    let more = entries.len().saturating_sub(5);
+    if more > 0 {
+        format!("{} and {more} more", shown.join(", "))
+    } else {
+        shown.join(", ")
     }
 }
 

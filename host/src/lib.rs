@@ -35,6 +35,7 @@ pub mod progress;
 pub mod report;
 pub mod scaffold;
 pub mod timeseries;
+pub mod torque_run;
 
 // The layers below the CLI, under the names the binary, tests and benches use.
 pub use tribo_config::{bundled, lawset, rig};

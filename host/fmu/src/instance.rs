@@ -131,17 +131,22 @@ impl Instance {
         Ok(())
     }
 
-    /// The `worker.call_timeout` parameter.
-    fn call_timeout(&self) -> Duration {
-        let s = self
-            .iface
+    /// The value of the real variable with `role` (none declared: `None`).
+    fn real_of(&self, role: &Role) -> Option<f64> {
+        self.iface
             .variables
             .iter()
             .zip(&self.values)
-            .find_map(|(v, x)| match (&v.role, x) {
-                (Role::CallTimeout, Value::Real(s)) => Some(*s),
+            .find_map(|(v, x)| match x {
+                Value::Real(s) if v.role == *role => Some(*s),
                 _ => None,
             })
+    }
+
+    /// The `worker.call_timeout` parameter.
+    fn call_timeout(&self) -> Duration {
+        let s = self
+            .real_of(&Role::CallTimeout)
             .filter(|s| s.is_finite() && *s > 0.0)
             .unwrap_or(DEFAULT_CALL_TIMEOUT_S);
         Duration::from_secs_f64(s.min(1e9))
@@ -241,6 +246,7 @@ impl Instance {
                 laws: self.law_tables()?,
                 inputs: self.inputs(),
                 start_time_s: self.start_time,
+                crank_speed_start_rad_s: self.real_of(&Role::CrankSpeedStart).unwrap_or(0.0),
                 timeout_s: timeout.as_secs_f64(),
             };
             self.call_for_outputs(&request)?;
@@ -389,9 +395,6 @@ impl Instance {
             Role::JointTorque { joint: j } => joint(*j).torque_nm,
             Role::JointPower { joint: j } => joint(*j).power_w,
             Role::JointEnergy { joint: j } => joint(*j).energy_j,
-            Role::Transducer { figure } => {
-                r.now.instrument.as_ref().map_or(f64::NAN, |i| figure.of(i))
-            }
             _ => f64::NAN,
         }
     }

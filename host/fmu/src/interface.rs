@@ -463,7 +463,9 @@ fn drive_variables(drive: DriveMode, speed0: f64) -> Vec<Variable> {
             mean,
             Variable {
                 name: "crank_speed_start".into(),
-                description: "crank speed at the start (the crank turns from there under the drive torque)".into(),
+                description:
+                    "crank speed at the start (the crank turns from there under the drive torque)"
+                        .into(),
                 causality: Causality::Parameter,
                 variability: Variability::Fixed,
                 kind: Kind::Real {

@@ -14,8 +14,8 @@
 //!   ([`export`]): the variables ([`interface`]), `modelDescription.xml`
 //!   ([`model_description`]) and the archive.
 
-pub mod export;
 pub mod dynamic;
+pub mod export;
 pub mod fmi2;
 pub mod instance;
 pub mod interface;

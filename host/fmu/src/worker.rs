@@ -17,11 +17,11 @@ use serde::{Deserialize, Serialize};
 use tribo_core::model::RigFile;
 use tribo_plugin_api::loader::{inflight, LawRegistry};
 
+use crate::dynamic::Dynamic;
 use crate::interface::{joint_laws, joint_laws_mut, Interface, DEFAULT_CALL_TIMEOUT_S};
 use crate::protocol::{
     read_frame, write_frame, FrameError, Reply, Report, Request, PROTOCOL_VERSION,
 };
-use crate::dynamic::Dynamic;
 use crate::stepping::{Inputs, Outputs, StepError};
 use crate::FmuError;
 

@@ -243,7 +243,8 @@ impl Simulation {
         if matches!(self.drive, Drive::Prescribed {}) {
             return Err(bad("a prescribed crank follows its speed input from rest: starting it turning needs the PI drive (drive = {kind = \"pi\"})".into()));
         }
-        if !(crank_speed_rad_s.is_finite() && (0.0..=MAX_SPEED_RAD_S).contains(&crank_speed_rad_s)) {
+        if !(crank_speed_rad_s.is_finite() && (0.0..=MAX_SPEED_RAD_S).contains(&crank_speed_rad_s))
+        {
             return Err(bad(format!(
                 "{crank_speed_rad_s} rad/s is outside [0, {MAX_SPEED_RAD_S}] rad/s"
             )));
@@ -522,11 +523,19 @@ impl Run {
         }
         let (s, w) = (&self.run.s, &self.run.w);
         let sizes = [
-            ("accumulated quantities", state.accumulated.len(), s.acc.len()),
+            (
+                "accumulated quantities",
+                state.accumulated.len(),
+                s.acc.len(),
+            ),
             ("regime times", state.regime_time.len(), s.regime_time.len()),
             ("rates", state.last_rates.len(), s.last_rates.len()),
             ("regimes", state.last_regimes.len(), s.last_regimes.len()),
-            ("normal loads", state.last_normals.len(), self.sim.joints.len()),
+            (
+                "normal loads",
+                state.last_normals.len(),
+                self.sim.joints.len(),
+            ),
             ("law totals", state.guess.len(), self.sim.joints.len()),
             ("solver loads", state.previous_normals.len(), w.prev.len()),
         ];

@@ -169,32 +169,27 @@ impl Dynamic {
     pub fn set_inputs(&mut self, inputs: &Inputs) -> Result<(), StepError> {
         check_oil(inputs.oil_temperature_c)?;
         let drive = inputs.drive;
-        let core = match self.drive {
-            DriveMode::Speed => {
-                if !(drive.is_finite() && drive >= 0.0) {
-                    return Err(StepError::Input(format!(
-                        "crank_speed must be a speed >= 0 rad/s, got {drive}"
-                    )));
-                }
-                CoreInputs {
-                    crank_speed_rad_s: Some(drive),
-                    oil_temperature_c: Some(inputs.oil_temperature_c),
-                    ..CoreInputs::default()
-                }
-            }
-            DriveMode::Torque => {
-                if !drive.is_finite() {
-                    return Err(StepError::Input(format!(
-                        "drive_torque must be a finite torque in N.m, got {drive}"
-                    )));
-                }
-                CoreInputs {
-                    drive_torque_nm: Some(drive),
-                    oil_temperature_c: Some(inputs.oil_temperature_c),
-                    ..CoreInputs::default()
-                }
-            }
+        let (valid, what) = match self.drive {
+            DriveMode::Speed => (
+                drive.is_finite() && drive >= 0.0,
+                "crank_speed must be a speed >= 0 rad/s",
+            ),
+            DriveMode::Torque => (
+                drive.is_finite(),
+                "drive_torque must be a finite torque in N.m",
+            ),
         };
+        if !valid {
+            return Err(StepError::Input(format!("{what}, got {drive}")));
+        }
+        let mut core = CoreInputs {
+            oil_temperature_c: Some(inputs.oil_temperature_c),
+            ..CoreInputs::default()
+        };
+        match self.drive {
+            DriveMode::Speed => core.crank_speed_rad_s = Some(drive),
+            DriveMode::Torque => core.drive_torque_nm = Some(drive),
+        }
         self.run.set_inputs(core)?;
         Ok(())
     }

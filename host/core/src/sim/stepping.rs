@@ -53,6 +53,7 @@ use super::crank_angle::LawSample;
 use super::error::SimError;
 use super::rates::RateLayout;
 use super::results::RunResult;
+use super::stepper::Integration;
 use super::transient::Transient;
 use super::Simulation;
 use crate::model::Drive;
@@ -565,17 +566,18 @@ impl Run {
         let r = &mut self.run;
         r.w.states = states;
         r.w.prev.copy_from_slice(&state.previous_normals);
-        let s = &mut r.s;
-        s.t = state.time_s;
-        s.y = (state.crank[0], state.crank[1], state.crank[2]);
-        s.acc.clone_from(&state.accumulated);
-        s.regime_time.clone_from(&state.regime_time);
-        s.last_rates.clone_from(&state.last_rates);
-        s.last_regimes.clone_from(&state.last_regimes);
-        s.last_normals.clone_from(&state.last_normals);
-        s.last_torque = state.last_torque;
-        s.guess.clone_from(&state.guess);
-        s.rejected = state.rejected;
+        r.s = Integration {
+            t: state.time_s,
+            y: (state.crank[0], state.crank[1], state.crank[2]),
+            acc: state.accumulated.clone(),
+            regime_time: state.regime_time.clone(),
+            last_rates: state.last_rates.clone(),
+            last_regimes: state.last_regimes.clone(),
+            last_normals: state.last_normals.clone(),
+            last_torque: state.last_torque,
+            guess: state.guess.clone(),
+            rejected: state.rejected,
+        };
         self.sim.held = held;
         self.inputs = state.inputs;
         self.from_rest = false;

@@ -1,6 +1,7 @@
 //! What the FMU's library and its worker exchange about a run: the inputs held over a step,
-//! the outputs at a communication point, and why a step was refused. The run itself is
-//! [`crate::dynamic::Dynamic`].
+//! the outputs at a communication point, and why a step was refused. The run itself is the
+//! `dynamic` module's (this module names nothing of it: the run uses these types, not the
+//! reverse).
 
 use serde::{Deserialize, Serialize};
 use tribo_core::sim::SimError;

@@ -133,13 +133,13 @@ fn an_export_that_cannot_be_made_fails_with_a_message_and_writes_nothing() {
             &[
                 "fmu",
                 "export",
-                "crf250r-motored",
-                "--drive",
-                "torque",
+                "crf250r-testbed",
+                "--input",
+                "drive-torque",
                 "--out",
                 "t.fmu",
             ],
-            &["drive-torque input", "--drive speed"],
+            &["crf250r-testbed", "[drivetrain]", "tribo run"],
         ),
         (
             &[

@@ -436,3 +436,90 @@ fn a_pi_drive_crossing_its_torque_limit_keeps_the_integrators_accuracy() {
     let change = rel(e.mechanical_energy_change_j, f.mechanical_energy_change_j);
     assert!(change < 1e-6, "mechanical energy change {change:e} apart");
 }
+
+/// A run's state as plain numbers (`RunState`, what the FMU serialises): taken at 0.3 s of the
+/// thesis cycle with a stateful law on the piston (LuGre: its bristle state carried), resumed by
+/// another run of the same rig, it continues bit for bit as the run it was taken from after
+/// `restart` (the stepper starting afresh there as the resumed one does), under a prescribed
+/// crank (Simpson's rule) and under the PI drive (RK4). A state of a rig with other laws, or
+/// of the other drive, is refused naming what differs, the run left as it was.
+#[test]
+fn a_run_state_resumed_by_another_run_continues_bit_for_bit() {
+    let registry = registry();
+    let lugre = "joints.piston.laws=[{law=\"lugre\", params={mu_c=0.08, mu_s=0.1, sigma2=0.0}}]";
+    for drive in ["drive={kind=\"prescribed\"}", "drive={kind=\"pi\"}"] {
+        let sets = [lugre, "solver.integrator=\"rk4\""];
+        let sets: &[&str] = if drive.contains("pi") {
+            &[lugre, drive, sets[1]]
+        } else {
+            &[lugre, drive]
+        };
+        let mut run = run_of(None, sets, &registry);
+        run.advance_to(0.3).expect("advance");
+        let state = run.state();
+        assert_eq!(state.time_s(), 0.3);
+        let inputs = Inputs {
+            oil_temperature_c: Some(95.0),
+            ..Inputs::default()
+        };
+        let go_on = |run: &mut Run| {
+            run.set_inputs(inputs).expect("inputs");
+            run.advance_to(0.35).expect("advance");
+            (run.outputs(), run.laws().expect("laws"))
+        };
+        run.restart().expect("restart");
+        let first = go_on(&mut run);
+        let mut other = run_of(None, sets, &registry);
+        other.resume(&state).expect("resume");
+        assert_eq!(other.time_s(), 0.3);
+        let second = go_on(&mut other);
+        assert_eq!(first, second, "{drive}");
+        // The state's law really moved: the piston dissipated energy.
+        assert!(first.0.joints.iter().any(|j| j.energy_j > 0.0));
+        // Another law set: other law states; the run keeps its own time.
+        let mut plain = run_of(Some("fedem-baseline"), sets, &registry);
+        let err = plain.resume(&state).expect_err("other laws");
+        assert!(err.to_string().contains("resume"), "{err}");
+        assert_eq!(plain.time_s(), 0.0);
+    }
+}
+
+/// A run started turning (`Simulation::start_turning`, the FMU's torque input from a speed):
+/// with no drive torque it slows, the drive does no work, and the crank's kinetic energy goes
+/// into friction (and the gas, whose work over whole cycles nets out); it has no test-cycle
+/// result to report. A prescribed crank cannot be started turning.
+#[test]
+fn a_run_started_turning_coasts_down_under_friction() {
+    let registry = registry();
+    let mut rig = tribo::rig::load_rig(
+        Path::new("crf250r-motored"),
+        &["drive={kind=\"pi\"}".to_string()],
+    )
+    .expect("bundled rig");
+    tribo::lawset::LawSet::load("fedem-baseline")
+        .expect("law set")
+        .apply(&mut rig);
+    let sim = || tribo::rig::simulation(&rig, &registry).expect("simulation");
+    let omega0 = 3000.0 * std::f64::consts::PI / 30.0;
+    let mut run = sim().start_turning(omega0).expect("starts turning");
+    assert_eq!(run.outputs().crank_speed_rad_s, omega0);
+    run.set_inputs(Inputs {
+        drive_torque_nm: Some(0.0),
+        ..Inputs::default()
+    })
+    .expect("inputs");
+    run.advance_to(0.2).expect("advance");
+    let out = run.outputs();
+    assert!(out.crank_speed_rad_s < 0.95 * omega0, "{out:?}");
+    assert!(out.drive_work_j.abs() < 1e-9, "{out:?}");
+    let dissipated: f64 = out.joints.iter().map(|j| j.energy_j).sum();
+    assert!(dissipated > 0.0);
+    assert!(run.result().is_err());
+    let prescribed = tribo::rig::load_rig(Path::new("crf250r-motored"), &[]).expect("rig");
+    let err = tribo::rig::simulation(&prescribed, &registry)
+        .expect("simulation")
+        .start_turning(omega0)
+        .err()
+        .expect("refused");
+    assert!(err.to_string().contains("PI drive"), "{err}");
+}

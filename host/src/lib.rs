@@ -38,6 +38,7 @@ pub mod report;
 pub mod results;
 pub mod scaffold;
 pub mod timeseries;
+pub mod torque_run;
 
 // The layers below the CLI, under the names the binary, tests and benches use.
 pub use tribo_config::{bundled, lawset, rig};

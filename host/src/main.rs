@@ -84,10 +84,11 @@ enum FmuCommand {
 struct FmuExportArgs {
     #[command(flatten)]
     rig: RigArgs,
-    /// What drives the crank: `speed`, the crank turns at the input speed and the drive
-    /// torque is an output (`torque`, the reverse, is not offered yet: docs/fmu.md).
-    #[arg(long, default_value = "speed", value_parser = ["speed", "torque"])]
-    drive: String,
+    /// The FMU's drive input: `crank-speed` (rad/s; the crank turns at it, the drive torque
+    /// it takes is an output) or `drive-torque` (N.m; the crank accelerates under it against
+    /// friction from the `crank_speed_start` parameter, its speed is an output).
+    #[arg(long, default_value = "crank-speed", value_parser = ["crank-speed", "drive-torque"])]
+    input: String,
     /// The FMU file to write.
     #[arg(long, value_name = "FILE.fmu")]
     out: PathBuf,
@@ -234,6 +235,23 @@ struct RunArgs {
     /// torque, zero on average; without this flag it is a warning).
     #[arg(long)]
     require_laws: bool,
+    /// Drive the crank with this constant torque, N.m, instead of running the test cycle: the
+    /// crank starts at --start-rpm and turns under the torque against friction and its
+    /// inertia for --duration s (the run of `tribo fmu export --input drive-torque`; 0 is a
+    /// coast-down). Prints the crank speed and friction every --every s. Its laws run in this
+    /// process.
+    #[arg(long = "drive-torque", value_name = "NM", allow_negative_numbers = true, requires_all = ["start_rpm", "duration"], conflicts_with_all = ["steady", "csv", "timeseries", "crank_angle", "fmep"])]
+    drive_torque: Option<f64>,
+    /// Crank speed at the start of a --drive-torque run, rpm.
+    #[arg(long = "start-rpm", value_name = "RPM", requires = "drive_torque")]
+    start_rpm: Option<f64>,
+    /// Length of a --drive-torque run, s.
+    #[arg(long, value_name = "S", requires = "drive_torque")]
+    duration: Option<f64>,
+    /// Time between the samples a --drive-torque run reports, s (each one a communication
+    /// point, as an FMU's step).
+    #[arg(long, value_name = "S", default_value_t = 0.01)]
+    every: f64,
     /// Worker process and its limits.
     #[command(flatten)]
     isolation: IsolationArgs,
@@ -785,6 +803,15 @@ impl RunJob {
 /// `tribo run`: one rig through its cycle (or steady state), reported as a table or JSON, with
 /// optional CSV files and time series; the laws run in a worker process unless `--in-process`.
 fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
+    if let (Some(torque), Some(rpm), Some(duration)) = (a.drive_torque, a.start_rpm, a.duration) {
+        let run = tribo::torque_run::TorqueRun {
+            drive_torque_nm: torque,
+            start_speed_rad_s: rpm * std::f64::consts::PI / 30.0,
+            duration_s: duration,
+            every_s: a.every,
+        };
+        return cmd_run_torque(g, a, run);
+    }
     let mut out_text = String::new();
     let RunArgs {
         rig,
@@ -797,6 +824,7 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         resolution_deg,
         require_laws,
         isolation,
+        ..
     } = a;
     let limits = isolation.limits()?;
     let RigArgs {
@@ -924,6 +952,35 @@ fn cmd_run(g: &Globals, a: RunArgs) -> anyhow::Result<()> {
         write!(out_text, "{}", tribo::beside::run_text(&result))?;
     }
     emit(&out_text)
+}
+
+/// `tribo run --drive-torque`: the crank driven by a constant torque from a start speed, its
+/// laws in this process (under the run's limits).
+fn cmd_run_torque(
+    g: &Globals,
+    a: RunArgs,
+    run: tribo::torque_run::TorqueRun,
+) -> anyhow::Result<()> {
+    run.check().map_err(anyhow::Error::msg)?;
+    let limits = a.isolation.limits()?;
+    let rig = a.rig.load()?;
+    guard::watch(limits);
+    let registry = std::sync::Arc::new(g.registry()?);
+    let (samples, warnings) = run
+        .run(rig.model(), registry)
+        .context("the drive-torque run failed")?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    let text = if a.json {
+        format!(
+            "{}\n",
+            serde_json::to_string_pretty(&serde_json::json!({ "samples": samples }))?
+        )
+    } else {
+        tribo::torque_run::to_text(&samples)
+    };
+    emit(&text)
 }
 
 /// The closing line of a study's text report: the directory and the files written into it,
@@ -1907,8 +1964,8 @@ fn cmd_fmu_export(g: &Globals, a: FmuExportArgs) -> anyhow::Result<()> {
         .map(|d| d.join(format!("lib{}.so", tribo_fmu::interface::MODEL_IDENTIFIER)))
         .filter(|p| p.is_file())
         .with_context(|| format!("the FMU library libtribo_fmu.so is not next to {}; build it with `cargo build --release -p tribo-fmu`", exe.display()))?;
-    let drive = match a.drive.as_str() {
-        "torque" => tribo_fmu::interface::DriveMode::Torque,
+    let drive = match a.input.as_str() {
+        "drive-torque" => tribo_fmu::interface::DriveMode::Torque,
         _ => tribo_fmu::interface::DriveMode::Speed,
     };
     let iface = tribo_fmu::export::export(

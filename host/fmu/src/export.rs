@@ -71,11 +71,20 @@ fn guid(entries: &[Entry]) -> String {
 
 /// Write the FMU of `e` to `out`; returns its interface.
 pub fn export(e: &Export, out: &Path) -> Result<Interface, FmuError> {
-    if e.drive == DriveMode::Torque {
-        return Err(FmuError::Export(
-            crate::stepping::TORQUE_MODE_MISSING.into(),
-        ));
+    if e.model.drivetrain.is_some() {
+        return Err(FmuError::Export(format!(
+            "rig `{}` has a [drivetrain]: the FMU integrates the crank train alone, not the chain's degrees of freedom; run the test bed with `tribo run` (its cycle or --steady), or export the rig without its [drivetrain]",
+            e.model.name
+        )));
     }
+    // The run the FMU's worker makes of the rig binds here first, so a law or setting it
+    // refuses is reported at the export (the oil temperature is the worker's input).
+    let oil_c = tribo_core::oil::VALID_RANGE_C.0;
+    tribo_core::sim::Simulation::new(
+        &crate::dynamic::stepping_model(e.model, e.drive, 0.0, oil_c),
+        e.registry,
+    )
+    .map_err(|err| FmuError::Export(format!("the rig as the FMU runs it: {err}")))?;
     let mut iface = Interface::build(&Source {
         model: e.model,
         registry: e.registry,

@@ -131,17 +131,22 @@ impl Instance {
         Ok(())
     }
 
-    /// The `worker.call_timeout` parameter.
-    fn call_timeout(&self) -> Duration {
-        let s = self
-            .iface
+    /// The value of the real variable with `role` (none declared: `None`).
+    fn real_of(&self, role: &Role) -> Option<f64> {
+        self.iface
             .variables
             .iter()
             .zip(&self.values)
-            .find_map(|(v, x)| match (&v.role, x) {
-                (Role::CallTimeout, Value::Real(s)) => Some(*s),
+            .find_map(|(v, x)| match x {
+                Value::Real(s) if v.role == *role => Some(*s),
                 _ => None,
             })
+    }
+
+    /// The `worker.call_timeout` parameter.
+    fn call_timeout(&self) -> Duration {
+        let s = self
+            .real_of(&Role::CallTimeout)
             .filter(|s| s.is_finite() && *s > 0.0)
             .unwrap_or(DEFAULT_CALL_TIMEOUT_S);
         Duration::from_secs_f64(s.min(1e9))
@@ -241,6 +246,7 @@ impl Instance {
                 laws: self.law_tables()?,
                 inputs: self.inputs(),
                 start_time_s: self.start_time,
+                crank_speed_start_rad_s: self.real_of(&Role::CrankSpeedStart).unwrap_or(0.0),
                 timeout_s: timeout.as_secs_f64(),
             };
             self.call_for_outputs(&request)?;
@@ -389,9 +395,6 @@ impl Instance {
             Role::JointTorque { joint: j } => joint(*j).torque_nm,
             Role::JointPower { joint: j } => joint(*j).power_w,
             Role::JointEnergy { joint: j } => joint(*j).energy_j,
-            Role::Transducer { figure } => {
-                r.now.instrument.as_ref().map_or(f64::NAN, |i| figure.of(i))
-            }
             _ => f64::NAN,
         }
     }
@@ -536,12 +539,36 @@ impl Drop for Instance {
     }
 }
 
+/// The first bytes of a serialised FMU state.
+const STATE_MAGIC: &[u8; 8] = b"TRIBOFMU";
+
+/// The version of the serialised FMU state's layout: [`STATE_MAGIC`], this version (u32,
+/// little-endian), then the MessagePack of [`Saved`] (whose worker part is the worker's own
+/// versioned record, `dynamic::STATE_FORMAT_VERSION`).
+pub const STATE_VERSION: u32 = 1;
+
 /// A saved state as bytes (fmi2SerializeFMUstate) and back.
 pub fn serialize(saved: &Saved) -> Vec<u8> {
-    rmp_serde::to_vec(saved).unwrap_or_default()
+    let mut bytes = STATE_MAGIC.to_vec();
+    bytes.extend_from_slice(&STATE_VERSION.to_le_bytes());
+    // A record of plain numbers, strings and bytes: writing it into a vector cannot fail.
+    bytes.extend(rmp_serde::to_vec(saved).unwrap_or_default());
+    bytes
 }
 
-/// A saved state from bytes [`serialize`] wrote.
+/// A saved state from bytes [`serialize`] wrote; other bytes are refused, saying why.
 pub fn deserialize(bytes: &[u8]) -> CallResult<Saved> {
-    rmp_serde::from_slice(bytes).map_err(|e| format!("not a serialized state of this FMU ({e})"))
+    let body = bytes
+        .strip_prefix(STATE_MAGIC.as_slice())
+        .ok_or("these bytes are not a serialized state of a Tribo FMU")?;
+    let (version, body) = body
+        .split_first_chunk::<4>()
+        .ok_or("the serialized state is cut short")?;
+    let version = u32::from_le_bytes(*version);
+    if version != STATE_VERSION {
+        return Err(format!(
+            "the serialized state is of version {version}, this FMU reads version {STATE_VERSION}"
+        ));
+    }
+    rmp_serde::from_slice(body).map_err(|e| format!("not a serialized state of this FMU ({e})"))
 }

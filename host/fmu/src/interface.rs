@@ -63,14 +63,8 @@ pub enum Role {
         /// Index into [`Interface::joints`].
         joint: usize,
     },
-    /// Output: a figure of the drivetrain's transducer over the periodic cycle at the current
-    /// inputs (rigs with a `[drivetrain]`).
-    Transducer {
-        /// Which figure.
-        figure: TransducerFigure,
-    },
-    /// Output (constant): a natural frequency of the drivetrain, Hz, as `tribo modes` gives it.
-    ModeFrequency,
+    /// Parameter: the crank speed a torque-driven crank starts turning at, rad/s.
+    CrankSpeedStart,
     /// Parameter: a law parameter (one element of a list parameter).
     LawParam {
         /// Index into [`Interface::laws`].
@@ -83,41 +77,6 @@ pub enum Role {
     },
     /// Parameter: how long the FMU waits for one answer of its worker process, s.
     CallTimeout,
-}
-
-/// A figure of the transducer's periodic cycle (`tribo run --steady`'s `instrument`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TransducerFigure {
-    /// Mean shaft torque, N m.
-    MeanTorque,
-    /// Smallest shaft torque, N m.
-    MinTorque,
-    /// Largest shaft torque, N m.
-    MaxTorque,
-    /// Peak-to-peak shaft torque, N m.
-    PeakToPeak,
-    /// Mean of the record the data acquisition takes, N m.
-    AcquiredMeanTorque,
-    /// Peak-to-peak of that record, N m.
-    AcquiredPeakToPeak,
-    /// The crank speed's peak-to-peak over its mean.
-    CrankSpeedFluctuation,
-}
-
-impl TransducerFigure {
-    /// The figure's value in `i`.
-    pub fn of(self, i: &tribo_core::sim::Instrument) -> f64 {
-        match self {
-            Self::MeanTorque => i.mean_torque_nm,
-            Self::MinTorque => i.min_torque_nm,
-            Self::MaxTorque => i.max_torque_nm,
-            Self::PeakToPeak => i.peak_to_peak_nm,
-            Self::AcquiredMeanTorque => i.acquired_mean_torque_nm,
-            Self::AcquiredPeakToPeak => i.acquired_peak_to_peak_nm,
-            Self::CrankSpeedFluctuation => i.crank_speed_fluctuation,
-        }
-    }
 }
 
 /// FMI causality.
@@ -366,7 +325,6 @@ impl Interface {
             role: Role::OilTemperatureInput,
         });
         vars.extend(total_outputs());
-        vars.extend(drivetrain_outputs(model)?);
         let mut joints = Vec::new();
         let mut laws = Vec::new();
         let mut params = Vec::new();
@@ -503,6 +461,21 @@ fn drive_variables(drive: DriveMode, speed0: f64) -> Vec<Variable> {
             torque(Causality::Input, Some(0.0), Role::DriveTorqueInput),
             speed(Causality::Output, None, Role::CrankSpeed),
             mean,
+            Variable {
+                name: "crank_speed_start".into(),
+                description:
+                    "crank speed at the start (the crank turns from there under the drive torque)"
+                        .into(),
+                causality: Causality::Parameter,
+                variability: Variability::Fixed,
+                kind: Kind::Real {
+                    start: Some(speed0),
+                    unit: Some("rad/s".into()),
+                    min: Some(0.0),
+                    max: None,
+                },
+                role: Role::CrankSpeedStart,
+            },
         ],
     }
 }
@@ -542,67 +515,6 @@ fn total_outputs() -> Vec<Variable> {
             Role::FrictionTorqueCycleMean,
         ),
     ]
-}
-
-/// A rig with a `[drivetrain]`: its transducer's figures over the periodic cycle at the
-/// current inputs (`tribo run --steady`'s `instrument`), and the chain's natural frequencies
-/// (`tribo modes`) as constants. None without one.
-fn drivetrain_outputs(model: &RigFile) -> Result<Vec<Variable>, FmuError> {
-    let chain = tribo_core::sim::drivetrain_chain(model)
-        .map_err(|e| FmuError::Invalid(format!("rig `{}`: {e}", model.name)))?;
-    let Some((chain, hold)) = chain else {
-        return Ok(Vec::new());
-    };
-    use TransducerFigure as F;
-    let figures = [
-        ("mean_torque", "mean shaft torque", "N.m", F::MeanTorque),
-        ("min_torque", "smallest shaft torque", "N.m", F::MinTorque),
-        ("max_torque", "largest shaft torque", "N.m", F::MaxTorque),
-        ("peak_to_peak", "shaft torque peak to peak", "N.m", F::PeakToPeak),
-        ("acquired_mean_torque", "mean of the data acquisition's record (through its low-passes, sampled, clipped to its range)", "N.m", F::AcquiredMeanTorque),
-        ("acquired_peak_to_peak", "peak to peak of the data acquisition's record", "N.m", F::AcquiredPeakToPeak),
-    ];
-    let mut vars: Vec<Variable> = figures
-        .into_iter()
-        .map(|(name, what, unit, figure)| {
-            output(
-                format!("transducer.{name}"),
-                format!(
-                    "transducer `{}`: {what} over the periodic cycle at the current inputs",
-                    chain
-                        .instrument
-                        .as_ref()
-                        .map_or("", |(r, _)| r.name.as_str())
-                ),
-                unit,
-                Role::Transducer { figure },
-            )
-        })
-        .collect();
-    vars.push(output(
-        "crank_speed_fluctuation".into(),
-        "the crank speed's peak to peak over its mean in the periodic cycle at the current inputs (on the drivetrain)".into(),
-        "1",
-        Role::Transducer {
-            figure: F::CrankSpeedFluctuation,
-        },
-    ));
-    let report = chain.report(&model.name, hold, &[]);
-    for (k, mode) in report.modes.iter().enumerate() {
-        vars.push(Variable {
-            name: format!("drivetrain.mode_{}.frequency", k + 1),
-            description: format!(
-                "natural frequency of the drivetrain's mode {} (undamped, crank at its cycle-mean inertia; mostly in `{}`), as `tribo modes` gives it",
-                k + 1,
-                mode.dominant_spring
-            ),
-            causality: Causality::Output,
-            variability: Variability::Constant,
-            kind: real(Some(mode.frequency_hz), "Hz"),
-            role: Role::ModeFrequency,
-        });
-    }
-    Ok(vars)
 }
 
 /// One joint's outputs.

@@ -9,10 +9,12 @@
 //!   [`protocol`]); it runs no law code itself, so a law that crashes or hangs costs the
 //!   importer an `fmi2Error`, never its process;
 //! - what the `tribo` binary uses: the worker's request loop ([`worker`], run as
-//!   `tribo __fmu-worker`) over a [`stepping::Stepping`] run of the rig, and the export
+//!   `tribo __fmu-worker`) over a [`dynamic::Dynamic`] run of the rig (the core's stepping
+//!   API), and the export
 //!   ([`export`]): the variables ([`interface`]), `modelDescription.xml`
 //!   ([`model_description`]) and the archive.
 
+pub mod dynamic;
 pub mod export;
 pub mod fmi2;
 pub mod instance;
@@ -21,7 +23,6 @@ pub mod log;
 pub mod model_description;
 pub mod process;
 pub mod protocol;
-pub mod quasi_steady;
 pub mod stepping;
 pub mod uri;
 pub mod worker;

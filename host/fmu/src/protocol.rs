@@ -14,7 +14,7 @@ const MAX_FRAME: usize = 256 << 20;
 
 /// The version of these messages: the FMU's library and its worker must agree on it (a
 /// library and a `tribo` from different builds are refused, not misread).
-pub const PROTOCOL_VERSION: u32 = 2;
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// What the FMU asks its worker.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -29,6 +29,9 @@ pub enum Request {
         inputs: Inputs,
         /// Start time, s.
         start_time_s: f64,
+        /// The crank speed a torque-driven crank starts turning at, rad/s (the
+        /// `crank_speed_start` parameter; unused under a speed input).
+        crank_speed_start_rad_s: f64,
         /// The per-request time limit, s.
         timeout_s: f64,
     },

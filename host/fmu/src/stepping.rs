@@ -1,16 +1,10 @@
-//! What the FMU needs from Tribo's solver to step a rig between communication points: the
-//! [`Stepping`] seam. [`start`] builds one for a rig; today that is the quasi-steady adapter
-//! ([`crate::quasi_steady`]) over the solver's steady crank-angle evaluation, to be replaced by
-//! the core's stepping API when it exists (`docs/fmu.md`, "Status").
-
-use std::sync::Arc;
+//! What the FMU's library and its worker exchange about a run: the inputs held over a step,
+//! the outputs at a communication point, and why a step was refused. The run itself is the
+//! `dynamic` module's (this module names nothing of it: the run uses these types, not the
+//! reverse).
 
 use serde::{Deserialize, Serialize};
-use tribo_core::model::RigFile;
 use tribo_core::sim::SimError;
-use tribo_plugin_api::loader::LawRegistry;
-
-use crate::interface::DriveMode;
 
 /// The inputs held over the next step.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -47,10 +41,6 @@ pub struct Outputs {
     pub drive_work_j: f64,
     /// Per joint with laws, in the interface's order.
     pub joints: Vec<JointOutput>,
-    /// The drivetrain's transducer over the periodic cycle at the current inputs (a rig with a
-    /// `[drivetrain]`; none without).
-    #[serde(default)]
-    pub instrument: Option<tribo_core::sim::Instrument>,
 }
 
 impl Outputs {
@@ -82,59 +72,4 @@ pub enum StepError {
     /// A saved state that does not belong to this run.
     #[error("the FMU state cannot be restored: {0}")]
     State(String),
-    /// Something this version of the solver cannot do yet.
-    #[error("{0}")]
-    Unsupported(String),
 }
-
-/// A rig being stepped: inputs set between steps, `advance_to` a later time, outputs read,
-/// the whole state saved and restored (law states included). Two values share nothing.
-pub trait Stepping {
-    /// The joints with laws, in output order.
-    fn joints(&self) -> &[String];
-
-    /// Hold `inputs` from now on; the outputs at the current instant follow them.
-    fn set_inputs(&mut self, inputs: &Inputs) -> Result<(), StepError>;
-
-    /// Integrate to time `t_s` (not before the current time) with the inputs held.
-    fn advance_to(&mut self, t_s: f64) -> Result<(), StepError>;
-
-    /// The rig at the current instant.
-    fn outputs(&self) -> Outputs;
-
-    /// The whole state, as bytes only [`Stepping::restore`] of the same rig reads.
-    fn save(&self) -> Vec<u8>;
-
-    /// Go back to a state [`Stepping::save`] gave.
-    fn restore(&mut self, state: &[u8]) -> Result<(), StepError>;
-
-    /// What the run warned of since the last call, each warning once: what `tribo run` prints
-    /// with its results and the importer must know too (a law on a bearing it is not made
-    /// for; a steady cycle whose stateful laws did not settle).
-    fn take_warnings(&mut self) -> Vec<String> {
-        Vec::new()
-    }
-}
-
-/// A stepping run of `model` (laws from `registry`) driven as `drive` from `start_time_s` with
-/// `inputs`.
-pub fn start(
-    model: &RigFile,
-    registry: Arc<LawRegistry>,
-    drive: DriveMode,
-    start_time_s: f64,
-    inputs: &Inputs,
-) -> Result<Box<dyn Stepping>, StepError> {
-    match drive {
-        DriveMode::Speed => Ok(Box::new(crate::quasi_steady::QuasiSteady::new(
-            model.clone(),
-            registry,
-            start_time_s,
-            inputs,
-        )?)),
-        DriveMode::Torque => Err(StepError::Unsupported(TORQUE_MODE_MISSING.into())),
-    }
-}
-
-/// Why the drive-torque input is not offered yet.
-pub const TORQUE_MODE_MISSING: &str = "a drive-torque input needs the crank's dynamics stepped by Tribo's solver, which this version does not offer yet (docs/fmu.md, \"Status\"); export with --drive speed";

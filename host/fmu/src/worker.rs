@@ -17,11 +17,12 @@ use serde::{Deserialize, Serialize};
 use tribo_core::model::RigFile;
 use tribo_plugin_api::loader::{inflight, LawRegistry};
 
+use crate::dynamic::Dynamic;
 use crate::interface::{joint_laws, joint_laws_mut, Interface, DEFAULT_CALL_TIMEOUT_S};
 use crate::protocol::{
     read_frame, write_frame, FrameError, Reply, Report, Request, PROTOCOL_VERSION,
 };
-use crate::stepping::{Inputs, Outputs, StepError, Stepping};
+use crate::stepping::{Inputs, Outputs, StepError};
 use crate::FmuError;
 
 /// The rig, with its laws, in the archive's `resources/`.
@@ -98,6 +99,8 @@ struct Saved {
     run: Vec<u8>,
     /// The cycle-mean record.
     means: CycleMeans,
+    /// The FMU's time at the run's time 0, s.
+    t0: f64,
 }
 
 /// One FMU instance's rig.
@@ -105,9 +108,13 @@ struct Session {
     iface: Interface,
     model: RigFile,
     registry: Arc<LawRegistry>,
-    run: Option<Box<dyn Stepping>>,
+    run: Option<Dynamic>,
     /// The law parameters in force (TOML text per law).
     laws: Vec<String>,
+    /// The crank speed a torque-driven run starts at, rad/s.
+    start_speed: f64,
+    /// The FMU's time at the run's time 0 (the experiment's start time), s.
+    t0: f64,
     /// The inputs held.
     inputs: Inputs,
     means: CycleMeans,
@@ -165,6 +172,8 @@ impl Session {
             registry: Arc::new(registry),
             run: None,
             laws: Vec::new(),
+            start_speed: 0.0,
+            t0: 0.0,
             inputs: Inputs::default(),
             means: CycleMeans::default(),
         })
@@ -177,8 +186,11 @@ impl Session {
                 laws,
                 inputs,
                 start_time_s,
+                crank_speed_start_rad_s,
                 ..
-            } => self.start(laws, &inputs, start_time_s).map(|()| None),
+            } => self
+                .start(laws, &inputs, start_time_s, crank_speed_start_rad_s)
+                .map(|()| None),
             Request::Inputs(inputs) => self.set_inputs(&inputs).map(|()| None),
             Request::Params(laws) => self.retune(laws).map(|()| None),
             Request::Step { t_end_s, inputs } => self.step(t_end_s, &inputs).map(|()| None),
@@ -196,7 +208,7 @@ impl Session {
         }
     }
 
-    fn run(&mut self) -> Result<&mut Box<dyn Stepping>, StepError> {
+    fn run(&mut self) -> Result<&mut Dynamic, StepError> {
         self.run
             .as_mut()
             .ok_or_else(|| StepError::State("the run has not been started".into()))
@@ -233,30 +245,40 @@ impl Session {
         Ok(model)
     }
 
-    /// A stepping run of the rig with law parameters `laws` from time `t0` with `inputs`.
+    /// A run of the rig with law parameters `laws` at its start with `inputs` (a
+    /// torque-driven crank turning at `start_speed`, rad/s).
     fn new_run(
         &self,
         laws: &[String],
         inputs: &Inputs,
-        t0: f64,
-    ) -> Result<Box<dyn Stepping>, StepError> {
+        start_speed: f64,
+    ) -> Result<Dynamic, StepError> {
         let model = self.model_with(laws)?;
-        crate::stepping::start(
+        Dynamic::start(
             &model,
             Arc::clone(&self.registry),
             self.iface.drive,
-            t0,
+            start_speed,
             inputs,
         )
     }
 
-    fn start(&mut self, laws: Vec<String>, inputs: &Inputs, t0: f64) -> Result<(), StepError> {
-        let run = self.new_run(&laws, inputs, t0)?;
+    /// Build the run, the FMU's time `t0` (s) being the run's 0.
+    fn start(
+        &mut self,
+        laws: Vec<String>,
+        inputs: &Inputs,
+        t0: f64,
+        start_speed: f64,
+    ) -> Result<(), StepError> {
+        let run = self.new_run(&laws, inputs, start_speed)?;
         self.means = CycleMeans::default();
         self.means.record(&run.outputs());
         self.run = Some(run);
         self.laws = laws;
         self.inputs = *inputs;
+        self.start_speed = start_speed;
+        self.t0 = t0;
         Ok(())
     }
 
@@ -268,9 +290,8 @@ impl Session {
 
     /// New law parameters, the run's state kept.
     fn retune(&mut self, laws: Vec<String>) -> Result<(), StepError> {
-        let state = self.run()?.save();
-        let t = self.run()?.outputs().time_s;
-        let mut run = self.new_run(&laws, &self.inputs, t)?;
+        let state = self.run()?.save()?;
+        let mut run = self.new_run(&laws, &self.inputs, self.start_speed)?;
         run.restore(&state)?;
         self.run = Some(run);
         self.laws = laws;
@@ -279,20 +300,22 @@ impl Session {
 
     fn step(&mut self, t_end: f64, inputs: &Inputs) -> Result<(), StepError> {
         self.set_inputs(inputs)?;
+        let t0 = self.t0;
         let run = self.run()?;
-        run.advance_to(t_end)?;
+        run.advance_to(t_end - t0)?;
         let out = run.outputs();
         self.means.record(&out);
         Ok(())
     }
 
     fn save(&mut self) -> Result<Vec<u8>, StepError> {
-        let run = self.run()?.save();
+        let run = self.run()?.save()?;
         let saved = Saved {
             laws: self.laws.clone(),
             inputs: self.inputs,
             run,
             means: self.means.clone(),
+            t0: self.t0,
         };
         rmp_serde::to_vec(&saved).map_err(|e| StepError::State(e.to_string()))
     }
@@ -301,12 +324,13 @@ impl Session {
         let saved: Saved =
             rmp_serde::from_slice(bytes).map_err(|e| StepError::State(e.to_string()))?;
         if saved.laws != self.laws || self.run.is_none() {
-            self.run = Some(self.new_run(&saved.laws, &saved.inputs, 0.0)?);
+            self.run = Some(self.new_run(&saved.laws, &saved.inputs, self.start_speed)?);
             self.laws = saved.laws;
         }
         self.run()?.restore(&saved.run)?;
         self.inputs = saved.inputs;
         self.means = saved.means;
+        self.t0 = saved.t0;
         Ok(())
     }
 

@@ -1,8 +1,13 @@
 """The FMU that `tribo fmu export` writes, imported by a real FMI importer: FMPy from PyPI.
 
 Reference values come from the command line (`tribo run --steady`, a separate path through the
-solver: its own steady loop and periodic trapezoid sums, no FMU, no worker, no FMPy) and from
-the energy balance (at a steady speed the drive's work per revolution is the friction's).
+solver: its own periodic steady state on a fixed 1-degree grid, no FMU, no worker, no FMPy) and
+from the energy balance (at a steady speed the drive's work per revolution is the friction's).
+
+The FMU integrates in time (Simpson's rule at the input speed, steps of at most 1 degree cut at
+every communication point), the steady run on a grid whose points fall on the dead centres,
+where the piston's friction reverses: a kink in the friction power that Simpson's rule across it
+integrates to a few 1e-5 (`STEADY_REL`), the price of communication points anywhere.
 """
 
 from __future__ import annotations
@@ -23,6 +28,8 @@ from conftest import Fmu, run_json, text
 RIG = "crf250r-motored"
 LAWSET = "fedem-baseline"
 REL = 1e-6
+# The FMU's time integration against the steady run's periodic grid (see the module doc).
+STEADY_REL = 1e-4
 
 
 def rad_s(rpm: float) -> float:
@@ -128,15 +135,16 @@ def test_one_second_at_6000_rpm_in_fmpy_gives_the_cli_mean_torque_every_revoluti
     per_rev = (res["friction_energy"][k + 100] - res["friction_energy"][k]) / dtheta
     assert len(per_rev) == 100
     for m in per_rev:
-        assert close(m, p["total"]), (m, p["total"])
+        assert close(m, p["total"], STEADY_REL), (m, p["total"])
     for j in joints:
         e = res[f"{j}.friction_energy"]
         mj = (e[-1] - e[-101]) / (theta[-1] - theta[-101])
-        assert close(mj, p["joints"][j]), (j, mj, p["joints"][j])
-    assert close(res["friction_torque_cycle_mean"][-1], p["total"])
-    # Energy balance at a steady speed: the drive's work per revolution is the friction's.
-    assert close(res["drive_torque_cycle_mean"][-1], p["motoring"])
-    assert close(res["drive_torque_cycle_mean"][-1], res["friction_torque_cycle_mean"][-1])
+        assert close(mj, p["joints"][j], STEADY_REL), (j, mj, p["joints"][j])
+    assert close(res["friction_torque_cycle_mean"][-1], p["total"], STEADY_REL)
+    # Energy balance at a steady speed: the drive's work per revolution is the friction's (the
+    # gas's work over a whole 4-stroke cycle is zero: two revolutions).
+    assert close(res["drive_torque_cycle_mean"][-1], p["motoring"], STEADY_REL)
+    assert close(res["drive_torque_cycle_mean"][-1], res["friction_torque_cycle_mean"][-1], STEADY_REL)
 
 
 def test_every_thesis_plateau_gives_the_mean_torque_of_run_steady(baseline, steady):
@@ -158,11 +166,11 @@ def test_every_thesis_plateau_gives_the_mean_torque_of_run_steady(baseline, stea
             after = fmu.get("crank_angle", "friction_energy", *[f"{j}.friction_energy" for j in p["joints"]])
             dtheta = after[0] - before[0]
             assert close(dtheta, 2 * math.pi, 1e-12)
-            assert close((after[1] - before[1]) / dtheta, p["total"]), p["rpm"]
+            assert close((after[1] - before[1]) / dtheta, p["total"], STEADY_REL), p["rpm"]
             for i, j in enumerate(p["joints"]):
-                assert close((after[2 + i] - before[2 + i]) / dtheta, p["joints"][j]), (p["rpm"], j)
+                assert close((after[2 + i] - before[2 + i]) / dtheta, p["joints"][j], STEADY_REL), (p["rpm"], j)
             (mean,) = fmu.get("friction_torque_cycle_mean")
-            assert close(mean, p["total"]), p["rpm"]
+            assert close(mean, p["total"], STEADY_REL), p["rpm"]
     finally:
         fmu.free()
 
@@ -369,30 +377,31 @@ def test_a_law_that_crashes_hangs_or_exits_is_an_fmi_error_not_the_importers_end
     g.free()
 
 
-def test_a_steady_cycle_that_never_repeats_is_a_logged_warning_once_per_speed(
-    exported, creeping_lib
-):
-    """A stateful law that never settles to a cycle still gives outputs (the last cycle's, as
-    `tribo run --steady` reports them), and the steady solver's warning reaches the importer's
-    logger with status fmi2Warning, naming the speed and the oil temperature: once per speed
-    evaluated, while the call itself succeeds."""
+def test_a_stateful_law_carries_its_history_across_a_change_of_speed(exported, creeping_lib):
+    """The creeping fixture law's viscous coefficient is c0 (1 + s), s the time it has been
+    committed over. After 0.12 s at 3000 rpm (three whole 4-stroke cycles) the speed goes to
+    4000 rpm; 1 ms later the crank is where a fresh run at 4000 rpm is after 1 ms (the same
+    angle in the cycle, the same piston speed), so the piston's friction powers stand as
+    (1 + 0.121) to (1 + 0.001): the history was carried over the change, not restarted."""
     lawset = str(creeping_lib.parent / "creeping.toml")
     _, unzipdir = exported(RIG, "--lawset", lawset, plugin=creeping_lib)
-    log: list[tuple[int, str]] = []
-    f = Fmu(unzipdir, log=log, start={"crank_speed": rad_s(3000.0), "oil_temperature": 60.0})
-    warnings = [m for status, m in log if status == 1]
-    assert len(warnings) == 1, log
-    for words in ("did not repeat a cycle", "3000 rpm", "oil at 60 C"):
-        assert words in warnings[0], (words, warnings)
-    f.step(1e-3)
-    assert f.get("piston.friction_power")[0] > 0.0
-    assert len([m for status, m in log if status == 1]) == 1, log
-    f.set("crank_speed", rad_s(4000.0))
-    f.step(1e-3)
-    warnings = [m for status, m in log if status == 1]
-    assert len(warnings) == 2 and "4000 rpm" in warnings[1], warnings
-    assert all(status == 1 for status, _ in log), log
-    f.free()
+    a = Fmu(unzipdir, start={"crank_speed": rad_s(3000.0), "oil_temperature": 60.0})
+    b = Fmu(unzipdir, name="fresh", start={"crank_speed": rad_s(4000.0), "oil_temperature": 60.0})
+    try:
+        for _ in range(120):
+            a.step(1e-3)
+        assert close(a.get("crank_angle")[0], 12 * math.pi, 1e-12)
+        a.set("crank_speed", rad_s(4000.0))
+        a.step(1e-3)
+        b.step(1e-3)
+        angle_a, power_a = a.get("crank_angle", "piston.friction_power")
+        angle_b, power_b = b.get("crank_angle", "piston.friction_power")
+        assert close(angle_a - 12 * math.pi, angle_b, 1e-9)
+        # The state lags the output time by at most one step of the law (< 0.1 ms here).
+        assert power_a / power_b == pytest.approx(1.121 / 1.001, rel=1e-4)
+    finally:
+        a.free()
+        b.free()
 
 
 def test_a_law_on_a_bearing_it_is_not_made_for_is_a_logged_warning_at_the_start(exported):

@@ -387,6 +387,36 @@ impl LawStates {
     pub(super) fn of(&self, k: usize) -> &[f64] {
         &self.0[k].0
     }
+
+    /// Every law's state as plain numbers, by run-wide index (what a saved run carries).
+    pub(super) fn to_vecs(&self) -> Vec<Vec<f64>> {
+        self.0.iter().map(|s| s.0.to_vec()).collect()
+    }
+
+    /// Every law's state from `values` ([`LawStates::to_vecs`] of a run of the same laws).
+    /// Refused, saying which, if the count of laws or a law's state size differs.
+    pub(super) fn set_from(&mut self, values: &[Vec<f64>]) -> Result<(), String> {
+        if values.len() != self.0.len() {
+            return Err(format!(
+                "{} law states for {} laws",
+                values.len(),
+                self.0.len()
+            ));
+        }
+        for (k, (s, v)) in self.0.iter().zip(values).enumerate() {
+            if s.0.len() != v.len() {
+                return Err(format!(
+                    "law {k} has a state of {} numbers, the saved one {}",
+                    s.0.len(),
+                    v.len()
+                ));
+            }
+        }
+        for (s, v) in self.0.iter_mut().zip(values) {
+            s.0.copy_from_slice(v);
+        }
+        Ok(())
+    }
 }
 
 /// The dotted field naming law `i` of joint `j` in an error.

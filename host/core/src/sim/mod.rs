@@ -77,7 +77,7 @@ pub use results::{
     LawTime, PlateauFmep, PlateauResult, RegimeShare, RunResult,
 };
 pub use settings::RUN_DEPENDENT_SETTINGS;
-pub use stepping::{Inputs, JointOutput, Outputs, Run, Snapshot};
+pub use stepping::{Inputs, JointOutput, Outputs, Run, RunState, Snapshot, RUN_STATE_VERSION};
 
 use bind::BoundJoint;
 use crank::Crank;

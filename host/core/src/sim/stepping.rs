@@ -51,14 +51,18 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::crank_angle::LawSample;
 use super::error::SimError;
+use super::rates::RateLayout;
 use super::results::RunResult;
+use super::stepper::Integration;
 use super::transient::Transient;
 use super::Simulation;
 use crate::model::Drive;
 use crate::observe::NoObserver;
+use tribo_plugin_api::serde::{Deserialize, Serialize};
 
 /// What a stepped run's caller sets between steps; `None` leaves the rig's own.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
 pub struct Inputs {
     /// Crank speed, rad/s (>= 0): a prescribed crank turns at it from where it is; the PI
     /// drive holds it as its set speed. `None`: the cycle's.
@@ -113,6 +117,8 @@ pub struct JointOutput {
     pub torque_at_crank_nm: f64,
     /// Its normal load, N.
     pub normal_load_n: f64,
+    /// Energy its laws dissipated since the start, J.
+    pub energy_j: f64,
 }
 
 /// A stepped run's state after its last accepted step.
@@ -126,6 +132,8 @@ pub struct Outputs {
     pub crank_speed_rad_s: f64,
     /// Drive torque on the crank (the motoring torque), N m.
     pub drive_torque_nm: f64,
+    /// Work the drive did on the crank since the start, J.
+    pub drive_work_j: f64,
     /// Power all laws dissipate, W.
     pub friction_power_w: f64,
     /// That power as a torque at the crank (0 at rest), N m.
@@ -142,6 +150,56 @@ pub struct Snapshot {
     run: Box<Transient>,
     held: Held,
     inputs: Inputs,
+    from_rest: bool,
+}
+
+/// The version of [`RunState`]'s fields: a state saved under another version is refused by
+/// [`Run::resume`], not misread.
+pub const RUN_STATE_VERSION: u32 = 1;
+
+/// A run's state as plain numbers, to be written out (an FMU's serialised state) and resumed
+/// by a run of the same simulation ([`Run::resume`]): time, crank, controller integral,
+/// accumulated quantities, the friction the next evaluation starts from, every law's state
+/// (the host owns it: a law's state is its declared vector of numbers) and the inputs.
+///
+/// What it leaves out is what a run rebuilds: the stepper's carried evaluations and the
+/// plateau records. A fixed-step run (RK4, Simpson's rule) continues from it exactly as the
+/// run it was taken from continues after [`Run::restart`]; an error-controlled one (adaptive,
+/// Lobatto) to its tolerance, its step size found afresh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(crate = "tribo_plugin_api::serde")]
+pub struct RunState {
+    /// [`RUN_STATE_VERSION`] when saved.
+    version: u32,
+    time_s: f64,
+    /// Crank angle (rad), speed (rad/s) and the PI controller's integral (rad).
+    crank: [f64; 3],
+    accumulated: Vec<f64>,
+    regime_time: Vec<f64>,
+    last_rates: Vec<f64>,
+    last_regimes: Vec<u8>,
+    last_normals: Vec<f64>,
+    last_torque: f64,
+    guess: Vec<f64>,
+    rejected: u64,
+    /// The normal loads of the last friction solve (where the next one starts).
+    previous_normals: Vec<f64>,
+    law_states: Vec<Vec<f64>>,
+    inputs: Inputs,
+    /// Where a held crank speed was set: time (s) and crank angle (rad).
+    speed_anchor: Option<(f64, f64)>,
+}
+
+impl RunState {
+    /// The run's time, s.
+    pub fn time_s(&self) -> f64 {
+        self.time_s
+    }
+
+    /// The crank speed, rad/s.
+    pub fn crank_speed_rad_s(&self) -> f64 {
+        self.crank[1]
+    }
 }
 
 /// A transient run advanced by its caller (see the module documentation).
@@ -151,6 +209,9 @@ pub struct Run {
     inputs: Inputs,
     /// Which run a snapshot belongs to.
     id: u64,
+    /// Whether the run went on from the rig's start at rest (not started turning, not
+    /// resumed): only then is [`Run::result`] the cycle's result.
+    from_rest: bool,
 }
 
 /// The source of run ids.
@@ -167,9 +228,44 @@ impl Simulation {
             run,
             inputs: Inputs::default(),
             id: RUN_IDS.fetch_add(1, Ordering::Relaxed),
+            from_rest: true,
         })
     }
+
+    /// A stepped run of this simulation at time 0 with the crank already turning at
+    /// `crank_speed_rad_s` (angle 0, controller integral 0, every law's state at zero): a
+    /// run driven by a torque from a speed (a coast-down). PI drive only (a prescribed crank
+    /// follows its speed input from rest).
+    pub fn start_turning(self, crank_speed_rad_s: f64) -> Result<Run, SimError> {
+        let bad = |message: String| SimError::Input {
+            input: "crank_speed_rad_s",
+            message,
+        };
+        if matches!(self.drive, Drive::Prescribed {}) {
+            return Err(bad("a prescribed crank follows its speed input from rest: starting it turning needs the PI drive (drive = {kind = \"pi\"})".into()));
+        }
+        if !(crank_speed_rad_s.is_finite() && (0.0..=MAX_SPEED_RAD_S).contains(&crank_speed_rad_s))
+        {
+            return Err(bad(format!(
+                "{crank_speed_rad_s} rad/s is outside [0, {MAX_SPEED_RAD_S}] rad/s"
+            )));
+        }
+        let mut run = self.start()?;
+        let r = &mut run.run;
+        r.s.y = (0.0, crank_speed_rad_s, 0.0);
+        let e = run.sim.step_eval(0.0, 0.0, r.s.y, &[], &mut r.w)?;
+        r.s.record(&e);
+        r.s.settle_from(&e);
+        r.w.recycle(e);
+        run.sim.seek(r)?;
+        run.from_rest = false;
+        Ok(run)
+    }
 }
+
+/// The highest crank speed an input or a start may ask, rad/s: beyond any engine's (about
+/// 40 000 rpm).
+const MAX_SPEED_RAD_S: f64 = 4000.0;
 
 impl Run {
     /// The simulation being run (names, FMEP definition, settings).
@@ -216,7 +312,7 @@ impl Run {
             "crank_speed_rad_s",
             inputs.crank_speed_rad_s,
             0.0,
-            4000.0,
+            MAX_SPEED_RAD_S,
             "rad/s",
         )?;
         check("drive_torque_nm", inputs.drive_torque_nm, -1e5, 1e5, "N m")?;
@@ -300,12 +396,16 @@ impl Run {
                 let power: f64 = (0..j.laws.len())
                     .map(|i| s.last_rates[layout.power(j.first_law + i)])
                     .sum();
+                let energy: f64 = (0..j.laws.len())
+                    .map(|i| s.acc[layout.power(j.first_law + i)])
+                    .sum();
                 JointOutput {
                     name: j.name.clone(),
                     law_total: s.guess.get(ji).copied().unwrap_or(0.0),
                     power_w: power,
                     torque_at_crank_nm: at_crank(power),
                     normal_load_n: s.last_normals.get(ji).copied().unwrap_or(0.0),
+                    energy_j: energy,
                 }
             })
             .collect();
@@ -315,6 +415,7 @@ impl Run {
             crank_angle_rad: s.y.0,
             crank_speed_rad_s: omega,
             drive_torque_nm: s.last_torque,
+            drive_work_j: s.acc[RateLayout::MOTOR],
             friction_power_w: power,
             friction_torque_nm: at_crank(power),
             joints,
@@ -343,6 +444,7 @@ impl Run {
             run: self.run.clone(),
             held: self.sim.held,
             inputs: self.inputs,
+            from_rest: self.from_rest,
         }
     }
 
@@ -360,12 +462,125 @@ impl Run {
         self.run.clone_from(&saved.run);
         self.sim.held = saved.held;
         self.inputs = saved.inputs;
+        self.from_rest = saved.from_rest;
         Ok(())
     }
 
     /// The run's result so far (plateaus, energy balance, counts) as [`Simulation::run`] gives
     /// it at the end of the cycle; a plateau not yet passed has no measurement (an error).
+    /// Refused for a run that started turning or was resumed: it has no cycle from rest.
     pub fn result(&self) -> Result<RunResult, SimError> {
+        if !self.from_rest {
+            return Err(SimError::Input {
+                input: "result",
+                message: "a run started turning or resumed from a saved state has no test cycle from rest to report: read its outputs".into(),
+            });
+        }
         self.sim.finish_transient(&self.run)
+    }
+
+    /// Forget what the stepper carries from its last steps (its last evaluation, reused as
+    /// the next step's first stage), as a resumed run starts: from here the run continues
+    /// exactly as a run resumed from [`Run::state`] taken now (for a fixed-step method).
+    pub fn restart(&mut self) -> Result<(), SimError> {
+        self.sim.seek(&mut self.run)
+    }
+
+    /// The run's state as plain numbers (see [`RunState`]).
+    pub fn state(&self) -> RunState {
+        let (s, w) = (&self.run.s, &self.run.w);
+        RunState {
+            version: RUN_STATE_VERSION,
+            time_s: s.t,
+            crank: [s.y.0, s.y.1, s.y.2],
+            accumulated: s.acc.clone(),
+            regime_time: s.regime_time.clone(),
+            last_rates: s.last_rates.clone(),
+            last_regimes: s.last_regimes.clone(),
+            last_normals: s.last_normals.clone(),
+            last_torque: s.last_torque,
+            guess: s.guess.clone(),
+            rejected: s.rejected,
+            previous_normals: w.prev.to_vec(),
+            law_states: w.states.to_vecs(),
+            inputs: self.inputs,
+            speed_anchor: self.sim.held.speed.map(|h| (h.t0, h.theta0)),
+        }
+    }
+
+    /// Take up `state` (of a run of the same simulation: the same rig, laws and settings),
+    /// the stepper starting afresh. Refused, saying what differs, if its version, a size or
+    /// an input does not fit this run; the run is then left as it was.
+    pub fn resume(&mut self, state: &RunState) -> Result<(), SimError> {
+        let bad = |message: String| SimError::Input {
+            input: "resume",
+            message,
+        };
+        if state.version != RUN_STATE_VERSION {
+            return Err(bad(format!(
+                "the state is of version {}, this run reads version {RUN_STATE_VERSION}",
+                state.version
+            )));
+        }
+        let (s, w) = (&self.run.s, &self.run.w);
+        let sizes = [
+            (
+                "accumulated quantities",
+                state.accumulated.len(),
+                s.acc.len(),
+            ),
+            ("regime times", state.regime_time.len(), s.regime_time.len()),
+            ("rates", state.last_rates.len(), s.last_rates.len()),
+            ("regimes", state.last_regimes.len(), s.last_regimes.len()),
+            (
+                "normal loads",
+                state.last_normals.len(),
+                self.sim.joints.len(),
+            ),
+            ("law totals", state.guess.len(), self.sim.joints.len()),
+            ("solver loads", state.previous_normals.len(), w.prev.len()),
+        ];
+        if let Some((what, got, want)) = sizes.iter().find(|(_, got, want)| got != want) {
+            return Err(bad(format!(
+                "it has {got} {what}, this run {want}: it was saved by a run of another rig or law set"
+            )));
+        }
+        let numbers = [state.time_s, state.crank[0], state.crank[1], state.crank[2]];
+        if !numbers.iter().all(|x| x.is_finite()) || state.time_s < 0.0 {
+            return Err(bad(
+                "its time or crank state is not a finite number (a time >= 0)".into(),
+            ));
+        }
+        // The inputs checked as `set_inputs` checks them, the speed anchored where saved.
+        let mut held = self.held(&state.inputs)?;
+        match (&mut held.speed, state.speed_anchor) {
+            (Some(h), Some((t0, theta0))) if t0.is_finite() && theta0.is_finite() => {
+                h.t0 = t0;
+                h.theta0 = theta0;
+            }
+            (None, None) => {}
+            _ => return Err(bad("its crank speed input and its anchor disagree".into())),
+        }
+        let mut states = self.run.w.states.clone();
+        states.set_from(&state.law_states).map_err(bad)?;
+        let r = &mut self.run;
+        r.w.states = states;
+        r.w.prev.copy_from_slice(&state.previous_normals);
+        r.s = Integration {
+            t: state.time_s,
+            y: (state.crank[0], state.crank[1], state.crank[2]),
+            acc: state.accumulated.clone(),
+            regime_time: state.regime_time.clone(),
+            last_rates: state.last_rates.clone(),
+            last_regimes: state.last_regimes.clone(),
+            last_normals: state.last_normals.clone(),
+            last_torque: state.last_torque,
+            guess: state.guess.clone(),
+            rejected: state.rejected,
+        };
+        self.sim.held = held;
+        self.inputs = state.inputs;
+        self.from_rest = false;
+        self.sim.seek(&mut self.run)
     }
 }

@@ -376,6 +376,15 @@ impl Simulation {
         r.method.stepper().restart(self, &mut r.w, &r.s)
     }
 
+    /// Take up the run from its time after its state was set from outside (a resumed
+    /// [`super::RunState`]): the next interval starts there, the stepper starts afresh.
+    pub(super) fn seek(&self, r: &mut Transient) -> Result<(), SimError> {
+        r.next = r.grid.partition_point(|g| *g <= r.s.t);
+        r.interval = None;
+        r.replay.stop();
+        self.replan(r)
+    }
+
     /// The interval of the grid from the run's time to `b`: whole steps of at most
     /// `solver.step_deg` at the fastest speed the interval reaches.
     fn plan_interval(&self, r: &Transient, b: f64) -> Interval {

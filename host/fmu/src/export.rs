@@ -77,6 +77,12 @@ pub fn export(e: &Export, out: &Path) -> Result<Interface, FmuError> {
             e.model.name
         )));
     }
+    if e.model.engine.as_ref().is_some_and(|g| g.crankshaft.is_some()) {
+        return Err(FmuError::Export(format!(
+            "rig `{}` has an elastic crankshaft ([engine.crankshaft]): the FMU integrates a rigid crank train, not the shaft's degrees of freedom; run it with `tribo run` (its cycle or --steady), or export the rig without [engine.crankshaft]",
+            e.model.name
+        )));
+    }
     // The run the FMU's worker makes of the rig binds here first, so a law or setting it
     // refuses is reported at the export (the oil temperature is the worker's input).
     let oil_c = tribo_core::oil::VALID_RANGE_C.0;

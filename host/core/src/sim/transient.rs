@@ -158,7 +158,7 @@ impl Simulation {
                 field: "drivetrain".into(),
                 law: None,
                 param: None,
-                message: "a rig with a [drivetrain] runs the whole test cycle (`run`) or the steady state (`--steady`); the stepping interface (the FMU, Python's stepping) does not integrate the chain's degrees of freedom".into(),
+                message: "a rig with a [drivetrain] or an elastic crankshaft ([engine.crankshaft]) runs the whole test cycle (`run`) or the steady state (`--steady`); the stepping interface (the FMU, Python's stepping) does not integrate the chain's degrees of freedom".into(),
             });
         }
         let mut w = self.work()?;

@@ -94,6 +94,26 @@ pub struct Plateau {
 pub struct Cycle {
     pieces: Vec<Piece>,
     plateaus: Vec<Plateau>,
+    /// The piece the last look-up found: a run asks for the same piece many times in a row.
+    last: PieceHint,
+}
+
+/// The index of the piece a cycle's last look-up found: only where the next look-up starts,
+/// never what it finds, so it takes no part in comparisons and a clone starts from it. Relaxed
+/// atomic, so a cycle shared between threads stays correct (a stale hint costs a search).
+#[derive(Debug, Default)]
+struct PieceHint(std::sync::atomic::AtomicUsize);
+
+impl Clone for PieceHint {
+    fn clone(&self) -> Self {
+        Self(self.0.load(std::sync::atomic::Ordering::Relaxed).into())
+    }
+}
+
+impl PartialEq for PieceHint {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// rpm to rad/s.
@@ -138,7 +158,11 @@ impl Cycle {
             w = w1;
             rpm = rpm1;
         }
-        Self { pieces, plateaus }
+        Self {
+            pieces,
+            plateaus,
+            last: PieceHint::default(),
+        }
     }
 
     /// Total duration, s.
@@ -159,15 +183,32 @@ impl Cycle {
     /// Reference crank angle, speed and acceleration at `t` (at a segment boundary: the
     /// segment that ends there).
     pub fn reference(&self, t: f64) -> (f64, f64, f64) {
-        let idx = self.pieces.partition_point(|p| p.t1 < t);
+        let idx = self.locate(|p| p.t1 < t);
         self.piece_reference(idx, t)
     }
 
     /// As [`Cycle::reference`], but at a segment boundary the segment that starts there: the
     /// acceleration jumps at boundaries and each step must integrate one side only.
     pub fn reference_after(&self, t: f64) -> (f64, f64, f64) {
-        let idx = self.pieces.partition_point(|p| p.t1 <= t);
+        let idx = self.locate(|p| p.t1 <= t);
         self.piece_reference(idx, t)
+    }
+
+    /// `self.pieces.partition_point(before)` (`before` true for the pieces ending before the
+    /// time sought, false from its piece on), checked first at the last look-up's answer: the
+    /// same index, without the search on nearly every call of a run.
+    #[inline]
+    fn locate(&self, before: impl Fn(&Piece) -> bool) -> usize {
+        use std::sync::atomic::Ordering::Relaxed;
+        let hint = self.last.0.load(Relaxed);
+        let ends_at = |i: usize| self.pieces.get(i).is_none_or(|p| !before(p));
+        let starts_at = |i: usize| i == 0 || self.pieces.get(i - 1).is_some_and(&before);
+        if hint <= self.pieces.len() && starts_at(hint) && ends_at(hint) {
+            return hint;
+        }
+        let idx = self.pieces.partition_point(before);
+        self.last.0.store(idx, Relaxed);
+        idx
     }
 
     fn piece_reference(&self, idx: usize, t: f64) -> (f64, f64, f64) {
@@ -201,6 +242,24 @@ mod tests {
             assert!((s - want as f64).abs() < 1e-9);
         }
         assert_eq!(speeds.len(), 7);
+    }
+
+    /// The look-up that starts from the last piece found answers as the plain search does,
+    /// at every time in any order: inside pieces, on their boundaries (both sides), before the
+    /// cycle and after it.
+    #[test]
+    fn the_remembered_piece_changes_no_look_up() {
+        let c = Cycle::new(&thesis_cycle());
+        let mut times: Vec<f64> = c.pieces.iter().flat_map(|p| [p.t0, p.t1]).collect();
+        times.extend((0..400).map(|k| f64::from(k) * 0.0317 - 0.5));
+        times.extend(times.clone().iter().rev());
+        for t in times {
+            let before = c.pieces.partition_point(|p| p.t1 < t);
+            let after = c.pieces.partition_point(|p| p.t1 <= t);
+            assert_eq!(c.locate(|p| p.t1 < t), before, "{t}");
+            assert_eq!(c.locate(|p| p.t1 <= t), after, "{t}");
+            assert_eq!(c.reference(t), c.piece_reference(before, t));
+        }
     }
 
     #[test]

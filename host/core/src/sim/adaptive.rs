@@ -381,30 +381,30 @@ impl Simulation {
         let controlled = self.layout().controlled();
         incr.fill(0.0);
         est.fill(0.0);
+        // Each group shares one scale, the largest rate of the group over the step: a small
+        // quantity cannot be resolved below the evaluation's own noise, which the friction
+        // iteration's tolerance sets relative to the largest of its group. Taken in the same
+        // pass as the sums, stage by stage.
+        let mut peaks = [1e-3_f64; 2];
         for (j, ev) in evals.iter().enumerate() {
             let r = &ev.rates[..];
             let (b, e) = (h * weights[j], h * errors[j]);
             if b != 0.0 {
                 incr.iter_mut().zip(r.iter()).for_each(|(d, r)| *d += b * r);
             }
-            if e != 0.0 {
-                for (range, _) in &controlled {
+            for ((range, _), peak) in controlled.iter().zip(&mut peaks) {
+                let group = &r[range.clone()];
+                if e != 0.0 {
                     est[range.clone()]
                         .iter_mut()
-                        .zip(&r[range.clone()])
+                        .zip(group)
                         .for_each(|(d, r)| *d += e * r);
                 }
+                *peak = group.iter().fold(*peak, |m, r| m.max(r.abs()));
             }
         }
-        // Each group shares one scale, the largest rate of the group over the step: a small
-        // quantity cannot be resolved below the evaluation's own noise, which the friction
-        // iteration's tolerance sets relative to the largest of its group.
         let mut err = 0.0_f64;
-        for (range, factor) in controlled {
-            let peak = evals
-                .iter()
-                .flat_map(|e| e.rates[range.clone()].iter())
-                .fold(1e-3_f64, |m, r| m.max(r.abs()));
+        for ((range, factor), peak) in controlled.into_iter().zip(peaks) {
             let worst = est[range].iter().fold(0.0_f64, |m, x| m.max(x.abs()));
             err = err.max(worst / (factor * self.rel_tol * (h + h_floor) * peak));
         }

@@ -77,7 +77,11 @@ pub fn export(e: &Export, out: &Path) -> Result<Interface, FmuError> {
             e.model.name
         )));
     }
-    if e.model.engine.as_ref().is_some_and(|g| g.crankshaft.is_some()) {
+    if e.model
+        .engine
+        .as_ref()
+        .is_some_and(|g| g.crankshaft.is_some())
+    {
         return Err(FmuError::Export(format!(
             "rig `{}` has an elastic crankshaft ([engine.crankshaft]): the FMU integrates a rigid crank train, not the shaft's degrees of freedom; run it with `tribo run` (its cycle or --steady), or export the rig without [engine.crankshaft]",
             e.model.name

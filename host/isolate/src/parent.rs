@@ -349,10 +349,7 @@ impl Worker {
         self.ended = true;
         if left > 0 {
             let laws = match self.running_or_loaded().first() {
-                Some(l) => l
-                    .strip_prefix(NO_CALL_PREFIX)
-                    .unwrap_or(l)
-                    .to_string(),
+                Some(l) => l.strip_prefix(NO_CALL_PREFIX).unwrap_or(l).to_string(),
                 None => "no law".to_string(),
             };
             forward_stderr(&format!(

@@ -58,6 +58,10 @@ pub(crate) struct TrainCrank {
     elastic: Option<Box<Elastic>>,
 }
 
+/// Each throw's twist from the crank's reference (angle, speed) and the net torque of the
+/// shaft's sections on it (N m): what the chain hands an evaluation.
+pub(crate) type ThrowLoads<'a> = (&'a [(f64, f64)], &'a [f64]);
+
 /// An elastic crankshaft's throws as one evaluation sees them: what the chain's integration
 /// sets (each throw's twist from the crank's reference angle and speed, the net torque of the
 /// shaft's sections on it) and what the solve returns (each throw's acceleration).
@@ -192,7 +196,7 @@ impl Crank {
     /// The next evaluations see throw `j` turned by `twist[j]` (angle, speed) from the crank's
     /// reference and loaded by the sections' net torque `torque[j]` (N m), to be solved with
     /// [`Control::Throws`]; `None` makes them rigid again.
-    pub(crate) fn set_throws(&mut self, throws: Option<(&[(f64, f64)], &[f64])>) {
+    pub(crate) fn set_throws(&mut self, throws: Option<ThrowLoads<'_>>) {
         let Crank::Train(t) = self else { return };
         let Some(e) = t.elastic.as_mut() else { return };
         match throws {

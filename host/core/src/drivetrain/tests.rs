@@ -225,3 +225,45 @@ fn backlash_leaves_a_dead_band() {
         1e-12
     ));
 }
+
+/// A one-throw elastic crankshaft held at its flywheel: throw `J1` on the rear section `k1`,
+/// the pulley `J2` on the front section `k0`. Its two modes solve
+/// `J1 J2 w^4 - (J1 k0 + J2 (k0 + k1)) w^2 + k0 k1 = 0`.
+#[test]
+fn a_one_throw_crankshaft_held_at_its_flywheel_has_the_two_mass_modes() {
+    let (j1, j2, k0, k1) = (0.007, 0.004, 6.0e5, 3.3e5);
+    let section = |k: f64| SectionSpec {
+        stiffness_nm_per_rad: k,
+        damping_nm_s_per_rad: 0.0,
+    };
+    let spec = CrankshaftSpec {
+        flywheel_inertia_kg_m2: 0.1,
+        pulley_inertia_kg_m2: j2,
+        sections: vec![section(k0), section(k1)],
+        damper: None,
+    };
+    let chain = Chain::crankshaft(spec.crank_end(&[j1]).unwrap(), 0.0).unwrap();
+    assert_eq!(chain.names, ["flywheel", "throw 1", "front pulley"]);
+    assert_eq!(chain.throws, [1]);
+    assert!(chain.instrument.is_none());
+    let (a, b, c) = (j1 * j2, -(j1 * k0 + j2 * (k0 + k1)), k0 * k1);
+    let root = (b * b - 4.0 * a * c).sqrt();
+    let expected = [(-b - root) / (2.0 * a), (-b + root) / (2.0 * a)].map(|w2| w2.sqrt() / TAU);
+    let modes = chain.modes(MotorHold::Prescribed);
+    assert_eq!(modes.len(), 2);
+    for (m, f) in modes.iter().zip(expected) {
+        assert!(
+            close(m.frequency_hz, f, 1e-9),
+            "{} Hz against {f} Hz",
+            m.frequency_hz
+        );
+    }
+    // A wrong count of sections names the field and the count expected.
+    let short = CrankshaftSpec {
+        sections: vec![section(k0)],
+        ..spec
+    };
+    let e = short.crank_end(&[j1]).map(|_| ()).unwrap_err();
+    assert_eq!(e.field, "sections");
+    assert!(e.message.contains("expected 2 sections"), "{}", e.message);
+}

@@ -33,7 +33,7 @@ use crate::stepping::{Inputs, JointOutput, Outputs, StepError};
 const STATE_MAGIC: &[u8; 8] = b"TRIBORUN";
 
 /// The version of the saved run's layout (after the magic bytes, little-endian u32): the
-/// magic, this version, then the MessagePack of [`Saved`].
+/// magic, this version, then the MessagePack of `Saved`.
 pub const STATE_FORMAT_VERSION: u32 = 1;
 
 /// The lowest speed of the run's own schedule, rad/s (about 100 rpm): its hold needs a
@@ -51,7 +51,7 @@ struct Saved {
 
 /// The rig `model` as the FMU runs it (see the module documentation), driven by `drive`, oil
 /// at `oil_temperature_c` at the start. Its own schedule, which the inputs replace, is a short
-/// ramp to `speed_rad_s` (at least [`SCHEDULE_MIN_SPEED`]) and a hold: under a torque input
+/// ramp to `speed_rad_s` (at least `SCHEDULE_MIN_SPEED`) and a hold: under a torque input
 /// its speed bounds the step from below (steps of at most `solver.step_deg` at the larger of
 /// it and the crank's speed). A prescribed rig driven by a torque gets a PI drive
 /// whose controller the torque input replaces (no motor inertia: the importer's drive is
@@ -236,7 +236,7 @@ impl Dynamic {
         }
     }
 
-    /// The run's whole state as bytes: [`STATE_MAGIC`], [`STATE_FORMAT_VERSION`] (u32,
+    /// The run's whole state as bytes: `STATE_MAGIC`, [`STATE_FORMAT_VERSION`] (u32,
     /// little-endian), then the MessagePack of the drive mode and the core run's
     /// [`RunState`] (every f64 bit for bit).
     pub fn save(&self) -> Result<Vec<u8>, StepError> {

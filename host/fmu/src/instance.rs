@@ -542,7 +542,7 @@ impl Drop for Instance {
 /// The first bytes of a serialised FMU state.
 const STATE_MAGIC: &[u8; 8] = b"TRIBOFMU";
 
-/// The version of the serialised FMU state's layout: [`STATE_MAGIC`], this version (u32,
+/// The version of the serialised FMU state's layout: `STATE_MAGIC`, this version (u32,
 /// little-endian), then the MessagePack of [`Saved`] (whose worker part is the worker's own
 /// versioned record, `dynamic::STATE_FORMAT_VERSION`).
 pub const STATE_VERSION: u32 = 1;

@@ -152,6 +152,29 @@ fn a_stiffening_crankshaft_converges_on_the_rigid_crank() {
 }
 
 #[test]
+fn the_crank_trains_motoring_torque_is_the_power_its_laws_dissipate() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = steady(&stiffened(dir.path(), 1.0));
+    for p in run["plateaus"].as_array().unwrap() {
+        // Over a periodic cycle the throws, rods and pistons return to their state: the power
+        // the shaft's sections put into them is what their joints' laws dissipate.
+        let omega = num(&p["mean_speed_rpm"]) * std::f64::consts::TAU / 60.0;
+        let laws: f64 = p["joints"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|j| num(&j["power_w"]))
+            .sum();
+        let torque = num(&p["motoring_torque_nm"]);
+        assert!(
+            (torque * omega - laws).abs() <= 1e-6 * laws,
+            "{} rpm: {torque} N m x {omega} rad/s against {laws} W",
+            num(&p["set_speed_rpm"])
+        );
+    }
+}
+
+#[test]
 fn the_elastic_crankshaft_balances_its_energy_steady_and_over_the_cycle() {
     let cycle = |extra: &[&str]| {
         let mut args = vec![

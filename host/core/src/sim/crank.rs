@@ -699,5 +699,15 @@ fn solve_throws(
         e.alpha[j] = (e.torque[j] - e.probe[0][j]) / (e.probe[1][j] - e.probe[0][j]);
     }
     train.twisted_reactions_into(kin, (&e.alpha, &e.inertia, &e.main_torque), loads, re);
+    // The drive torque as the power into the throws over the reference speed (each throw
+    // takes the sections' net torque at its own speed), so that drive torque times crank
+    // speed is the crank train's power, its mean the laws' dissipation; at a standstill the
+    // throws' torques summed.
+    if kin.omega.abs() > 1.0 {
+        let power: f64 = (e.torque.iter().zip(&kin.throws))
+            .map(|(t, (_, w))| t * w)
+            .sum();
+        re.drive_torque_nm = power / kin.omega;
+    }
     e.alpha.first().copied().unwrap_or(0.0)
 }

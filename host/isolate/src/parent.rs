@@ -855,8 +855,11 @@ where
     J: Serialize + Sync,
     T: DeserializeOwned + Send,
 {
+    // Only a folder that exists is watched: the appearance of one that does not may be
+    // another tribo command committing the same folder at the same time (a supported use),
+    // which an unprivileged watch cannot tell from a law's child (it sees no process ids).
     #[cfg(target_os = "linux")]
-    let watch = watched.and_then(FolderWatch::new);
+    let watch = watched.filter(|d| d.is_dir()).and_then(FolderWatch::new);
     #[cfg(not(target_os = "linux"))]
     let watch: Option<FolderWatch> = {
         let _ = watched;

@@ -207,11 +207,11 @@ impl Simulation {
             dy[k] = s.w[node];
             let drive = if node == 0 { motor } else { torques[node - 1] };
             let behind = if node + 1 < n { torques[node] } else { 0.0 };
-            dy[m + k] = match tor.throw_at.get(node) {
-                Some(Some(j)) => alphas[*j],
-                Some(None) => (drive - behind) / tor.chain.inertias[node],
-                None if node == n - 1 => e.alpha,
-                None => (drive - behind) / tor.chain.inertias[node],
+            // A throw or the rigid crank (the last node) moves as the crank train solved it.
+            dy[m + k] = match (tor.throw_at.get(node), node == n - 1) {
+                (Some(Some(j)), _) => alphas[*j],
+                (None, true) => e.alpha,
+                _ => (drive - behind) / tor.chain.inertias[node],
             };
         }
         dy[2 * m] = motor * s.w[0];
